@@ -1,0 +1,121 @@
+"""Fixed-wing inner and outer loops (successive loop closure, Beard & McLain 2012 ch. 6).
+
+Loops are named by what they close:
+
+* roll from aileron:      da = kp (phi_c - phi) + ki int(...) - kd p
+* pitch from elevator:    de = kp (theta_c - theta) + ki int(...) - kd q + trim
+* climb rate from pitch:  theta_c = theta_trim + kp (hdot_c - hdot) + ki int(...)
+                          + the turn compensation (1/cos(phi) - 1) * PTCH_TURN_FF
+* altitude to climb rate: hdot_c = clamp(ALT_KP (h_c - h), -SINK_MAX, CLMB_MAX)
+* airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
+* yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
+
+Every PID has explicit saturation and anti-windup (control/pid.py). The course loop is
+L1 guidance (guidance/l1.py), which commands the bank angle directly.
+
+Normalised outputs, as HIL_ACTUATOR_CONTROLS carries them: aileron +1 rolls right,
+elevator +1 pitches the nose up, rudder +1 yaws the nose right, throttle 0..1. The
+gains are per unit of normalised deflection (a full deflection is about 0.35 rad on
+the default airframe).
+"""
+from __future__ import annotations
+
+import math
+
+from ..geo import quat_to_euler
+from ..messages import NavState
+from ..params import Param
+from .pid import Pid
+
+G = 9.80665
+
+FW_PARAMS = (
+    Param("RLL_KP", 1.2, 0.0, 10.0, "1/rad", "roll angle to aileron, proportional"),
+    Param("RLL_KI", 0.2, 0.0, 5.0, "1/(rad s)", "roll angle to aileron, integral"),
+    Param("RLL_KD", 0.12, 0.0, 5.0, "s/rad", "roll rate damping to aileron"),
+    Param("PTCH_KP", 2.0, 0.0, 10.0, "1/rad", "pitch angle to elevator, proportional"),
+    Param("PTCH_KI", 0.5, 0.0, 5.0, "1/(rad s)", "pitch angle to elevator, integral"),
+    Param("PTCH_KD", 0.5, 0.0, 5.0, "s/rad", "pitch rate damping to elevator"),
+    Param("PTCH_TRIM_DEG", 2.0, -10.0, 15.0, "deg", "pitch attitude in level cruise"),
+    Param("PTCH_TURN_FF", 0.12, 0.0, 1.0, "rad", "extra pitch per (1/cos(bank) - 1) in turns"),
+    Param("PTCH_LIM_MAX_DEG", 20.0, 0.0, 45.0, "deg", "maximum pitch command"),
+    Param("PTCH_LIM_MIN_DEG", -15.0, -45.0, 0.0, "deg", "minimum pitch command"),
+    Param("ALT_KP", 0.4, 0.0, 5.0, "1/s", "altitude error to climb-rate command"),
+    Param("CLMB_KP", 0.08, 0.0, 2.0, "rad s/m", "climb-rate error to pitch, proportional"),
+    Param("CLMB_KI", 0.03, 0.0, 2.0, "rad/m", "climb-rate error to pitch, integral"),
+    Param("CLMB_MAX", 4.0, 0.5, 15.0, "m/s", "maximum climb rate"),
+    Param("SINK_MAX", 4.0, 0.5, 15.0, "m/s", "maximum sink rate"),
+    Param("THR_TRIM", 0.45, 0.0, 1.0, "", "throttle in level cruise at TRIM_ARSPD"),
+    Param("THR_MAX", 1.0, 0.0, 1.0, "", "maximum throttle"),
+    Param("THR_CLMB_FF", 0.06, 0.0, 1.0, "s/m", "throttle per m/s of commanded climb"),
+    Param("SPD_KP", 0.08, 0.0, 2.0, "s/m", "airspeed error to throttle, proportional"),
+    Param("SPD_KI", 0.03, 0.0, 2.0, "1/m", "airspeed error to throttle, integral"),
+    Param("YAW_KD", 0.3, 0.0, 5.0, "s/rad", "yaw-rate error (vs coordinated turn) to rudder"),
+    Param("ROLL_LIMIT_DEG", 40.0, 5.0, 65.0, "deg", "maximum bank angle"),
+    Param("TRIM_ARSPD", 22.0, 10.0, 40.0, "m/s", "cruise airspeed"),
+    Param("ARSPD_FBW_MIN", 16.0, 8.0, 40.0, "m/s", "minimum airspeed command"),
+    Param("ARSPD_FBW_MAX", 30.0, 10.0, 60.0, "m/s", "maximum airspeed command"),
+)
+
+
+class FixedWingController:
+    """Attitude, altitude and airspeed loops; ``update`` returns the 4 normalised
+    controls (aileron, elevator, rudder, throttle)."""
+
+    def __init__(self, params):
+        self.params = params
+        self.configure()
+
+    def configure(self) -> None:
+        p = self.params
+        self.roll_pid = Pid(p["RLL_KP"], p["RLL_KI"], p["RLL_KD"], -1.0, 1.0, i_max=0.3)
+        self.pitch_pid = Pid(p["PTCH_KP"], p["PTCH_KI"], p["PTCH_KD"], -1.0, 1.0, i_max=0.4)
+        self.climb_pid = Pid(p["CLMB_KP"], p["CLMB_KI"], 0.0,
+                             math.radians(p["PTCH_LIM_MIN_DEG"]), math.radians(p["PTCH_LIM_MAX_DEG"]),
+                             i_max=math.radians(10.0))
+        self.speed_pid = Pid(p["SPD_KP"], p["SPD_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.4)
+        self.last = (0.0, 0.0, 0.0, 0.0)
+        self.roll_cmd_rad = 0.0
+        self.pitch_cmd_rad = 0.0
+        self.climb_cmd_mps = 0.0
+
+    def reset(self) -> None:
+        for pid in (self.roll_pid, self.pitch_pid, self.climb_pid, self.speed_pid):
+            pid.reset()
+
+    def update(self, nav: NavState, dt: float, bank_cmd_rad: float, alt_cmd_m: float,
+               airspeed_cmd_mps: float, pitch_min_rad: float | None = None,
+               throttle_override: float | None = None) -> tuple[float, float, float, float]:
+        p = self.params
+        roll, pitch, _ = quat_to_euler(nav.q_nb)
+        omega = nav.omega_b
+        v_air = max(nav.airspeed_mps, 5.0)
+        roll_lim = math.radians(p["ROLL_LIMIT_DEG"])
+        phi_c = min(max(bank_cmd_rad, -roll_lim), roll_lim)
+
+        # altitude to climb rate (outer), climb rate to pitch (middle)
+        hdot = -float(nav.v_ned[2])
+        hdot_c = min(max(p["ALT_KP"] * (alt_cmd_m - nav.alt_m), -p["SINK_MAX"]), p["CLMB_MAX"])
+        turn_ff = p["PTCH_TURN_FF"] * (1.0 / max(math.cos(roll), 0.5) - 1.0)
+        theta_c = self.climb_pid.update(hdot_c, hdot, dt, rate=0.0,
+                                        feedforward=math.radians(p["PTCH_TRIM_DEG"]) + turn_ff)
+        if pitch_min_rad is not None:
+            theta_c = max(theta_c, pitch_min_rad)
+
+        # airspeed from throttle (with the climb feed-forward)
+        if throttle_override is not None:
+            thr = throttle_override
+            self.speed_pid.reset(self.speed_pid.integ)
+        else:
+            thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
+                                        feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)
+
+        # inner loops
+        da = self.roll_pid.update(phi_c, roll, dt, rate=float(omega[0]))
+        de = self.pitch_pid.update(theta_c, pitch, dt, rate=float(omega[1]))
+        r_c = G * math.tan(roll) * math.cos(pitch) / v_air
+        dr = min(max(p["YAW_KD"] * (r_c - float(omega[2])), -1.0), 1.0)
+
+        self.roll_cmd_rad, self.pitch_cmd_rad, self.climb_cmd_mps = phi_c, theta_c, hdot_c
+        self.last = (da, de, dr, thr)
+        return self.last

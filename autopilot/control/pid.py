@@ -1,0 +1,38 @@
+"""A small PID block with the habits of STYLE.md lesson 8: derivative on the
+measurement (or a measured rate) instead of the error, explicit output saturation and
+conditional-integration anti-windup (the integrator only moves when the output is not
+saturated in the direction the error would push it), and ``reset()``."""
+from __future__ import annotations
+
+
+class Pid:
+    __slots__ = ("kp", "ki", "kd", "out_min", "out_max", "i_max", "integ", "_prev_meas")
+
+    def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0,
+                 out_min: float = -1.0, out_max: float = 1.0, i_max: float | None = None):
+        self.kp, self.ki, self.kd = kp, ki, kd
+        self.out_min, self.out_max = out_min, out_max
+        self.i_max = i_max if i_max is not None else max(abs(out_min), abs(out_max))
+        self.integ = 0.0
+        self._prev_meas: float | None = None
+
+    def reset(self, integ: float = 0.0) -> None:
+        self.integ = integ
+        self._prev_meas = None
+
+    def update(self, setpoint: float, measurement: float, dt: float,
+               rate: float | None = None, feedforward: float = 0.0) -> float:
+        """``rate`` is d(measurement)/dt when measured (e.g. a gyro); otherwise the
+        derivative is taken by differencing the measurement."""
+        err = setpoint - measurement
+        if rate is None:
+            rate = 0.0 if self._prev_meas is None or dt <= 0 else (measurement - self._prev_meas) / dt
+        self._prev_meas = measurement
+        unsat = feedforward + self.kp * err + self.integ - self.kd * rate
+        out = min(max(unsat, self.out_min), self.out_max)
+        # anti-windup: integrate unless saturated and the error pushes further out
+        if self.ki > 0.0 and dt > 0.0:
+            pushing_out = (unsat >= self.out_max and err > 0) or (unsat <= self.out_min and err < 0)
+            if not pushing_out:
+                self.integ = min(max(self.integ + self.ki * err * dt, -self.i_max), self.i_max)
+        return out

@@ -1,0 +1,156 @@
+"""Rotations: the one module that fixes the quaternion convention.
+
+Convention (DESIGN.md section 4): Hamilton quaternions, scalar first ``[w, x, y, z]``;
+``q_nb`` rotates body (FRD) vectors into the NED frame, ``v_ned = R(q_nb) @ v_b``.
+Euler angles are the aerospace 3-2-1 sequence (yaw psi, pitch theta, roll phi), seed
+eqs 1.6-1.10 (Beard & McLain 2012, ch. 2 and app. B). Quaternion kinematics
+``q_dot = 1/2 q (x) [0, omega_b]`` with renormalisation, seed eqs 1.13-1.14.
+
+scipy's ``Rotation`` uses scalar-last order; conversion to and from it happens here
+and nowhere else (:func:`to_scipy`, :func:`from_scipy`).
+
+The functions are written on plain floats/NumPy for speed in the per-step loop.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to [-pi, pi)."""
+    return (angle_rad + math.pi) % TWO_PI - math.pi
+
+
+def wrap_2pi(angle_rad: float) -> float:
+    """Wrap an angle to [0, 2 pi)."""
+    return angle_rad % TWO_PI
+
+
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if n == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    q = q / n
+    # Keep w >= 0 so that equal rotations compare equal.
+    return q if q[0] >= 0.0 else -q
+
+
+def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product p (x) q."""
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return np.array([
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    ])
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def quat_to_dcm(q: np.ndarray) -> np.ndarray:
+    """R(q_nb): the matrix with v_ned = R @ v_b."""
+    w, x, y, z = q
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    return np.array([
+        [ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), ww - xx + yy - zz, 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz],
+    ])
+
+
+def dcm_to_quat(R: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`quat_to_dcm` (Shepperd's method, numerically safe)."""
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    if tr > 0.0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif R[1, 1] > R[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    return quat_normalize(np.array(q))
+
+
+def euler_to_quat(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarray:
+    """q_nb from 3-2-1 Euler angles (yaw, then pitch, then roll)."""
+    cr, sr = math.cos(0.5 * roll_rad), math.sin(0.5 * roll_rad)
+    cp, sp = math.cos(0.5 * pitch_rad), math.sin(0.5 * pitch_rad)
+    cy, sy = math.cos(0.5 * yaw_rad), math.sin(0.5 * yaw_rad)
+    return quat_normalize(np.array([
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]))
+
+
+def quat_to_euler(q: np.ndarray) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) [rad] of q_nb; yaw in [-pi, pi)."""
+    w, x, y, z = q
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    s = 2.0 * (w * y - z * x)
+    pitch = math.asin(max(-1.0, min(1.0, s)))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, wrap_pi(yaw)
+
+
+def quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
+    """Quaternion of a rotation vector (axis * angle) [rad]."""
+    angle = math.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
+    if angle < 1e-9:
+        return quat_normalize(np.array([1.0, 0.5 * phi[0], 0.5 * phi[1], 0.5 * phi[2]]))
+    s = math.sin(0.5 * angle) / angle
+    return np.array([math.cos(0.5 * angle), phi[0] * s, phi[1] * s, phi[2] * s])
+
+
+def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+    q = quat_normalize(q)
+    v = q[1:]
+    s = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    if s < 1e-12:
+        return 2.0 * v
+    angle = 2.0 * math.atan2(s, q[0])
+    return v * (angle / s)
+
+
+def quat_integrate(q_nb: np.ndarray, omega_b: np.ndarray, dt: float) -> np.ndarray:
+    """Propagate q_nb by a body rate held over dt (seed eqs 1.13-1.14), renormalised."""
+    return quat_normalize(quat_multiply(q_nb, quat_from_rotvec(np.asarray(omega_b) * dt)))
+
+
+def rotate(q_nb: np.ndarray, v_b: np.ndarray) -> np.ndarray:
+    """v_ned = R(q_nb) v_b."""
+    return quat_to_dcm(q_nb) @ v_b
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """[v x], so that skew(a) @ b == cross(a, b)."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+# --- the single place that speaks scipy's scalar-last order -------------------------
+
+def to_scipy(q_nb: np.ndarray):
+    """scipy.spatial.transform.Rotation of q_nb."""
+    from scipy.spatial.transform import Rotation
+    w, x, y, z = q_nb
+    return Rotation.from_quat([x, y, z, w])
+
+
+def from_scipy(rot) -> np.ndarray:
+    x, y, z, w = rot.as_quat()
+    return quat_normalize(np.array([w, x, y, z]))

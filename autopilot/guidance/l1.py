@@ -1,0 +1,129 @@
+"""L1 nonlinear lateral guidance for straight legs and loiter circles.
+
+Park, Deyst & How, "A New Nonlinear Guidance Logic for Trajectory Tracking", AIAA GNC
+2004 (seed eqs 1.23-1.27, whose subscripts were lost in extraction; rebuilt from that
+paper). A reference point is chosen on the desired path at distance L1 ahead of the
+vehicle; with eta the angle from the ground velocity V_g to the L1 vector,
+
+    sin(eta) = (V_g x L1) / (|V_g| |L1|)                    (eq 1.26)
+    a_cmd    = K |V_g|^2 / L1 * sin(eta),  K = 2 in the paper  (eq 1.25)
+    phi_cmd  = atan(a_cmd / g)                               (eq 1.27)
+
+Linearised about a straight path the cross-track error obeys a second-order system with
+natural frequency sqrt(K) V / L1 and damping sqrt(K)/2, so the user tunes a period T and
+a damping zeta (as ArduPilot's NAVL1_PERIOD / NAVL1_DAMPING) and we derive
+
+    K = 4 zeta^2,   L1 = zeta T |V_g| / pi.
+
+Degenerate cases handled on purpose: a zero-length leg (fly to its end point), near-zero
+ground speed (use the heading and airspeed instead), flying away from the path
+(|eta| > 90 deg: command the full turn in the shorter direction), far from the path
+(|d| > L1: intercept at a bounded angle instead of a complex square root).
+
+Loiter circles are flown by the same law on the circle's tangent at the closest point,
+plus the centripetal feed-forward V_g^2 / R once near the circle.
+
+Vectors are horizontal (north, east) pairs in metres. Positive lateral acceleration and
+positive bank turn right (clockwise seen from above).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+G = 9.80665
+MIN_GROUNDSPEED_MPS = 3.0
+MAX_INTERCEPT_RAD = math.radians(60.0)  # capture angle when far from the path
+
+
+@dataclass(frozen=True, slots=True)
+class LateralCommand:
+    accel_mps2: float        # lateral acceleration, + right [m/s^2]
+    bank_rad: float          # bank command (before the roll limit) [rad]
+    xtrack_m: float          # cross-track error, + right of the path [m]
+    along_m: float           # along-track distance from the leg start [m]
+    eta_rad: float           # L1 angle
+    l1_m: float              # L1 distance used
+
+
+class L1Guidance:
+    def __init__(self, period_s: float = 17.0, damping: float = 0.75):
+        self.set_design(period_s, damping)
+
+    def set_design(self, period_s: float, damping: float) -> None:
+        self.period_s = period_s
+        self.damping = damping
+        self.k = 4.0 * damping * damping
+
+    def l1_distance(self, groundspeed_mps: float) -> float:
+        return self.damping * self.period_s * groundspeed_mps / math.pi
+
+    @staticmethod
+    def _ground_velocity(v_ne, heading_rad: float, airspeed_mps: float):
+        vn, ve = v_ne
+        gs = math.hypot(vn, ve)
+        if gs < MIN_GROUNDSPEED_MPS:
+            # near-zero or unreliable ground speed: steer by heading instead
+            s = max(airspeed_mps, MIN_GROUNDSPEED_MPS)
+            return s * math.cos(heading_rad), s * math.sin(heading_rad), s
+        return vn, ve, gs
+
+    def _command(self, vn, ve, gs, ln, le, l1, xtrack, along) -> LateralCommand:
+        # eq 1.26: sin(eta) from the cross product of V_g and L1 (z of NED = down)
+        cross = vn * le - ve * ln
+        dot = vn * ln + ve * le
+        eta = math.atan2(cross, dot)
+        s = math.sin(eta)
+        if abs(eta) > 0.5 * math.pi:
+            s = math.copysign(1.0, eta)  # pointing away: full turn the short way
+        # eq 1.25 with K = 4 zeta^2
+        a = self.k * gs * gs / l1 * s
+        return LateralCommand(a, math.atan(a / G), xtrack, along, eta, l1)
+
+    def line(self, p_ne, v_ne, a_ne, b_ne, heading_rad: float = 0.0,
+             airspeed_mps: float = 0.0) -> LateralCommand:
+        """Track the straight line from A through B."""
+        vn, ve, gs = self._ground_velocity(v_ne, heading_rad, airspeed_mps)
+        l1 = max(self.l1_distance(gs), 1.0)
+        dn, de = b_ne[0] - a_ne[0], b_ne[1] - a_ne[1]
+        length = math.hypot(dn, de)
+        pn, pe = p_ne[0] - a_ne[0], p_ne[1] - a_ne[1]
+        if length < 1e-3:
+            # zero-length leg: fly straight at the point
+            return self._command(vn, ve, gs, -pn, -pe, l1, 0.0, 0.0)
+        tn, te = dn / length, de / length
+        nn, ne = -te, tn                     # unit normal, to the right of the track
+        xtrack = pn * nn + pe * ne           # + right of the path
+        along = pn * tn + pe * te
+        ahead = math.sqrt(max(l1 * l1 - xtrack * xtrack, 0.0))
+        ahead = max(ahead, abs(xtrack) / math.tan(MAX_INTERCEPT_RAD))
+        ln = tn * ahead - nn * xtrack
+        le = te * ahead - ne * xtrack
+        return self._command(vn, ve, gs, ln, le, l1, xtrack, along)
+
+    def loiter(self, p_ne, v_ne, c_ne, radius_m: float, direction: int,
+               heading_rad: float = 0.0, airspeed_mps: float = 0.0) -> LateralCommand:
+        """Circle C with radius R; direction +1 clockwise, -1 counter-clockwise (seen
+        from above). ``xtrack_m`` is the radial error, + outside."""
+        vn, ve, gs = self._ground_velocity(v_ne, heading_rad, airspeed_mps)
+        l1 = max(self.l1_distance(gs), 1.0)
+        rn, re = p_ne[0] - c_ne[0], p_ne[1] - c_ne[1]
+        r = math.hypot(rn, re)
+        if r < 1e-3:
+            rn, re, r = -vn, -ve, gs  # at the centre: any radial direction will do
+        urn, ure = rn / r, re / r
+        tn, te = -direction * ure, direction * urn      # tangent in the flight direction
+        nn, ne = -te, tn                                 # right of the tangent
+        radial_err = r - radius_m                        # + outside the circle
+        xtrack = -direction * radial_err                 # + right of the tangent
+        ahead = math.sqrt(max(l1 * l1 - xtrack * xtrack, 0.0))
+        ahead = max(ahead, abs(xtrack) / math.tan(MAX_INTERCEPT_RAD))
+        ln = tn * ahead - nn * xtrack
+        le = te * ahead - ne * xtrack
+        cmd = self._command(vn, ve, gs, ln, le, l1, radial_err, 0.0)
+        if abs(radial_err) < l1 and radius_m > 1.0:
+            # centripetal feed-forward for the circle itself
+            blend = 1.0 - abs(radial_err) / l1
+            a = cmd.accel_mps2 + blend * direction * gs * gs / radius_m
+            cmd = LateralCommand(a, math.atan(a / G), radial_err, 0.0, cmd.eta_rad, l1)
+        return cmd

@@ -1,0 +1,243 @@
+"""Byte transports for MAVLink: an in-process memory pipe, TCP and UDP.
+
+A transport moves bytes and nothing else; the codec makes and reads frames. Every
+transport has the same two calls: ``send(data)`` and ``recv(timeout_s) -> bytes`` (empty
+on timeout). URLs, as ArduPilot/MAVProxy spell them:
+
+* ``memory``                in-process pipe (see :func:`memory_pair`)
+* ``tcp:HOST:PORT``         connect to a server
+* ``tcpin:HOST:PORT``       listen and serve one peer at a time (the simulator end)
+* ``udp:HOST:PORT`` / ``udpout:HOST:PORT``   send to HOST:PORT, receive the replies
+* ``udpin:HOST:PORT``       bind and reply to whoever spoke last
+"""
+from __future__ import annotations
+
+import select
+import socket
+import threading
+import time
+from collections import deque
+
+
+class TransportError(OSError):
+    pass
+
+
+class MemoryEndpoint:
+    """One end of an in-process byte pipe. Thread-safe, so it also works when the two
+    programs run in separate threads; in one thread ``recv`` never blocks."""
+
+    def __init__(self):
+        self._inbox: deque[bytes] = deque()
+        self._cond = threading.Condition()
+        self.peer: MemoryEndpoint | None = None
+        self.closed = False
+
+    def send(self, data: bytes) -> None:
+        peer = self.peer
+        if peer is None or peer.closed:
+            return
+        with peer._cond:
+            peer._inbox.append(data)
+            peer._cond.notify()
+
+    def recv(self, timeout_s: float = 0.0) -> bytes:
+        with self._cond:
+            if not self._inbox and timeout_s > 0:
+                self._cond.wait(timeout_s)
+            if not self._inbox:
+                return b""
+            if len(self._inbox) == 1:
+                return self._inbox.popleft()
+            data = b"".join(self._inbox)
+            self._inbox.clear()
+            return data
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def memory_pair() -> tuple[MemoryEndpoint, MemoryEndpoint]:
+    a, b = MemoryEndpoint(), MemoryEndpoint()
+    a.peer, b.peer = b, a
+    return a, b
+
+
+def _split_url(url: str) -> tuple[str, str, int]:
+    try:
+        kind, host, port = url.split(":")
+        return kind, host, int(port)
+    except ValueError:
+        raise TransportError(f"bad link URL {url!r}: expected KIND:HOST:PORT") from None
+
+
+class TcpClient:
+    def __init__(self, host: str, port: int, connect_timeout_s: float = 10.0):
+        deadline = time.monotonic() + connect_timeout_s
+        last_err: Exception | None = None
+        while True:
+            try:
+                self.sock = socket.create_connection((host, port), timeout=2.0)
+                break
+            except OSError as e:  # the server may not be up yet: retry until deadline
+                last_err = e
+                if time.monotonic() > deadline:
+                    raise TransportError(f"cannot connect to tcp:{host}:{port}: {last_err}") from None
+                time.sleep(0.1)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock.setblocking(False)
+        self.closed = False
+
+    def send(self, data: bytes) -> None:
+        if self.closed:
+            return
+        self.sock.setblocking(True)
+        try:
+            self.sock.sendall(data)
+        except OSError:
+            self.closed = True
+        finally:
+            if not self.closed:
+                self.sock.setblocking(False)
+
+    def recv(self, timeout_s: float = 0.0) -> bytes:
+        if self.closed:
+            return b""
+        r, _, _ = select.select([self.sock], [], [], max(0.0, timeout_s))
+        if not r:
+            return b""
+        try:
+            data = self.sock.recv(65536)
+        except BlockingIOError:
+            return b""
+        except OSError:
+            data = b""
+        if not data:
+            self.closed = True
+        return data
+
+    def close(self) -> None:
+        self.closed = True
+        self.sock.close()
+
+
+class TcpServerOne:
+    """Listens and talks to one peer at a time (the simulator end of the HIL link)."""
+
+    def __init__(self, host: str, port: int):
+        self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self.listener.bind((host, port))
+        self.listener.listen(1)
+        self.port = self.listener.getsockname()[1]
+        self.conn: socket.socket | None = None
+        self.closed = False
+
+    def accept(self, timeout_s: float | None = None) -> bool:
+        r, _, _ = select.select([self.listener], [], [], timeout_s)
+        if not r:
+            return False
+        conn, _ = self.listener.accept()
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        conn.setblocking(False)
+        if self.conn is not None:
+            self.conn.close()
+        self.conn = conn
+        return True
+
+    @property
+    def connected(self) -> bool:
+        return self.conn is not None
+
+    def send(self, data: bytes) -> None:
+        if self.conn is None:
+            return
+        self.conn.setblocking(True)
+        try:
+            self.conn.sendall(data)
+            self.conn.setblocking(False)
+        except OSError:
+            self.conn.close()
+            self.conn = None
+
+    def recv(self, timeout_s: float = 0.0) -> bytes:
+        if self.conn is None:
+            return b""
+        r, _, _ = select.select([self.conn], [], [], max(0.0, timeout_s))
+        if not r:
+            return b""
+        try:
+            data = self.conn.recv(65536)
+        except BlockingIOError:
+            return b""
+        except OSError:
+            data = b""
+        if not data:
+            self.conn.close()
+            self.conn = None
+        return data
+
+    def close(self) -> None:
+        self.closed = True
+        if self.conn is not None:
+            self.conn.close()
+        self.listener.close()
+
+
+class Udp:
+    """UDP: ``udpin`` binds and answers the last sender; ``udpout`` sends to a fixed
+    address and receives on an ephemeral port."""
+
+    def __init__(self, host: str, port: int, listen: bool):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if listen:
+            self.sock.bind((host, port))
+            self.peer = None
+        else:
+            self.sock.bind(("127.0.0.1" if host in ("127.0.0.1", "localhost") else "", 0))
+            self.peer = (host, port)
+        self.port = self.sock.getsockname()[1]
+        self.sock.setblocking(False)
+        self.closed = False
+
+    def send(self, data: bytes) -> None:
+        if self.peer is None:
+            return
+        try:
+            self.sock.sendto(data, self.peer)
+        except OSError:
+            pass
+
+    def recv(self, timeout_s: float = 0.0) -> bytes:
+        r, _, _ = select.select([self.sock], [], [], max(0.0, timeout_s))
+        if not r:
+            return b""
+        chunks = []
+        while True:
+            try:
+                data, addr = self.sock.recvfrom(65536)
+            except (BlockingIOError, OSError):
+                break
+            self.peer = addr
+            chunks.append(data)
+        return b"".join(chunks)
+
+    def close(self) -> None:
+        self.closed = True
+        self.sock.close()
+
+
+def open_url(url: str, connect_timeout_s: float = 10.0):
+    """Open a transport from a URL (``memory`` is not openable by URL: use
+    :func:`memory_pair`)."""
+    kind, host, port = _split_url(url)
+    if kind == "tcp":
+        return TcpClient(host, port, connect_timeout_s)
+    if kind == "tcpin":
+        return TcpServerOne(host, port)
+    if kind in ("udp", "udpout"):
+        return Udp(host, port, listen=False)
+    if kind == "udpin":
+        return Udp(host, port, listen=True)
+    raise TransportError(f"bad link URL {url!r}: unknown kind {kind!r}")

@@ -1,0 +1,41 @@
+"""Columnar flight log: one row per loop step, saved as a NumPy ``.npz``.
+
+Columns are declared once (name, unit/frame) and each step appends a tuple of floats in
+that order; ``save`` writes one float64 array per column plus a ``columns`` index, so
+``np.load(path)["truth_n_m"]`` reads a column back. Appending tuples to a list is the
+cheapest thing Python can do per step; conversion happens once, at the end.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+class FlightLog:
+    def __init__(self, columns: tuple[str, ...]):
+        self.columns = tuple(columns)
+        self.rows: list[tuple] = []
+        self.events: list[tuple[float, str]] = []   # (t_s, text) for notable events
+
+    def append(self, row: tuple) -> None:
+        self.rows.append(row)
+
+    def event(self, t_s: float, text: str) -> None:
+        self.events.append((t_s, text))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        if not self.rows:
+            return {c: np.zeros(0) for c in self.columns}
+        data = np.asarray(self.rows, dtype=float)
+        return {c: data[:, i] for i, c in enumerate(self.columns)}
+
+    def save(self, path: str | Path, extra: dict | None = None) -> None:
+        arrays = self.arrays()
+        arrays["columns"] = np.array(self.columns)
+        arrays["event_t_s"] = np.array([e[0] for e in self.events], dtype=float)
+        arrays["event_text"] = np.array([e[1] for e in self.events], dtype=str)
+        for k, v in (extra or {}).items():
+            arrays[k] = np.asarray(v)
+        with open(path, "wb") as f:
+            np.savez_compressed(f, **arrays)

@@ -1,0 +1,328 @@
+"""Mission files: QGC WPL 110 `.waypoints` and QGroundControl `.plan`, read strictly.
+
+* `.waypoints` (the plain-text format of https://mavlink.io/en/file_formats/, written by
+  MAVProxy, Mission Planner and QGroundControl): a `QGC WPL 110` header, then one line
+  per item, fields separated by tabs (any whitespace accepted):
+  `seq current frame command p1 p2 p3 p4 lat lon alt autocontinue`. Line 1 of the items
+  (seq 0) is home, as ArduPilot writes it.
+* `.plan` (QGroundControl's JSON, docs.qgroundcontrol.com "Plan File Format"):
+  `fileType` "Plan", `version` 1, `mission.plannedHomePosition` [lat, lon, alt MSL]
+  becomes item 0, `mission.items` are SimpleItems (command, frame, params[7] with null
+  for NaN, autoContinue, doJumpId) that become items 1, 2, ... A DO_JUMP's param1 in a
+  plan names the target's doJumpId; it is mapped to the target's seq on load, and on
+  save every item gets doJumpId = seq so the two numberings agree. ComplexItems (survey,
+  corridor scan, structure scan) are refused. Geofence and rally points are ignored.
+
+Every defect raises `MissionFileError`, whose text points at the place:
+`missions/x.waypoints:7: expected 12 fields, got 9` (line number) or
+`missions/x.plan:item 3: ...` (item N = seq N = mission.items[N-1]; item 0 = home).
+A missing or unreadable file raises the usual OSError.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from autopilot.mission.items import (
+    DO_JUMP,
+    FRAME_GLOBAL,
+    NAV_WAYPOINT,
+    Mission,
+    MissionItem,
+    item_problem,
+    validate_mission,
+)
+
+WPL_HEADER = "QGC WPL 110"
+WPL_FIELDS = ("seq", "current", "frame", "command", "param1", "param2", "param3", "param4",
+              "latitude", "longitude", "altitude", "autocontinue")
+_WPL_INT_FIELDS = frozenset({0, 1, 2, 3, 11})
+
+PLAN_FILE_TYPE = "Plan"
+PLAN_VERSION = 1
+PLAN_MISSION_VERSION = 2
+
+_INT_RE = re.compile(r"[+-]?\d+")
+_FLOAT_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?nan", re.IGNORECASE)
+
+PathLike = str | os.PathLike[str]
+
+
+class MissionFileError(ValueError):
+    """A mission file that cannot be used; `where` is a line number or 'item N' or None."""
+
+    def __init__(self, path: PathLike, where: int | str | None, message: str) -> None:
+        self.path = os.fspath(path)
+        self.where = where
+        self.message = message
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        if self.where is None:
+            return f"{self.path}: {self.message}"
+        return f"{self.path}:{self.where}: {self.message}"
+
+
+# --- entry points ----------------------------------------------------------------------
+
+def load_mission(path: PathLike) -> Mission:
+    """Read a `.waypoints` or `.plan` file (by extension, else by content)."""
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise MissionFileError(path, None, f"not UTF-8 text ({exc.reason})") from None
+    suffix = os.path.splitext(os.fspath(path))[1].lower()
+    if suffix == ".plan":
+        return loads_plan(text, path)
+    if suffix in (".waypoints", ".txt"):
+        return loads_waypoints(text, path)
+    stripped = text.lstrip()
+    if stripped.startswith("{"):
+        return loads_plan(text, path)
+    if stripped.startswith("QGC WPL"):
+        return loads_waypoints(text, path)
+    raise MissionFileError(path, None, "unknown mission file format "
+                                       "(expected a .waypoints or .plan file)")
+
+
+def save_waypoints(mission: Mission, path: PathLike) -> None:
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(dumps_waypoints(mission))
+
+
+def save_plan(mission: Mission, path: PathLike, *,
+              vehicle_type: int = mavlink2.MAV_TYPE_FIXED_WING,
+              cruise_speed_m_s: float = 22.0, hover_speed_m_s: float = 5.0) -> None:
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(dumps_plan(mission, vehicle_type=vehicle_type,
+                           cruise_speed_m_s=cruise_speed_m_s, hover_speed_m_s=hover_speed_m_s))
+
+
+# --- .waypoints ------------------------------------------------------------------------
+
+def loads_waypoints(text: str, path: PathLike = "<string>") -> Mission:
+    lines = text.splitlines()
+    if not lines or not lines[0].strip():
+        raise MissionFileError(path, 1, f"missing header, expected '{WPL_HEADER}'")
+    header = " ".join(lines[0].split())
+    if header != WPL_HEADER:
+        raise MissionFileError(path, 1, f"bad header '{lines[0].strip()}', expected '{WPL_HEADER}'")
+
+    items: list[MissionItem] = []
+    line_of_seq: list[int] = []
+    for lineno, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        parts = line.split()
+        if len(parts) != len(WPL_FIELDS):
+            raise MissionFileError(path, lineno,
+                                   f"expected {len(WPL_FIELDS)} fields, got {len(parts)}")
+        values: list[int | float] = []
+        for index, (name, token) in enumerate(zip(WPL_FIELDS, parts)):
+            if index in _WPL_INT_FIELDS:
+                if not _INT_RE.fullmatch(token):
+                    raise MissionFileError(
+                        path, lineno, f"field {index + 1} ({name}): '{token}' is not an integer")
+                values.append(int(token))
+            else:
+                if not _FLOAT_RE.fullmatch(token):
+                    raise MissionFileError(
+                        path, lineno, f"field {index + 1} ({name}): '{token}' is not a number")
+                values.append(float(token))
+        (seq, current, frame, command, p1, p2, p3, p4, lat, lon, alt, autocontinue) = values
+        if seq != len(items):
+            raise MissionFileError(path, lineno, f"expected seq {len(items)}, got {seq}")
+        item = MissionItem(seq=seq, frame=frame, command=command, current=current,
+                           autocontinue=autocontinue, param1=p1, param2=p2, param3=p3,
+                           param4=p4, x_lat_deg=lat, y_lon_deg=lon, z_alt_m=alt)
+        problem = item_problem(item)
+        if problem is not None:
+            raise MissionFileError(path, lineno, str(problem))
+        items.append(item)
+        line_of_seq.append(lineno)
+
+    if not items:
+        raise MissionFileError(path, None, "empty mission: no items after the header")
+    if len(items) == 1:
+        raise MissionFileError(path, None, "empty mission: only home (item 0), no mission items")
+    problem = validate_mission(items)
+    if problem is not None:
+        raise MissionFileError(path, line_of_seq[problem.seq], str(problem))
+    return Mission(tuple(items))
+
+
+def dumps_waypoints(mission: Mission) -> str:
+    out = [WPL_HEADER]
+    for it in mission:
+        fields = (str(it.seq), str(it.current), str(it.frame), str(it.command),
+                  *(_fmt(v) for v in it.params), str(it.autocontinue))
+        out.append("\t".join(fields))
+    return "\n".join(out) + "\n"
+
+
+def _fmt(value: float) -> str:
+    """Shortest text that reads back to the same float; whole numbers without '.0'."""
+    text = repr(value)
+    return text[:-2] if text.endswith(".0") else text
+
+
+# --- .plan -----------------------------------------------------------------------------
+
+def loads_plan(text: str, path: PathLike = "<string>") -> Mission:
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise MissionFileError(path, exc.lineno,
+                               f"invalid JSON: {exc.msg} (column {exc.colno})") from None
+    if not isinstance(doc, dict):
+        raise MissionFileError(path, None, "not a plan: the top level is not a JSON object")
+    if doc.get("fileType") != PLAN_FILE_TYPE:
+        raise MissionFileError(path, None,
+                               f"wrong fileType {doc.get('fileType')!r}, expected 'Plan'")
+    if doc.get("version") != PLAN_VERSION or isinstance(doc.get("version"), bool):
+        raise MissionFileError(path, None, f"unsupported plan version {doc.get('version')!r}, "
+                                           f"expected {PLAN_VERSION}")
+    mission = doc.get("mission")
+    if not isinstance(mission, dict):
+        raise MissionFileError(path, None, "no 'mission' object")
+
+    home_pos = mission.get("plannedHomePosition")
+    if not (isinstance(home_pos, list) and len(home_pos) == 3 and all(map(_is_number, home_pos))):
+        raise MissionFileError(path, "item 0",
+                               "plannedHomePosition must be [lat, lon, alt] numbers")
+    home = MissionItem(seq=0, frame=FRAME_GLOBAL, command=NAV_WAYPOINT, current=1,
+                       autocontinue=1, param1=0.0, param2=0.0, param3=0.0, param4=0.0,
+                       x_lat_deg=home_pos[0], y_lon_deg=home_pos[1], z_alt_m=home_pos[2])
+    problem = item_problem(home)
+    if problem is not None:
+        raise MissionFileError(path, "item 0", f"plannedHomePosition: {problem}")
+
+    raw_items = mission.get("items")
+    if not isinstance(raw_items, list):
+        raise MissionFileError(path, None, "mission.items is missing or not a list")
+    if not raw_items:
+        raise MissionFileError(path, None, "empty mission: mission.items is empty")
+
+    items = [home]
+    seq_of_jump_id: dict[int, int] = {}
+    for seq, raw in enumerate(raw_items, start=1):
+        where = f"item {seq}"
+        item, jump_id = _plan_item(raw, seq, path, where)
+        if jump_id is not None:
+            if jump_id in seq_of_jump_id:
+                raise MissionFileError(path, where, f"doJumpId {jump_id} used twice "
+                                                    f"(also item {seq_of_jump_id[jump_id]})")
+            seq_of_jump_id[jump_id] = seq
+        items.append(item)
+
+    # DO_JUMP param1 names a doJumpId; the mission wants the target's seq.
+    for item in items[1:]:
+        if item.command != DO_JUMP:
+            continue
+        where = f"item {item.seq}"
+        target = item.param1
+        if not (math.isfinite(target) and target == int(target)):
+            raise MissionFileError(path, where,
+                                   f"DO_JUMP target doJumpId {target} is not an integer")
+        if int(target) not in seq_of_jump_id:
+            raise MissionFileError(path, where, f"DO_JUMP to missing doJumpId {int(target)}")
+        items[item.seq] = item.replace(param1=float(seq_of_jump_id[int(target)]))
+
+    for item in items:
+        problem = item_problem(item)
+        if problem is not None:
+            raise MissionFileError(path, f"item {item.seq}", str(problem))
+    problem = validate_mission(items)
+    if problem is not None:
+        raise MissionFileError(path, f"item {problem.seq}", str(problem))
+    return Mission(tuple(items))
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _plan_item(raw: Any, seq: int, path: PathLike, where: str) -> tuple[MissionItem, int | None]:
+    if not isinstance(raw, dict):
+        raise MissionFileError(path, where, "item is not a JSON object")
+    kind = raw.get("type")
+    if kind == "ComplexItem":
+        raise MissionFileError(path, where, f"unsupported ComplexItem "
+                                            f"({raw.get('complexItemType', '?')}): "
+                                            "only SimpleItem missions can be flown")
+    if kind != "SimpleItem":
+        raise MissionFileError(path, where, f"unknown item type {kind!r}, expected 'SimpleItem'")
+    for key in ("command", "frame"):
+        if not isinstance(raw.get(key), int) or isinstance(raw.get(key), bool):
+            raise MissionFileError(path, where, f"'{key}' must be an integer, got {raw.get(key)!r}")
+    params = raw.get("params")
+    if not isinstance(params, list) or len(params) != 7:
+        count = len(params) if isinstance(params, list) else "none"
+        raise MissionFileError(path, where, f"expected 7 params, got {count}")
+    values: list[float] = []
+    for index, value in enumerate(params, start=1):
+        if value is None:
+            values.append(math.nan)  # QGC writes NaN ("default") as null
+        elif _is_number(value):
+            values.append(float(value))
+        else:
+            raise MissionFileError(path, where, f"param{index}: {value!r} is not a number or null")
+    auto = raw.get("autoContinue", True)
+    if not isinstance(auto, bool):
+        raise MissionFileError(path, where, f"'autoContinue' must be true or false, got {auto!r}")
+    jump_id = raw.get("doJumpId")
+    if jump_id is not None and (not isinstance(jump_id, int) or isinstance(jump_id, bool)):
+        raise MissionFileError(path, where, f"'doJumpId' must be an integer, got {jump_id!r}")
+    item = MissionItem(seq=seq, frame=raw["frame"], command=raw["command"], current=0,
+                       autocontinue=int(auto), param1=values[0], param2=values[1],
+                       param3=values[2], param4=values[3], x_lat_deg=values[4],
+                       y_lon_deg=values[5], z_alt_m=values[6])
+    return item, jump_id
+
+
+def dumps_plan(mission: Mission, *, vehicle_type: int = mavlink2.MAV_TYPE_FIXED_WING,
+               cruise_speed_m_s: float = 22.0, hover_speed_m_s: float = 5.0) -> str:
+    home = mission.home
+    items = []
+    for it in mission.items[1:]:
+        items.append({
+            "autoContinue": bool(it.autocontinue),
+            "command": it.command,
+            "doJumpId": it.seq,  # so a DO_JUMP's param1 (a seq) is also the target's doJumpId
+            "frame": it.frame,
+            "params": [_json_number(v) for v in it.params],
+            "type": "SimpleItem",
+        })
+    doc = {
+        "fileType": PLAN_FILE_TYPE,
+        "geoFence": {"circles": [], "polygons": [], "version": 2},
+        "groundStation": "pysitl",
+        "mission": {
+            "cruiseSpeed": _json_number(cruise_speed_m_s),
+            "firmwareType": mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            "hoverSpeed": _json_number(hover_speed_m_s),
+            "items": items,
+            "plannedHomePosition": [home.x_lat_deg, home.y_lon_deg, _json_number(home.z_alt_m)],
+            "vehicleType": vehicle_type,
+            "version": PLAN_MISSION_VERSION,
+        },
+        "rallyPoints": {"points": [], "version": 2},
+        "version": PLAN_VERSION,
+    }
+    return json.dumps(doc, indent=4, sort_keys=True, allow_nan=False) + "\n"
+
+
+def _json_number(value: float) -> int | float | None:
+    if math.isnan(value):
+        return None
+    if value.is_integer() and abs(value) < 2**53:
+        return int(value)
+    return value

@@ -1,0 +1,358 @@
+"""Mission items: the MAVLink MISSION_ITEM_INT contract with float degrees, and its checks.
+
+A `MissionItem` carries exactly the fields of MISSION_ITEM_INT (less the target ids),
+except that x / y are float degrees (`x_lat_deg`, `y_lon_deg`) instead of degE7
+integers; `from_int` / `to_int` convert at the link boundary. `z_alt_m` is metres,
+above mean sea level for MAV_FRAME_GLOBAL(_INT), above home for
+MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT).
+
+Item 0 of a mission is home (the ArduPilot convention that MAVProxy, MAVSDK and
+QGroundControl expect): a NAV_WAYPOINT in an absolute-altitude global frame.
+
+`validate_item` and `validate_mission` answer with MAV_MISSION_RESULT names, so the
+ground-station mission handler can put them straight into MISSION_ACK.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from dataclasses import dataclass, fields
+from typing import Any, Iterable, Iterator
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+# --- commands we fly (MAV_CMD) ---------------------------------------------------------
+NAV_WAYPOINT = mavlink2.MAV_CMD_NAV_WAYPOINT  # 16
+NAV_LOITER_UNLIM = mavlink2.MAV_CMD_NAV_LOITER_UNLIM  # 17
+NAV_LOITER_TURNS = mavlink2.MAV_CMD_NAV_LOITER_TURNS  # 18
+NAV_LOITER_TIME = mavlink2.MAV_CMD_NAV_LOITER_TIME  # 19
+NAV_RETURN_TO_LAUNCH = mavlink2.MAV_CMD_NAV_RETURN_TO_LAUNCH  # 20
+NAV_LAND = mavlink2.MAV_CMD_NAV_LAND  # 21
+NAV_TAKEOFF = mavlink2.MAV_CMD_NAV_TAKEOFF  # 22
+DO_JUMP = mavlink2.MAV_CMD_DO_JUMP  # 177
+DO_CHANGE_SPEED = mavlink2.MAV_CMD_DO_CHANGE_SPEED  # 178
+DO_SET_HOME = mavlink2.MAV_CMD_DO_SET_HOME  # 179
+
+# The same values under their full MAVLink names.
+MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
+MAV_CMD_NAV_LOITER_UNLIM = NAV_LOITER_UNLIM
+MAV_CMD_NAV_LOITER_TURNS = NAV_LOITER_TURNS
+MAV_CMD_NAV_LOITER_TIME = NAV_LOITER_TIME
+MAV_CMD_NAV_RETURN_TO_LAUNCH = NAV_RETURN_TO_LAUNCH
+MAV_CMD_NAV_LAND = NAV_LAND
+MAV_CMD_NAV_TAKEOFF = NAV_TAKEOFF
+MAV_CMD_DO_JUMP = DO_JUMP
+MAV_CMD_DO_CHANGE_SPEED = DO_CHANGE_SPEED
+MAV_CMD_DO_SET_HOME = DO_SET_HOME
+
+COMMAND_NAMES: dict[int, str] = {
+    NAV_WAYPOINT: "NAV_WAYPOINT",
+    NAV_LOITER_UNLIM: "NAV_LOITER_UNLIM",
+    NAV_LOITER_TURNS: "NAV_LOITER_TURNS",
+    NAV_LOITER_TIME: "NAV_LOITER_TIME",
+    NAV_RETURN_TO_LAUNCH: "NAV_RETURN_TO_LAUNCH",
+    NAV_LAND: "NAV_LAND",
+    NAV_TAKEOFF: "NAV_TAKEOFF",
+    DO_JUMP: "DO_JUMP",
+    DO_CHANGE_SPEED: "DO_CHANGE_SPEED",
+    DO_SET_HOME: "DO_SET_HOME",
+}
+SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
+
+# Commands whose x / y / z are a place to fly to (DO_SET_HOME only when param1 == 0).
+POSITION_COMMANDS = frozenset(
+    {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF}
+)
+NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH}
+
+# --- frames (MAV_FRAME) ----------------------------------------------------------------
+FRAME_GLOBAL = mavlink2.MAV_FRAME_GLOBAL  # 0, alt above MSL
+FRAME_MISSION = mavlink2.MAV_FRAME_MISSION  # 2, no position (DO_ commands)
+FRAME_GLOBAL_RELATIVE_ALT = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT  # 3, alt above home
+FRAME_GLOBAL_INT = mavlink2.MAV_FRAME_GLOBAL_INT  # 5, same meaning as 0
+FRAME_GLOBAL_RELATIVE_ALT_INT = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT  # 6, as 3
+
+SUPPORTED_FRAMES = frozenset(
+    {FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT,
+     FRAME_GLOBAL_RELATIVE_ALT_INT}
+)
+GLOBAL_FRAMES = frozenset(
+    {FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT}
+)
+ABSOLUTE_ALT_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_INT})
+RELATIVE_ALT_FRAMES = frozenset({FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_RELATIVE_ALT_INT})
+
+MISSION_TYPE_MISSION = mavlink2.MAV_MISSION_TYPE_MISSION  # 0
+
+# Altitudes outside this band are taken for a unit or sign mistake.
+ALT_MIN_M = -1000.0
+ALT_MAX_M = 50000.0
+# DO_CHANGE_SPEED: more than this is not a speed for the vehicles we fly.
+SPEED_MAX_M_S = 100.0
+
+_E7 = 1e7
+_INT32_MIN = -(2**31)
+_INT32_MAX = 2**31 - 1
+_UNUSED_XY_MAX = 214.0  # |x|, |y| that still fit a degE7 int32
+
+# One NaN object for every NaN parameter, so that items with NaN ("use default")
+# parameters compare equal field by field (tuple comparison checks identity first).
+_NAN = float("nan")
+
+_INT_FIELDS = ("seq", "frame", "command", "current", "autocontinue", "mission_type")
+_FLOAT_FIELDS = ("param1", "param2", "param3", "param4", "x_lat_deg", "y_lon_deg", "z_alt_m")
+
+
+def deg_to_e7(deg: float) -> int:
+    """Float degrees -> MAVLink degE7 integer (rounded); ValueError if it won't fit int32."""
+    value = round(deg * _E7)
+    if not _INT32_MIN <= value <= _INT32_MAX:
+        raise ValueError(f"{deg!r} deg does not fit a degE7 int32")
+    return value
+
+
+def e7_to_deg(value_e7: int) -> float:
+    """MAVLink degE7 integer -> float degrees."""
+    return value_e7 / _E7
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    """One mission item, MISSION_ITEM_INT semantics, degrees as floats."""
+
+    seq: int  # index in the mission, 0 = home
+    frame: int  # MAV_FRAME
+    command: int  # MAV_CMD
+    current: int  # 1 if this is the current item, else 0
+    autocontinue: int  # 1 to go on to the next item when this one completes
+    param1: float  # meaning depends on command (NaN = default)
+    param2: float
+    param3: float
+    param4: float
+    x_lat_deg: float  # PARAM5: latitude [deg] in global frames
+    y_lon_deg: float  # PARAM6: longitude [deg] in global frames
+    z_alt_m: float  # PARAM7: altitude [m], MSL or above home by frame
+    mission_type: int = MISSION_TYPE_MISSION  # MAV_MISSION_TYPE
+
+    def __post_init__(self) -> None:
+        for name in _INT_FIELDS:
+            value = getattr(self, name)
+            if isinstance(value, bool):
+                value = int(value)
+            object.__setattr__(self, name, operator.index(value))
+        for name in _FLOAT_FIELDS:
+            value = float(getattr(self, name))
+            object.__setattr__(self, name, _NAN if math.isnan(value) else value)
+
+    @property
+    def params(self) -> tuple[float, float, float, float, float, float, float]:
+        """PARAM1..PARAM7 in order, as a .plan file and a MISSION_ITEM list them."""
+        return (self.param1, self.param2, self.param3, self.param4,
+                self.x_lat_deg, self.y_lon_deg, self.z_alt_m)
+
+    @property
+    def command_name(self) -> str:
+        return COMMAND_NAMES.get(self.command, f"MAV_CMD {self.command}")
+
+    @classmethod
+    def from_int(cls, msg: Any) -> MissionItem:
+        """From a MISSION_ITEM_INT (a pymavlink message or anything with its field names).
+
+        x / y are degE7 for every frame we support; ArduPilot applies the same scale to
+        MAV_FRAME_MISSION, and our DO_ commands do not use x / y.
+        """
+        return cls(
+            seq=msg.seq, frame=msg.frame, command=msg.command, current=msg.current,
+            autocontinue=msg.autocontinue, param1=msg.param1, param2=msg.param2,
+            param3=msg.param3, param4=msg.param4, x_lat_deg=e7_to_deg(msg.x),
+            y_lon_deg=e7_to_deg(msg.y), z_alt_m=msg.z,
+            mission_type=getattr(msg, "mission_type", MISSION_TYPE_MISSION),
+        )
+
+    def to_int(self) -> dict[str, int | float]:
+        """MISSION_ITEM_INT fields by their pymavlink names, for
+        `mav.mission_item_int_send(target_system, target_component, **item.to_int())`."""
+        return {
+            "seq": self.seq, "frame": self.frame, "command": self.command,
+            "current": self.current, "autocontinue": self.autocontinue,
+            "param1": self.param1, "param2": self.param2, "param3": self.param3,
+            "param4": self.param4, "x": deg_to_e7(self.x_lat_deg),
+            "y": deg_to_e7(self.y_lon_deg), "z": self.z_alt_m,
+            "mission_type": self.mission_type,
+        }
+
+    @classmethod
+    def from_float(cls, msg: Any) -> MissionItem:
+        """From a (deprecated) MISSION_ITEM, whose x / y are already float degrees."""
+        return cls(
+            seq=msg.seq, frame=msg.frame, command=msg.command, current=msg.current,
+            autocontinue=msg.autocontinue, param1=msg.param1, param2=msg.param2,
+            param3=msg.param3, param4=msg.param4, x_lat_deg=msg.x, y_lon_deg=msg.y,
+            z_alt_m=msg.z, mission_type=getattr(msg, "mission_type", MISSION_TYPE_MISSION),
+        )
+
+    def replace(self, **changes: Any) -> MissionItem:
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values.update(changes)
+        return MissionItem(**values)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Why an item or a mission is refused."""
+
+    seq: int  # the offending item
+    code: str  # MAV_MISSION_RESULT name, e.g. "MAV_MISSION_INVALID_PARAM5_X"
+    text: str  # for a person
+
+    def __str__(self) -> str:
+        return f"{self.text} ({self.code})"
+
+
+def _uses_position(item: MissionItem) -> bool:
+    if item.command in POSITION_COMMANDS:
+        return True
+    return item.command == DO_SET_HOME and item.param1 == 0.0
+
+
+def _is_whole(value: float) -> bool:
+    return math.isfinite(value) and value == int(value)
+
+
+def item_problem(item: MissionItem) -> Problem | None:
+    """The first thing wrong with one item on its own, or None."""
+    seq = item.seq
+
+    def bad(code: str, text: str) -> Problem:
+        return Problem(seq, f"MAV_MISSION_{code}", text)
+
+    if item.seq < 0:
+        return bad("INVALID_SEQUENCE", f"negative seq {item.seq}")
+    if item.mission_type != MISSION_TYPE_MISSION:
+        return bad("UNSUPPORTED", f"mission_type {item.mission_type} (only plain missions)")
+    if item.command not in SUPPORTED_COMMANDS:
+        return bad("UNSUPPORTED", f"unknown command {item.command}")
+    if item.frame not in SUPPORTED_FRAMES:
+        return bad("UNSUPPORTED_FRAME", f"unsupported frame {item.frame}")
+    if item.current not in (0, 1):
+        return bad("INVALID", f"current must be 0 or 1, got {item.current}")
+    if item.autocontinue not in (0, 1):
+        return bad("INVALID", f"autocontinue must be 0 or 1, got {item.autocontinue}")
+
+    name = item.command_name
+    if _uses_position(item):
+        if item.frame not in GLOBAL_FRAMES:
+            return bad("UNSUPPORTED_FRAME", f"{name} needs a global frame, got frame {item.frame}")
+        if not (math.isfinite(item.x_lat_deg) and -90.0 <= item.x_lat_deg <= 90.0):
+            return bad("INVALID_PARAM5_X", f"latitude {item.x_lat_deg} outside [-90, 90]")
+        if not (math.isfinite(item.y_lon_deg) and -180.0 <= item.y_lon_deg <= 180.0):
+            return bad("INVALID_PARAM6_Y", f"longitude {item.y_lon_deg} outside [-180, 180]")
+        if not (math.isfinite(item.z_alt_m) and ALT_MIN_M <= item.z_alt_m <= ALT_MAX_M):
+            return bad("INVALID_PARAM7",
+                       f"altitude {item.z_alt_m} m outside [{ALT_MIN_M:g}, {ALT_MAX_M:g}]")
+    else:
+        # x / y / z are unused; they must still be numbers that fit MISSION_ITEM_INT.
+        for code, value, limit in (("INVALID_PARAM5_X", item.x_lat_deg, _UNUSED_XY_MAX),
+                                   ("INVALID_PARAM6_Y", item.y_lon_deg, _UNUSED_XY_MAX),
+                                   ("INVALID_PARAM7", item.z_alt_m, math.inf)):
+            if not (math.isfinite(value) and abs(value) <= limit):
+                return bad(code, f"{name}: unused x/y/z value {value} does not fit the INT message")
+
+    if item.command == NAV_TAKEOFF:
+        if not (math.isnan(item.param1) or -90.0 <= item.param1 <= 90.0):
+            return bad("INVALID_PARAM1", f"takeoff pitch {item.param1} deg outside [-90, 90]")
+    elif item.command == NAV_LOITER_TURNS:
+        if not (math.isfinite(item.param1) and item.param1 > 0.0):
+            return bad("INVALID_PARAM1", f"loiter turns {item.param1} must be > 0")
+        if not (math.isnan(item.param3) or abs(item.param3) <= 10000.0):
+            return bad("INVALID_PARAM3", f"loiter radius {item.param3} m is absurd")
+    elif item.command == NAV_LOITER_TIME:
+        if not (math.isfinite(item.param1) and item.param1 >= 0.0):
+            return bad("INVALID_PARAM1", f"loiter time {item.param1} s must be >= 0")
+    elif item.command == NAV_LOITER_UNLIM:
+        if not (math.isnan(item.param3) or abs(item.param3) <= 10000.0):
+            return bad("INVALID_PARAM3", f"loiter radius {item.param3} m is absurd")
+    elif item.command == DO_JUMP:
+        if not (_is_whole(item.param1) and item.param1 >= 1.0):
+            return bad("INVALID_PARAM1", f"DO_JUMP target {item.param1:g} is not a seq >= 1")
+        if item.param1 == item.seq:
+            return bad("INVALID_PARAM1", f"DO_JUMP to itself (seq {item.seq})")
+        if not (_is_whole(item.param2) and item.param2 >= 0.0):
+            return bad("INVALID_PARAM2", f"DO_JUMP repeat {item.param2:g} is not a count >= 0")
+    elif item.command == DO_CHANGE_SPEED:
+        if item.param1 not in (0.0, 1.0, 2.0, 3.0):
+            return bad("INVALID_PARAM1", f"speed type {item.param1} not in 0..3")
+        if not (item.param2 == -1.0 or (0.0 <= item.param2 <= SPEED_MAX_M_S)):
+            return bad("INVALID_PARAM2",
+                       f"speed {item.param2} m/s not -1 (no change) or in [0, {SPEED_MAX_M_S:g}]")
+        if not (math.isnan(item.param3) or item.param3 == -1.0 or 0.0 <= item.param3 <= 100.0):
+            return bad("INVALID_PARAM3", f"throttle {item.param3} % not -1 or in [0, 100]")
+    elif item.command == DO_SET_HOME:
+        if item.param1 not in (0.0, 1.0):
+            return bad("INVALID_PARAM1", f"DO_SET_HOME use-current {item.param1} not 0 or 1")
+    return None
+
+
+def validate_item(item: MissionItem) -> str | None:
+    """None if the item is acceptable on its own, else a MAV_MISSION_RESULT name."""
+    problem = item_problem(item)
+    return None if problem is None else problem.code
+
+
+def validate_mission(items: Iterable[MissionItem]) -> Problem | None:
+    """The first thing wrong with a whole mission (item 0 = home), or None.
+
+    Checks: at least the home item; seq == index; home is a NAV_WAYPOINT at an
+    absolute altitude; every item passes `item_problem`; DO_JUMP targets exist and are
+    not home.
+    """
+    items = tuple(items)
+    if not items:
+        return Problem(0, "MAV_MISSION_INVALID", "empty mission (no home item)")
+    for index, item in enumerate(items):
+        if item.seq != index:
+            return Problem(index, "MAV_MISSION_INVALID_SEQUENCE",
+                           f"expected seq {index}, got {item.seq}")
+    home = items[0]
+    if home.command != NAV_WAYPOINT:
+        return Problem(0, "MAV_MISSION_INVALID",
+                       f"item 0 (home) must be NAV_WAYPOINT, got {home.command_name}")
+    if home.frame not in ABSOLUTE_ALT_FRAMES:
+        return Problem(0, "MAV_MISSION_UNSUPPORTED_FRAME",
+                       f"item 0 (home) needs an absolute-altitude frame (0 or 5), got {home.frame}")
+    for item in items:
+        problem = item_problem(item)
+        if problem is not None:
+            return problem
+        if item.command == DO_JUMP and not 1 <= int(item.param1) < len(items):
+            return Problem(item.seq, "MAV_MISSION_INVALID_PARAM1",
+                           f"DO_JUMP to missing item {int(item.param1)} "
+                           f"(mission has items 1..{len(items) - 1})")
+    return None
+
+
+@dataclass(frozen=True)
+class Mission:
+    """An immutable, valid mission: item 0 is home. Raises ValueError if invalid."""
+
+    items: tuple[MissionItem, ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "items", tuple(self.items))
+        problem = validate_mission(self.items)
+        if problem is not None:
+            raise ValueError(f"item {problem.seq}: {problem}")
+
+    @property
+    def home(self) -> MissionItem:
+        return self.items[0]
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __iter__(self) -> Iterator[MissionItem]:
+        return iter(self.items)
+
+    def __getitem__(self, seq: int) -> MissionItem:
+        return self.items[seq]

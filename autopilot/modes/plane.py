@@ -1,0 +1,17 @@
+"""Fixed-wing flight modes, numbered as ArduPlane numbers them (HEARTBEAT custom_mode),
+so that MAVProxy's ``mode AUTO``, MAVSDK's flight_mode and QGroundControl's mode list
+agree with what the vehicle does. Only the modes listed here are implemented; a ground
+station asking for another gets MAV_RESULT_UNSUPPORTED."""
+from __future__ import annotations
+
+from enum import IntEnum
+
+
+class PlaneMode(IntEnum):
+    MANUAL = 0      # on the ground / disarmed: surfaces neutral, throttle off
+    AUTO = 10       # fly the mission
+    RTL = 11        # return to home and loiter over it
+    LOITER = 12     # reserved for the ground-station issue
+
+
+IMPLEMENTED_PLANE_MODES = frozenset({PlaneMode.MANUAL, PlaneMode.AUTO, PlaneMode.RTL})

@@ -1,0 +1,68 @@
+"""Parameters of the navigation filters (EKF and UKF share them).
+
+Declared once here as :data:`NAV_PARAMS`; the vehicle collects them into its
+:class:`~autopilot.params.ParamStore`. A filter takes any mapping of names to values
+(a ParamStore, a dict with a few overrides, or None for the defaults).
+
+Noise conventions (as PX4 EKF2's): ``*_NSE`` of an IMU channel is the 1-sigma white
+noise of one sample at the IMU rate (the filter adds ``(sigma dt)^2`` of velocity /
+angle variance per step); ``*B_NSE`` and ``EK_WIND_NSE`` are random-walk rates
+(variance grows ``sigma^2`` per second); measurement ``*_NSE`` are 1-sigma in the
+measurement's unit. Gates are in standard deviations of the innovation.
+"""
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+from autopilot.params import Param
+
+NAV_PARAMS: tuple[Param, ...] = (
+    # --- process noise -------------------------------------------------------------
+    Param("EK_ACC_NSE", 0.08, 0.001, 2.0, "m/s^2", "accelerometer white noise, 1 sigma per IMU sample"),
+    Param("EK_GYR_NSE", 0.004, 1e-5, 0.5, "rad/s", "gyro white noise, 1 sigma per IMU sample"),
+    Param("EK_ACCB_NSE", 2e-4, 0.0, 0.1, "m/s^3", "accelerometer bias random walk rate"),
+    Param("EK_GYRB_NSE", 2e-5, 0.0, 0.01, "rad/s^2", "gyro bias random walk rate"),
+    Param("EK_WIND_NSE", 0.05, 0.0, 5.0, "m/s^2", "wind random walk rate (fixed-wing)"),
+    # --- GPS ----------------------------------------------------------------------
+    Param("EK_GPS_P_NSE", 0.5, 0.01, 50.0, "m", "GPS position noise floor (receiver eph/epv used when larger)"),
+    Param("EK_GPS_V_NSE", 0.3, 0.01, 10.0, "m/s", "GPS velocity noise, 1 sigma"),
+    Param("EK_GPS_P_GATE", 5.0, 1.0, 100.0, "SD", "GPS position innovation gate"),
+    Param("EK_GPS_V_GATE", 5.0, 1.0, 100.0, "SD", "GPS velocity innovation gate"),
+    Param("EK_GPS_DELAY", 0.15, 0.0, 0.5, "s", "GPS latency: a fix arriving at t is valid at t - delay"),
+    Param("EK_GPS_RST_T", 5.0, 0.5, 60.0, "s", "reset position/velocity to GPS after this long rejected"),
+    # --- barometer, magnetometer --------------------------------------------------
+    Param("EK_BARO_NSE", 0.5, 0.01, 20.0, "m", "barometric altitude noise, 1 sigma"),
+    Param("EK_BARO_GATE", 5.0, 1.0, 100.0, "SD", "barometric altitude innovation gate"),
+    Param("EK_MAG_NSE", 0.05, 0.001, 1.0, "rad", "magnetic heading noise, 1 sigma"),
+    Param("EK_MAG_GATE", 5.0, 1.0, 100.0, "SD", "magnetic heading innovation gate"),
+    Param("EK_MAG_DEC", 0.0, -math.pi, math.pi, "rad", "magnetic declination (east positive)"),
+    # --- airspeed and synthetic sideslip (fixed-wing) ----------------------------
+    Param("EK_ARSP_NSE", 0.5, 0.01, 10.0, "m/s", "true airspeed noise, 1 sigma"),
+    Param("EK_ARSP_GATE", 5.0, 1.0, 100.0, "SD", "airspeed innovation gate"),
+    Param("EK_ARSP_MIN", 8.0, 0.0, 50.0, "m/s", "fuse airspeed and sideslip above this airspeed"),
+    Param("EK_BETA_NSE", 1.0, 0.01, 10.0, "m/s", "synthetic sideslip: body-y air velocity noise"),
+    Param("EK_BETA_GATE", 5.0, 1.0, 100.0, "SD", "synthetic sideslip innovation gate"),
+    # --- alignment and health ----------------------------------------------------
+    Param("EK_ALIGN_T", 1.5, 0.2, 10.0, "s", "stationary averaging time of the ground alignment"),
+    Param("EK_ALIGN_GSPD", 5.0, 1.0, 50.0, "m/s", "minimum GPS ground speed for in-flight alignment"),
+    Param("EK_HPOS_MAX", 50.0, 1.0, 10000.0, "m", "healthy only while horizontal position sigma is below"),
+    Param("EK_REJ_TOUT", 1.0, 0.1, 60.0, "s", "unhealthy when a source is rejected this long"),
+)
+
+_DEFAULTS = {p.name: float(p.default) for p in NAV_PARAMS}
+
+
+def resolve(params: Mapping[str, float] | None) -> dict[str, float]:
+    """Defaults overridden by ``params`` (a dict or a ParamStore); unknown EK_ names
+    are refused so that a typo does not silently leave a default in place."""
+    values = dict(_DEFAULTS)
+    if params is None:
+        return values
+    names = params.names() if hasattr(params, "names") else list(params.keys())
+    for name in names:
+        if name in values:
+            values[name] = float(params[name])
+        elif name.startswith("EK_"):
+            raise KeyError(f"unknown navigation parameter {name}")
+    return values

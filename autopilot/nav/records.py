@@ -1,0 +1,32 @@
+"""The innovation record every aiding source of the navigation filters produces.
+
+One record per fused (or gated-out) measurement, the same shape for every source, as
+PX4's ``EstimatorAidSource`` messages: what was observed, the innovation ``y = z - h(x)``,
+its variance ``S`` (diagonal of ``H P H^T + R``), the test ratio against the gate and
+whether the measurement was rejected and whether it changed the state. The fault
+monitor and the ground-station streams read these.
+
+Sources: ``gps_pos`` (NED position, m), ``gps_vel`` (NED velocity, m/s), ``baro``
+(altitude, m, up positive), ``mag`` (heading, rad), ``airspeed`` (true airspeed, m/s),
+``sideslip`` (synthetic zero body-y air velocity, m/s; fixed-wing), ``fake_pos``
+(position hold before the first GPS fix, m).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SOURCES = ("gps_pos", "gps_vel", "baro", "mag", "airspeed", "sideslip", "fake_pos")
+
+
+@dataclass(frozen=True, slots=True)
+class InnovationRecord:
+    t_us: int                          # filter time of the update [us]
+    source: str                        # one of SOURCES
+    observation: np.ndarray            # z, in the source's unit (see module docstring)
+    innovation: np.ndarray             # y = z - h(x) [same unit]
+    innovation_variance: np.ndarray    # diag(S) = diag(H P H^T + R) [unit^2]
+    test_ratio: np.ndarray             # y^2 / (gate^2 * S) per component; > 1 fails
+    rejected: bool                     # the gate test failed (any component > 1)
+    fused: bool                        # the measurement changed the state (fusion or reset)

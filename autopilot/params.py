@@ -1,0 +1,136 @@
+"""Typed parameter registry: the MAVLink PARAM table.
+
+One :class:`Param` entry per parameter (name of at most 16 characters, type, default,
+min, max, unit, description). Each block declares its parameters next to its code as a
+tuple of ``Param`` and the vehicle collects them into one :class:`ParamStore`. The store
+is what PARAM_REQUEST_LIST streams, what ``.parm`` files (``NAME VALUE`` lines, as
+ArduPilot and MAVProxy write them) save and load, and what the README's table is
+generated from. Controllers take design inputs (natural frequency, damping, L1 period)
+from here and derive their gains.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable
+
+
+class ParamError(ValueError):
+    """A parameter name, type or value was refused."""
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    name: str
+    default: float
+    min: float
+    max: float
+    unit: str = ""
+    description: str = ""
+    is_int: bool = False
+
+    def __post_init__(self):
+        if not 0 < len(self.name) <= 16:
+            raise ValueError(f"parameter name {self.name!r} must be 1..16 characters")
+        if not (self.min <= self.default <= self.max):
+            raise ValueError(f"{self.name}: default {self.default} outside [{self.min}, {self.max}]")
+
+
+class ParamStore:
+    """The values of a set of parameters, checked against their declarations."""
+
+    def __init__(self, declarations: Iterable[Param]):
+        self._decl: dict[str, Param] = {}
+        for p in declarations:
+            if p.name in self._decl:
+                raise ValueError(f"parameter {p.name} declared twice")
+            self._decl[p.name] = p
+        self._values: dict[str, float] = {p.name: float(p.default) for p in self._decl.values()}
+        self._names = list(self._decl)  # index order for PARAM_VALUE param_index
+
+    # --- reading -----------------------------------------------------------------
+    def __getitem__(self, name: str) -> float:
+        return self._values[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._decl
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def names(self) -> list[str]:
+        return list(self._names)
+
+    def index(self, name: str) -> int:
+        return self._names.index(name)
+
+    def declaration(self, name: str) -> Param:
+        return self._decl[name]
+
+    def declarations(self) -> list[Param]:
+        return [self._decl[n] for n in self._names]
+
+    def items(self) -> list[tuple[str, float]]:
+        return [(n, self._values[n]) for n in self._names]
+
+    # --- writing -----------------------------------------------------------------
+    def set(self, name: str, value: float) -> float:
+        """Set a value; raises ParamError (value unchanged) if refused."""
+        decl = self._decl.get(name)
+        if decl is None:
+            raise ParamError(f"unknown parameter {name}")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ParamError(f"{name}: not a number: {value!r}") from None
+        if not math.isfinite(v):
+            raise ParamError(f"{name}: not finite")
+        if decl.is_int and v != int(v):
+            raise ParamError(f"{name}: must be an integer")
+        if not decl.min <= v <= decl.max:
+            raise ParamError(f"{name}: {v:g} outside [{decl.min:g}, {decl.max:g}]")
+        self._values[name] = v
+        return v
+
+    # --- .parm files -------------------------------------------------------------
+    def save(self, path: str | Path) -> None:
+        """Write ``NAME VALUE`` lines atomically (temp file + rename)."""
+        path = Path(path)
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        with open(tmp, "w", encoding="ascii") as f:
+            for name, value in self.items():
+                f.write(f"{name:<16} {_fmt(value)}\n")
+        tmp.replace(path)
+
+    def load(self, path: str | Path) -> list[str]:
+        """Apply a ``.parm`` file. All lines are checked before any value changes;
+        a bad line raises ParamError naming it. Returns the names that were set."""
+        path = Path(path)
+        updates: list[tuple[str, float]] = []
+        with open(path, encoding="utf-8") as f:
+            for lineno, raw in enumerate(f, 1):
+                line = raw.split("#", 1)[0].strip()
+                if not line:
+                    continue
+                parts = line.replace(",", " ").split()
+                if len(parts) != 2:
+                    raise ParamError(f"{path}:{lineno}: expected 'NAME VALUE'")
+                name, value = parts
+                decl = self._decl.get(name)
+                if decl is None:
+                    raise ParamError(f"{path}:{lineno}: unknown parameter {name}")
+                try:
+                    v = float(value)
+                except ValueError:
+                    raise ParamError(f"{path}:{lineno}: {name}: not a number: {value}") from None
+                if not (decl.min <= v <= decl.max) or (decl.is_int and v != int(v)):
+                    raise ParamError(f"{path}:{lineno}: {name}: {value} outside [{decl.min:g}, {decl.max:g}]")
+                updates.append((name, v))
+        for name, v in updates:
+            self._values[name] = v
+        return [n for n, _ in updates]
+
+
+def _fmt(value: float) -> str:
+    return str(int(value)) if value == int(value) and abs(value) < 1e15 else repr(value)

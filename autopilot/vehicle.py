@@ -1,0 +1,255 @@
+"""The fixed-wing vehicle loop: one visible, synchronous pipeline per lockstep step.
+
+    sensors -> navigation -> modes -> guidance -> control -> actuators
+
+``PlaneVehicle.step(frame, truth)`` runs once per HIL_SENSOR (100 Hz by default) on
+simulation time only. Truth (HIL_STATE_QUATERNION) is never used to fly unless the
+navigation source is explicitly ``truth`` (a debugging aid); otherwise it is only
+logged for scoring.
+
+Frames: the navigation filter has its own origin (its first GPS fix). Home is set when
+the vehicle arms, from the navigation solution, as ArduPilot does, and guidance works in
+the local NED frame of home (``home_frame``). Mission item 0 is replaced by that home.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .control.fixed_wing import FW_PARAMS, FixedWingController
+from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .guidance.l1 import G, L1Guidance
+from .guidance.mission import MissionSequencer, NavTarget
+from .log.flightlog import FlightLog
+from .messages import ActuatorOutputs, NavState, SensorFrame
+from .mission.items import Mission
+from .modes.plane import PlaneMode
+from .params import Param, ParamStore
+
+GUIDANCE_PARAMS = (
+    Param("NAVL1_PERIOD", 17.0, 5.0, 60.0, "s", "L1 period: the cross-track response period"),
+    Param("NAVL1_DAMPING", 0.75, 0.6, 1.0, "", "L1 damping ratio"),
+    Param("WP_RADIUS", 60.0, 1.0, 500.0, "m", "waypoint acceptance radius and turn-anticipation cap"),
+    Param("LOITER_RAD", 80.0, 20.0, 2000.0, "m", "default loiter radius"),
+    Param("RTL_ALT", 100.0, -1.0, 3000.0, "m", "RTL altitude above home (-1: keep current)"),
+    Param("TKOFF_PITCH", 12.0, 0.0, 30.0, "deg", "takeoff climb pitch when the item gives none"),
+    Param("TKOFF_ALT_TOL", 5.0, 0.0, 50.0, "m", "takeoff complete this close to its altitude"),
+    Param("TKOFF_LVL_ALT", 15.0, 0.0, 100.0, "m", "bank limited to TKOFF_LVL_BANK below this height"),
+    Param("TKOFF_LVL_BANK", 10.0, 0.0, 45.0, "deg", "bank limit just after launch"),
+    Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
+)
+
+LOG_COLUMNS = (
+    "t_s", "armed", "mode", "seq", "leg_id", "kind",
+    "truth_n_m", "truth_e_m", "truth_alt_m", "truth_roll_rad", "truth_pitch_rad", "truth_yaw_rad",
+    "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
+    "est_n_m", "est_e_m", "est_alt_m", "est_roll_rad", "est_pitch_rad", "est_yaw_rad",
+    "est_vn_mps", "est_ve_mps", "est_vd_mps", "est_airspeed_mps", "est_wind_n_mps", "est_wind_e_mps",
+    "tgt_alt_m", "tgt_airspeed_mps", "cmd_roll_rad", "cmd_pitch_rad", "cmd_climb_mps",
+    "leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m", "loiter_c_n_m", "loiter_c_e_m",
+    "loiter_r_m", "loiter_dir", "xtrack_est_m",
+    "ctl_aileron", "ctl_elevator", "ctl_rudder", "ctl_throttle",
+)
+KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3}
+
+
+def plane_param_declarations() -> list[Param]:
+    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS)
+    try:
+        from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
+        decls += list(NAV_PARAMS)
+    except ImportError:
+        pass
+    return decls
+
+
+class TruthNav:
+    """NavState from HIL_STATE_QUATERNION: the ``--nav truth`` debugging aid."""
+
+    def __init__(self):
+        self.origin: LocalFrame | None = None
+
+    def update(self, frame: SensorFrame, truth) -> NavState | None:
+        if truth is None:
+            return None
+        if self.origin is None:
+            self.origin = LocalFrame(truth.lat_rad, truth.lon_rad, truth.alt_m)
+        p = self.origin.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
+        return NavState(frame.t_us, p, truth.v_ned, truth.q_nb, truth.omega_b,
+                        truth.lat_rad, truth.lon_rad, truth.alt_m, truth.airspeed_mps,
+                        source="truth")
+
+
+def make_nav(source: str, params: ParamStore):
+    if source == "truth":
+        return TruthNav()
+    values = {n: v for n, v in params.items()}
+    if source == "ekf":
+        from .nav.ekf import InsGpsEkf
+        return InsGpsEkf(values, vehicle="plane")
+    if source == "ukf":
+        from .nav.ukf import InsGpsUkf
+        return InsGpsUkf(values, vehicle="plane")
+    raise ValueError(f"unknown navigation source {source!r} (truth, ekf, ukf)")
+
+
+class PlaneVehicle:
+    """The fixed-wing autopilot's loop. ``autostart``: arm and fly AUTO by itself once
+    navigation is healthy (headless runs); otherwise wait for a ground station."""
+
+    def __init__(self, params: ParamStore, mission: Mission | None, nav_source: str = "ekf",
+                 autostart: bool = True, log: FlightLog | None = None):
+        self.params = params
+        self.mission = mission
+        self.nav_source = nav_source
+        self.nav = make_nav(nav_source, params)
+        self.autostart = autostart
+        self.log = log if log is not None else FlightLog(LOG_COLUMNS)
+        self.l1 = L1Guidance(params["NAVL1_PERIOD"], params["NAVL1_DAMPING"])
+        self.ctrl = FixedWingController(params)
+        self.mode = PlaneMode.MANUAL
+        self.armed = False
+        self.home_frame: LocalFrame | None = None
+        self.home_truth_alt_m: float | None = None
+        self.sequencer: MissionSequencer | None = None
+        self.nav_state: NavState | None = None
+        self.target: NavTarget | None = None
+        self.xtrack_m = 0.0
+        self.healthy_since_us: int | None = None
+        self.gps_fix_type = 0
+        self.last_t_us: int | None = None
+        self.steps = 0
+
+    # ------------------------------------------------------------------ arming ---
+    def arm_checks(self) -> str | None:
+        """None when arming is allowed, else the PreArm reason."""
+        nav = self.nav_state
+        if nav is None or not nav.aligned:
+            return "navigation not aligned"
+        if not nav.healthy:
+            return "navigation unhealthy"
+        if self.gps_fix_type < 3:
+            return "no 3D fix"
+        if self.mission is None or len(self.mission) < 2:
+            return "no valid mission"
+        return None
+
+    def arm(self, t_us: int, truth=None) -> None:
+        nav = self.nav_state
+        self.home_frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        if truth is not None:
+            self.home_truth_alt_m = truth.alt_m
+        self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
+        self.ctrl.reset()
+        self.armed = True
+        self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
+                                    f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.1f} m")
+
+    def set_mode(self, mode: PlaneMode, t_us: int) -> None:
+        if mode != self.mode:
+            self.log.event(t_us * 1e-6, f"mode {mode.name}")
+        self.mode = mode
+
+    # -------------------------------------------------------------------- loop ---
+    def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
+        t_us = frame.t_us
+        dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
+        self.last_t_us = t_us
+        self.steps += 1
+        if frame.gps is not None:
+            self.gps_fix_type = frame.gps.fix_type
+
+        # sensors -> navigation
+        if self.nav_source == "truth":
+            nav = self.nav.update(frame, truth)
+        else:
+            nav = self.nav.update(frame)
+        if nav is None:
+            return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
+        self.nav_state = nav
+
+        # modes
+        if not self.armed and self.autostart:
+            if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
+                if self.healthy_since_us is None:
+                    self.healthy_since_us = t_us
+                if (t_us - self.healthy_since_us) * 1e-6 >= self.params["ARM_SETTLE_S"] and self.arm_checks() is None:
+                    self.arm(t_us, truth)
+                    self.set_mode(PlaneMode.AUTO, t_us)
+            else:
+                self.healthy_since_us = None
+
+        controls = (0.0, 0.0, 0.0, 0.0)
+        if self.armed and self.home_frame is not None:
+            controls = self._fly(nav, dt, t_us)
+        self._log(t_us, nav, truth, controls)
+        return ActuatorOutputs(t_us, controls, self.armed)
+
+    def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
+        p = self.params
+        hf = self.home_frame
+        p_ned = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        _, _, yaw = quat_to_euler(nav.q_nb)
+        if self.mode == PlaneMode.RTL and not self.sequencer.finished:
+            self.sequencer.finished = True  # RTL mode: go straight to the home loiter
+        tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
+        self.target = tgt
+        v_ne = (float(nav.v_ned[0]), float(nav.v_ned[1]))
+        p_ne = (float(p_ned[0]), float(p_ned[1]))
+        self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
+        pitch_min = None
+        throttle = None
+        if tgt.kind == "takeoff":
+            # wings level on the launch heading, full throttle, climb at the takeoff pitch
+            err = wrap_pi(tgt.heading_rad - yaw)
+            bank = max(min(1.0 * err, math.radians(p["TKOFF_LVL_BANK"])), -math.radians(p["TKOFF_LVL_BANK"]))
+            pitch_min = tgt.pitch_min_rad
+            throttle = p["THR_MAX"]
+            self.xtrack_m = 0.0
+        elif tgt.kind == "line":
+            cmd = self.l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
+            bank = cmd.bank_rad
+            self.xtrack_m = cmd.xtrack_m
+        elif tgt.kind == "loiter":
+            cmd = self.l1.loiter(p_ne, v_ne, tgt.c_ne, tgt.radius_m, tgt.direction, yaw, nav.airspeed_mps)
+            bank = cmd.bank_rad
+            self.xtrack_m = cmd.xtrack_m
+        else:
+            bank = 0.0
+        if tgt.kind != "takeoff" and -p_ned[2] < p["TKOFF_LVL_ALT"]:
+            lim = math.radians(p["TKOFF_LVL_BANK"])
+            bank = max(min(bank, lim), -lim)
+        return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle)
+
+    def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
+        hf = self.home_frame
+        if hf is None:
+            return
+        p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        er, ep, ey = quat_to_euler(nav.q_nb)
+        if truth is not None:
+            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
+            tr, tp, ty = quat_to_euler(truth.q_nb)
+            tv = truth.v_ned
+            t_alt, t_as = truth.alt_m, truth.airspeed_mps
+        else:
+            p_tru = (math.nan, math.nan, math.nan)
+            tr = tp = ty = t_alt = t_as = math.nan
+            tv = (math.nan, math.nan, math.nan)
+        tgt = self.target
+        c = self.ctrl
+        if tgt is None:
+            tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
+        w = nav.wind_ned
+        self.log.append((
+            t_us * 1e-6, float(self.armed), float(self.mode.value), float(tgt.seq), float(tgt.leg_id),
+            float(KIND_CODES[tgt.kind]),
+            p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
+            p_est[0], p_est[1], nav.alt_m, er, ep, ey,
+            nav.v_ned[0], nav.v_ned[1], nav.v_ned[2], nav.airspeed_mps, w[0], w[1],
+            tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
+            tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
+            tgt.radius_m, float(tgt.direction), self.xtrack_m,
+            controls[0], controls[1], controls[2], controls[3],
+        ))

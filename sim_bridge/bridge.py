@@ -1,0 +1,116 @@
+"""The simulator: plant + sensors + faults + scenario events behind the HIL link.
+
+One lockstep step of ``SimBridge``:
+
+1. apply the scenario events that are due (faults, as MAV_CMD_INJECT_FAILURE would);
+2. sample the sensors from the plant's truth, pass them through the fault injector, and
+   send HIL_GPS / HIL_STATE_QUATERNION / HIL_SENSOR (``send_current``);
+3. wait for the HIL_ACTUATOR_CONTROLS answering this step;
+4. pass the controls through the actuator faults and advance the plant by one HIL
+   period (``advance``), which is ``substeps`` plant integration steps.
+
+``run_step`` does all four with a blocking wait (two-process mode); an in-process run
+calls ``send_current`` / ``advance`` itself and lets the autopilot run in between.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from autopilot.link.codec import MAV
+
+from .hil import SimulatorHilEnd
+from .plants.base import PlaneControls
+
+
+@dataclass
+class FaultRecord:
+    at_s: float
+    unit: str
+    type: str
+    instance: int
+    accepted: bool
+    source: str          # "scenario" | "mavlink"
+
+
+class SimBridge:
+    def __init__(self, plant, sensors, link: SimulatorHilEnd, faults=None, events=(),
+                 hil_rate_hz: float = 100.0, vehicle: str = "plane"):
+        self.plant = plant
+        self.sensors = sensors
+        self.link = link
+        self.faults = faults
+        self.events = sorted(events, key=lambda e: e.at_s)
+        self._next_event = 0
+        self.vehicle = vehicle
+        self.hil_period_us = int(round(1e6 / hil_rate_hz))
+        self.substeps = max(1, int(round(self.hil_period_us * 1e-6 / plant.dt_s)))
+        self.controls: tuple = (0.0, 0.0, 0.0, 0.0)
+        self.fault_log: list[FaultRecord] = []
+        self.state = plant.state()
+        self.steps = 0
+
+    @property
+    def t_us(self) -> int:
+        return self.state.t_us
+
+    # ------------------------------------------------------------ fault entry ---
+    def inject(self, unit: str, ftype: str, instance: int = 0, source: str = "scenario",
+               **magnitudes) -> bool:
+        ok = False
+        if self.faults is not None:
+            ok = bool(self.faults.inject(unit, ftype, instance, **magnitudes))
+        self.fault_log.append(FaultRecord(self.t_us * 1e-6, unit, ftype, instance, ok, source))
+        return ok
+
+    def _apply_due_events(self) -> None:
+        t_s = self.t_us * 1e-6
+        while self._next_event < len(self.events) and self.events[self._next_event].at_s <= t_s + 1e-9:
+            e = self.events[self._next_event]
+            self.inject(e.unit, e.type, e.instance, "scenario", **dict(e.magnitudes))
+            self._next_event += 1
+
+    def _handle_commands(self) -> None:
+        """MAV_CMD_INJECT_FAILURE relayed by the autopilot: apply, then acknowledge."""
+        while self.link.commands:
+            cmd = self.link.commands.pop(0)
+            if cmd.command != MAV.MAV_CMD_INJECT_FAILURE:
+                self.link.send_command_ack(cmd.command, MAV.MAV_RESULT_UNSUPPORTED,
+                                           cmd.get_srcSystem(), cmd.get_srcComponent())
+                continue
+            from .faults import unit_name, type_name  # names from FAILURE_UNIT / FAILURE_TYPE
+            try:
+                unit, ftype = unit_name(int(cmd.param1)), type_name(int(cmd.param2))
+                ok = self.inject(unit, ftype, int(cmd.param3), "mavlink")
+            except (ValueError, KeyError):
+                ok = False
+            result = MAV.MAV_RESULT_ACCEPTED if ok else MAV.MAV_RESULT_UNSUPPORTED
+            self.link.send_command_ack(cmd.command, result, cmd.get_srcSystem(), cmd.get_srcComponent())
+
+    # --------------------------------------------------------------- stepping ---
+    def send_current(self) -> None:
+        self._apply_due_events()
+        readings = self.sensors.sample(self.state)
+        if self.faults is not None:
+            readings = self.faults.apply(readings)
+        self.link.send_step(readings, self.state)
+
+    def advance(self, controls: tuple | None) -> None:
+        if controls is not None:
+            self.controls = tuple(controls[:4])
+        self._handle_commands()
+        c = self.controls
+        if self.faults is not None:
+            c = tuple(self.faults.apply_controls(c))
+        if self.vehicle == "plane":
+            cmd = PlaneControls(c[0], c[1], c[2], c[3])
+        else:
+            cmd = c
+        self.state = self.plant.step(cmd, self.substeps)
+        self.steps += 1
+
+    def run_step(self) -> bool:
+        """One blocking lockstep step; False if the autopilot never answered."""
+        self.send_current()
+        controls = self.link.wait_answer(self.t_us)
+        self.advance(controls)
+        return controls is not None

@@ -1,0 +1,131 @@
+"""The simulator's end of the PX4 HIL lockstep link (see ``autopilot/link/hil.py`` for
+the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION and
+HIL_SENSOR, and waits for the HIL_ACTUATOR_CONTROLS that answers the step.
+
+Lost or late answers: the simulator waits ``answer_timeout_s`` (wall time) for the
+answer whose ``time_usec`` matches the step; stale answers (older time) are dropped. On
+a timeout it sends the same HIL_SENSOR again (the autopilot repeats its answer without
+re-running its loop), up to ``retries`` times; after that it advances holding the last
+controls and counts a ``missed`` step, so a dead autopilot cannot hang the simulator.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+from autopilot.link.codec import MAV, Codec
+from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
+                                SIM_COMPONENT_ID, SIM_SYSTEM_ID)
+
+G0 = 9.80665
+
+
+def _clamp_int(v: float, lo: int, hi: int) -> int:
+    return int(max(lo, min(hi, round(v))))
+
+
+class SimulatorHilEnd:
+    def __init__(self, transport, codec: Codec | None = None, answer_timeout_s: float = 1.0,
+                 retries: int = 3):
+        self.transport = transport
+        self.codec = codec or Codec(SIM_SYSTEM_ID, SIM_COMPONENT_ID)
+        self.answer_timeout_s = answer_timeout_s
+        self.retries = retries
+        self._sensor_buf: bytes = b""
+        self.missed = 0
+        self.retried = 0
+        self.stale = 0
+        self.commands: list = []   # COMMAND_LONG from the autopilot (fault relay)
+        self.armed = False
+
+    # --- sending ---------------------------------------------------------------------
+    def send_step(self, readings, truth) -> None:
+        mav = self.codec.mav
+        enc = self.codec.encode
+        out = []
+        gps = readings.gps
+        if gps is not None:
+            vn, ve, vd = (float(x) for x in gps.v_ned)
+            vel = math.hypot(vn, ve)
+            cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
+            out.append(enc(mav.hil_gps_encode(
+                gps.t_us, int(gps.fix_type),
+                _clamp_int(gps.lat_rad * RAD_TO_E7, -900000000, 900000000),
+                _clamp_int(gps.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
+                _clamp_int(gps.alt_m * 1000.0, -2**31, 2**31 - 1),
+                _clamp_int(gps.eph_m * 100.0, 0, 65534), _clamp_int(gps.epv_m * 100.0, 0, 65534),
+                _clamp_int(vel * 100.0, 0, 65534),
+                _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
+                _clamp_int(vd * 100.0, -32767, 32767),
+                _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites))))
+        q = truth.q_nb
+        v = truth.v_ned
+        f = truth.f_b
+        w = truth.omega_b
+        ias = truth.airspeed_mps * math.sqrt(truth.rho_kgm3 / 1.225)
+        out.append(enc(mav.hil_state_quaternion_encode(
+            truth.t_us, [float(q[0]), float(q[1]), float(q[2]), float(q[3])],
+            float(w[0]), float(w[1]), float(w[2]),
+            _clamp_int(truth.lat_rad * RAD_TO_E7, -900000000, 900000000),
+            _clamp_int(truth.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
+            _clamp_int(truth.alt_m * 1000.0, -2**31, 2**31 - 1),
+            _clamp_int(v[0] * 100.0, -32767, 32767), _clamp_int(v[1] * 100.0, -32767, 32767),
+            _clamp_int(v[2] * 100.0, -32767, 32767),
+            _clamp_int(ias * 100.0, 0, 65535), _clamp_int(truth.airspeed_mps * 100.0, 0, 65535),
+            _clamp_int(f[0] / G0 * 1000.0, -32767, 32767), _clamp_int(f[1] / G0 * 1000.0, -32767, 32767),
+            _clamp_int(f[2] / G0 * 1000.0, -32767, 32767))))
+        flags = IMU_FLAGS
+        if readings.mag_updated:
+            flags |= MAG_FLAGS
+        if readings.baro_updated:
+            flags |= BARO_FLAGS
+        if readings.airspeed_updated:
+            flags |= DIFF_FLAG
+        a, g, m = readings.accel_b, readings.gyro_b, readings.mag_b_gauss
+        self._sensor_buf = enc(mav.hil_sensor_encode(
+            readings.t_us, float(a[0]), float(a[1]), float(a[2]),
+            float(g[0]), float(g[1]), float(g[2]), float(m[0]), float(m[1]), float(m[2]),
+            readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,
+            readings.pressure_alt_m, readings.temperature_k - 273.15, flags))
+        out.append(self._sensor_buf)
+        self.transport.send(b"".join(out))
+
+    def send_command_ack(self, command: int, result: int, target_system: int, target_component: int):
+        mav = self.codec.mav
+        self.transport.send(self.codec.encode(mav.command_ack_encode(
+            command, result, 0, 0, target_system, target_component)))
+
+    # --- receiving -------------------------------------------------------------------
+    def poll_answer(self, t_us: int, timeout_s: float = 0.0):
+        """Controls answering step ``t_us`` if they arrived (else None)."""
+        data = self.transport.recv(timeout_s)
+        found = None
+        for msg in self.codec.decode(data):
+            mtype = msg.get_type()
+            if mtype == "HIL_ACTUATOR_CONTROLS":
+                if msg.time_usec == t_us:
+                    found = tuple(msg.controls)
+                    self.armed = bool(msg.mode & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
+                else:
+                    self.stale += 1
+            elif mtype == "COMMAND_LONG":
+                self.commands.append(msg)
+        return found
+
+    def wait_answer(self, t_us: int):
+        """Block (wall time) for the answer to step ``t_us``, retrying; None if the
+        autopilot stayed silent through every retry."""
+        for attempt in range(self.retries + 1):
+            if attempt:
+                self.retried += 1
+                self.transport.send(self._sensor_buf)
+            deadline = time.monotonic() + self.answer_timeout_s
+            while True:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                controls = self.poll_answer(t_us, remaining)
+                if controls is not None:
+                    return controls
+        self.missed += 1
+        return None

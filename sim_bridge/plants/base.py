@@ -1,0 +1,61 @@
+"""The contract between a plant and the rest of sim_bridge.
+
+Every plant (the JSBSim fixed-wing, the quadrotor model) exposes the same truth record,
+so that the sensor models, the HIL link and the scoring code never ask which plant they
+are talking to. Units are SI, angles radians, frames NED (earth) and FRD (body);
+``q_nb`` is a Hamilton scalar-first quaternion that rotates body vectors into NED.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class PlantState:
+    """True state of the vehicle at one instant (the plant's output)."""
+
+    t_us: int               # simulation time [us]
+    lat_rad: float          # geodetic latitude [rad]
+    lon_rad: float          # longitude, wrapped to (-pi, pi] [rad]
+    alt_m: float            # height above the WGS-84 ellipsoid / MSL (same here) [m]
+    v_ned: np.ndarray       # velocity over ground, NED [m/s], shape (3,)
+    q_nb: np.ndarray        # attitude, body->NED, [w, x, y, z]
+    omega_b: np.ndarray     # inertial angular rate in body axes (gyro truth) [rad/s]
+    f_b: np.ndarray         # specific force in body axes (accelerometer truth) [m/s^2]
+    wind_ned: np.ndarray    # air velocity over ground at the vehicle, NED [m/s]
+    airspeed_mps: float     # true airspeed [m/s]
+    alpha_rad: float        # angle of attack [rad]
+    beta_rad: float         # sideslip [rad]
+    on_ground: bool         # resting on ground or launcher
+    rho_kgm3: float = 1.225  # air density at the vehicle [kg/m^3]
+    pressure_pa: float = 101325.0  # static pressure at the vehicle [Pa]
+    temperature_k: float = 288.15  # static air temperature [K]
+
+
+@dataclass(frozen=True, slots=True)
+class PlaneControls:
+    """Normalised fixed-wing commands, as carried in HIL_ACTUATOR_CONTROLS [0..3].
+
+    aileron  +1 rolls right (right wing down)
+    elevator +1 pitches the nose up
+    rudder   +1 yaws the nose right
+    throttle 0..1
+    """
+
+    aileron: float = 0.0
+    elevator: float = 0.0
+    rudder: float = 0.0
+    throttle: float = 0.0
+
+
+class Plant(Protocol):
+    """What sim_bridge needs of a plant."""
+
+    dt_s: float  # integration step of the plant [s]
+
+    def state(self) -> PlantState: ...
+
+    def step(self, controls, n_steps: int = 1) -> PlantState: ...

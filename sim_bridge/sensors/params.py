@@ -1,0 +1,104 @@
+"""Noise and timing parameters of the sensor models, with where each default comes from.
+
+All values are SI: m, s, rad, Pa, K; magnetic field in gauss (1 G = 100 uT = 1e5 nT).
+"Density" values are continuous-time spectral densities; the models discretise them
+with the step ``dt``:  white sigma = density / sqrt(dt) (= density * sqrt(rate)),
+random-walk increment sigma = density * sqrt(dt).
+
+Sources of the defaults (datasheet figures, then the margin we add for an airframe):
+
+* IMU, MEMS class: TDK InvenSense ICM-20602 (gyro 0.004 deg/s/sqrt(Hz), accel
+  100 ug/sqrt(Hz), gyro zero-rate offset +-1 deg/s, accel zero-g offset +-25 mg) and
+  Bosch BMI088 (gyro 0.014 deg/s/sqrt(Hz), accel 175 ug/sqrt(Hz)). The defaults sit
+  between the two. Turn-on biases are the residuals left after the usual level/gyro
+  calibration at boot, not the raw datasheet offsets. Bias random walk densities
+  correspond to a few deg/h of in-run instability, typical of these parts.
+* GPS: u-blox M8N / M9N (horizontal accuracy 2.0 m CEP for M8N GPS+GLONASS, 1.5 m CEP
+  for M9N; velocity 0.05 m/s at 50 %; navigation rate 5-10 Hz; latency ~100-200 ms).
+  Per-axis horizontal sigma sqrt(1.2^2 + 0.3^2) = 1.24 m, i.e. CEP = 1.1774 sigma =
+  1.46 m; vertical about twice the horizontal, as GNSS geometry gives. The slow part
+  of the error is a first-order Gauss-Markov process (tau a few hundred s: satellite
+  geometry and ionosphere change slowly), the fast part white.
+* Barometer: TE MS5611 (RMS resolution 0.012 mbar = 1.2 Pa at OSR 4096, ~1 cm of
+  altitude per 0.12 Pa); we use 3 Pa (about 0.25 m) to include airframe and propwash
+  pressure noise, plus a slow random-walk drift (thermal) of 0.3 Pa/sqrt(s), about
+  0.6 m after 10 min.
+* Magnetometer: Honeywell HMC5883L (noise floor 2 mG) and iSentek IST8310 (0.3 uT =
+  3 mG resolution); default 5 mG per axis including airframe currents. Hard-iron
+  offset is a parameter, default 0 (a calibrated installation).
+* Airspeed: TE MS4525DO, +-1 psi differential (14 bit over 13.8 kPa span = 0.84 Pa per
+  count); default 1.5 Pa (about two counts) white noise, zero offset (calibrated at
+  boot, as ArduPilot and PX4 do).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+_DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True, slots=True)
+class SensorParams:
+    """Noise, bias and timing of the sensor suite (defaults: see the module doc)."""
+
+    # --- IMU (sampled every simulation step) -------------------------------------
+    accel_noise_density: float = 1.5e-3      # [m/s^2/sqrt(Hz)]   (150 ug/sqrt(Hz))
+    gyro_noise_density: float = 0.01 * _DEG  # [rad/s/sqrt(Hz)]   (0.01 deg/s/sqrt(Hz))
+    accel_bias_turn_on_sigma: float = 0.03   # [m/s^2]   (~3 mg after calibration)
+    gyro_bias_turn_on_sigma: float = 0.1 * _DEG  # [rad/s] (0.1 deg/s after calibration)
+    accel_bias_rw_density: float = 1.0e-3    # [m/s^3/sqrt(Hz)]   bias random walk
+    gyro_bias_rw_density: float = 3.0e-5     # [rad/s^2/sqrt(Hz)] bias random walk
+
+    # --- GPS ------------------------------------------------------------------
+    gps_rate_hz: float = 5.0                 # fix rate [Hz]
+    gps_latency_s: float = 0.15              # fix delivered at t is valid at t - latency [s]
+    gps_pos_white_sigma_h: float = 0.3       # white position error, per horizontal axis [m]
+    gps_pos_white_sigma_v: float = 0.5       # white position error, vertical [m]
+    gps_pos_gm_sigma_h: float = 1.2          # Gauss-Markov steady-state sigma, per horiz. axis [m]
+    gps_pos_gm_sigma_v: float = 2.5          # Gauss-Markov steady-state sigma, vertical [m]
+    gps_pos_gm_tau_s: float = 300.0          # Gauss-Markov correlation time [s]
+    gps_vel_sigma_h: float = 0.1             # white velocity error, per horizontal axis [m/s]
+    gps_vel_sigma_v: float = 0.15            # white velocity error, vertical [m/s]
+    gps_fix_type: int = 3                    # GPS_FIX_TYPE_3D_FIX
+    gps_satellites_initial: int = 12         # visible satellites at start
+    gps_satellites_min: int = 10
+    gps_satellites_max: int = 14
+    gps_satellite_change_per_s: float = 0.05  # mean rate of +-1 changes of the count [1/s]
+
+    # --- barometer ------------------------------------------------------------
+    baro_rate_hz: float = 50.0               # update rate [Hz]
+    baro_noise_sigma_pa: float = 3.0         # white pressure noise per sample [Pa]
+    baro_drift_rw_density: float = 0.3      # pressure drift random walk [Pa/sqrt(s)]
+    baro_temperature_sigma_k: float = 0.05   # temperature noise per sample [K]
+
+    # --- magnetometer ----------------------------------------------------------
+    mag_rate_hz: float = 50.0                # update rate [Hz]
+    mag_noise_sigma_gauss: float = 0.005     # white noise per axis per sample [gauss]
+    mag_hard_iron_gauss: tuple[float, float, float] = (0.0, 0.0, 0.0)  # body-axis offset [gauss]
+    mag_epoch_year: float = 2025.0           # decimal year for IGRF-13 (2020.0 .. 2025.0)
+
+    # --- airspeed (pitot-static differential pressure) -------------------------------
+    airspeed_rate_hz: float = 50.0           # update rate [Hz]
+    airspeed_noise_sigma_pa: float = 1.5     # white differential-pressure noise [Pa]
+    airspeed_offset_pa: float = 0.0          # constant differential-pressure offset [Pa]
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "mag_hard_iron_gauss":
+                if len(v) != 3:
+                    raise ValueError("mag_hard_iron_gauss needs 3 components")
+                continue
+            if f.name == "airspeed_offset_pa":
+                continue
+            if not math.isfinite(v) or v < 0:
+                raise ValueError(f"SensorParams.{f.name} must be finite and >= 0, not {v}")
+        for rate in ("gps_rate_hz", "baro_rate_hz", "mag_rate_hz", "airspeed_rate_hz"):
+            if getattr(self, rate) <= 0.0:
+                raise ValueError(f"SensorParams.{rate} must be > 0")
+        if self.gps_pos_gm_tau_s <= 0.0:
+            raise ValueError("SensorParams.gps_pos_gm_tau_s must be > 0")
+        if not (self.gps_satellites_min <= self.gps_satellites_initial
+                <= self.gps_satellites_max):
+            raise ValueError("gps_satellites_initial must lie in [min, max]")

@@ -1,0 +1,59 @@
+"""The sensor records that leave the sensor models (and the fault injector).
+
+Immutable: the arrays inside are made read-only by the producer.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class GpsReading:
+    """One GNSS fix as the receiver delivers it."""
+
+    t_us: int               # arrival time at the autopilot side [us]
+    lat_rad: float          # geodetic latitude [rad]
+    lon_rad: float          # longitude [rad]
+    alt_m: float            # altitude MSL [m]
+    v_ned: np.ndarray       # velocity over ground, NED [m/s], shape (3,)
+    eph_m: float            # 1-sigma horizontal position accuracy (radial, sqrt(sN^2+sE^2)) [m]
+    epv_m: float            # 1-sigma vertical position accuracy [m]
+    fix_type: int           # GPS_FIX_TYPE: 3 = 3D fix
+    satellites: int         # satellites used
+    t_valid_us: int = -1    # time of validity of the solution (t_us - latency) [us]
+
+    @property
+    def ground_speed_mps(self) -> float:
+        """Horizontal speed over ground from v_ned [m/s]."""
+        return math.hypot(float(self.v_ned[0]), float(self.v_ned[1]))
+
+    @property
+    def cog_rad(self) -> float:
+        """Course over ground from v_ned, [0, 2 pi) clockwise from true north [rad]."""
+        return math.atan2(float(self.v_ned[1]), float(self.v_ned[0])) % (2.0 * math.pi)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorReadings:
+    """Everything the sensors produce at one simulation step.
+
+    Fields of the slower sensors keep their last value between updates; the
+    ``*_updated`` flags say which ones are new at this step (HIL_SENSOR fields_updated).
+    """
+
+    t_us: int                  # simulation time of the step [us]
+    accel_b: np.ndarray        # specific force, body FRD [m/s^2], shape (3,)
+    gyro_b: np.ndarray         # angular rate, body FRD [rad/s], shape (3,)
+    mag_b_gauss: np.ndarray    # magnetic field, body FRD [gauss], shape (3,)
+    pressure_pa: float         # static pressure [Pa]
+    pressure_alt_m: float      # ISA pressure altitude of pressure_pa [m]
+    temperature_k: float       # barometer temperature [K]
+    diff_pressure_pa: float    # pitot differential (dynamic) pressure [Pa]
+    airspeed_mps: float        # equivalent airspeed sqrt(2 dp / rho0), rho0 = 1.225 [m/s]
+    baro_updated: bool         # pressure/pressure_alt/temperature are new this step
+    mag_updated: bool          # mag_b_gauss is new this step
+    airspeed_updated: bool     # diff_pressure/airspeed are new this step
+    gps: GpsReading | None     # a fix arriving at this step, else None
