@@ -1,0 +1,83 @@
+"""``autopilot``: the flight software as its own process, flying a simulator over the
+HIL link (PX4 simulator interface), e.g.
+
+    sim-bridge --vehicle plane &                 # listens on tcp 4560
+    autopilot --sim tcp:127.0.0.1:4560 --mission missions/default.waypoints
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from .link.hil import AutopilotHilEnd
+from .link.transports import TransportError, open_url
+from .log.flightlog import FlightLog
+from .mission.files import MissionFileError, load_mission
+from .params import ParamError, ParamStore
+from .vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
+
+DEFAULT_MISSION = Path(__file__).resolve().parent.parent / "missions" / "default.waypoints"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="autopilot", description="Fly a simulator over the MAVLink HIL link")
+    ap.add_argument("--sim", default="tcp:127.0.0.1:4560",
+                    help="simulator link: tcp:HOST:PORT, udp:HOST:PORT (default tcp:127.0.0.1:4560)")
+    ap.add_argument("--vehicle", default="plane", choices=["plane"])
+    ap.add_argument("--mission", default=str(DEFAULT_MISSION))
+    ap.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"])
+    ap.add_argument("--params", help=".parm file to load")
+    ap.add_argument("--duration", type=float, default=1e9, help="stop after this much simulated time [s]")
+    ap.add_argument("--log-dir", help="write flight.npz and params.parm here at the end")
+    ap.add_argument("--connect-timeout", type=float, default=30.0)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        mission = load_mission(args.mission)
+        params = ParamStore(plane_param_declarations())
+        if args.params:
+            params.load(args.params)
+        transport = open_url(args.sim, connect_timeout_s=args.connect_timeout)
+    except (MissionFileError, ParamError, TransportError, FileNotFoundError) as e:
+        print(f"autopilot: error: {e}", file=sys.stderr)
+        return 2
+    if args.sim.startswith(("udp:", "udpout:")):
+        transport.send(b"")  # make ourselves known to a udpin simulator
+    log = FlightLog(LOG_COLUMNS)
+    vehicle = PlaneVehicle(params, mission, args.nav, autostart=True, log=log)
+    end = AutopilotHilEnd(transport)
+    last_rx = time.monotonic()
+    t_s = 0.0
+    try:
+        while t_s < args.duration:
+            steps = end.poll(timeout_s=0.5)
+            for frame, truth in steps:
+                end.answer(vehicle.step(frame, truth))
+                t_s = frame.t_us * 1e-6
+            if steps:
+                last_rx = time.monotonic()
+            elif getattr(transport, "closed", False) or time.monotonic() - last_rx > 10.0:
+                break
+            seq = vehicle.sequencer
+            if seq is not None and seq.finished and seq.rtl_established:
+                print(f"autopilot: mission complete at t={t_s:.1f} s", file=sys.stderr)
+                break
+    except KeyboardInterrupt:
+        pass
+    finally:
+        transport.close()
+    if args.log_dir:
+        d = Path(args.log_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        log.save(d / "flight.npz")
+        params.save(d / "params.parm")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

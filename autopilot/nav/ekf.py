@@ -1,0 +1,145 @@
+"""INS/GPS error-state extended Kalman filter (seed ch. 7 sec. 1.12-1.13, eq 1.22; ch. 8 sec. 2.1.2).
+
+Formulation: error-state (multiplicative, "indirect") EKF. A nominal state -- position,
+NED velocity, attitude quaternion q_nb, accelerometer and gyro biases, north/east wind
+(fixed-wing) -- is propagated by the strapdown mechanisation (:mod:`.strapdown`) at
+the IMU rate; the filter estimates the error state ``dx`` (layout in :mod:`.layout`)
+whose attitude part is a 3-element rotation vector in NED, ``q_true = Exp(dtheta) (x)
+q``. After each update ``dx`` is folded into the nominal state and reset to zero (the
+reset Jacobian ``I + [dtheta/2 x]`` is taken as I). References: J. Sola, "Quaternion
+kinematics for the error-state Kalman filter", arXiv:1711.02508 (2017), sec. 7 (global
+angular error); P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
+Navigation Systems", 2nd ed. (2013), ch. 14; D. Simon, "Optimal State Estimation"
+(2006), sec. 13.2 (the seed's reference for fig 1.21).
+
+The seed's eq 1.22 lost its subscripts in extraction. Rebuilt, it is the 15-state
+vector ``x = [L, lambda, h, V_N, V_E, V_D, phi, theta, psi, b_ax, b_ay, b_az, b_gx,
+b_gy, b_gz]``; we hold the same quantities with position in local NED and the attitude
+as a quaternion plus a rotation-vector error (see :mod:`.layout`).
+
+Continuous error dynamics (Sola 2017 eqs. 341-347 with global error; f_n = R (f_m - b_a)):
+
+    d(dp)/dt     = dv
+    d(dv)/dt     = -[f_n x] dtheta - R db_a - R n_a
+    d(dtheta)/dt = -R db_g - R n_g
+    d(db_a)/dt   = n_ba,   d(db_g)/dt = n_bg,   d(dw)/dt = n_w
+
+discretised to first order, F = I + F_c dt, with a diagonal Q (the NED-frame images
+R n of isotropic body noises are isotropic). Updates use the Joseph form; P is
+symmetrised and its diagonal kept within a floor and ceiling after every update. All
+measurements present in one step are gated one source at a time and then fused in one
+stacked update (equivalent to sequential updates for independent noises, and cheaper).
+Aiding sources, GPS latency and alignment: see :mod:`.base`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import NavFilterBase, skew
+from .layout import ABIAS, ATT, GBIAS, VEL, WIND
+from .strapdown import propagate
+
+
+class InsGpsEkf(NavFilterBase):
+    """INS/GPS error-state EKF.
+
+    ``InsGpsEkf(params=None, vehicle="plane", origin=None)``; ``update(frame) -> NavState``
+    once per IMU step; ``innovations`` (records of the latest update), ``P``,
+    ``sigma()``, ``reset()``. The origin is the vehicle's home if given, else the
+    first 3D GPS fix.
+    """
+
+    SOURCE = "ekf"
+
+    def _reset_covariance_model(self) -> None:
+        n = self.n
+        self._P = np.eye(n)
+        self._F = np.eye(n)          # preallocated; only the dynamic blocks are rewritten
+        self._I = np.eye(n)
+        self._diag = np.arange(n)
+        self._Qd = np.zeros(n)
+        self._q_dt = -1.0
+
+    @property
+    def P(self) -> np.ndarray:
+        return self._P
+
+    def _set_P(self, P: np.ndarray) -> None:
+        self._P = P
+
+    def _init_covariance(self, sd: np.ndarray) -> None:
+        self._P = np.diag(np.asarray(sd, dtype=float) ** 2)
+
+    def _process_noise(self, dt: float) -> None:
+        """Q (diagonal) and the constant blocks of F for a step of dt."""
+        prm = self.params
+        q = self._Qd
+        q[VEL] = (prm["EK_ACC_NSE"] * dt) ** 2
+        q[ATT] = (prm["EK_GYR_NSE"] * dt) ** 2
+        q[ABIAS] = prm["EK_ACCB_NSE"] ** 2 * dt
+        q[GBIAS] = prm["EK_GYRB_NSE"] ** 2 * dt
+        if self.is_plane:
+            q[WIND] = prm["EK_WIND_NSE"] ** 2 * dt
+        F = self._F
+        F[0, 3] = F[1, 4] = F[2, 5] = dt
+        self._q_dt = dt
+
+    def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
+        nom = self.nom
+        propagate(nom, f_m, omega_m, dt, self._g)
+        if dt != self._q_dt:
+            self._process_noise(dt)
+        F = self._F
+        mRdt = nom.R * (-dt)
+        # F = I + F_c dt: the three dynamic blocks
+        F[VEL, ATT] = skew(nom.f_n * (-dt))
+        F[VEL, ABIAS] = mRdt
+        F[ATT, GBIAS] = mRdt
+        # P = F P F^T + Q
+        P = F @ self._P @ F.T
+        P[self._diag, self._diag] += self._Qd
+        self._P = P
+
+    def _innovation_stats(self, blocks) -> None:
+        H = blocks[0].H if len(blocks) == 1 else np.vstack([b.H for b in blocks])
+        PHt = self._P @ H.T
+        R = np.concatenate([b.R for b in blocks]) if len(blocks) > 1 else blocks[0].R
+        # diag(S) = diag(H P H^T) + R
+        S_diag = np.einsum("ij,ji->i", H, PHt) + R
+        i = 0
+        for b in blocks:
+            m = b.R.shape[0]
+            # y = z - h(x)
+            b.y = b.z - b.h0
+            b.S = S_diag[i:i + m]
+            i += m
+        self._stats = (blocks, H, PHt, R)
+
+    def _fuse_blocks(self, accepted) -> None:
+        blocks, H, PHt, R = self._stats
+        if len(accepted) != len(blocks):
+            rows = []
+            i = 0
+            keep = set(map(id, accepted))
+            for b in blocks:
+                m = b.R.shape[0]
+                if id(b) in keep:
+                    rows.extend(range(i, i + m))
+                i += m
+            H = H[rows]
+            PHt = PHt[:, rows]
+            R = R[rows]
+        y = np.concatenate([b.y for b in accepted]) if len(accepted) > 1 else accepted[0].y
+        P = self._P
+        # S = H P H^T + R
+        S = H @ PHt
+        S[np.diag_indices_from(S)] += R
+        # K = P H^T S^-1
+        K = PHt @ np.linalg.inv(S)
+        # dx = K y
+        dx = K @ y
+        # P = (I - K H) P (I - K H)^T + K R K^T      (Joseph form)
+        A = self._I - K @ H
+        P = A @ P @ A.T + (K * R) @ K.T
+        self._P = self._condition(P)
+        self._inject(dx)

@@ -1,0 +1,278 @@
+"""A small, fast sensor simulator for testing the navigation filters.
+
+Not the product's plant (that is sim_bridge/): a kinematic fixed-wing flying
+coordinated turns, climbs and straight legs in a steady wind, with the sensor error
+models the filters are designed for. Every random draw comes from the injected
+``numpy.random.Generator``, so a seed gives a bit-identical run.
+
+Truth is generated first as arrays (air-relative heading, bank and flight-path angle
+integrated with rate limits; attitude = wind axes rotated by a constant angle of
+attack, so sideslip is zero; position integrated trapezoidally). The IMU is derived
+from the truth so that a perfect mechanisation reproduces it: the gyro is the body
+rotation increment over each step, the accelerometer the specific force at mid-step.
+Frame k carries truth at t_k and the IMU sample of the interval [t_(k-1), t_k].
+
+Sensor models (defaults; all in :class:`SimConfig`):
+
+* IMU 100 Hz: white noise 0.05 m/s^2 and 0.003 rad/s per sample, constant biases.
+* GPS 5 Hz, 150 ms latency (a fix arriving at t describes t - 0.15 s); horizontal
+  error = first-order Gauss-Markov (1.5 m per axis, tau 60 s) + 0.5 m white per axis;
+  vertical GM 2.5 m + 0.8 m white; velocity white 0.1 m/s per axis.
+  Reported eph/epv = the total 1-sigma per axis.
+* Baro: 0.3 m white, plus a constant datum offset from the GPS altitude.
+* Magnetometer: 0.5 gauss field, inclination -66 deg, declination 12 deg, 0.005 gauss noise.
+* Airspeed: 0.3 m/s white.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from autopilot.geo import LocalFrame, euler_to_quat, gravity_m_s2
+from autopilot.messages import (AirspeedSample, BaroSample, GpsFix, ImuSample, MagSample,
+                                SensorFrame)
+
+from . import qbatch
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    dt_s: float = 0.01
+    origin_lat_deg: float = -35.363
+    origin_lon_deg: float = 149.165
+    origin_alt_m: float = 584.0
+    airspeed_mps: float = 22.0
+    alpha_rad: float = 0.05
+    roll_rate_max: float = math.radians(15.0)       # [rad/s]
+    gamma_rate_max: float = 0.05                    # [rad/s]
+    wind_ned: tuple[float, float, float] = (3.0, 4.0, 0.0)
+    # IMU
+    accel_noise: float = 0.05                       # [m/s^2] per sample
+    gyro_noise: float = 0.003                       # [rad/s] per sample
+    accel_bias: tuple[float, float, float] = (0.05, -0.04, 0.06)
+    gyro_bias: tuple[float, float, float] = (0.002, -0.003, 0.002)
+    # GPS
+    gps_rate_hz: float = 5.0
+    gps_latency_s: float = 0.15
+    gps_gm_sigma_m: float = 1.5                     # per horizontal axis
+    gps_gm_tau_s: float = 60.0
+    gps_white_m: float = 0.5                        # per horizontal axis
+    gps_vert_gm_m: float = 2.5
+    gps_vert_white_m: float = 0.8
+    gps_vel_sigma: float = 0.1
+    # other sensors
+    baro_rate_hz: float = 50.0
+    baro_sigma: float = 0.3
+    baro_offset_m: float = 4.0
+    mag_rate_hz: float = 50.0
+    mag_gauss: float = 0.5
+    mag_inclination_deg: float = -66.0
+    mag_declination_deg: float = 12.0
+    mag_sigma: float = 0.005
+    airspeed_rate_hz: float = 50.0
+    airspeed_sigma: float = 0.3
+
+    def origin(self) -> LocalFrame:
+        return LocalFrame.from_degrees(self.origin_lat_deg, self.origin_lon_deg, self.origin_alt_m)
+
+    def mag_ned(self) -> np.ndarray:
+        inc = math.radians(self.mag_inclination_deg)
+        dec = math.radians(self.mag_declination_deg)
+        return self.mag_gauss * np.array([math.cos(inc) * math.cos(dec),
+                                          math.cos(inc) * math.sin(dec), math.sin(inc)])
+
+
+#: A manoeuvring fixed-wing profile: (duration [s], bank [deg], climb rate [m/s]).
+DEFAULT_SEGMENTS: tuple[tuple[float, float, float], ...] = (
+    (20.0, 0.0, 0.0), (25.0, 28.0, 0.0), (15.0, 0.0, 2.0), (30.0, -25.0, 0.0),
+    (20.0, 0.0, -1.5), (20.0, 30.0, 1.0), (20.0, 0.0, 0.0), (25.0, -28.0, 0.0),
+)
+
+
+@dataclass
+class SimRun:
+    """Truth arrays (index k <-> t_us[k]) and the sensor frames of one run."""
+
+    cfg: SimConfig
+    t_us: np.ndarray                  # (N,)
+    p_ned: np.ndarray                 # (N, 3)
+    v_ned: np.ndarray                 # (N, 3)
+    q_nb: np.ndarray                  # (N, 4)
+    omega_b: np.ndarray               # (N, 3) true rate over [t_k, t_k+1]
+    wind_ned: np.ndarray              # (3,)
+    gps_err_ned: np.ndarray           # (N, 3) GPS position error of a fix valid at t_k (NaN if none)
+    _imu_f: np.ndarray = field(repr=False, default=None)
+    _imu_w: np.ndarray = field(repr=False, default=None)
+    _gps: dict = field(repr=False, default_factory=dict)
+    _baro: dict = field(repr=False, default_factory=dict)
+    _mag: dict = field(repr=False, default_factory=dict)
+    _arsp: dict = field(repr=False, default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.t_us)
+
+    def frames(self, start: int = 0, stop: int | None = None) -> Iterator[SensorFrame]:
+        stop = len(self.t_us) if stop is None else stop
+        for k in range(start, stop):
+            t = int(self.t_us[k])
+            yield SensorFrame(
+                t_us=t,
+                imu=ImuSample(t, self._imu_f[k], self._imu_w[k]),
+                mag=self._mag.get(k), baro=self._baro.get(k),
+                airspeed=self._arsp.get(k), gps=self._gps.get(k))
+
+
+def _gauss_markov(rng: np.random.Generator, n: int, sigma: float, tau: float, dt: float) -> np.ndarray:
+    e = np.empty(n)
+    if n == 0:
+        return e
+    a = math.exp(-dt / tau)
+    b = sigma * math.sqrt(1.0 - a * a)
+    w = rng.standard_normal(n)
+    e[0] = sigma * w[0]
+    for i in range(1, n):
+        e[i] = a * e[i - 1] + b * w[i]
+    return e
+
+
+def simulate_flight(rng: np.random.Generator, cfg: SimConfig = SimConfig(),
+                    segments: Sequence[tuple[float, float, float]] = DEFAULT_SEGMENTS,
+                    heading0_rad: float = 0.0, repeat: int = 1,
+                    gps_outages: Sequence[tuple[float, float]] = (),
+                    gps_glitches: Sequence[tuple[float, float, Sequence[float]]] = (),
+                    start_alt_m: float = 100.0) -> SimRun:
+    """A fixed-wing flight through ``segments`` (repeated ``repeat`` times).
+
+    ``gps_outages``: (t0, t1) [s] windows without GPS fixes (by arrival time);
+    ``gps_glitches``: (t0, t1, offset_ned [m]) windows whose fixes are shifted.
+    """
+    dt = cfg.dt_s
+    segs = list(segments) * repeat
+    steps = [int(round(d / dt)) for d, _, _ in segs]
+    n = sum(steps) + 1
+    bank_tgt = np.repeat([math.radians(b) for _, b, _ in segs], steps)
+    climb_tgt = np.repeat([c for _, _, c in segs], steps)
+    va = cfg.airspeed_mps
+    g = gravity_m_s2(math.radians(cfg.origin_lat_deg), cfg.origin_alt_m)
+
+    # --- truth: bank, flight-path angle, air-relative heading -------------------------
+    phi = np.zeros(n)
+    gam = np.zeros(n)
+    chi = np.zeros(n)
+    chi[0] = heading0_rad
+    droll = cfg.roll_rate_max * dt
+    dgam = cfg.gamma_rate_max * dt
+    ph, ga, ch = 0.0, 0.0, heading0_rad
+    for k in range(n - 1):
+        ph_new = ph + min(max(bank_tgt[k] - ph, -droll), droll)
+        gt = math.asin(climb_tgt[k] / va)
+        ga += min(max(gt - ga, -dgam), dgam)
+        ch += g * math.tan(0.5 * (ph + ph_new)) / (va * math.cos(ga)) * dt
+        ph = ph_new
+        phi[k + 1], gam[k + 1], chi[k + 1] = ph, ga, ch
+    q_w = qbatch.from_euler(phi, gam, chi)                 # wind axes
+    q_a = np.array([math.cos(0.5 * cfg.alpha_rad), 0.0, math.sin(0.5 * cfg.alpha_rad), 0.0])
+    q = qbatch.normalize(qbatch.mul(q_w, q_a))             # body = wind axes pitched by alpha
+    wind = np.array(cfg.wind_ned, dtype=float)
+    v_air = va * np.stack((np.cos(gam) * np.cos(chi), np.cos(gam) * np.sin(chi), -np.sin(gam)), axis=-1)
+    v = v_air + wind
+    p = np.empty((n, 3))
+    p[0] = (0.0, 0.0, -start_alt_m)
+    p[1:] = p[0] + np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
+    return _sensors(rng, cfg, p, v, q, wind, np.full(n, va), g, gps_outages, gps_glitches)
+
+
+def simulate_static(rng: np.random.Generator, cfg: SimConfig = SimConfig(), duration_s: float = 3.0,
+                    roll_rad: float = 0.02, pitch_rad: float = -0.03, yaw_rad: float = 1.0,
+                    with_gps: bool = True) -> SimRun:
+    """A vehicle resting on the ground at the origin (zero airspeed, zero wind)."""
+    n = int(round(duration_s / cfg.dt_s)) + 1
+    g = gravity_m_s2(math.radians(cfg.origin_lat_deg), cfg.origin_alt_m)
+    q = np.tile(euler_to_quat(roll_rad, pitch_rad, yaw_rad), (n, 1))
+    p = np.zeros((n, 3))
+    v = np.zeros((n, 3))
+    outages = () if with_gps else ((0.0, duration_s + 1.0),)
+    return _sensors(rng, cfg, p, v, q, np.zeros(3), np.zeros(n), g, outages, ())
+
+
+def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_glitches) -> SimRun:
+    n = len(p)
+    dt = cfg.dt_s
+    t_us = np.arange(n, dtype=np.int64) * int(round(dt * 1e6))
+    # true body rate over [t_k, t_k+1]: q_k+1 = q_k (x) Exp(omega_k dt)
+    omega = np.zeros((n, 3))
+    omega[:-1] = qbatch.to_rotvec(qbatch.mul(qbatch.conj(q[:-1]), q[1:])) / dt
+    omega[-1] = omega[-2] if n > 1 else 0.0
+    # specific force at mid-step, body axes
+    a = np.zeros((n, 3))
+    a[:-1] = (v[1:] - v[:-1]) / dt
+    q_mid = qbatch.mul(q, qbatch.from_rotvec(0.5 * dt * omega))
+    R_mid = qbatch.to_dcm(q_mid)
+    a_minus_g = a - np.array([0.0, 0.0, g])
+    f = np.einsum("nji,nj->ni", R_mid, a_minus_g)
+    # frame k carries the IMU sample of [t_k-1, t_k]
+    f_true = np.vstack((f[:1], f[:-1]))
+    w_true = np.vstack((omega[:1], omega[:-1]))
+    imu_f = f_true + np.array(cfg.accel_bias) + cfg.accel_noise * rng.standard_normal((n, 3))
+    imu_w = w_true + np.array(cfg.gyro_bias) + cfg.gyro_noise * rng.standard_normal((n, 3))
+
+    origin = cfg.origin()
+    # --- GPS --------------------------------------------------------------------------
+    every = int(round(1.0 / (cfg.gps_rate_hz * dt)))
+    lag = int(round(cfg.gps_latency_s / dt))
+    ks = np.arange(every, n, every)
+    ks = ks[ks - lag >= 0]
+    m = len(ks)
+    gdt = every * dt
+    err = np.stack((
+        _gauss_markov(rng, m, cfg.gps_gm_sigma_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_white_m * rng.standard_normal(m),
+        _gauss_markov(rng, m, cfg.gps_gm_sigma_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_white_m * rng.standard_normal(m),
+        _gauss_markov(rng, m, cfg.gps_vert_gm_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_vert_white_m * rng.standard_normal(m),
+    ), axis=-1)
+    verr = cfg.gps_vel_sigma * rng.standard_normal((m, 3))
+    eph = math.hypot(cfg.gps_gm_sigma_m, cfg.gps_white_m)
+    epv = math.hypot(cfg.gps_vert_gm_m, cfg.gps_vert_white_m)
+    gps = {}
+    gps_err = np.full((n, 3), np.nan)
+    for j, k in enumerate(ks):
+        t_s = k * dt
+        if any(t0 <= t_s < t1 for t0, t1 in gps_outages):
+            continue
+        e = err[j].copy()
+        for t0, t1, off in gps_glitches:
+            if t0 <= t_s < t1:
+                e = e + np.asarray(off, dtype=float)
+        kv = k - lag
+        lat, lon, alt = origin.to_geodetic_fast(p[kv] + e)
+        gps[int(k)] = GpsFix(int(t_us[k]), lat, lon, alt, v[kv] + verr[j], eph, epv, 3, 12)
+        gps_err[kv] = e
+
+    # --- baro, magnetometer, airspeed -------------------------------------------------
+    def ticks(rate):
+        step = max(1, int(round(1.0 / (rate * dt))))
+        return np.arange(0, n, step)
+
+    baro = {}
+    kb = ticks(cfg.baro_rate_hz)
+    nb = cfg.baro_sigma * rng.standard_normal(len(kb))
+    for j, k in enumerate(kb):
+        alt = cfg.origin_alt_m - p[k, 2] + cfg.baro_offset_m + nb[j]
+        pres = 101325.0 * (1.0 - 2.25577e-5 * alt) ** 5.25588
+        baro[int(k)] = BaroSample(int(t_us[k]), pres, float(alt), 288.15 - 0.0065 * alt)
+    mag = {}
+    km = ticks(cfg.mag_rate_hz)
+    R = qbatch.to_dcm(q[km])
+    m_b = np.einsum("nji,j->ni", R, cfg.mag_ned()) + cfg.mag_sigma * rng.standard_normal((len(km), 3))
+    for j, k in enumerate(km):
+        mag[int(k)] = MagSample(int(t_us[k]), m_b[j])
+    arsp = {}
+    ka = ticks(cfg.airspeed_rate_hz)
+    na = cfg.airspeed_sigma * rng.standard_normal(len(ka))
+    for j, k in enumerate(ka):
+        if airspeed[k] > 0.0:
+            tas = float(airspeed[k] + na[j])
+            arsp[int(k)] = AirspeedSample(int(t_us[k]), 0.5 * 1.225 * tas * tas, tas)
+    return SimRun(cfg, t_us, p, v, q, omega, wind, gps_err, imu_f, imu_w, gps, baro, mag, arsp)

@@ -1,0 +1,506 @@
+"""JSBSim fixed-wing plant: the project's Aerosonde (or JSBSim's stock c172p).
+
+The aircraft is a JSBSim model; this class is the only place that talks to JSBSim.
+Feet, slugs, pounds and Rankine are converted to SI once, where they are read;
+everything leaving the class follows ``sim_bridge.plants.base`` (SI, radians, NED,
+FRD, ``q_nb`` scalar-first Hamilton body->NED, longitude wrapped to (-pi, pi]).
+
+Airframes
+    ``"aerosonde"``  Beard & McLain (2012) Appendix E, ``sim_bridge/aircraft/aerosonde``.
+    ``"c172p"``      JSBSim's Cessna 172P, from the jsbsim package.
+
+Start and launch
+    *Aerosonde, catapult.* The aircraft starts at rest on a launcher at home: a rail
+    ``LAUNCHER_HEIGHT_M`` above the ground, pointing along the home heading. The deck is
+    modelled as raised terrain under the cradle shoes, so the aircraft truly rests on
+    it (``on_ground`` True, specific force (0, 0, -g), zero rates) with the cradle's
+    4.8 deg nose-up attitude; the shoes' brakes hold it against the propeller. The
+    catapult fires when ``launch()`` is called, or by itself once the throttle command
+    exceeds ``AUTO_LAUNCH_THROTTLE`` and the propeller has had ``SPIN_UP_S`` to reach
+    power (a hand on the release, as on a real launcher). It pushes with
+    ``CATAPULT_FORCE_N`` along body x for ``RAIL_LENGTH_M`` (about 0.3 s), the aircraft
+    leaves the rail at about 21 m/s (1.4 x the 15 m/s stall speed), the launcher is
+    removed (terrain back at home altitude) and the autopilot climbs out at full
+    throttle and about 10 deg pitch.
+    *c172p, runway.* The aircraft starts at rest on its wheels at home with the
+    brakes set; the brakes are released by ``launch()`` or when the throttle command
+    first exceeds ``AUTO_LAUNCH_THROTTLE``, and the autopilot takes off on the wheels.
+    After the start, any ground contact (terrain at home altitude) ends at rest:
+    the shoes brake and the airframe's structure points (nose, tail, wing tips, top)
+    keep it above ground at any attitude.
+
+Controls (``PlaneControls``, as documented in base.py) map to JSBSim commands:
+aileron +1 -> fcs/aileron-cmd-norm +1 (roll right); elevator +1 (nose up) ->
+fcs/elevator-cmd-norm -1 (JSBSim's positive elevator is stick forward, nose down);
+rudder +1 (nose right) -> fcs/rudder-cmd-norm -1 (JSBSim's positive rudder deflection
+yaws the nose left in both airframes); throttle 0..1 -> fcs/throttle-cmd-norm.
+
+Wind: ``wind_ned`` is the velocity of the air over ground (wind from the west is
++east). Turbulence is JSBSim's MIL-F-8785C Dryden model with Tustin discretisation
+(``atmosphere/turb-type`` 4) at the standard probability-of-exceedance severities and
+20 ft wind speeds of MIL-F-8785C (light 15 kt, moderate 30 kt, severe 45 kt). JSBSim's
+own random generator drives it, seeded from the injected ``numpy.random.Generator``.
+
+JSBSim's own trim cannot trim the Aerosonde (its one-control-per-axis iteration does
+not converge with Table E.2's strong aileron-yaw and rudder-roll coupling), so
+``trim()`` solves all six body accelerations at once by Newton's method.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import jsbsim
+import numpy as np
+
+from sim_bridge.plants.base import PlantState, PlaneControls
+
+AIRCRAFT_DIR = Path(__file__).resolve().parent.parent / "aircraft"
+
+# Unit conversions, applied once where JSBSim values are read or written.
+FT_M = 0.3048                       # [m/ft]
+LBF_N = 4.4482216152605             # [N/lbf]
+SLUGFT3_KGM3 = 515.378818           # [(kg/m^3)/(slug/ft^3)]
+PSF_PA = 47.880258888889            # [Pa/psf]
+RANKINE_K = 5.0 / 9.0               # [K/R]
+KT_MPS = 1852.0 / 3600.0            # [(m/s)/kt]
+
+# Aerosonde launcher.
+LAUNCHER_HEIGHT_M = 1.5             # rail deck above the ground at home [m]
+RAIL_LENGTH_M = 3.0                 # catapult stroke [m]
+CATAPULT_FORCE_N = 1000.0           # catapult push along body x [N]
+AUTO_LAUNCH_THROTTLE = 0.5          # throttle command that arms the launch
+SPIN_UP_S = 1.0                     # propeller spin-up before an automatic release [s]
+SETTLE_S = 2.0                      # settling on the deck/runway before t = 0 [s]
+
+# turbulence name -> (MIL-F-8785C severity index in JSBSim, wind at 20 ft [kt])
+TURBULENCE = {
+    "none": (0, 0.0),
+    "light": (3, 15.0),
+    "moderate": (4, 30.0),
+    "severe": (6, 45.0),
+}
+TURB_TYPE_TUSTIN = 4
+
+_HELD, _FIRING, _FREE = "held", "firing", "free"
+
+
+@dataclass(frozen=True, slots=True)
+class _Airframe:
+    """What differs between the airframes this plant can fly."""
+
+    model: str
+    own_files: bool                 # shipped in sim_bridge/aircraft (else JSBSim's)
+    catapult: bool                  # starts on the catapult (else on its wheels)
+    brakes: tuple[str, ...]         # brake commands that hold it at the start
+    bogeys: tuple[int, ...]         # gear units it rests on (front one = largest x)
+    has_esc: bool                   # FCS has fcs/esc-limit-off (see aerosonde.xml)
+
+
+_AIRFRAMES = {
+    "aerosonde": _Airframe("aerosonde", True, True, ("fcs/center-brake-cmd-norm",),
+                           (0, 1, 2), True),
+    "c172p": _Airframe("c172p", False, False,
+                       ("fcs/left-brake-cmd-norm", "fcs/right-brake-cmd-norm"),
+                       (0, 1, 2), False),
+}
+
+
+def _wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to (-pi, pi]."""
+    wrapped = math.remainder(angle_rad, 2.0 * math.pi)
+    return math.pi if wrapped == -math.pi else wrapped
+
+
+class JSBSimPlane:
+    """A fixed-wing aircraft flown by JSBSim, behind the ``Plant`` protocol."""
+
+    def __init__(
+        self,
+        airframe: str = "aerosonde",
+        home: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        dt_s: float = 1.0 / 200.0,
+        wind_ned=(0.0, 0.0, 0.0),
+        turbulence: str = "none",
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        if airframe not in _AIRFRAMES:
+            raise ValueError(f"unknown airframe {airframe!r}; known: {sorted(_AIRFRAMES)}")
+        self._af = _AIRFRAMES[airframe]
+        self.airframe = airframe
+        lat_deg, lon_deg, alt_m, heading_deg = home
+        self.home = (float(lat_deg), float(lon_deg), float(alt_m), float(heading_deg))
+        self._dt_us = int(round(dt_s * 1e6))
+        if self._dt_us <= 0:
+            raise ValueError("dt_s must be at least 1 us")
+        self.dt_s = self._dt_us * 1e-6
+        self._t_us = 0
+        rng = rng if rng is not None else np.random.default_rng(0)
+        self._seed = int(rng.integers(1, 2**31 - 1))
+
+        jsbsim.FGJSBBase().debug_lvl = 0          # no banner, no load chatter
+        fdm = jsbsim.FGFDMExec(None)
+        if self._af.own_files:
+            fdm.set_aircraft_path(str(AIRCRAFT_DIR))
+            fdm.set_engine_path(str(AIRCRAFT_DIR / "engine"))
+            fdm.set_systems_path(str(AIRCRAFT_DIR))
+        if not fdm.load_model(self._af.model):
+            raise RuntimeError(f"JSBSim could not load {self._af.model}")
+        self._silence_outputs(fdm)
+        fdm.set_dt(self.dt_s)
+        fdm["atmosphere/randomseed"] = self._seed
+        self._fdm = fdm
+        self._bind_nodes()
+
+        self._wind_ned = np.zeros(3)
+        self._turbulence = "none"
+        self._phase = _HELD
+        self._armed_us: int | None = None
+        self._rail_start_ecef_ft = (0.0, 0.0, 0.0)
+        self._controls = PlaneControls()
+        self._set_wind_values(wind_ned, turbulence)
+        self._place_at_start()
+
+    # ------------------------------------------------------------------ public API
+
+    @property
+    def t_us(self) -> int:
+        """Simulation time [us], exact (integer steps of dt)."""
+        return self._t_us
+
+    @property
+    def on_launcher(self) -> bool:
+        """True until the catapult has fired (or the brakes are released)."""
+        return self._phase != _FREE
+
+    def state(self) -> PlantState:
+        """The true state now, in SI units (see base.PlantState)."""
+        n = self._n
+        phi, theta, psi = n["phi"](), n["theta"](), n["psi"]()
+        cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
+        cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
+        cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
+        # Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
+        q_nb = np.array((
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ))
+        on_ground = (abs(n["fz_gear"]()) + abs(n["fx_gear"]())) > 1e-9
+        return PlantState(
+            t_us=self._t_us,
+            lat_rad=n["lat"](),
+            lon_rad=_wrap_pi(n["lon"]()),
+            alt_m=n["alt"](),
+            v_ned=np.array((n["vn"](), n["ve"](), n["vd"]())) * FT_M,
+            q_nb=q_nb,
+            omega_b=np.array((n["p"](), n["q"](), n["r"]())),
+            f_b=np.array((n["ax"](), n["ay"](), n["az"]())) * FT_M,
+            wind_ned=np.array((n["wn"](), n["we"](), n["wd"]())) * FT_M,
+            airspeed_mps=n["vt"]() * FT_M,
+            alpha_rad=n["alpha"](),
+            beta_rad=n["beta"](),
+            on_ground=on_ground,
+            rho_kgm3=n["rho"]() * SLUGFT3_KGM3,
+            pressure_pa=n["pressure"]() * PSF_PA,
+            temperature_k=n["temperature"]() * RANKINE_K,
+        )
+
+    def step(self, controls: PlaneControls, n_steps: int = 1) -> PlantState:
+        """Hold ``controls`` for ``n_steps`` JSBSim steps and return the new state."""
+        self._apply_controls(controls)
+        run = self._fdm.run
+        for _ in range(n_steps):
+            if self._phase != _FREE:
+                self._launcher_logic(controls.throttle)
+            run()
+            self._t_us += self._dt_us
+        return self.state()
+
+    def set_wind(self, wind_ned, turbulence: str = "none") -> None:
+        """Steady wind, the air's velocity over ground NED [m/s], and turbulence level."""
+        self._set_wind_values(wind_ned, turbulence)
+        self._apply_wind()
+
+    def launch(self) -> None:
+        """Fire the catapult now (Aerosonde) or release the brakes (c172p)."""
+        if self._phase != _HELD:
+            return
+        for brake in self._af.brakes:
+            self._fdm[brake] = 0.0
+        if not self._af.catapult:
+            self._phase = _FREE
+            return
+        n = self._n
+        self._rail_start_ecef_ft = (n["ecef_x"](), n["ecef_y"](), n["ecef_z"]())
+        self._fdm["fcs/catapult-force-lbs"] = CATAPULT_FORCE_N / LBF_N
+        self._phase = _FIRING
+
+    def trim(self, airspeed_mps: float = 22.0, height_m: float = 100.0) -> PlaneControls:
+        """Restart in trimmed wings-level flight and return the controls that hold it.
+
+        The aircraft is placed ``height_m`` above home, at the home position and
+        heading, flying at true airspeed ``airspeed_mps`` relative to the air mass; the
+        launcher is removed. The six body accelerations are driven to zero with alpha,
+        beta, throttle, elevator, aileron and rudder (bank and flight path angle zero,
+        no rotation) by Newton's method on JSBSim's own accelerations. The clock runs
+        on (``t_us`` is not reset). Raises RuntimeError if no trim exists.
+        """
+        fdm = self._fdm
+        lat_deg, lon_deg, alt_m, heading_deg = self.home
+        self._phase = _FREE
+        if self._af.catapult:
+            fdm["fcs/catapult-force-lbs"] = 0.0
+        for brake in self._af.brakes:
+            fdm[brake] = 1.0 if self._af.catapult else 0.0
+        if self._af.has_esc:
+            fdm["fcs/esc-limit-off"] = 1.0
+        fdm.get_propulsion().init_running(-1)
+        vt_fps = airspeed_mps / FT_M
+        wind_n, wind_e, _ = self._wind_ned
+        wind_mag = math.hypot(wind_n, wind_e)
+
+        def set_ic(x: np.ndarray) -> None:
+            fdm["ic/lat-geod-deg"] = lat_deg
+            fdm["ic/long-gc-deg"] = lon_deg
+            fdm["ic/terrain-elevation-ft"] = alt_m / FT_M
+            fdm["ic/h-sl-ft"] = (alt_m + height_m) / FT_M
+            fdm["ic/vw-mag-fps"] = wind_mag / FT_M
+            fdm["ic/vw-dir-deg"] = math.degrees(math.atan2(-wind_e, -wind_n)) % 360.0
+            fdm["ic/psi-true-deg"] = heading_deg
+            fdm["ic/phi-rad"] = 0.0
+            fdm["ic/gamma-rad"] = 0.0
+            fdm["ic/vt-fps"] = vt_fps
+            fdm["ic/alpha-rad"] = x[0]
+            fdm["ic/beta-rad"] = x[1]
+            fdm["ic/p-rad_sec"] = 0.0
+            fdm["ic/q-rad_sec"] = 0.0
+            fdm["ic/r-rad_sec"] = 0.0
+            fdm["fcs/throttle-cmd-norm"] = x[2]
+            fdm["fcs/elevator-cmd-norm"] = x[3]
+            fdm["fcs/aileron-cmd-norm"] = x[4]
+            fdm["fcs/rudder-cmd-norm"] = x[5]
+
+        def residual(x: np.ndarray) -> np.ndarray:
+            set_ic(x)
+            fdm.run_ic()
+            fdm.get_propulsion().get_steady_state()
+            fdm.run_ic()
+            return np.array([
+                fdm["accelerations/udot-ft_sec2"] * FT_M,
+                fdm["accelerations/vdot-ft_sec2"] * FT_M,
+                fdm["accelerations/wdot-ft_sec2"] * FT_M,
+                fdm["accelerations/pdot-rad_sec2"],
+                fdm["accelerations/qdot-rad_sec2"],
+                fdm["accelerations/rdot-rad_sec2"],
+            ])
+
+        for name in ("fcs/pitch-trim-cmd-norm", "fcs/roll-trim-cmd-norm",
+                     "fcs/yaw-trim-cmd-norm"):
+            fdm[name] = 0.0
+        lower = np.array([-0.3, -0.3, 0.0, -1.0, -1.0, -1.0])
+        upper = np.array([0.4, 0.3, 1.0, 1.0, 1.0, 1.0])
+        x = np.array([0.05, 0.0, 0.5, 0.0, 0.0, 0.0])
+        r = residual(x)
+        delta = np.array([1e-4, 1e-4, 1e-3, 1e-3, 1e-3, 1e-3])
+        for _ in range(40):
+            if np.max(np.abs(r)) < 1e-5:
+                break
+            jac = np.empty((6, 6))
+            for j in range(6):
+                xj = x.copy()
+                xj[j] += delta[j]
+                jac[:, j] = (residual(xj) - r) / delta[j]
+            dx = np.linalg.lstsq(jac, -r, rcond=None)[0]
+            # damped step: never more than 0.1 in any unknown per iteration
+            dx *= min(1.0, 0.1 / max(np.max(np.abs(dx)), 1e-12))
+            x = np.clip(x + dx, lower, upper)
+            r = residual(x)
+        if np.max(np.abs(r)) > 1e-3:
+            raise RuntimeError(
+                f"no trim at {airspeed_mps} m/s: residual {np.array2string(r, precision=4)}")
+        if self._af.has_esc:
+            fdm["fcs/esc-limit-off"] = 0.0
+            fdm.run_ic()
+        self._apply_wind()
+        controls = PlaneControls(aileron=float(x[4]), elevator=float(-x[3]),
+                                 rudder=float(-x[5]), throttle=float(x[2]))
+        self._apply_controls(controls)
+        return controls
+
+    # ------------------------------------------------------------------ internals
+
+    @staticmethod
+    def _silence_outputs(fdm) -> None:
+        """Send any <output> an aircraft file declares to the null device, then stop it.
+
+        Some stock aircraft (c172x) write a CSV into the working directory at run_ic().
+        """
+        index = 0
+        while index < 16 and fdm.get_output_filename(index):
+            fdm.set_output_filename(index, os.devnull)
+            index += 1
+        fdm.disable_output()
+
+    def _bind_nodes(self) -> None:
+        """Cache the property getters read every step (a node read costs ~0.1 us)."""
+        pm = self._fdm.get_property_manager()
+
+        def getter(path: str):
+            node = pm.get_node(path)
+            if node is None:
+                raise RuntimeError(f"JSBSim property {path} not found")
+            return node.get_double_value
+
+        def setter(path: str):
+            node = pm.get_node(path, True)
+            return node.set_double_value
+
+        self._n = {
+            "lat": getter("position/lat-geod-rad"),
+            "lon": getter("position/long-gc-rad"),
+            "alt": getter("position/h-sl-meters"),
+            "vn": getter("velocities/v-north-fps"),
+            "ve": getter("velocities/v-east-fps"),
+            "vd": getter("velocities/v-down-fps"),
+            "phi": getter("attitude/phi-rad"),
+            "theta": getter("attitude/theta-rad"),
+            "psi": getter("attitude/psi-rad"),
+            "p": getter("velocities/pi-rad_sec"),
+            "q": getter("velocities/qi-rad_sec"),
+            "r": getter("velocities/ri-rad_sec"),
+            "ax": getter("accelerations/a-pilot-x-ft_sec2"),
+            "ay": getter("accelerations/a-pilot-y-ft_sec2"),
+            "az": getter("accelerations/a-pilot-z-ft_sec2"),
+            "wn": getter("atmosphere/total-wind-north-fps"),
+            "we": getter("atmosphere/total-wind-east-fps"),
+            "wd": getter("atmosphere/total-wind-down-fps"),
+            "vt": getter("velocities/vt-fps"),
+            "alpha": getter("aero/alpha-rad"),
+            "beta": getter("aero/beta-rad"),
+            "fx_gear": getter("forces/fbx-gear-lbs"),
+            "fz_gear": getter("forces/fbz-gear-lbs"),
+            "rho": getter("atmosphere/rho-slugs_ft3"),
+            "pressure": getter("atmosphere/P-psf"),
+            "temperature": getter("atmosphere/T-R"),
+            "ecef_x": getter("position/ecef-x-ft"),
+            "ecef_y": getter("position/ecef-y-ft"),
+            "ecef_z": getter("position/ecef-z-ft"),
+        }
+        self._set_aileron = setter("fcs/aileron-cmd-norm")
+        self._set_elevator = setter("fcs/elevator-cmd-norm")
+        self._set_rudder = setter("fcs/rudder-cmd-norm")
+        self._set_throttle = setter("fcs/throttle-cmd-norm")
+
+    def _apply_controls(self, controls: PlaneControls) -> None:
+        if controls == self._controls:
+            return
+        self._controls = controls
+        self._set_aileron(controls.aileron)
+        self._set_elevator(-controls.elevator)
+        self._set_rudder(-controls.rudder)
+        self._set_throttle(controls.throttle)
+
+    def _set_wind_values(self, wind_ned, turbulence: str) -> None:
+        if turbulence not in TURBULENCE:
+            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE)}")
+        wind = np.asarray(wind_ned, dtype=float).reshape(3)
+        if not np.all(np.isfinite(wind)):
+            raise ValueError("wind_ned must be finite")
+        self._wind_ned = wind.copy()
+        self._turbulence = turbulence
+
+    def _apply_wind(self) -> None:
+        """Write wind and turbulence into JSBSim (run_ic() resets them)."""
+        fdm = self._fdm
+        fdm["atmosphere/wind-north-fps"] = self._wind_ned[0] / FT_M
+        fdm["atmosphere/wind-east-fps"] = self._wind_ned[1] / FT_M
+        fdm["atmosphere/wind-down-fps"] = self._wind_ned[2] / FT_M
+        severity, w20_kt = TURBULENCE[self._turbulence]
+        fdm["atmosphere/turb-type"] = TURB_TYPE_TUSTIN if severity else 0
+        fdm["atmosphere/turbulence/milspec/severity"] = severity
+        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = (
+            w20_kt * KT_MPS / FT_M)
+
+    def _rest_pose(self) -> tuple[float, float]:
+        """Pitch [rad] and CG height above the ground [m] resting on the bogeys.
+
+        From the gear locations (structural frame: x aft, z up, inches): the front
+        unit and the mean of the others must touch a flat surface at zero bank.
+        """
+        fdm = self._fdm
+        gear = fdm.get_ground_reactions()
+        cg = np.asarray(fdm.get_mass_balance().get_xyz_cg()).ravel()
+        pts = []
+        for i in self._af.bogeys:
+            s = np.asarray(gear.get_gear_unit(i).get_location()).ravel()
+            d = (s - cg) * 0.0254
+            pts.append((-d[0], -d[2]))           # body x forward, z down [m]
+        pts.sort(reverse=True)
+        x_f, z_f = pts[0]
+        x_r = sum(p[0] for p in pts[1:]) / (len(pts) - 1)
+        z_r = sum(p[1] for p in pts[1:]) / (len(pts) - 1)
+        theta = math.atan2(z_f - z_r, x_f - x_r)
+        depth = z_f * math.cos(theta) - x_f * math.sin(theta)
+        return theta, depth
+
+    def _place_at_start(self) -> None:
+        """Put the aircraft at rest at home (on the launcher or the runway)."""
+        fdm = self._fdm
+        lat_deg, lon_deg, alt_m, heading_deg = self.home
+        deck_m = alt_m + (LAUNCHER_HEIGHT_M if self._af.catapult else 0.0)
+        theta, depth = self._rest_pose()
+        fdm["ic/lat-geod-deg"] = lat_deg
+        fdm["ic/long-gc-deg"] = lon_deg
+        fdm["ic/terrain-elevation-ft"] = deck_m / FT_M
+        fdm["ic/h-sl-ft"] = (deck_m + depth + 0.005) / FT_M
+        fdm["ic/psi-true-deg"] = heading_deg
+        fdm["ic/theta-rad"] = theta
+        fdm["ic/phi-rad"] = 0.0
+        for name in ("ic/u-fps", "ic/v-fps", "ic/w-fps",
+                     "ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
+            fdm[name] = 0.0
+        for brake in self._af.brakes:
+            fdm[brake] = 1.0
+        if self._af.catapult:
+            fdm["fcs/catapult-force-lbs"] = 0.0
+        else:
+            fdm["fcs/mixture-cmd-norm"] = 1.0
+        self._controls = None                     # force the write below
+        self._apply_controls(PlaneControls())
+        fdm.run_ic()
+        fdm.get_propulsion().init_running(-1)
+        fdm["position/terrain-elevation-asl-ft"] = deck_m / FT_M
+        self._apply_wind()
+        for _ in range(int(round(SETTLE_S * 1e6 / self._dt_us))):
+            fdm.run()
+        self._phase = _HELD
+        self._armed_us = None
+
+    def _launcher_logic(self, throttle: float) -> None:
+        """Automatic release on the launcher and the end of the catapult stroke."""
+        if self._phase == _HELD:
+            if throttle <= AUTO_LAUNCH_THROTTLE:
+                self._armed_us = None
+            elif not self._af.catapult:
+                self.launch()
+            elif self._armed_us is None:
+                self._armed_us = self._t_us
+            elif self._t_us - self._armed_us >= int(SPIN_UP_S * 1e6):
+                self.launch()
+            return
+        # firing: stop pushing at the end of the rail, then remove the launcher
+        n = self._n
+        x0, y0, z0 = self._rail_start_ecef_ft
+        travelled_m = math.sqrt((n["ecef_x"]() - x0) ** 2 + (n["ecef_y"]() - y0) ** 2
+                                + (n["ecef_z"]() - z0) ** 2) * FT_M
+        if travelled_m >= RAIL_LENGTH_M:
+            fdm = self._fdm
+            fdm["fcs/catapult-force-lbs"] = 0.0
+            fdm["position/terrain-elevation-asl-ft"] = self.home[2] / FT_M
+            for brake in self._af.brakes:
+                fdm[brake] = 1.0                  # any later ground contact skids to rest
+            self._phase = _FREE

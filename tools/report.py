@@ -1,0 +1,122 @@
+"""``sitl report RUN_DIR``: PNG pictures of a run.
+
+* ``track.png``     top view of the true track and the estimate over the waypoints
+* ``alt_speed.png`` altitude and airspeed against their targets
+* ``xtrack.png``    cross-track error on the straight legs (counted part highlighted)
+* ``nav_error.png`` estimate error of each state with its +-3 sigma bound (when the
+                    log carries the filter's sigmas)
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+
+def _load(run_dir: Path) -> dict:
+    with np.load(run_dir / "flight.npz", allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def make_report(run_dir: Path) -> list[Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .summary import leg_xtrack
+
+    a = _load(run_dir)
+    summary = {}
+    if (run_dir / "summary.json").exists():
+        summary = json.loads((run_dir / "summary.json").read_text())
+    out = []
+    t = a["t_s"]
+    armed = a["armed"] > 0
+
+    fig, ax = plt.subplots(figsize=(8, 8))
+    ax.plot(a["truth_e_m"][armed], a["truth_n_m"][armed], lw=1.2, label="true track")
+    ax.plot(a["est_e_m"][armed], a["est_n_m"][armed], lw=0.6, ls="--", label="estimate")
+    wp = a.get("mission_wp")
+    if wp is not None and len(wp):
+        ax.plot(wp[:, 2], wp[:, 1], "k^", ms=7, label="mission items")
+        for seq, n, e in wp:
+            ax.annotate(str(int(seq)), (e, n), textcoords="offset points", xytext=(5, 5))
+    ax.plot([0], [0], "rs", label="home")
+    ax.set_xlabel("east of home [m]")
+    ax.set_ylabel("north of home [m]")
+    ax.set_aspect("equal", "datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best")
+    ax.set_title(f"Track ({summary.get('nav_source', '?')} navigation, seed {summary.get('seed', '?')})")
+    p = run_dir / "track.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    ax1.plot(t[armed], a["truth_alt_m"][armed], label="true altitude")
+    ax1.plot(t[armed], a["tgt_alt_m"][armed], "--", label="target")
+    ax1.set_ylabel("altitude MSL [m]")
+    ax1.legend()
+    ax1.grid(True, alpha=0.3)
+    ax2.plot(t[armed], a["truth_airspeed_mps"][armed], label="true airspeed")
+    ax2.plot(t[armed], a["tgt_airspeed_mps"][armed], "--", label="target")
+    ax2.set_ylabel("airspeed [m/s]")
+    ax2.set_xlabel("time [s]")
+    ax2.legend()
+    ax2.grid(True, alpha=0.3)
+    p = run_dir / "alt_speed.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+
+    xt, use = leg_xtrack(a)
+    fig, ax = plt.subplots(figsize=(10, 4))
+    ax.plot(t, xt, lw=0.6, color="0.6", label="all straight-leg samples")
+    ax.plot(t[use], xt[use], ".", ms=1.5, label="counted (after capture)")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("cross-track error [m]")
+    ax.set_title(f"xtrack RMS {summary.get('xtrack_rms_m')}, max {summary.get('xtrack_max_m')}")
+    ax.legend()
+    ax.grid(True, alpha=0.3)
+    p = run_dir / "xtrack.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+
+    if "sig_pn_m" in a:
+        out.append(_nav_error(plt, run_dir, a, armed))
+    return out
+
+
+def _nav_error(plt, run_dir: Path, a: dict, armed: np.ndarray) -> Path:
+    t = a["t_s"]
+    rows = [
+        ("north [m]", a["est_n_m"] - a["truth_n_m"], a["sig_pn_m"]),
+        ("east [m]", a["est_e_m"] - a["truth_e_m"], a["sig_pe_m"]),
+        ("alt [m]", a["est_alt_m"] - a["truth_alt_m"], a["sig_pd_m"]),
+        ("v north [m/s]", a["est_vn_mps"] - a["truth_vn_mps"], a["sig_vn_mps"]),
+        ("v east [m/s]", a["est_ve_mps"] - a["truth_ve_mps"], a["sig_ve_mps"]),
+        ("v down [m/s]", a["est_vd_mps"] - a["truth_vd_mps"], a["sig_vd_mps"]),
+        ("roll [deg]", np.degrees(_wrap(a["est_roll_rad"] - a["truth_roll_rad"])), np.degrees(a["sig_roll_rad"])),
+        ("pitch [deg]", np.degrees(_wrap(a["est_pitch_rad"] - a["truth_pitch_rad"])), np.degrees(a["sig_pitch_rad"])),
+        ("yaw [deg]", np.degrees(_wrap(a["est_yaw_rad"] - a["truth_yaw_rad"])), np.degrees(a["sig_yaw_rad"])),
+    ]
+    fig, axes = plt.subplots(3, 3, figsize=(14, 9), sharex=True)
+    for ax, (name, err, sig) in zip(axes.flat, rows):
+        ax.plot(t[armed], err[armed], lw=0.7)
+        ax.plot(t[armed], 3 * sig[armed], "r--", lw=0.6)
+        ax.plot(t[armed], -3 * sig[armed], "r--", lw=0.6)
+        ax.set_title(name)
+        ax.grid(True, alpha=0.3)
+    fig.suptitle("Estimate error and +-3 sigma")
+    p = run_dir / "nav_error.png"
+    fig.savefig(p, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return p
+
+
+def _wrap(x):
+    return (x + np.pi) % (2 * np.pi) - np.pi

@@ -1,0 +1,168 @@
+"""Build and run a headless SITL session in one process (the memory-pipe lockstep).
+
+Used by ``sitl run``, ``sitl bench`` and the end-to-end tests. The autopilot and the
+simulator are the same objects the two console scripts build; here they share one OS
+thread and talk MAVLink 2 bytes through the in-process pipe.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from autopilot.link.hil import AutopilotHilEnd
+from autopilot.link.transports import memory_pair
+from autopilot.mission.files import load_mission
+from autopilot.mission.items import Mission, POSITION_COMMANDS
+from autopilot.params import ParamStore
+from autopilot.vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
+from autopilot.log.flightlog import FlightLog
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+MISSIONS_DIR = REPO_ROOT / "missions"
+DEFAULT_MISSION = MISSIONS_DIR / "default.waypoints"
+DEFAULT_SCENARIO = MISSIONS_DIR / "default_scenario.toml"
+
+
+@dataclass
+class RunConfig:
+    vehicle: str = "plane"
+    airframe: str = "aerosonde"
+    mission: Path = DEFAULT_MISSION
+    scenario: Path | None = None
+    wind: tuple[float, float] | None = None        # (speed m/s, from deg)
+    turbulence: str | None = None
+    seed: int = 1
+    speedup: float | None = None                   # None = as fast as possible
+    duration_s: float = 1800.0
+    nav: str = "ekf"
+    home: tuple[float, float, float, float] | None = None  # lat, lon, alt, heading
+    log_dir: Path | None = None
+    progress: bool = False
+    params_file: Path | None = None
+    param_overrides: dict = field(default_factory=dict)
+
+
+def mission_home(mission: Mission) -> tuple[float, float, float, float]:
+    """Home from item 0; heading towards the first item with a position (the launch
+    direction), else north."""
+    h = mission.home
+    heading = 0.0
+    for it in list(mission)[1:]:
+        if it.command in POSITION_COMMANDS and (it.x_lat_deg, it.y_lon_deg) != (h.x_lat_deg, h.y_lon_deg):
+            if it.x_lat_deg == 0 and it.y_lon_deg == 0:
+                continue
+            lat1, lat2 = math.radians(h.x_lat_deg), math.radians(it.x_lat_deg)
+            dlon = math.radians(it.y_lon_deg - h.y_lon_deg)
+            y = math.sin(dlon) * math.cos(lat2)
+            x = math.cos(lat1) * math.sin(lat2) - math.sin(lat1) * math.cos(lat2) * math.cos(dlon)
+            heading = math.degrees(math.atan2(y, x)) % 360.0
+            break
+    return h.x_lat_deg, h.y_lon_deg, h.z_alt_m, heading
+
+
+class Session:
+    """Everything of one in-process run; ``step()`` advances one lockstep step."""
+
+    def __init__(self, cfg: RunConfig):
+        from sim_bridge.world import build_world
+
+        self.cfg = cfg
+        self.mission = load_mission(cfg.mission)
+        self.home = cfg.home or mission_home(self.mission)
+        world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
+                            cfg.turbulence, cfg.vehicle)
+        self.world = world
+        self.wind = world.wind
+        self.plant = world.plant
+        sim_pipe, ap_pipe = memory_pair()
+        self.bridge = world.bridge(sim_pipe, cfg.vehicle)
+        self.sim_end = self.bridge.link
+        self.params = ParamStore(plane_param_declarations())
+        if cfg.params_file is not None:
+            self.params.load(cfg.params_file)
+        for k, v in cfg.param_overrides.items():
+            self.params.set(k, v)
+        self.ap_end = AutopilotHilEnd(ap_pipe)
+        self.log = FlightLog(LOG_COLUMNS)
+        self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav, autostart=True, log=self.log)
+        self.crashed = False
+        self.wall_loop_s = 0.0
+
+    @property
+    def t_s(self) -> float:
+        return self.bridge.t_us * 1e-6
+
+    def step(self) -> None:
+        self.bridge.send_current()
+        for frame, truth in self.ap_end.poll():
+            out = self.vehicle.step(frame, truth)
+            self.ap_end.answer(out)
+        controls = self.sim_end.poll_answer(self.bridge.t_us)
+        self.bridge.advance(controls)
+
+    def done(self) -> bool:
+        seq = self.vehicle.sequencer
+        if seq is not None and seq.finished and seq.rtl_established:
+            return True
+        st = self.bridge.state
+        if self.vehicle.armed and st.on_ground and self.vehicle.sequencer is not None \
+                and len(self.vehicle.sequencer.reached) > 0:
+            self.crashed = True  # back on the ground after the takeoff: crashed
+            return True
+        return False
+
+    def run(self) -> None:
+        cfg = self.cfg
+        end_s = cfg.duration_s
+        t0 = time.perf_counter()
+        sim0 = self.t_s
+        next_progress = 0.0
+        while self.t_s < end_s:
+            self.step()
+            if self.done():
+                break
+            if cfg.speedup is not None:
+                ahead = (self.t_s - sim0) / cfg.speedup - (time.perf_counter() - t0)
+                if ahead > 0.002:
+                    time.sleep(ahead)
+            if cfg.progress and self.t_s >= next_progress:
+                _progress(self, end_s)
+                next_progress = self.t_s + 10.0
+        self.wall_loop_s = time.perf_counter() - t0
+        if cfg.progress:
+            sys.stderr.write("\n")
+
+
+def _progress(s: Session, end_s: float) -> None:
+    seq = s.vehicle.sequencer
+    reached = len(seq.reached_seqs) if seq else 0
+    total = seq.total_items if seq else len(s.mission) - 1
+    width = 30
+    frac = min(s.t_s / end_s, 1.0)
+    bar = "#" * int(width * reached / max(total, 1))
+    sys.stderr.write(f"\r[{bar:<{width}}] items {reached}/{total}  t={s.t_s:7.1f} s")
+    sys.stderr.flush()
+
+
+def write_run(session: Session, summary: dict, log_dir: Path) -> Path:
+    log_dir.mkdir(parents=True, exist_ok=True)
+    mission_xy = []
+    hf = session.vehicle.home_frame
+    if hf is not None:
+        for it in session.mission:
+            if it.command in POSITION_COMMANDS:
+                p = hf.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), hf.alt0_m)
+                mission_xy.append((it.seq, p[0], p[1]))
+    session.log.save(log_dir / "flight.npz",
+                     extra={"mission_wp": np.array(mission_xy, dtype=float).reshape(-1, 3)})
+    session.params.save(log_dir / "params.parm")
+    with open(log_dir / "summary.json", "w") as f:
+        json.dump(summary, f, indent=2, sort_keys=True)
+        f.write("\n")
+    return log_dir

@@ -1,0 +1,159 @@
+"""``sitl``: run, report and benchmark headless SITL flights.
+
+    sitl run    [--vehicle plane] [--airframe NAME] [--mission FILE] [--scenario FILE]
+                [--wind SPEED,FROM_DEG] [--turbulence LEVEL] [--seed N] [--speedup max|X]
+                [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
+                [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
+    sitl report RUN_DIR
+    sitl bench  [--seconds S]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, RunConfig
+
+
+class CliError(Exception):
+    pass
+
+
+def _floats(text: str, n: int, what: str) -> tuple[float, ...]:
+    parts = text.split(",")
+    if len(parts) != n:
+        raise CliError(f"{what}: expected {n} comma-separated numbers, got {text!r}")
+    try:
+        return tuple(float(p) for p in parts)
+    except ValueError:
+        raise CliError(f"{what}: not a number in {text!r}") from None
+
+
+def _config(args) -> RunConfig:
+    if args.vehicle != "plane":
+        raise CliError(f"--vehicle {args.vehicle}: only 'plane' is implemented so far")
+    wind = None
+    if args.wind is not None:
+        speed, frm = _floats(args.wind, 2, "--wind")
+        if speed < 0 or speed > 60:
+            raise CliError("--wind: speed must be 0..60 m/s")
+        wind = (speed, frm % 360.0)
+    home = None
+    if args.home is not None:
+        lat, lon, alt, hdg = _floats(args.home, 4, "--home")
+        if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+            raise CliError("--home: latitude must be within +-90 and longitude within +-180")
+        home = (lat, lon, alt, hdg % 360.0)
+    speedup = None
+    if args.speedup not in (None, "max"):
+        try:
+            speedup = float(args.speedup)
+        except ValueError:
+            raise CliError("--speedup: 'max' or a positive number") from None
+        if speedup <= 0:
+            raise CliError("--speedup: 'max' or a positive number")
+    scenario = Path(args.scenario) if args.scenario else None
+    if scenario is None and wind is None and args.mission is None:
+        scenario = DEFAULT_SCENARIO  # the default flight: 5 m/s crosswind, light turbulence
+    overrides = {}
+    for kv in args.param or []:
+        if "=" not in kv:
+            raise CliError(f"--param {kv!r}: expected NAME=VALUE")
+        k, v = kv.split("=", 1)
+        overrides[k.strip()] = v.strip()
+    return RunConfig(vehicle=args.vehicle, airframe=args.airframe,
+                     mission=Path(args.mission) if args.mission else DEFAULT_MISSION,
+                     scenario=scenario, wind=wind, turbulence=args.turbulence, seed=args.seed,
+                     speedup=speedup, duration_s=args.duration, nav=args.nav, home=home,
+                     log_dir=Path(args.log_dir) if args.log_dir else None,
+                     progress=not args.json and sys.stderr.isatty(),
+                     params_file=Path(args.params) if args.params else None,
+                     param_overrides=overrides)
+
+
+def cmd_run(args) -> int:
+    from autopilot.mission.files import MissionFileError
+    from autopilot.params import ParamError
+    from sim_bridge.scenario import ScenarioError
+    from .runner import Session, write_run
+    from .summary import format_summary, run_summary
+
+    cfg = _config(args)
+    try:
+        session = Session(cfg)
+    except (MissionFileError, ScenarioError, ParamError, FileNotFoundError) as e:
+        raise CliError(str(e)) from None
+    session.run()
+    summary = run_summary(session)
+    log_dir = cfg.log_dir or Path("runs") / time.strftime(f"%Y%m%d-%H%M%S-seed{cfg.seed}")
+    write_run(session, summary, log_dir)
+    if args.json:
+        print(json.dumps(summary, indent=2, sort_keys=True))
+    else:
+        print(format_summary(summary))
+        print(f"{'run folder':>24}: {log_dir}")
+    return 0
+
+
+def cmd_report(args) -> int:
+    from .report import make_report
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "flight.npz").exists():
+        raise CliError(f"{run_dir}: no flight.npz (not a run folder)")
+    for p in make_report(run_dir):
+        print(p)
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import run_bench
+    run_bench(args.seconds)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="sitl", description="Headless SITL flights: run, report, bench")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run", help="fly a mission headless and print its summary")
+    r.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    r.add_argument("--airframe", default="aerosonde", help="aerosonde (default) or c172p")
+    r.add_argument("--mission", help=f"mission file (.waypoints or .plan); default {DEFAULT_MISSION.name}")
+    r.add_argument("--scenario", help="scenario TOML: wind, turbulence, timed fault events")
+    r.add_argument("--wind", help="steady wind SPEED_MPS,FROM_DEG")
+    r.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
+    r.add_argument("--seed", type=int, default=1)
+    r.add_argument("--speedup", default=None, help="'max' (default) or a real-time multiple")
+    r.add_argument("--duration", type=float, default=1800.0, help="simulated seconds at most")
+    r.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"],
+                   help="navigation source (truth is a debugging aid)")
+    r.add_argument("--home", help="LAT,LON,ALT_M,HEADING_DEG (default: the mission's item 0)")
+    r.add_argument("--log-dir", help="run folder (default runs/DATE-TIME-seedN)")
+    r.add_argument("--param", action="append", help="NAME=VALUE parameter override (repeatable)")
+    r.add_argument("--params", help=".parm file of parameters to load")
+    r.add_argument("--json", action="store_true", help="print only the summary JSON on stdout")
+    r.set_defaults(func=cmd_run)
+    rp = sub.add_parser("report", help="draw PNG pictures of a run folder")
+    rp.add_argument("run_dir")
+    rp.set_defaults(func=cmd_report)
+    b = sub.add_parser("bench", help="real-time factors and time per block")
+    b.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per measurement")
+    b.set_defaults(func=cmd_bench)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except CliError as e:
+        print(f"sitl: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
