@@ -15,7 +15,7 @@ from sim_bridge.scenario import (
 from sim_bridge.sensors import SensorParams, SensorSuite
 
 ROOT = Path(__file__).resolve().parent.parent
-DATA = ROOT / "tests" / "data"
+DATA = ROOT / "tests" / "data_scenarios"  # not tests/data: test_mission_files lists that folder
 MISSIONS = ROOT / "missions"
 
 
@@ -56,7 +56,7 @@ def test_every_event_kind_with_magnitudes_parses_and_sorts_by_time():
     assert sc.events[2].magnitudes == {"bias": 0.05, "axis": 2}
     assert sc.wind == Wind(4.0, 0.0, "moderate")
     # AND each one is accepted by the fault injector
-    inj = FaultInjector(SensorParams(), np.random.default_rng(0), 0.01)
+    inj = FaultInjector(np.random.default_rng(0), SensorParams(), 0.01)
     assert all(inj.inject(e.unit_id, e.type_id, e.instance, **e.magnitudes) for e in sc.events)
 
 
@@ -129,7 +129,7 @@ def test_gps_outage_scenario_drives_the_injector():
     dt = 0.02
     params = SensorParams()
     suite = SensorSuite(params, np.random.default_rng(1), dt)
-    inj = FaultInjector(params, np.random.default_rng(2), dt)
+    inj = FaultInjector(np.random.default_rng(2), params, dt)
     pending = list(sc.events)
     truth = PlantState(0, math.radians(47.0), math.radians(8.0), 500.0, np.zeros(3),
                        np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), np.array([0, 0, -9.81]),

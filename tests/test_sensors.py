@@ -372,7 +372,7 @@ def test_sample_cost_is_small():
 def faulty(seed=20, params=None, dt=DT):
     p = params or SensorParams()
     return (SensorSuite(p, np.random.default_rng(seed), dt),
-            FaultInjector(p, np.random.default_rng(seed + 1000), dt))
+            FaultInjector(np.random.default_rng(seed + 1000), p, dt))
 
 
 def step_all(suite, inj, t0_s, t1_s, make=lambda k, t: state(t), dt=DT):

@@ -37,17 +37,33 @@ class Codec:
         return buf
 
     def decode(self, data: bytes) -> list:
-        """Feed received bytes; return the complete, valid messages among them."""
+        """Feed received bytes; return the complete, valid messages among them.
+
+        Resynchronisation: when a frame fails (bad CRC, bad length), pymavlink has
+        consumed as many bytes as its corrupt header claimed, which may swallow good
+        frames behind it. We rewind to the byte after the failed frame's start marker
+        and scan again, as a byte-wise parser would, so garbage costs only itself."""
         out = []
         if not data:
             return out
-        msgs = self.mav.parse_buffer(data)
-        if not msgs:
-            return out
-        for m in msgs:
-            if m.get_type() == "BAD_DATA":
+        mav = self.mav
+        m = mav.parse_char(data)
+        while m is not None:
+            if isinstance(m, mavlink2.MAVLink_bad_data):
                 self.bad_frames += 1
-                continue
-            out.append(m)
+                if m.reason != "Bad prefix" and len(m.data) > 1:
+                    mav.buf_index -= len(m.data) - 1
+                    mav.expected_length = 8
+            elif isinstance(m, mavlink2.MAVLink_unknown):
+                # an id this dialect does not know: its CRC cannot be checked, so it is
+                # as likely garbage as a frame; drop it and rescan behind its marker
+                self.bad_frames += 1
+                buf = m.get_msgbuf()
+                if len(buf) > 1:
+                    mav.buf_index -= len(buf) - 1
+                    mav.expected_length = 8
+            else:
+                out.append(m)
+            m = mav.parse_char(b"")
         self.received += len(out)
         return out

@@ -88,8 +88,15 @@ class ActiveFault:
 class FaultInjector:
     """Applies the active sensor and actuator faults (see the module doc)."""
 
-    def __init__(self, params: SensorParams, rng: np.random.Generator, dt_s: float,
-                 motor_channels: tuple[int, ...] = (3,)):
+    def __init__(self, rng: np.random.Generator, params: SensorParams | None = None,
+                 dt_s: float = 0.01, motor_channels: tuple[int, ...] = (3,)):
+        """``params`` / ``dt_s`` must be those of the SensorSuite (garbage noise is
+        scaled from its nominal noise); ``motor_channels`` are the control-vector
+        indices of motor instances 0, 1, ... (plane: throttle, channel 3)."""
+        if params is None:
+            params = SensorParams()
+        if dt_s <= 0.0:
+            raise ValueError("dt_s must be > 0")
         self.params = params
         self._rng = rng
         self.dt_s = float(dt_s)

@@ -256,8 +256,6 @@ class JSBSimPlane:
             fdm["fcs/catapult-force-lbs"] = 0.0
         for brake in self._af.brakes:
             fdm[brake] = 1.0 if self._af.catapult else 0.0
-        if self._af.has_esc:
-            fdm["fcs/esc-limit-off"] = 1.0
         fdm.get_propulsion().init_running(-1)
         vt_fps = airspeed_mps / FT_M
         wind_n, wind_e, _ = self._wind_ned
@@ -304,10 +302,19 @@ class JSBSimPlane:
         lower = np.array([-0.3, -0.3, 0.0, -1.0, -1.0, -1.0])
         upper = np.array([0.4, 0.3, 1.0, 1.0, 1.0, 1.0])
         x = np.array([0.05, 0.0, 0.5, 0.0, 0.0, 0.0])
+        # JSBSim's propeller steady-state search marches in 0.5 s steps and diverges
+        # from a stopped propeller: spin it up in real time first (run_ic() keeps the
+        # propeller speed, so the excursion of the airframe here does not matter).
+        set_ic(x)
+        fdm.run_ic()
+        for _ in range(int(round(2.0e6 / self._dt_us))):
+            fdm.run()
+        if self._af.has_esc:
+            fdm["fcs/esc-limit-off"] = 1.0
         r = residual(x)
         delta = np.array([1e-4, 1e-4, 1e-3, 1e-3, 1e-3, 1e-3])
         for _ in range(40):
-            if np.max(np.abs(r)) < 1e-5:
+            if not np.all(np.isfinite(r)) or np.max(np.abs(r)) < 1e-5:
                 break
             jac = np.empty((6, 6))
             for j in range(6):
@@ -319,7 +326,7 @@ class JSBSimPlane:
             dx *= min(1.0, 0.1 / max(np.max(np.abs(dx)), 1e-12))
             x = np.clip(x + dx, lower, upper)
             r = residual(x)
-        if np.max(np.abs(r)) > 1e-3:
+        if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-3:
             raise RuntimeError(
                 f"no trim at {airspeed_mps} m/s: residual {np.array2string(r, precision=4)}")
         if self._af.has_esc:
