@@ -50,7 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     from .world import build_world
     try:
         home = _home_from(args)
-        wind = parse_wind_arg(args.wind) if args.wind else None
+        w = parse_wind_arg(args.wind) if args.wind else None
+        wind = (w.speed_mps, w.from_deg) if w else None
         world = build_world(home, args.seed, args.airframe, Path(args.scenario) if args.scenario else None,
                             wind, args.turbulence, args.vehicle)
         transport = open_url(args.listen)

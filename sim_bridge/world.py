@@ -59,6 +59,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
     from .plants.jsbsim_plane import JSBSimPlane
     plant = JSBSimPlane(airframe, home=home, wind_ned=tuple(w.wind_ned()),
                         turbulence=w.turbulence, rng=rng_plant)
-    sensors = SensorSuite(sensor_params or SensorParams(), rng_sensors, dt_s=0.01)
+    sp = sensor_params or SensorParams()
+    sensors = SensorSuite(sp, rng_sensors, dt_s=0.01)
     sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
-    return World(plant, sensors, FaultInjector(rng_faults), events, w)
+    return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w)

@@ -148,7 +148,7 @@ def test_default_waypoints_content():
     assert (takeoff.param1, takeoff.z_alt_m) == (12.0, 60.0)
     assert takeoff.frame == FRAME_GLOBAL_RELATIVE_ALT
     speed = m[2]
-    assert (speed.param1, speed.param2) == (0.0, 22.0)  # airspeed 22 m/s
+    assert (speed.param1, speed.param2) == (0.0, 25.0)  # airspeed 25 m/s
     jump = m[9]
     assert (jump.param1, jump.param2) == (5.0, 1.0)
     assert m[int(jump.param1)].command == NAV_WAYPOINT

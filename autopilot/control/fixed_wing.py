@@ -3,12 +3,19 @@
 Loops are named by what they close:
 
 * roll from aileron:      da = kp (phi_c - phi) + ki int(...) - kd p
-* pitch from elevator:    de = kp (theta_c - theta) + ki int(...) - kd q + trim
-* climb rate from pitch:  theta_c = theta_trim + kp (hdot_c - hdot) + ki int(...)
+* pitch from elevator:    de = s (kp (theta_c - theta) + ki int(...) - kd q) + de_trim (V_t/V)^2
+* climb rate from pitch:  theta_c = alpha_trim (V_t/V)^2 + asin(hdot_c / V)
+                          + kp (hdot_c - hdot) + ki int(...)
                           + the turn compensation (1/cos(phi) - 1) * PTCH_TURN_FF
 * altitude to climb rate: hdot_c = clamp(ALT_KP (h_c - h), -SINK_MAX, CLMB_MAX)
 * airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
 * yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
+
+The feed-forwards follow from the lift and pitching-moment balance: the trim angle of
+attack and the trim elevator both grow as 1/V^2 about their values at TRIM_ARSPD, and
+the flight-path angle for a commanded climb rate is asin(hdot_c / V); the loops only
+correct what the feed-forwards miss. The surface loops are scaled by
+s = clamp((TRIM_ARSPD / V)^2, 0.5, 2) because control power grows with dynamic pressure.
 
 Every PID has explicit saturation and anti-windup (control/pid.py). The course loop is
 L1 guidance (guidance/l1.py), which commands the bank angle directly.
@@ -36,24 +43,25 @@ FW_PARAMS = (
     Param("PTCH_KP", 2.0, 0.0, 10.0, "1/rad", "pitch angle to elevator, proportional"),
     Param("PTCH_KI", 0.5, 0.0, 5.0, "1/(rad s)", "pitch angle to elevator, integral"),
     Param("PTCH_KD", 0.5, 0.0, 5.0, "s/rad", "pitch rate damping to elevator"),
-    Param("PTCH_TRIM_DEG", 2.0, -10.0, 15.0, "deg", "pitch attitude in level cruise"),
+    Param("PTCH_TRIM_DEG", 5.7, -10.0, 15.0, "deg", "pitch attitude (= angle of attack) in level flight at TRIM_ARSPD"),
+    Param("ELEV_TRIM", 0.35, -1.0, 1.0, "", "elevator in level flight at TRIM_ARSPD"),
     Param("PTCH_TURN_FF", 0.12, 0.0, 1.0, "rad", "extra pitch per (1/cos(bank) - 1) in turns"),
     Param("PTCH_LIM_MAX_DEG", 20.0, 0.0, 45.0, "deg", "maximum pitch command"),
     Param("PTCH_LIM_MIN_DEG", -15.0, -45.0, 0.0, "deg", "minimum pitch command"),
-    Param("ALT_KP", 0.4, 0.0, 5.0, "1/s", "altitude error to climb-rate command"),
-    Param("CLMB_KP", 0.08, 0.0, 2.0, "rad s/m", "climb-rate error to pitch, proportional"),
-    Param("CLMB_KI", 0.03, 0.0, 2.0, "rad/m", "climb-rate error to pitch, integral"),
+    Param("ALT_KP", 0.3, 0.0, 5.0, "1/s", "altitude error to climb-rate command"),
+    Param("CLMB_KP", 0.03, 0.0, 2.0, "rad s/m", "climb-rate error to pitch, proportional"),
+    Param("CLMB_KI", 0.01, 0.0, 2.0, "rad/m", "climb-rate error to pitch, integral"),
     Param("CLMB_MAX", 4.0, 0.5, 15.0, "m/s", "maximum climb rate"),
     Param("SINK_MAX", 4.0, 0.5, 15.0, "m/s", "maximum sink rate"),
-    Param("THR_TRIM", 0.45, 0.0, 1.0, "", "throttle in level cruise at TRIM_ARSPD"),
+    Param("THR_TRIM", 0.38, 0.0, 1.0, "", "throttle in level cruise at TRIM_ARSPD"),
     Param("THR_MAX", 1.0, 0.0, 1.0, "", "maximum throttle"),
     Param("THR_CLMB_FF", 0.06, 0.0, 1.0, "s/m", "throttle per m/s of commanded climb"),
     Param("SPD_KP", 0.08, 0.0, 2.0, "s/m", "airspeed error to throttle, proportional"),
     Param("SPD_KI", 0.03, 0.0, 2.0, "1/m", "airspeed error to throttle, integral"),
     Param("YAW_KD", 0.3, 0.0, 5.0, "s/rad", "yaw-rate error (vs coordinated turn) to rudder"),
-    Param("ROLL_LIMIT_DEG", 40.0, 5.0, 65.0, "deg", "maximum bank angle"),
-    Param("TRIM_ARSPD", 22.0, 10.0, 40.0, "m/s", "cruise airspeed"),
-    Param("ARSPD_FBW_MIN", 16.0, 8.0, 40.0, "m/s", "minimum airspeed command"),
+    Param("ROLL_LIMIT_DEG", 35.0, 5.0, 65.0, "deg", "maximum bank angle"),
+    Param("TRIM_ARSPD", 25.0, 10.0, 40.0, "m/s", "cruise airspeed"),
+    Param("ARSPD_FBW_MIN", 20.0, 8.0, 40.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 60.0, "m/s", "maximum airspeed command"),
 )
 
@@ -96,9 +104,13 @@ class FixedWingController:
         # altitude to climb rate (outer), climb rate to pitch (middle)
         hdot = -float(nav.v_ned[2])
         hdot_c = min(max(p["ALT_KP"] * (alt_cmd_m - nav.alt_m), -p["SINK_MAX"]), p["CLMB_MAX"])
+        q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
+        scale = min(max(q_ratio, 0.5), 2.0)
         turn_ff = p["PTCH_TURN_FF"] * (1.0 / max(math.cos(roll), 0.5) - 1.0)
+        gamma_c = math.asin(min(max(hdot_c / v_air, -0.5), 0.5))
+        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * min(q_ratio, 2.0)
         theta_c = self.climb_pid.update(hdot_c, hdot, dt, rate=0.0,
-                                        feedforward=math.radians(p["PTCH_TRIM_DEG"]) + turn_ff)
+                                        feedforward=alpha_ff + gamma_c + turn_ff)
         if pitch_min_rad is not None:
             theta_c = max(theta_c, pitch_min_rad)
 
@@ -111,8 +123,10 @@ class FixedWingController:
                                         feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)
 
         # inner loops
-        da = self.roll_pid.update(phi_c, roll, dt, rate=float(omega[0]))
-        de = self.pitch_pid.update(theta_c, pitch, dt, rate=float(omega[1]))
+        da = self.roll_pid.update(phi_c, roll, dt, rate=float(omega[0]), scale=scale)
+        de_ff = p["ELEV_TRIM"] * min(q_ratio, 2.0)
+        de = self.pitch_pid.update(theta_c, pitch, dt, rate=float(omega[1]), feedforward=de_ff,
+                                   scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
         dr = min(max(p["YAW_KD"] * (r_c - float(omega[2])), -1.0), 1.0)
 

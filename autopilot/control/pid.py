@@ -21,14 +21,15 @@ class Pid:
         self._prev_meas = None
 
     def update(self, setpoint: float, measurement: float, dt: float,
-               rate: float | None = None, feedforward: float = 0.0) -> float:
+               rate: float | None = None, feedforward: float = 0.0, scale: float = 1.0) -> float:
         """``rate`` is d(measurement)/dt when measured (e.g. a gyro); otherwise the
-        derivative is taken by differencing the measurement."""
+        derivative is taken by differencing the measurement. ``scale`` multiplies the
+        feedback terms (gain scheduling, e.g. with dynamic pressure)."""
         err = setpoint - measurement
         if rate is None:
             rate = 0.0 if self._prev_meas is None or dt <= 0 else (measurement - self._prev_meas) / dt
         self._prev_meas = measurement
-        unsat = feedforward + self.kp * err + self.integ - self.kd * rate
+        unsat = feedforward + scale * (self.kp * err + self.integ - self.kd * rate)
         out = min(max(unsat, self.out_min), self.out_max)
         # anti-windup: integrate unless saturated and the error pushes further out
         if self.ki > 0.0 and dt > 0.0:

@@ -13,10 +13,13 @@ Aiding, one :class:`Block` per source and step (y = z - h(x), H = dh/d(dx)):
   H_0 (I - F L)``: for position ``H = [I, -L I, 0 ...]``. This is the delayed-state
   innovation of Larsen et al. 1998 ("Incorporation of time delayed measurements in a
   discrete-time Kalman filter") without the extra covariance bookkeeping; the process
-  noise over 0.15 s is neglected. R = max(eph, EK_GPS_P_NSE)^2 (epv vertically).
+  noise over 0.15 s is neglected. The slow part of the GPS error is the Gauss-Markov
+  error state (layout.GPSB): ``h = p(t-L) + b_gps``, ``H[:, GPSB] = I``; R holds the white
+  part only (config.py).
 * ``gps_vel`` the same for NED velocity: ``H = [0, I, L [f_n x], L R, 0 ...]``.
-* ``baro`` pressure altitude minus an offset fixed when the first GPS fix resets the
-  position (baro and GPS altitudes have different datums): ``h = alt0 - p_D``.
+* ``baro`` pressure altitude, ``h = alt0 - p_D + b_baro``: the barometer offset is an
+  error state (layout.BBIAS), initialised from the first GPS altitude with the GPS's
+  vertical variance, then estimated against GPS altitude.
 * ``mag`` tilt-compensated magnetic heading (3-axis mag is not fused, so a disturbed
   field cannot pull roll and pitch): ``h = yaw(q)``, with the global attitude error
   ``H_att = [-R00 R20 / d, -R10 R20 / d, 1]``, ``d = R00^2 + R10^2``.
@@ -52,7 +55,7 @@ from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
 from autopilot.messages import NavState, SensorFrame
 
 from . import config
-from .layout import ABIAS, ATT, GBIAS, N_WIND, POS, VEL, WIND, error_state_size
+from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND, error_state_size
 from .records import InnovationRecord
 from .strapdown import (Nominal, heading_from_mag, inject_attitude, level_from_accel,
                         mag_heading, yaw_of)
@@ -66,8 +69,11 @@ _AIRSPEED_HOLD_US = 500_000   # a measured airspeed is reported this long [us]
 _MAX_PITCH_FOR_MAG = 0.1      # skip heading fusion when d = cos^2(pitch) < this
 
 # Diagonal floor and ceiling of P, per error state (variances).
-_P_FLOOR = np.array([1e-4] * 3 + [1e-6] * 3 + [1e-10] * 3 + [1e-12] * 3 + [1e-16] * 3 + [1e-6] * 2)
-_P_CEIL = np.array([1e8] * 3 + [1e4] * 3 + [10.0] * 3 + [4.0] * 3 + [0.01] * 3 + [1e4] * 2)
+_P_FLOOR = np.array([1e-4] * 3 + [1e-6] * 3 + [1e-10] * 3 + [1e-12] * 3 + [1e-16] * 3
+                    + [1e-4] + [1e-6] * 3 + [1e-6] * 2)
+_P_CEIL = np.array([1e8] * 3 + [1e4] * 3 + [10.0] * 3 + [4.0] * 3 + [0.01] * 3
+                   + [1e6] + [1e4] * 3 + [1e4] * 2)
+_BARO_INIT_SD = 100.0         # baro offset sigma before the first GPS fix [m]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
 
@@ -126,7 +132,7 @@ class NavFilterBase:
         self._t_us: int | None = None
         self._pos_src: str | None = None      # None -> "fake" -> "gps"
         self._fake_hold = np.zeros(3)
-        self._baro_offset: float | None = None
+        self._baro_ok = False                 # baro offset initialised from GPS
         self._last_baro_alt: float | None = None
         self._airspeed: tuple[int, float] | None = None
         self._rej_since: dict[str, int] = {}
@@ -157,7 +163,8 @@ class NavFilterBase:
         [m/s^2], gyro_bias [rad/s], wind [m/s] (fixed-wing)."""
         s = np.sqrt(np.maximum(np.diag(self.P), 0.0))
         out = {"p_ned": s[POS], "v_ned": s[VEL], "att": s[ATT],
-               "accel_bias": s[ABIAS], "gyro_bias": s[GBIAS]}
+               "accel_bias": s[ABIAS], "gyro_bias": s[GBIAS], "baro_bias": s[BBIAS],
+               "gps_bias": s[GPSB]}
         if self.is_plane:
             out["wind"] = s[WIND]
         return out
@@ -246,7 +253,7 @@ class NavFilterBase:
         nom.p = np.zeros(3)
         nom.wind = np.zeros(2)
         sd = np.concatenate([[_FAKE_POS_SD] * 3, [0.5] * 3, [0.02, 0.02, 0.1],
-                             [0.2] * 3, [0.003] * 3, [8.0] * 2])[: self.n]
+                             [0.2] * 3, [0.003] * 3, [_BARO_INIT_SD], self._gm_sd(), [8.0] * 2])[: self.n]
         self._init_covariance(sd)
         self.aligned = True
         self._pos_src = "fake"
@@ -265,20 +272,49 @@ class NavFilterBase:
         nom.ba = np.zeros(3)
         nom.bg = np.zeros(3)
         nom.wind = np.zeros(2)
-        eph = max(gps.eph_m, self.params["EK_GPS_P_NSE"])
-        epv = max(gps.epv_m, self.params["EK_GPS_P_NSE"])
-        sd = np.concatenate([[eph, eph, epv], [1.0] * 3, [0.3, 0.3, 0.4],
-                             [0.2] * 3, [0.02] * 3, [8.0] * 2])[: self.n]
+        nom.gb = np.zeros(3)
+        baro_sd = _BARO_INIT_SD
+        if self._last_baro_alt is not None:
+            nom.bb = np.array((self._last_baro_alt - (self.origin.alt0_m - nom.p[2]),))
+            baro_sd = float(np.hypot(self._gm_sd()[2], self._gps_white(gps)[2]))
+            self._baro_ok = True
+        sd = np.concatenate([[1.0] * 3, [1.0] * 3, [0.3, 0.3, 0.4],
+                             [0.2] * 3, [0.02] * 3, [baro_sd], self._gm_sd(), [8.0] * 2])[: self.n]
         self._init_covariance(sd)
+        self._position_from_gps_covariance(self._gps_white(gps) ** 2)
         self.aligned = True
         self._pos_src = "gps"
         # the history must not hold the unaligned zeros
         self._h_t[:] = np.iinfo(np.int64).min // 2
-        if self._last_baro_alt is not None:
-            self._baro_offset = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
 
     def _init_covariance(self, sd: np.ndarray) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
+
+    def _gm_sd(self) -> np.ndarray:
+        """Stationary sigma of the GPS Gauss-Markov error states (N, E, D)."""
+        h, v = self.params["EK_GPSB_SD"], self.params["EK_GPSB_Z_SD"]
+        return np.array((h, h, v))
+
+    def _gps_white(self, gps) -> np.ndarray:
+        """White-noise sigma (N, E, D) of a fix: the part of eph/epv the Gauss-Markov
+        state does not explain, floored by EK_GPS_P_NSE / EK_GPS_Z_NSE."""
+        prm = self.params
+        gh, gv = prm["EK_GPSB_SD"], prm["EK_GPSB_Z_SD"]
+        sh = max(prm["EK_GPS_P_NSE"], math.sqrt(max(gps.eph_m * gps.eph_m - gh * gh, 0.0)))
+        sv = max(prm["EK_GPS_Z_NSE"], math.sqrt(max(gps.epv_m * gps.epv_m - gv * gv, 0.0)))
+        return np.array((sh, sh, sv))
+
+    def _position_from_gps_covariance(self, white_var: np.ndarray) -> None:
+        """Covariance after setting p = z - b_gps: dp = -db - w, so
+        P_pp = P_bb + R_w and P_pb = -P_bb; position decorrelated from the rest."""
+        P = self.P
+        Pbb = P[GPSB, GPSB].copy()
+        P[POS, :] = 0.0
+        P[:, POS] = 0.0
+        P[POS, POS] = Pbb + np.diag(white_var)
+        P[POS, GPSB] = -Pbb
+        P[GPSB, POS] = -Pbb
+        self._set_P(P)
 
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
@@ -302,13 +338,12 @@ class NavFilterBase:
             L = self._gps_delay
             p_d, v_d = self._delayed(frame.t_us - int(round(L * 1e6)))
             z = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
-            eph = max(gps.eph_m, prm["EK_GPS_P_NSE"])
-            epv = max(gps.epv_m, prm["EK_GPS_P_NSE"])
+            sw = self._gps_white(gps)
             H = np.zeros((3, n))
             H[0, 0] = H[1, 1] = H[2, 2] = 1.0
             H[0, 3] = H[1, 4] = H[2, 5] = -L
-            b = Block("gps_pos", z, z, p_d, H, np.array((eph * eph, eph * eph, epv * epv)),
-                      prm["EK_GPS_P_GATE"], (L,))
+            H[:, GPSB] = np.eye(3)
+            b = Block("gps_pos", z, z, p_d + nom.gb, H, sw * sw, prm["EK_GPS_P_GATE"], (L,))
             b.reset = self._pos_src != "gps"
             blocks.append(b)
             v = np.asarray(gps.v_ned, dtype=float)
@@ -327,14 +362,14 @@ class NavFilterBase:
             blocks.append(Block("fake_pos", self._fake_hold.copy(), self._fake_hold.copy(),
                                 nom.p.copy(), H, np.array((s2, s2, s2)), 1e3))
 
-        if frame.baro is not None and self._baro_offset is not None and self._pos_src == "gps":
-            alt = frame.baro.alt_m
+        if frame.baro is not None and self._baro_ok:
+            alt = np.array((frame.baro.alt_m,))
             H = np.zeros((1, n))
             H[0, 2] = -1.0
+            H[0, BBIAS.start] = 1.0
             s = prm["EK_BARO_NSE"]
-            blocks.append(Block("baro", np.array((alt,)), np.array((alt - self._baro_offset,)),
-                                np.array((self.origin.alt0_m - nom.p[2],)), H, np.array((s * s,)),
-                                prm["EK_BARO_GATE"]))
+            blocks.append(Block("baro", alt, alt, np.array((self.origin.alt0_m - nom.p[2] + nom.bb[0],)),
+                                H, np.array((s * s,)), prm["EK_BARO_GATE"]))
 
         if frame.mag is not None:
             R = nom.R
@@ -412,12 +447,14 @@ class NavFilterBase:
             dp = b.z - b.h0
             nom.p = nom.p + dp
             self._c_p += dp
-            self._reset_covariance_block(POS, b.R)
+            self._position_from_gps_covariance(b.R)
             self._rej_since.pop("gps_pos", None)
             if self._pos_src != "gps":
                 self._pos_src = "gps"
-                if self._last_baro_alt is not None:
-                    self._baro_offset = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+            if not self._baro_ok and self._last_baro_alt is not None:
+                nom.bb = np.array((self._last_baro_alt - (self.origin.alt0_m - nom.p[2]),))
+                self._reset_covariance_block(BBIAS, np.array((self.P[2, 2],)))
+                self._baro_ok = True
         elif b.source == "gps_vel":
             dv = b.z - b.h0
             nom.v = nom.v + dv
@@ -437,6 +474,8 @@ class NavFilterBase:
         inject_attitude(nom, dx[ATT])
         nom.ba = np.clip(nom.ba + dx[ABIAS], -_BA_MAX, _BA_MAX)
         nom.bg = np.clip(nom.bg + dx[GBIAS], -_BG_MAX, _BG_MAX)
+        nom.bb = nom.bb + dx[BBIAS]
+        nom.gb = nom.gb + dx[GPSB]
         if self.is_plane:
             nom.wind = nom.wind + dx[WIND]
 

@@ -9,6 +9,10 @@ noise of one sample at the IMU rate (the filter adds ``(sigma dt)^2`` of velocit
 angle variance per step); ``*B_NSE`` and ``EK_WIND_NSE`` are random-walk rates
 (variance grows ``sigma^2`` per second); measurement ``*_NSE`` are 1-sigma in the
 measurement's unit. Gates are in standard deviations of the innovation.
+
+GPS position error = Gauss-Markov part (EK_GPSB_*, an error state) + white part. The
+white sigma of a fix is ``max(EK_GPS_P_NSE, sqrt(eph^2 - EK_GPSB_SD^2))``, so a receiver
+reporting a worse eph than the model's total is weighted down accordingly.
 """
 from __future__ import annotations
 
@@ -24,8 +28,13 @@ NAV_PARAMS: tuple[Param, ...] = (
     Param("EK_ACCB_NSE", 2e-4, 0.0, 0.1, "m/s^3", "accelerometer bias random walk rate"),
     Param("EK_GYRB_NSE", 2e-5, 0.0, 0.01, "rad/s^2", "gyro bias random walk rate"),
     Param("EK_WIND_NSE", 0.05, 0.0, 5.0, "m/s^2", "wind random walk rate (fixed-wing)"),
+    Param("EK_BAROB_NSE", 0.02, 0.0, 1.0, "m/s", "barometer offset random walk rate"),
     # --- GPS ----------------------------------------------------------------------
-    Param("EK_GPS_P_NSE", 0.5, 0.01, 50.0, "m", "GPS position noise floor (receiver eph/epv used when larger)"),
+    Param("EK_GPS_P_NSE", 0.5, 0.01, 50.0, "m", "GPS horizontal position white noise, 1 sigma (floor)"),
+    Param("EK_GPS_Z_NSE", 0.8, 0.01, 50.0, "m", "GPS vertical position white noise, 1 sigma (floor)"),
+    Param("EK_GPSB_SD", 1.5, 0.0, 50.0, "m", "GPS horizontal Gauss-Markov position error, 1 sigma"),
+    Param("EK_GPSB_Z_SD", 2.5, 0.0, 50.0, "m", "GPS vertical Gauss-Markov position error, 1 sigma"),
+    Param("EK_GPSB_TAU", 60.0, 1.0, 3600.0, "s", "GPS position error correlation time"),
     Param("EK_GPS_V_NSE", 0.3, 0.01, 10.0, "m/s", "GPS velocity noise, 1 sigma"),
     Param("EK_GPS_P_GATE", 5.0, 1.0, 100.0, "SD", "GPS position innovation gate"),
     Param("EK_GPS_V_GATE", 5.0, 1.0, 100.0, "SD", "GPS velocity innovation gate"),

@@ -22,7 +22,8 @@ Continuous error dynamics (Sola 2017 eqs. 341-347 with global error; f_n = R (f_
     d(dp)/dt     = dv
     d(dv)/dt     = -[f_n x] dtheta - R db_a - R n_a
     d(dtheta)/dt = -R db_g - R n_g
-    d(db_a)/dt   = n_ba,   d(db_g)/dt = n_bg,   d(dw)/dt = n_w
+    d(db_a)/dt   = n_ba,   d(db_g)/dt = n_bg,   d(db_baro)/dt = n_bb,   d(dw)/dt = n_w
+    d(db_gps)/dt = -db_gps / tau + n_gps                     (Gauss-Markov)
 
 discretised to first order, F = I + F_c dt, with a diagonal Q (the NED-frame images
 R n of isotropic body noises are isotropic). Updates use the Joseph form; P is
@@ -33,10 +34,12 @@ Aiding sources, GPS latency and alignment: see :mod:`.base`.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .base import NavFilterBase, skew
-from .layout import ABIAS, ATT, GBIAS, VEL, WIND
+from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, VEL, WIND
 from .strapdown import propagate
 
 
@@ -78,10 +81,16 @@ class InsGpsEkf(NavFilterBase):
         q[ATT] = (prm["EK_GYR_NSE"] * dt) ** 2
         q[ABIAS] = prm["EK_ACCB_NSE"] ** 2 * dt
         q[GBIAS] = prm["EK_GYRB_NSE"] ** 2 * dt
+        q[BBIAS] = prm["EK_BAROB_NSE"] ** 2 * dt
+        # first-order Gauss-Markov GPS error: b' = a b + w, a = exp(-dt/tau), var(w) = sd^2 (1 - a^2)
+        a = math.exp(-dt / prm["EK_GPSB_TAU"])
+        q[GPSB] = self._gm_sd() ** 2 * (1.0 - a * a)
         if self.is_plane:
             q[WIND] = prm["EK_WIND_NSE"] ** 2 * dt
         F = self._F
         F[0, 3] = F[1, 4] = F[2, 5] = dt
+        i = GPSB.start
+        F[i, i] = F[i + 1, i + 1] = F[i + 2, i + 2] = a
         self._q_dt = dt
 
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:

@@ -31,7 +31,7 @@ from autopilot.geo import euler_to_quat, wrap_pi
 class Nominal:
     """The nominal (full) navigation state around which the error state is estimated."""
 
-    __slots__ = ("p", "v", "q", "ba", "bg", "wind", "R", "f_n", "omega_b")
+    __slots__ = ("p", "v", "q", "ba", "bg", "bb", "gb", "wind", "R", "f_n", "omega_b")
 
     def __init__(self):
         self.p = np.zeros(3)          # position NED [m]
@@ -39,6 +39,8 @@ class Nominal:
         self.q = np.array([1.0, 0.0, 0.0, 0.0])  # q_nb
         self.ba = np.zeros(3)         # accelerometer bias, body [m/s^2]
         self.bg = np.zeros(3)         # gyro bias, body [rad/s]
+        self.bb = np.zeros(1)         # barometer offset: baro altitude - altitude [m]
+        self.gb = np.zeros(3)         # GPS position error, NED [m]
         self.wind = np.zeros(2)       # wind north, east [m/s]
         self.R = np.eye(3)            # R(q_nb), kept in step with q
         self.f_n = np.zeros(3)        # last bias-corrected specific force in NED [m/s^2]

@@ -13,27 +13,29 @@ Start and launch
     *Aerosonde, catapult.* The aircraft starts at rest on a launcher at home: a rail
     ``LAUNCHER_HEIGHT_M`` above the ground, pointing along the home heading. The deck is
     modelled as raised terrain under the cradle shoes, so the aircraft truly rests on
-    it (``on_ground`` True, specific force (0, 0, -g), zero rates) with the cradle's
-    4.8 deg nose-up attitude; the shoes' brakes hold it against the propeller. The
-    catapult fires when ``launch()`` is called, or by itself once the throttle command
-    exceeds ``AUTO_LAUNCH_THROTTLE`` and the propeller has had ``SPIN_UP_S`` to reach
-    power (a hand on the release, as on a real launcher). It pushes with
-    ``CATAPULT_FORCE_N`` along body x for ``RAIL_LENGTH_M`` (about 0.3 s), the aircraft
-    leaves the rail at about 21 m/s (1.4 x the 15 m/s stall speed), the launcher is
-    removed (terrain back at home altitude) and the autopilot climbs out at full
-    throttle and about 10 deg pitch.
+    it (``on_ground`` True, specific force (0, 0, -g), zero rates apart from the
+    Earth's rotation) about 4 deg nose up; the shoes' static friction holds it against
+    the propeller. The catapult fires when ``launch()`` is called, or by itself once
+    the throttle command has stayed above ``AUTO_LAUNCH_THROTTLE`` for ``SPIN_UP_S``
+    (the propeller reaches power first, as on a real launcher). It pushes with
+    ``CATAPULT_FORCE_N`` along body x for ``RAIL_LENGTH_M`` (about 0.3 s); the aircraft
+    leaves the rail at about 21.7 m/s (1.4 x the 15.3 m/s minimum level-flight speed),
+    the launcher is removed (terrain back at home altitude) and the autopilot climbs
+    out at full throttle and about 10 deg pitch.
     *c172p, runway.* The aircraft starts at rest on its wheels at home with the
     brakes set; the brakes are released by ``launch()`` or when the throttle command
     first exceeds ``AUTO_LAUNCH_THROTTLE``, and the autopilot takes off on the wheels.
-    After the start, any ground contact (terrain at home altitude) ends at rest:
-    the shoes brake and the airframe's structure points (nose, tail, wing tips, top)
-    keep it above ground at any attitude.
+    After the start, any ground contact (terrain at home altitude) ends at rest: the
+    Aerosonde's contact points (cradle shoes, nose, tail, wing tips, top) slide with
+    friction and keep it above ground at any attitude, whatever the impact.
 
 Controls (``PlaneControls``, as documented in base.py) map to JSBSim commands:
 aileron +1 -> fcs/aileron-cmd-norm +1 (roll right); elevator +1 (nose up) ->
 fcs/elevator-cmd-norm -1 (JSBSim's positive elevator is stick forward, nose down);
 rudder +1 (nose right) -> fcs/rudder-cmd-norm -1 (JSBSim's positive rudder deflection
 yaws the nose left in both airframes); throttle 0..1 -> fcs/throttle-cmd-norm.
+Table E.2 makes the Aerosonde's rudder a stronger roll than yaw effector
+(C_ldr 0.105, C_ndr -0.032): rudder +1 yaws the nose right but also rolls left.
 
 Wind: ``wind_ned`` is the velocity of the air over ground (wind from the west is
 +east). Turbulence is JSBSim's MIL-F-8785C Dryden model with Tustin discretisation
@@ -73,7 +75,6 @@ RAIL_LENGTH_M = 3.0                 # catapult stroke [m]
 CATAPULT_FORCE_N = 1000.0           # catapult push along body x [N]
 AUTO_LAUNCH_THROTTLE = 0.5          # throttle command that arms the launch
 SPIN_UP_S = 1.0                     # propeller spin-up before an automatic release [s]
-SETTLE_S = 2.0                      # settling on the deck/runway before t = 0 [s]
 
 # turbulence name -> (MIL-F-8785C severity index in JSBSim, wind at 20 ft [kt])
 TURBULENCE = {
@@ -97,14 +98,15 @@ class _Airframe:
     brakes: tuple[str, ...]         # brake commands that hold it at the start
     bogeys: tuple[int, ...]         # gear units it rests on (front one = largest x)
     has_esc: bool                   # FCS has fcs/esc-limit-off (see aerosonde.xml)
+    settle_s: float                 # time to come to rest at the start [s]
 
 
 _AIRFRAMES = {
-    "aerosonde": _Airframe("aerosonde", True, True, ("fcs/center-brake-cmd-norm",),
-                           (0, 1, 2), True),
+    "aerosonde": _Airframe("aerosonde", True, True, (),
+                           (0, 1, 2), True, 1.0),
     "c172p": _Airframe("c172p", False, False,
                        ("fcs/left-brake-cmd-norm", "fcs/right-brake-cmd-norm"),
-                       (0, 1, 2), False),
+                       (0, 1, 2), False, 6.0),
 }
 
 
@@ -243,47 +245,28 @@ class JSBSimPlane:
         """Restart in trimmed wings-level flight and return the controls that hold it.
 
         The aircraft is placed ``height_m`` above home, at the home position and
-        heading, flying at true airspeed ``airspeed_mps`` relative to the air mass; the
-        launcher is removed. The six body accelerations are driven to zero with alpha,
-        beta, throttle, elevator, aileron and rudder (bank and flight path angle zero,
-        no rotation) by Newton's method on JSBSim's own accelerations. The clock runs
-        on (``t_us`` is not reset). Raises RuntimeError if no trim exists.
+        heading, flying level at true airspeed ``airspeed_mps`` relative to the air
+        mass (the current wind is added to its ground velocity); the launcher is
+        removed. In still air the six body accelerations are driven to zero with
+        alpha, beta, throttle, elevator, aileron and rudder (bank and flight path angle
+        zero, no rotation) by Newton's method on JSBSim's own accelerations. The clock
+        runs on (``t_us`` is not reset). Raises RuntimeError if no trim exists (the
+        aircraft is then put back at rest on its launcher or runway).
         """
         fdm = self._fdm
-        lat_deg, lon_deg, alt_m, heading_deg = self.home
         self._phase = _FREE
         if self._af.catapult:
             fdm["fcs/catapult-force-lbs"] = 0.0
         for brake in self._af.brakes:
-            fdm[brake] = 1.0 if self._af.catapult else 0.0
+            fdm[brake] = 0.0
+        for name in ("fcs/pitch-trim-cmd-norm", "fcs/roll-trim-cmd-norm",
+                     "fcs/yaw-trim-cmd-norm"):
+            fdm[name] = 0.0
+        fdm["atmosphere/turb-type"] = 0
         fdm.get_propulsion().init_running(-1)
-        vt_fps = airspeed_mps / FT_M
-        wind_n, wind_e, _ = self._wind_ned
-        wind_mag = math.hypot(wind_n, wind_e)
-
-        def set_ic(x: np.ndarray) -> None:
-            fdm["ic/lat-geod-deg"] = lat_deg
-            fdm["ic/long-gc-deg"] = lon_deg
-            fdm["ic/terrain-elevation-ft"] = alt_m / FT_M
-            fdm["ic/h-sl-ft"] = (alt_m + height_m) / FT_M
-            fdm["ic/vw-mag-fps"] = wind_mag / FT_M
-            fdm["ic/vw-dir-deg"] = math.degrees(math.atan2(-wind_e, -wind_n)) % 360.0
-            fdm["ic/psi-true-deg"] = heading_deg
-            fdm["ic/phi-rad"] = 0.0
-            fdm["ic/gamma-rad"] = 0.0
-            fdm["ic/vt-fps"] = vt_fps
-            fdm["ic/alpha-rad"] = x[0]
-            fdm["ic/beta-rad"] = x[1]
-            fdm["ic/p-rad_sec"] = 0.0
-            fdm["ic/q-rad_sec"] = 0.0
-            fdm["ic/r-rad_sec"] = 0.0
-            fdm["fcs/throttle-cmd-norm"] = x[2]
-            fdm["fcs/elevator-cmd-norm"] = x[3]
-            fdm["fcs/aileron-cmd-norm"] = x[4]
-            fdm["fcs/rudder-cmd-norm"] = x[5]
 
         def residual(x: np.ndarray) -> np.ndarray:
-            set_ic(x)
+            self._set_flight_ic(height_m, airspeed_mps, x)
             fdm.run_ic()
             fdm.get_propulsion().get_steady_state()
             fdm.run_ic()
@@ -296,23 +279,21 @@ class JSBSimPlane:
                 fdm["accelerations/rdot-rad_sec2"],
             ])
 
-        for name in ("fcs/pitch-trim-cmd-norm", "fcs/roll-trim-cmd-norm",
-                     "fcs/yaw-trim-cmd-norm"):
-            fdm[name] = 0.0
+        # unknowns: alpha, beta [rad]; JSBSim throttle, elevator, aileron, rudder cmds
         lower = np.array([-0.3, -0.3, 0.0, -1.0, -1.0, -1.0])
         upper = np.array([0.4, 0.3, 1.0, 1.0, 1.0, 1.0])
+        delta = np.array([1e-4, 1e-4, 1e-3, 1e-3, 1e-3, 1e-3])
         x = np.array([0.05, 0.0, 0.5, 0.0, 0.0, 0.0])
         # JSBSim's propeller steady-state search marches in 0.5 s steps and diverges
         # from a stopped propeller: spin it up in real time first (run_ic() keeps the
-        # propeller speed, so the excursion of the airframe here does not matter).
-        set_ic(x)
+        # propeller speed, so where the airframe goes meanwhile does not matter).
+        self._set_flight_ic(height_m, airspeed_mps, x)
         fdm.run_ic()
         for _ in range(int(round(2.0e6 / self._dt_us))):
             fdm.run()
         if self._af.has_esc:
             fdm["fcs/esc-limit-off"] = 1.0
         r = residual(x)
-        delta = np.array([1e-4, 1e-4, 1e-3, 1e-3, 1e-3, 1e-3])
         for _ in range(40):
             if not np.all(np.isfinite(r)) or np.max(np.abs(r)) < 1e-5:
                 break
@@ -322,21 +303,65 @@ class JSBSimPlane:
                 xj[j] += delta[j]
                 jac[:, j] = (residual(xj) - r) / delta[j]
             dx = np.linalg.lstsq(jac, -r, rcond=None)[0]
-            # damped step: never more than 0.1 in any unknown per iteration
+            # damped step: at most 0.1 in any unknown per iteration
             dx *= min(1.0, 0.1 / max(np.max(np.abs(dx)), 1e-12))
             x = np.clip(x + dx, lower, upper)
             r = residual(x)
-        if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-3:
-            raise RuntimeError(
-                f"no trim at {airspeed_mps} m/s: residual {np.array2string(r, precision=4)}")
         if self._af.has_esc:
             fdm["fcs/esc-limit-off"] = 0.0
-            fdm.run_ic()
+        if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-3:
+            self._place_at_start()
+            raise RuntimeError(
+                f"no trim at {airspeed_mps} m/s: residual {np.array2string(r, precision=4)}")
+
+        # Restart from the trimmed state with the wind added to the ground velocity.
+        theta, psi = fdm["attitude/theta-rad"], fdm["attitude/psi-rad"]
+        uvw_air = np.array((fdm["velocities/u-fps"], fdm["velocities/v-fps"],
+                            fdm["velocities/w-fps"]))
+        self._set_flight_ic(height_m, airspeed_mps, x)
+        wind_fps = self._wind_ned / FT_M
+        fdm["ic/vw-mag-fps"] = math.hypot(wind_fps[0], wind_fps[1])
+        fdm["ic/vw-dir-deg"] = math.degrees(math.atan2(wind_fps[1], wind_fps[0]))
+        fdm["ic/phi-rad"] = 0.0
+        fdm["ic/theta-rad"] = theta
+        fdm["ic/psi-true-rad"] = psi
+        ct, st, cp, sp = math.cos(theta), math.sin(theta), math.cos(psi), math.sin(psi)
+        r_bn = np.array(((ct * cp, ct * sp, -st),          # NED -> body at zero bank
+                         (-sp, cp, 0.0),
+                         (st * cp, st * sp, ct)))
+        uvw = uvw_air + r_bn @ wind_fps
+        fdm["ic/u-fps"], fdm["ic/v-fps"], fdm["ic/w-fps"] = (float(v) for v in uvw)
+        fdm.run_ic()
         self._apply_wind()
+        self._refresh()
         controls = PlaneControls(aileron=float(x[4]), elevator=float(-x[3]),
                                  rudder=float(-x[5]), throttle=float(x[2]))
         self._apply_controls(controls)
         return controls
+
+    def _set_flight_ic(self, height_m: float, airspeed_mps: float, x: np.ndarray) -> None:
+        """Initial condition for trim: level, wings level, in still air, at home."""
+        fdm = self._fdm
+        lat_deg, lon_deg, alt_m, heading_deg = self.home
+        fdm["ic/lat-geod-deg"] = lat_deg
+        fdm["ic/long-gc-deg"] = lon_deg
+        fdm["ic/terrain-elevation-ft"] = alt_m / FT_M
+        fdm["ic/h-sl-ft"] = (alt_m + height_m) / FT_M
+        fdm["ic/vw-mag-fps"] = 0.0
+        fdm["ic/psi-true-deg"] = heading_deg
+        fdm["ic/phi-rad"] = 0.0
+        fdm["ic/gamma-rad"] = 0.0
+        fdm["ic/vt-fps"] = airspeed_mps / FT_M
+        fdm["ic/alpha-rad"] = x[0]
+        fdm["ic/beta-rad"] = x[1]
+        fdm["ic/p-rad_sec"] = 0.0
+        fdm["ic/q-rad_sec"] = 0.0
+        fdm["ic/r-rad_sec"] = 0.0
+        fdm["fcs/throttle-cmd-norm"] = x[2]
+        fdm["fcs/elevator-cmd-norm"] = x[3]
+        fdm["fcs/aileron-cmd-norm"] = x[4]
+        fdm["fcs/rudder-cmd-norm"] = x[5]
+        self._controls = None                     # the commands now differ from ours
 
     # ------------------------------------------------------------------ internals
 
@@ -411,6 +436,13 @@ class JSBSimPlane:
         self._set_rudder(-controls.rudder)
         self._set_throttle(controls.throttle)
 
+    def _refresh(self) -> None:
+        """Recompute every derived value (airspeed, alpha, ...) without advancing time."""
+        fdm = self._fdm
+        fdm.suspend_integration()
+        fdm.run()
+        fdm.resume_integration()
+
     def _set_wind_values(self, wind_ned, turbulence: str) -> None:
         if turbulence not in TURBULENCE:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE)}")
@@ -439,6 +471,7 @@ class JSBSimPlane:
         unit and the mean of the others must touch a flat surface at zero bank.
         """
         fdm = self._fdm
+        fdm.run_ic()                              # the CG is computed at run_ic()
         gear = fdm.get_ground_reactions()
         cg = np.asarray(fdm.get_mass_balance().get_xyz_cg()).ravel()
         pts = []
@@ -464,6 +497,7 @@ class JSBSimPlane:
         fdm["ic/long-gc-deg"] = lon_deg
         fdm["ic/terrain-elevation-ft"] = deck_m / FT_M
         fdm["ic/h-sl-ft"] = (deck_m + depth + 0.005) / FT_M
+        fdm["ic/vw-mag-fps"] = 0.0
         fdm["ic/psi-true-deg"] = heading_deg
         fdm["ic/theta-rad"] = theta
         fdm["ic/phi-rad"] = 0.0
@@ -478,11 +512,11 @@ class JSBSimPlane:
             fdm["fcs/mixture-cmd-norm"] = 1.0
         self._controls = None                     # force the write below
         self._apply_controls(PlaneControls())
-        fdm.run_ic()
+        fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
         fdm.get_propulsion().init_running(-1)
         fdm["position/terrain-elevation-asl-ft"] = deck_m / FT_M
         self._apply_wind()
-        for _ in range(int(round(SETTLE_S * 1e6 / self._dt_us))):
+        for _ in range(int(round(self._af.settle_s * 1e6 / self._dt_us))):
             fdm.run()
         self._phase = _HELD
         self._armed_us = None
@@ -508,6 +542,4 @@ class JSBSimPlane:
             fdm = self._fdm
             fdm["fcs/catapult-force-lbs"] = 0.0
             fdm["position/terrain-elevation-asl-ft"] = self.home[2] / FT_M
-            for brake in self._af.brakes:
-                fdm[brake] = 1.0                  # any later ground contact skids to rest
             self._phase = _FREE
