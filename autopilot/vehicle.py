@@ -30,7 +30,9 @@ from .params import Param, ParamStore
 GUIDANCE_PARAMS = (
     Param("NAVL1_PERIOD", 17.0, 5.0, 60.0, "s", "L1 period: the cross-track response period"),
     Param("NAVL1_DAMPING", 0.75, 0.6, 1.0, "", "L1 damping ratio"),
-    Param("WP_RADIUS", 60.0, 1.0, 500.0, "m", "waypoint acceptance radius and turn-anticipation cap"),
+    Param("WP_RADIUS", 100.0, 1.0, 500.0, "m", "waypoint acceptance radius and turn-anticipation cap"),
+    Param("TURN_BANK_DEG", 28.0, 5.0, 60.0, "deg", "nominal bank of the turn arcs between legs"),
+    Param("TURN_GS_FACTOR", 1.15, 0.5, 3.0, "", "ground speed / airspeed assumed when sizing turn arcs"),
     Param("LOITER_RAD", 80.0, 20.0, 2000.0, "m", "default loiter radius"),
     Param("RTL_ALT", 100.0, -1.0, 3000.0, "m", "RTL altitude above home (-1: keep current)"),
     Param("TKOFF_PITCH", 12.0, 0.0, 30.0, "deg", "takeoff climb pitch when the item gives none"),

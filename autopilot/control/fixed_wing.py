@@ -4,10 +4,15 @@ Loops are named by what they close:
 
 * roll from aileron:      da = kp (phi_c - phi) + ki int(...) - kd p
 * pitch from elevator:    de = s (kp (theta_c - theta) + ki int(...) - kd q) + de_trim (V_t/V)^2
-* climb rate from pitch:  theta_c = alpha_trim (V_t/V)^2 + asin(hdot_c / V)
+* climb rate from pitch:  theta_c = alpha_trim (V_t/V_c)^2 + asin(hdot_c / V)
                           + kp (hdot_c - hdot) + ki int(...)
                           + the turn compensation (1/cos(phi) - 1) * PTCH_TURN_FF
 * altitude to climb rate: hdot_c = clamp(ALT_KP (h_c - h), -SINK_MAX, CLMB_MAX)
+* speed priority:         hdot_c -= SPD_PRIO * dead(V_c - V, SPD_PRIO_DB): with the throttle
+                          unable to hold airspeed (a climb beyond the aircraft's excess
+                          power, or a dive at idle), trade height for speed rather than
+                          stall or overspeed; the idea of TECS (Lambregts 1983) in its
+                          simplest form
 * airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
 * yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
 
@@ -51,15 +56,17 @@ FW_PARAMS = (
     Param("ALT_KP", 0.3, 0.0, 5.0, "1/s", "altitude error to climb-rate command"),
     Param("CLMB_KP", 0.03, 0.0, 2.0, "rad s/m", "climb-rate error to pitch, proportional"),
     Param("CLMB_KI", 0.01, 0.0, 2.0, "rad/m", "climb-rate error to pitch, integral"),
-    Param("CLMB_MAX", 4.0, 0.5, 15.0, "m/s", "maximum climb rate"),
-    Param("SINK_MAX", 4.0, 0.5, 15.0, "m/s", "maximum sink rate"),
+    Param("CLMB_MAX", 2.5, 0.5, 15.0, "m/s", "maximum climb rate"),
+    Param("SINK_MAX", 3.0, 0.5, 15.0, "m/s", "maximum sink rate"),
+    Param("SPD_PRIO", 1.0, 0.0, 5.0, "", "climb-rate given up per m/s of airspeed error beyond the dead band"),
+    Param("SPD_PRIO_DB", 1.5, 0.0, 10.0, "m/s", "airspeed error dead band of the speed priority"),
     Param("THR_TRIM", 0.38, 0.0, 1.0, "", "throttle in level cruise at TRIM_ARSPD"),
     Param("THR_MAX", 1.0, 0.0, 1.0, "", "maximum throttle"),
     Param("THR_CLMB_FF", 0.06, 0.0, 1.0, "s/m", "throttle per m/s of commanded climb"),
     Param("SPD_KP", 0.08, 0.0, 2.0, "s/m", "airspeed error to throttle, proportional"),
     Param("SPD_KI", 0.03, 0.0, 2.0, "1/m", "airspeed error to throttle, integral"),
     Param("YAW_KD", 0.3, 0.0, 5.0, "s/rad", "yaw-rate error (vs coordinated turn) to rudder"),
-    Param("ROLL_LIMIT_DEG", 35.0, 5.0, 65.0, "deg", "maximum bank angle"),
+    Param("ROLL_LIMIT_DEG", 45.0, 5.0, 65.0, "deg", "maximum bank angle"),
     Param("TRIM_ARSPD", 25.0, 10.0, 40.0, "m/s", "cruise airspeed"),
     Param("ARSPD_FBW_MIN", 20.0, 8.0, 40.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 60.0, "m/s", "maximum airspeed command"),
@@ -80,7 +87,7 @@ class FixedWingController:
         self.pitch_pid = Pid(p["PTCH_KP"], p["PTCH_KI"], p["PTCH_KD"], -1.0, 1.0, i_max=0.4)
         self.climb_pid = Pid(p["CLMB_KP"], p["CLMB_KI"], 0.0,
                              math.radians(p["PTCH_LIM_MIN_DEG"]), math.radians(p["PTCH_LIM_MAX_DEG"]),
-                             i_max=math.radians(10.0))
+                             i_max=math.radians(5.0))
         self.speed_pid = Pid(p["SPD_KP"], p["SPD_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.4)
         self.last = (0.0, 0.0, 0.0, 0.0)
         self.roll_cmd_rad = 0.0
@@ -104,11 +111,18 @@ class FixedWingController:
         # altitude to climb rate (outer), climb rate to pitch (middle)
         hdot = -float(nav.v_ned[2])
         hdot_c = min(max(p["ALT_KP"] * (alt_cmd_m - nav.alt_m), -p["SINK_MAX"]), p["CLMB_MAX"])
+        dv = airspeed_cmd_mps - v_air
+        db = p["SPD_PRIO_DB"]
+        if abs(dv) > db:
+            hdot_c -= p["SPD_PRIO"] * (dv - math.copysign(db, dv))
+            hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
         scale = min(max(q_ratio, 0.5), 2.0)
         turn_ff = p["PTCH_TURN_FF"] * (1.0 / max(math.cos(roll), 0.5) - 1.0)
         gamma_c = math.asin(min(max(hdot_c / v_air, -0.5), 0.5))
-        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * min(q_ratio, 2.0)
+        # trim angle of attack at the *commanded* airspeed: using the measured one would
+        # raise the nose further as the aircraft slows (positive feedback towards stall)
+        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * min((p["TRIM_ARSPD"] / max(airspeed_cmd_mps, 5.0)) ** 2, 2.0)
         theta_c = self.climb_pid.update(hdot_c, hdot, dt, rate=0.0,
                                         feedforward=alpha_ff + gamma_c + turn_ff)
         if pitch_min_rad is not None:

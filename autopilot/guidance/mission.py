@@ -6,10 +6,13 @@ DO_CHANGE_SPEED (and DO_SET_HOME, which moves home).
 
 Leg switching (seed section 1.16, the SLUGS rule): the vehicle's position is projected
 onto the leg direction; the waypoint is reached when the projection passes the end of
-the leg less a turn-anticipation distance, or when the vehicle is inside the acceptance
-radius. The anticipation is the distance at which a turn of the next leg's course
-change, flown at the bank limit, must start (R tan(dchi/2)), capped by the acceptance
-radius, so the vehicle rolls out on the new leg instead of overshooting it.
+the leg less a turn-anticipation distance d, or when the vehicle is inside the
+acceptance radius. The turn itself is flown as a fillet: the circular arc of radius R
+tangent to both legs, which starts d = R tan(dchi/2) before the waypoint and ends d
+after it on the next leg (dchi the course change). R is the radius of a coordinated
+turn at a nominal bank (TURN_BANK_DEG) and the expected ground speed, shrunk when the
+legs are too short for it. The arc is tracked by the same L1 law as a loiter circle,
+so the vehicle rolls out on the new leg instead of overshooting it.
 
 Altitude along a leg follows a straight glide slope from the previous altitude target
 to the waypoint's, so a change of height is flown as a climb or descent along the leg.
@@ -75,6 +78,9 @@ class MissionSequencer:
         self._loiter_start_us: int | None = None
         self._loiter_captured = False
         self._takeoff_heading: float | None = None
+        self._arc = None          # the fillet being flown: (centre, radius, dir, angle, B)
+        self._arc_angle = 0.0
+        self._arc_last: float | None = None
 
     def item_alt_m(self, item: MissionItem) -> float:
         """Item altitude as MSL [m]."""
@@ -92,6 +98,46 @@ class MissionSequencer:
         return max(len(self.items) - 1, 0)
 
     # ---------------------------------------------------------------- stepping ---
+    def _fillet(self, a_ne, b_ne):
+        """The turn arc at B towards the next leg: (d, arc) with arc = (centre, radius,
+        direction, turn angle) or None when no turn is to be filleted."""
+        nxt = self._next_nav_point()
+        if nxt is None:
+            return 0.0, None
+        l1 = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        l2 = math.hypot(nxt[0] - b_ne[0], nxt[1] - b_ne[1])
+        if l1 < 1.0 or l2 < 1.0:
+            return 0.0, None
+        u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1)
+        u2 = ((nxt[0] - b_ne[0]) / l2, (nxt[1] - b_ne[1]) / l2)
+        cross = u1[0] * u2[1] - u1[1] * u2[0]
+        dchi = math.atan2(cross, u1[0] * u2[0] + u1[1] * u2[1])
+        if abs(dchi) < math.radians(5.0):
+            return 0.0, None
+        v = self.airspeed_mps * self.params["TURN_GS_FACTOR"]
+        r = v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
+        t = math.tan(0.5 * abs(dchi))
+        d = min(r * t, 0.5 * l2, 0.5 * l1)  # each leg shares its length between its two turns
+        r = d / t
+        direction = 1 if dchi > 0 else -1
+        t1 = (b_ne[0] - d * u1[0], b_ne[1] - d * u1[1])
+        centre = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
+        return d, (centre, r, direction, abs(dchi), b_ne)
+
+    def _fly_arc(self, t_us, p_ne) -> NavTarget | None:
+        centre, r, direction, dchi, b_ne = self._arc
+        bearing = math.atan2(p_ne[1] - centre[1], p_ne[0] - centre[0])
+        if self._arc_last is None:
+            self._arc_last = bearing
+        self._arc_angle += direction * wrap_pi(bearing - self._arc_last)
+        self._arc_last = bearing
+        if self._arc_angle >= dchi - 0.02 or self._arc_angle < -0.5 * math.pi:
+            self._arc = None
+            self.leg_id += 1
+            return None
+        return NavTarget("loiter", self.current, self.leg_id, self._prev_alt, self.airspeed_mps,
+                         c_ne=centre, radius_m=r, direction=direction)
+
     def _advance(self, t_us: int, to_seq: int | None = None) -> None:
         seq = self.current
         self.reached.append((t_us, seq))
@@ -136,8 +182,12 @@ class MissionSequencer:
 
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float) -> NavTarget:
-        self._run_do_items(t_us)
         p_ne = (float(p_ned[0]), float(p_ned[1]))
+        if self._arc is not None:
+            arc_target = self._fly_arc(t_us, p_ne)
+            if arc_target is not None:
+                return arc_target
+        self._run_do_items(t_us)
         if self.finished or self.current >= len(self.items):
             self.finished = True
             return self._rtl_loiter(t_us, p_ne, alt_m)
@@ -163,25 +213,16 @@ class MissionSequencer:
         target = self.item_alt_m(item)
         if alt_m >= target - self.params["TKOFF_ALT_TOL"]:
             self._prev_alt = target
-            self._prev_wp_ne = p_ne
+            # the next leg starts at the takeoff item's location when it has one (the
+            # line the mission's author drew), else where the climb ended
+            has_pos = not (item.x_lat_deg == 0 and item.y_lon_deg == 0)
+            self._prev_wp_ne = self.item_ne(item) if has_pos else p_ne
             self._advance(t_us)
             return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), np.zeros(3),
                                heading_rad, alt_m)
         pitch = math.radians(item.param1) if item.param1 > 0 else math.radians(self.params["TKOFF_PITCH"])
         return NavTarget("takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
                          pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
-
-    def _turn_anticipation(self, a_ne, b_ne) -> float:
-        """Distance before B at which to turn onto the next leg."""
-        nxt = self._next_nav_point()
-        if nxt is None:
-            return 0.0
-        chi1 = math.atan2(b_ne[1] - a_ne[1], b_ne[0] - a_ne[0])
-        chi2 = math.atan2(nxt[1] - b_ne[1], nxt[0] - b_ne[0])
-        dchi = abs(wrap_pi(chi2 - chi1))
-        v = self.airspeed_mps
-        r_turn = v * v / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"]) * 0.8))
-        return min(r_turn * math.tan(0.5 * min(dchi, math.radians(120.0))), self.params["WP_RADIUS"])
 
     def _next_nav_point(self):
         """Where the leg after the current waypoint goes, following a DO_JUMP that
@@ -224,12 +265,17 @@ class MissionSequencer:
             along = ((p_ne[0] - a_ne[0]) * (b_ne[0] - a_ne[0]) + (p_ne[1] - a_ne[1]) * (b_ne[1] - a_ne[1])) / length
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         accept = max(item.param2, 0.0) or self.params["WP_RADIUS"]
-        if along >= length - self._turn_anticipation(a_ne, b_ne) or dist <= min(accept, self.params["WP_RADIUS"]):
+        d_turn, arc = self._fillet(a_ne, b_ne)
+        if along >= length - d_turn or dist <= min(accept, self.params["WP_RADIUS"]):
             self._prev_wp_ne = b_ne
             self._prev_alt = alt_b
             self._advance(t_us)
+            if arc is not None and along >= length - d_turn:
+                self._arc, self._arc_angle, self._arc_last = arc, 0.0, None
             return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), v_ned, 0.0, alt_b)
-        frac = min(max(along / length, 0.0), 1.0) if length > 1e-3 else 1.0
+        # glide slope: reach the waypoint's altitude where the turn onto the next leg starts
+        ramp = length - d_turn
+        frac = min(max(along / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
         alt = self._leg_start_alt + (alt_b - self._leg_start_alt) * frac
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 
@@ -288,7 +334,9 @@ class MissionSequencer:
             self._advance(t_us)
             self.finished = True
             return self._rtl_loiter(t_us, p_ne, alt_b)
-        frac = min(max(along / length, 0.0), 1.0) if length > 1e-3 else 1.0
+        # glide slope: reach the waypoint's altitude where the turn onto the next leg starts
+        ramp = length - d_turn
+        frac = min(max(along / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
         alt = self._leg_start_alt + (alt_b - self._leg_start_alt) * frac
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 

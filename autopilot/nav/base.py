@@ -1,9 +1,11 @@
 """What the EKF and the UKF share: alignment, GPS latency, measurement models, gating,
 resets, health and the NavState output. The two filters differ only in how they
-propagate and update the error covariance (``_predict``, ``_innovation_stats``,
-``_fuse_blocks``).
+propagate and update the error covariance (``_predict``, ``_gate_stats``,
+``_fuse_rows``).
 
-Aiding, one :class:`Block` per source and step (y = z - h(x), H = dh/d(dx)):
+Aiding: all measurements of one step are stacked in one :class:`Batch` (rows of
+``z``, ``h(x)``, ``H = dh/d(dx)``, ``R``; ``y = z - h(x)``), gated one source at a time
+and fused together (equivalent to sequential updates for independent noises). Sources:
 
 * ``gps_pos`` z = NED position of the fix, valid at ``t - EK_GPS_DELAY``. The innovation
   is formed against the nominal state of that instant, kept in a short history (a ring
@@ -33,8 +35,9 @@ Aiding, one :class:`Block` per source and step (y = z - h(x), H = dh/d(dx)):
 Gating: every component's test ratio ``y^2 / (gate^2 S)`` must be <= 1, else the whole
 source is rejected for this step. Reset rule: if GPS position (velocity) has been
 rejected continuously for EK_GPS_RST_T seconds, position (velocity) is reset to the GPS
-(latency compensated) and its covariance to R, cross-covariances zeroed; the record of
-that fix says ``rejected=True, fused=True``. After an outage the dead-reckoning
+(latency compensated), its covariance to that of one fix (R plus the GPS error
+state's), cross-covariances zeroed; the record of that fix says ``rejected=True,
+fused=True``. After an outage the dead-reckoning
 covariance has grown, so a returning GPS normally passes the gate and is fused at once;
 the reset is for the case where it does not, so the filter never rejects GPS forever.
 
@@ -55,10 +58,11 @@ from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
 from autopilot.messages import NavState, SensorFrame
 
 from . import config
-from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND, error_state_size
+from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
+                     error_state_size)
 from .records import InnovationRecord
 from .strapdown import (Nominal, heading_from_mag, inject_attitude, level_from_accel,
-                        mag_heading, yaw_of)
+                        mag_heading)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -66,43 +70,40 @@ _FAKE_POS_SD = 1.0            # [m]
 _STATIC_GYRO = 0.05           # [rad/s]
 _STATIC_ACC = 0.5             # [m/s^2]
 _AIRSPEED_HOLD_US = 500_000   # a measured airspeed is reported this long [us]
-_MAX_PITCH_FOR_MAG = 0.1      # skip heading fusion when d = cos^2(pitch) < this
-
-# Diagonal floor and ceiling of P, per error state (variances).
-_P_FLOOR = np.array([1e-4] * 3 + [1e-6] * 3 + [1e-10] * 3 + [1e-12] * 3 + [1e-16] * 3
-                    + [1e-4] + [1e-6] * 3 + [1e-6] * 2)
-_P_CEIL = np.array([1e8] * 3 + [1e4] * 3 + [10.0] * 3 + [4.0] * 3 + [0.01] * 3
-                   + [1e6] + [1e4] * 3 + [1e4] * 2)
+_MIN_COS2_PITCH_MAG = 0.1     # no heading fusion when cos^2(pitch) is below (|pitch| > 72 deg)
+_MAX_ROWS = 12                # measurement rows in one step (GPS 6 + baro, mag, airspeed, sideslip)
 _BARO_INIT_SD = 100.0         # baro offset sigma before the first GPS fix [m]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
 
+# Diagonal floor and ceiling of P, per error state (variances), in layout order.
+_P_FLOOR = np.array([1e-4] * 3 + [1e-6] * 3 + [1e-10] * 3 + [1e-12] * 3 + [1e-16] * 3
+                    + [1e-4] + [1e-6] * 3 + [1e-6] * 2)
+_P_CEIL = np.array([1e8] * 3 + [1e4] * 3 + [10.0] * 3 + [4.0] * 3 + [0.01] * 3
+                   + [1e6] + [1e4] * 3 + [1e4] * 2)
 
-def skew(v) -> np.ndarray:
-    x, y, z = v[0], v[1], v[2]
-    return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
+_I_ATT, _I_BA, _I_BB, _I_GB, _I_W = ATT.start, ABIAS.start, BBIAS.start, GPSB.start, WIND.start
 
 
-class Block:
-    """One source's measurement for one step (see the module docstring)."""
+class Batch:
+    """The measurements of one step: per source a name and its rows; stacked ``z``
+    (observation, angles unwrapped to within pi of the prediction), ``h0 = h(x)``,
+    ``R`` (variances), ``g2`` (gate^2) and ``H`` (rows of a preallocated buffer)."""
 
-    __slots__ = ("source", "obs", "z", "h0", "H", "R", "gate", "aux",
-                 "y", "S", "ratio", "rejected", "reset")
+    __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
+                 "y", "Sd", "ratio")
 
-    def __init__(self, source, obs, z, h0, H, R, gate, aux=None):
-        self.source = source
-        self.obs = obs        # the observation as recorded
-        self.z = z            # measurement in filter form (angles unwrapped around h0)
-        self.h0 = h0          # h(nominal)
-        self.H = H            # dh/d(dx), (m, n)
-        self.R = R            # measurement variances, (m,)
-        self.gate = gate      # [standard deviations]
-        self.aux = aux        # what the UKF needs to evaluate h on sigma points
-        self.y = None
-        self.S = None
-        self.ratio = None
-        self.rejected = False
-        self.reset = False    # forced reset of the state to this measurement
+    def __init__(self, src, start, size, reset, z, h0, R, g2, H):
+        self.src, self.start, self.size, self.reset = src, start, size, reset
+        self.m = len(z)
+        self.z = np.array(z)
+        self.h0 = np.array(h0)
+        self.R = np.array(R)
+        self.g2 = np.array(g2)
+        self.H = H
+        self.y = None         # z - h0
+        self.Sd = None        # diag(H P H^T) + R
+        self.ratio = None     # y^2 / (gate^2 Sd)
 
 
 class NavFilterBase:
@@ -117,12 +118,14 @@ class NavFilterBase:
         self.n = error_state_size(vehicle)
         self.is_plane = self.n == N_WIND
         self._home = origin
+        self._Hbuf = np.zeros((_MAX_ROWS, self.n))
+        self._floor = _P_FLOOR[: self.n].copy()
+        self._ceil = _P_CEIL[: self.n].copy()
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle --
     def reset(self) -> None:
         """Forget everything; the filter re-aligns from the next samples."""
-        prm = self.params
         self.origin: LocalFrame | None = self._home
         self._g = gravity_m_s2(self.origin.lat0_rad, self.origin.alt0_m) if self.origin else G0
         self.nom = Nominal()
@@ -130,13 +133,14 @@ class NavFilterBase:
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
         self._t_us: int | None = None
-        self._pos_src: str | None = None      # None -> "fake" -> "gps"
-        self._fake_hold = np.zeros(3)
+        self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
+        self._fake_hold = [0.0, 0.0, 0.0]
         self._baro_ok = False                 # baro offset initialised from GPS
         self._last_baro_alt: float | None = None
         self._airspeed: tuple[int, float] | None = None
         self._rej_since: dict[str, int] = {}
-        self._gps_delay = prm["EK_GPS_DELAY"]
+        self._gps_delay = self.params["EK_GPS_DELAY"]
+        self._gps_delay_us = int(round(self._gps_delay * 1e6))
         # alignment accumulators
         self._al_n = 0
         self._al_f = np.zeros(3)
@@ -144,23 +148,18 @@ class NavFilterBase:
         self._al_m = np.zeros(3)
         self._al_nm = 0
         self._al_t0: int | None = None
-        # history ring of the nominal state for the GPS latency
-        self._h_t = np.full(_HIST, np.iinfo(np.int64).min // 2, dtype=np.int64)
-        self._h_p = np.zeros((_HIST, 3))
-        self._h_v = np.zeros((_HIST, 3))
+        # history ring of (t, p - c_p, v - c_v) for the GPS latency
+        self._hist: list = [None] * _HIST
         self._h_i = 0
-        self._c_p = np.zeros(3)   # corrections applied since start (added back on lookup)
-        self._c_v = np.zeros(3)
+        self._c_p = [0.0, 0.0, 0.0]   # corrections applied since start (added back on lookup)
+        self._c_v = [0.0, 0.0, 0.0]
         self._reset_covariance_model()
 
-    def _reset_covariance_model(self) -> None:  # pragma: no cover - overridden
-        raise NotImplementedError
-
-    # -------------------------------------------------------------------- helpers --
+    # ----------------------------------------------------------- public helpers --
     def sigma(self) -> dict[str, np.ndarray]:
         """1-sigma of the error states, for logging: p_ned [m], v_ned [m/s], att [rad]
         (NED-frame rotation vector: ~roll, ~pitch, yaw error when level), accel_bias
-        [m/s^2], gyro_bias [rad/s], wind [m/s] (fixed-wing)."""
+        [m/s^2], gyro_bias [rad/s], baro_bias [m], gps_bias [m], wind [m/s] (fixed-wing)."""
         s = np.sqrt(np.maximum(np.diag(self.P), 0.0))
         out = {"p_ned": s[POS], "v_ned": s[VEL], "att": s[ATT],
                "accel_bias": s[ABIAS], "gyro_bias": s[GBIAS], "baro_bias": s[BBIAS],
@@ -170,12 +169,32 @@ class NavFilterBase:
         return out
 
     @property
+    def accel_bias(self) -> np.ndarray:
+        """Accelerometer bias estimate, body [m/s^2]."""
+        return np.array(self.nom.ba)
+
+    @property
+    def gyro_bias(self) -> np.ndarray:
+        """Gyro bias estimate, body [rad/s]."""
+        return np.array(self.nom.bg)
+
+    @property
+    def baro_bias(self) -> float:
+        """Barometer offset estimate (baro altitude - altitude) [m]."""
+        return self.nom.bb
+
+    @property
+    def gps_bias(self) -> np.ndarray:
+        """Estimate of the slow (Gauss-Markov) GPS position error, NED [m]."""
+        return np.array(self.nom.gb)
+
+    @property
     def P(self) -> np.ndarray:  # pragma: no cover - overridden
         raise NotImplementedError
 
     # --------------------------------------------------------------------- update --
     def update(self, frame: SensorFrame) -> NavState:
-        """One 100 Hz step: predict with frame.imu, then fuse what else is present."""
+        """One IMU step: predict with frame.imu, then fuse what else is present."""
         t = frame.t_us
         self.innovations = []
         dt = 0.0 if self._t_us is None else min(max((t - self._t_us) * 1e-6, 0.0), _MAX_DT)
@@ -192,7 +211,9 @@ class NavFilterBase:
         if not self.aligned:
             self._align_step(frame, gps)
             if not self.aligned:
-                self.nom.omega_b = imu.omega_b - self.nom.bg
+                bg = self.nom.bg
+                w = imu.omega_b.tolist()
+                self.nom.omega_b = [w[0] - bg[0], w[1] - bg[1], w[2] - bg[2]]
                 return self._output(t)
             self._push_history(t)
             if self._pos_src == "gps":   # aligned in flight on this very fix
@@ -203,9 +224,9 @@ class NavFilterBase:
                 self._predict(dt, imu.f_b, imu.omega_b)
             self._push_history(t)
 
-        blocks = self._blocks(frame, gps)
-        if blocks:
-            self._fuse(blocks, t)
+        batch = self._assemble(frame, gps)
+        if batch is not None:
+            self._fuse(batch, t)
         self._update_health(t)
         return self._output(t)
 
@@ -219,7 +240,7 @@ class NavFilterBase:
         f, w = imu.f_b, imu.omega_b
         if gps is not None and math.hypot(gps.v_ned[0], gps.v_ned[1]) >= self.params["EK_ALIGN_GSPD"]:
             # moving (a straight, unaccelerated leg looks static to the IMU)
-            self._align_in_flight(gps, frame)
+            self._align_in_flight(gps)
             return
         static = (float(np.dot(w, w)) < _STATIC_GYRO ** 2
                   and abs(math.sqrt(float(np.dot(f, f))) - self._g) < _STATIC_ACC)
@@ -239,75 +260,68 @@ class NavFilterBase:
             self._al_m += frame.mag.m_b
             self._al_nm += 1
         if (frame.t_us - self._al_t0) * 1e-6 >= self.params["EK_ALIGN_T"] and self._al_nm > 0:
-            self._align_on_ground(gps)
+            self._align_on_ground()
 
-    def _align_on_ground(self, gps) -> None:
+    def _align_on_ground(self) -> None:
         f_mean = self._al_f / self._al_n
         roll, pitch = level_from_accel(f_mean)
         yaw = heading_from_mag(self._al_m / self._al_nm, roll, pitch, self.params["EK_MAG_DEC"])
         nom = self.nom
         nom.set_attitude(euler_to_quat(roll, pitch, yaw))
-        nom.bg = self._al_w / self._al_n
-        nom.ba = np.zeros(3)
-        nom.v = np.zeros(3)
-        nom.p = np.zeros(3)
-        nom.wind = np.zeros(2)
+        nom.bg = (self._al_w / self._al_n).tolist()
+        nom.omega_b = [0.0, 0.0, 0.0]
         sd = np.concatenate([[_FAKE_POS_SD] * 3, [0.5] * 3, [0.02, 0.02, 0.1],
-                             [0.2] * 3, [0.003] * 3, [_BARO_INIT_SD], self._gm_sd(), [8.0] * 2])[: self.n]
-        self._init_covariance(sd)
+                             [0.2] * 3, [0.003] * 3, [_BARO_INIT_SD], self._gm_sd(), [8.0] * 2])
+        self._init_covariance(sd[: self.n])
         self.aligned = True
         self._pos_src = "fake"
-        self._fake_hold = nom.p.copy()
+        self._fake_hold = list(nom.p)
 
-    def _align_in_flight(self, gps, frame: SensorFrame) -> None:
+    def _align_in_flight(self, gps) -> None:
         if self.origin is None:
             return
-        v = np.asarray(gps.v_ned, dtype=float)
+        v = [float(c) for c in gps.v_ned]
         yaw = math.atan2(v[1], v[0])
         pitch = math.atan2(-v[2], math.hypot(v[0], v[1]))
         nom = self.nom
         nom.set_attitude(euler_to_quat(0.0, pitch, yaw))
-        nom.v = v.copy()
-        nom.p = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m) + v * self._gps_delay
-        nom.ba = np.zeros(3)
-        nom.bg = np.zeros(3)
-        nom.wind = np.zeros(2)
-        nom.gb = np.zeros(3)
+        nom.v = v
+        z = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
+        L = self._gps_delay
+        nom.p = [z[0] + v[0] * L, z[1] + v[1] * L, z[2] + v[2] * L]
+        nom.gb = [0.0, 0.0, 0.0]
+        white = self._gps_white(gps)
         baro_sd = _BARO_INIT_SD
         if self._last_baro_alt is not None:
-            nom.bb = np.array((self._last_baro_alt - (self.origin.alt0_m - nom.p[2]),))
-            baro_sd = float(np.hypot(self._gm_sd()[2], self._gps_white(gps)[2]))
+            nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+            baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._baro_ok = True
         sd = np.concatenate([[1.0] * 3, [1.0] * 3, [0.3, 0.3, 0.4],
-                             [0.2] * 3, [0.02] * 3, [baro_sd], self._gm_sd(), [8.0] * 2])[: self.n]
-        self._init_covariance(sd)
-        self._position_from_gps_covariance(self._gps_white(gps) ** 2)
+                             [0.2] * 3, [0.02] * 3, [baro_sd], self._gm_sd(), [8.0] * 2])
+        self._init_covariance(sd[: self.n])
+        self._position_from_gps_covariance(np.array(white) ** 2)
         self.aligned = True
         self._pos_src = "gps"
-        # the history must not hold the unaligned zeros
-        self._h_t[:] = np.iinfo(np.int64).min // 2
+        self._hist = [None] * _HIST   # the history must not hold the unaligned state
 
-    def _init_covariance(self, sd: np.ndarray) -> None:  # pragma: no cover - overridden
-        raise NotImplementedError
-
-    def _gm_sd(self) -> np.ndarray:
+    def _gm_sd(self) -> list[float]:
         """Stationary sigma of the GPS Gauss-Markov error states (N, E, D)."""
         h, v = self.params["EK_GPSB_SD"], self.params["EK_GPSB_Z_SD"]
-        return np.array((h, h, v))
+        return [h, h, v]
 
-    def _gps_white(self, gps) -> np.ndarray:
+    def _gps_white(self, gps) -> tuple[float, float, float]:
         """White-noise sigma (N, E, D) of a fix: the part of eph/epv the Gauss-Markov
         state does not explain, floored by EK_GPS_P_NSE / EK_GPS_Z_NSE."""
         prm = self.params
         gh, gv = prm["EK_GPSB_SD"], prm["EK_GPSB_Z_SD"]
         sh = max(prm["EK_GPS_P_NSE"], math.sqrt(max(gps.eph_m * gps.eph_m - gh * gh, 0.0)))
         sv = max(prm["EK_GPS_Z_NSE"], math.sqrt(max(gps.epv_m * gps.epv_m - gv * gv, 0.0)))
-        return np.array((sh, sh, sv))
+        return sh, sh, sv
 
     def _position_from_gps_covariance(self, white_var: np.ndarray) -> None:
         """Covariance after setting p = z - b_gps: dp = -db - w, so
         P_pp = P_bb + R_w and P_pb = -P_bb; position decorrelated from the rest."""
-        P = self.P
+        P = self.P.copy()
         Pbb = P[GPSB, GPSB].copy()
         P[POS, :] = 0.0
         P[:, POS] = 0.0
@@ -316,194 +330,271 @@ class NavFilterBase:
         P[GPSB, POS] = -Pbb
         self._set_P(P)
 
+    def _reset_covariance_block(self, sl: slice, var) -> None:
+        P = self.P.copy()
+        P[sl, :] = 0.0
+        P[:, sl] = 0.0
+        P[sl, sl] = np.diag(np.atleast_1d(var))
+        self._set_P(P)
+
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
-        i = self._h_i
-        self._h_t[i] = t
-        self._h_p[i] = self.nom.p - self._c_p
-        self._h_v[i] = self.nom.v - self._c_v
-        self._h_i = (i + 1) % _HIST
+        p, v, cp, cv = self.nom.p, self.nom.v, self._c_p, self._c_v
+        self._hist[self._h_i] = (t, p[0] - cp[0], p[1] - cp[1], p[2] - cp[2],
+                                 v[0] - cv[0], v[1] - cv[1], v[2] - cv[2])
+        self._h_i = (self._h_i + 1) % _HIST
 
-    def _delayed(self, t_valid: int) -> tuple[np.ndarray, np.ndarray]:
-        k = int(np.argmin(np.abs(self._h_t - t_valid)))
-        return self._h_p[k] + self._c_p, self._h_v[k] + self._c_v
+    def _delayed(self, t_valid: int) -> tuple:
+        """(p, v) of the nominal state nearest to t_valid, with later corrections."""
+        hist = self._hist
+        i = (self._h_i - 1) % _HIST
+        best = hist[i]
+        for _ in range(_HIST - 1):
+            j = (i - 1) % _HIST
+            e = hist[j]
+            if e is None or abs(e[0] - t_valid) > abs(best[0] - t_valid):
+                break
+            best, i = e, j
+        cp, cv = self._c_p, self._c_v
+        return ((best[1] + cp[0], best[2] + cp[1], best[3] + cp[2]),
+                (best[4] + cv[0], best[5] + cv[1], best[6] + cv[2]))
 
     # ----------------------------------------------------------- measurement models --
-    def _blocks(self, frame: SensorFrame, gps) -> list[Block]:
+    def _assemble(self, frame: SensorFrame, gps) -> Batch | None:
+        """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H."""
         prm = self.params
         nom = self.nom
         n = self.n
-        blocks: list[Block] = []
+        src, start, size, reset = [], [], [], []
+        z, h0, R, g2 = [], [], [], []
+        hi, hv = [], []                  # flat indices and values of H's nonzeros
+        r = 0
         if gps is not None:
             L = self._gps_delay
-            p_d, v_d = self._delayed(frame.t_us - int(round(L * 1e6)))
-            z = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
-            sw = self._gps_white(gps)
-            H = np.zeros((3, n))
-            H[0, 0] = H[1, 1] = H[2, 2] = 1.0
-            H[0, 3] = H[1, 4] = H[2, 5] = -L
-            H[:, GPSB] = np.eye(3)
-            b = Block("gps_pos", z, z, p_d + nom.gb, H, sw * sw, prm["EK_GPS_P_GATE"], (L,))
-            b.reset = self._pos_src != "gps"
-            blocks.append(b)
-            v = np.asarray(gps.v_ned, dtype=float)
-            H = np.zeros((3, n))
-            H[0, 3] = H[1, 4] = H[2, 5] = 1.0
-            H[:, ATT] = L * skew(nom.f_n)
-            H[:, ABIAS] = L * nom.R
-            sv = prm["EK_GPS_V_NSE"] ** 2
-            b = Block("gps_vel", v, v, v_d, H, np.array((sv, sv, sv)), prm["EK_GPS_V_GATE"], (L,))
-            b.reset = self._pos_src != "gps"
-            blocks.append(b)
+            pd, vd = self._delayed(frame.t_us - self._gps_delay_us)
+            sh, _, sv = self._gps_white(gps)
+            gb = nom.gb
+            rs = self._pos_src != "gps"
+            # gps_pos: h = p(t-L) + b_gps,  H = [I, -L I, 0 ..., I (GPSB), 0]
+            src.append("gps_pos"), start.append(r), size.append(3), reset.append(rs)
+            z.extend(self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist())
+            h0.extend((pd[0] + gb[0], pd[1] + gb[1], pd[2] + gb[2]))
+            R.extend((sh * sh, sh * sh, sv * sv))
+            gg = prm["EK_GPS_P_GATE"] ** 2
+            g2.extend((gg, gg, gg))
+            for i in range(3):
+                row = (r + i) * n
+                hi.extend((row + i, row + 3 + i, row + _I_GB + i))
+                hv.extend((1.0, -L, 1.0))
+            r += 3
+            # gps_vel: h = v(t-L),  H = [0, I, L [f_n x], L R, 0 ...]
+            src.append("gps_vel"), start.append(r), size.append(3), reset.append(rs)
+            z.extend(gps.v_ned.tolist())
+            h0.extend(vd)
+            s2 = prm["EK_GPS_V_NSE"] ** 2
+            R.extend((s2, s2, s2))
+            gg = prm["EK_GPS_V_GATE"] ** 2
+            g2.extend((gg, gg, gg))
+            fx, fy, fz = nom.f_n
+            Rm = nom.R
+            a, b = _I_ATT, _I_BA
+            r0, r1, r2 = r * n, (r + 1) * n, (r + 2) * n
+            hi.extend((r0 + 3, r1 + 4, r2 + 5,
+                       r0 + a + 1, r0 + a + 2, r1 + a, r1 + a + 2, r2 + a, r2 + a + 1,
+                       r0 + b, r0 + b + 1, r0 + b + 2, r1 + b, r1 + b + 1, r1 + b + 2,
+                       r2 + b, r2 + b + 1, r2 + b + 2))
+            hv.extend((1.0, 1.0, 1.0,
+                       -L * fz, L * fy, L * fz, -L * fx, -L * fy, L * fx,
+                       L * Rm[0], L * Rm[1], L * Rm[2], L * Rm[3], L * Rm[4], L * Rm[5],
+                       L * Rm[6], L * Rm[7], L * Rm[8]))
+            r += 3
         elif self._pos_src == "fake":
-            H = np.zeros((3, n))
-            H[0, 0] = H[1, 1] = H[2, 2] = 1.0
+            # fake_pos: h = p,  H = [I, 0 ...]
+            src.append("fake_pos"), start.append(r), size.append(3), reset.append(False)
+            z.extend(self._fake_hold)
+            h0.extend(nom.p)
             s2 = _FAKE_POS_SD ** 2
-            blocks.append(Block("fake_pos", self._fake_hold.copy(), self._fake_hold.copy(),
-                                nom.p.copy(), H, np.array((s2, s2, s2)), 1e3))
+            R.extend((s2, s2, s2))
+            g2.extend((1e6, 1e6, 1e6))
+            hi.extend((r * n, (r + 1) * n + 1, (r + 2) * n + 2))
+            hv.extend((1.0, 1.0, 1.0))
+            r += 3
 
         if frame.baro is not None and self._baro_ok:
-            alt = np.array((frame.baro.alt_m,))
-            H = np.zeros((1, n))
-            H[0, 2] = -1.0
-            H[0, BBIAS.start] = 1.0
-            s = prm["EK_BARO_NSE"]
-            blocks.append(Block("baro", alt, alt, np.array((self.origin.alt0_m - nom.p[2] + nom.bb[0],)),
-                                H, np.array((s * s,)), prm["EK_BARO_GATE"]))
+            # baro: h = alt0 - p_D + b_baro
+            src.append("baro"), start.append(r), size.append(1), reset.append(False)
+            z.append(frame.baro.alt_m)
+            h0.append(self.origin.alt0_m - nom.p[2] + nom.bb)
+            R.append(prm["EK_BARO_NSE"] ** 2)
+            g2.append(prm["EK_BARO_GATE"] ** 2)
+            hi.extend((r * n + 2, r * n + _I_BB))
+            hv.extend((-1.0, 1.0))
+            r += 1
 
         if frame.mag is not None:
-            R = nom.R
-            d = R[0, 0] * R[0, 0] + R[1, 0] * R[1, 0]
-            if d > _MAX_PITCH_FOR_MAG:
-                yaw_m = mag_heading(R, frame.mag.m_b, prm["EK_MAG_DEC"])
-                yaw0 = yaw_of(R)
-                H = np.zeros((1, n))
-                H[0, 6] = -R[0, 0] * R[2, 0] / d
-                H[0, 7] = -R[1, 0] * R[2, 0] / d
-                H[0, 8] = 1.0
-                s = prm["EK_MAG_NSE"]
-                blocks.append(Block("mag", np.array((yaw_m,)), np.array((yaw0 + wrap_pi(yaw_m - yaw0),)),
-                                    np.array((yaw0,)), H, np.array((s * s,)), prm["EK_MAG_GATE"]))
+            Rm = nom.R
+            r00, r10, r20 = Rm[0], Rm[3], Rm[6]
+            d = r00 * r00 + r10 * r10
+            if d > _MIN_COS2_PITCH_MAG:
+                # mag: h = yaw(q),  H_att = [-R00 R20 / d, -R10 R20 / d, 1]
+                yaw_m = mag_heading(Rm, frame.mag.m_b, prm["EK_MAG_DEC"])
+                yaw0 = math.atan2(r10, r00)
+                src.append("mag"), start.append(r), size.append(1), reset.append(False)
+                z.append(yaw0 + wrap_pi(yaw_m - yaw0))
+                h0.append(yaw0)
+                R.append(prm["EK_MAG_NSE"] ** 2)
+                g2.append(prm["EK_MAG_GATE"] ** 2)
+                row = r * n + _I_ATT
+                hi.extend((row, row + 1, row + 2))
+                hv.extend((-r00 * r20 / d, -r10 * r20 / d, 1.0))
+                r += 1
 
-        if (self.is_plane and frame.airspeed is not None
-                and frame.airspeed.airspeed_mps >= prm["EK_ARSP_MIN"] and self._pos_src == "gps"):
-            R = nom.R
+        if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
+                and frame.airspeed.airspeed_mps >= prm["EK_ARSP_MIN"]):
             w = nom.wind
-            vr = nom.v - (w[0], w[1], 0.0)
-            tas = math.sqrt(float(vr @ vr))
+            v = nom.v
+            ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
+            tas = math.sqrt(ax * ax + ay * ay + az * az)
             if tas > 1.0:
-                u = vr / tas
-                H = np.zeros((1, n))
-                H[0, VEL] = u
-                H[0, WIND] = -u[:2]
-                s = prm["EK_ARSP_NSE"]
-                z = np.array((frame.airspeed.airspeed_mps,))
-                blocks.append(Block("airspeed", z, z, np.array((tas,)), H, np.array((s * s,)),
-                                    prm["EK_ARSP_GATE"]))
-                ey = R[:, 1]
-                H = np.zeros((1, n))
-                H[0, ATT] = np.cross(ey, vr)
-                H[0, VEL] = ey
-                H[0, WIND] = -ey[:2]
-                s = prm["EK_BETA_NSE"]
-                zero = np.zeros(1)
-                blocks.append(Block("sideslip", zero, zero, np.array((float(ey @ vr),)), H,
-                                    np.array((s * s,)), prm["EK_BETA_GATE"]))
-        return blocks
+                # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|)
+                ux, uy, uz = ax / tas, ay / tas, az / tas
+                src.append("airspeed"), start.append(r), size.append(1), reset.append(False)
+                z.append(frame.airspeed.airspeed_mps)
+                h0.append(tas)
+                R.append(prm["EK_ARSP_NSE"] ** 2)
+                g2.append(prm["EK_ARSP_GATE"] ** 2)
+                row = r * n
+                hi.extend((row + 3, row + 4, row + 5, row + _I_W, row + _I_W + 1))
+                hv.extend((ux, uy, uz, -ux, -uy))
+                r += 1
+                # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
+                #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
+                Rm = nom.R
+                cx, cy, cz = Rm[1], Rm[4], Rm[7]
+                src.append("sideslip"), start.append(r), size.append(1), reset.append(False)
+                z.append(0.0)
+                h0.append(cx * ax + cy * ay + cz * az)
+                R.append(prm["EK_BETA_NSE"] ** 2)
+                g2.append(prm["EK_BETA_GATE"] ** 2)
+                row = r * n
+                hi.extend((row + _I_ATT, row + _I_ATT + 1, row + _I_ATT + 2,
+                           row + 3, row + 4, row + 5, row + _I_W, row + _I_W + 1))
+                hv.extend((cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax,
+                           cx, cy, cz, -cx, -cy))
+                r += 1
+
+        if r == 0:
+            return None
+        Hb = self._Hbuf
+        Hb.fill(0.0)
+        Hb.put(hi, hv)
+        return Batch(src, start, size, reset, z, h0, R, g2, Hb[:r])
 
     # --------------------------------------------------------------------- fusion --
-    def _fuse(self, blocks: list[Block], t: int) -> None:
-        self._innovation_stats(blocks)
+    def _fuse(self, batch: Batch, t: int) -> None:
+        """Gate each source, fuse the accepted rows, apply resets, write the records."""
+        self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        y, Sd = batch.y, batch.Sd
+        # test ratio = y^2 / (gate^2 S)
+        ratio = y * y / (batch.g2 * Sd)
+        batch.ratio = ratio
+        rl = ratio.tolist()
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
-        accepted: list[Block] = []
-        resets: list[Block] = []
-        for b in blocks:
-            gate2 = b.gate * b.gate
-            b.ratio = b.y * b.y / (gate2 * b.S)
-            b.rejected = bool(np.any(b.ratio > 1.0))
-            if b.rejected:
-                since = self._rej_since.setdefault(b.source, t)
-                if b.source in ("gps_pos", "gps_vel") and t - since >= rst_us:
-                    b.reset = True
+        src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
+        rejected = []
+        resets = []
+        rows = None
+        for k, name in enumerate(src):
+            a, m = start[k], size[k]
+            rej = max(rl[a:a + m]) > 1.0
+            rejected.append(rej)
+            if rej:
+                since = self._rej_since.setdefault(name, t)
+                if name in ("gps_pos", "gps_vel") and t - since >= rst_us:
+                    forced[k] = True
             else:
-                self._rej_since.pop(b.source, None)
-            if b.reset:
-                resets.append(b)
-            elif not b.rejected:
-                accepted.append(b)
-        if accepted:
-            self._fuse_blocks(accepted)
-        for b in resets:
-            self._reset_to(b)
+                self._rej_since.pop(name, None)
+            if forced[k]:
+                resets.append(k)
+            if rej or forced[k]:
+                if rows is None:
+                    rows = list(range(a))
+            elif rows is not None:
+                rows.extend(range(a, a + m))
+        if rows is None:
+            self._fuse_rows(batch, None)
+        elif rows:
+            self._fuse_rows(batch, rows)
+        for k in resets:
+            self._reset_to(src[k], batch, start[k])
+        z = batch.z
         rec = self.innovations
-        for b in blocks:
-            rec.append(InnovationRecord(t, b.source, b.obs, b.y, b.S, b.ratio, b.rejected,
-                                        b.reset or not b.rejected))
+        for k, name in enumerate(src):
+            a = start[k]
+            e = a + size[k]
+            rec.append(InnovationRecord(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
+                                        rejected[k], forced[k] or not rejected[k]))
 
-    def _reset_to(self, b: Block) -> None:
+    def _reset_to(self, source: str, batch: Batch, a: int) -> None:
         """Reset position or velocity to the (latency-compensated) GPS."""
         nom = self.nom
-        if b.source == "gps_pos":
-            dp = b.z - b.h0
-            nom.p = nom.p + dp
-            self._c_p += dp
-            self._position_from_gps_covariance(b.R)
+        dz = (batch.z[a:a + 3] - batch.h0[a:a + 3]).tolist()
+        if source == "gps_pos":
+            nom.p = [nom.p[i] + dz[i] for i in range(3)]
+            self._c_p = [self._c_p[i] + dz[i] for i in range(3)]
+            self._position_from_gps_covariance(batch.R[a:a + 3])
             self._rej_since.pop("gps_pos", None)
-            if self._pos_src != "gps":
-                self._pos_src = "gps"
+            self._pos_src = "gps"
             if not self._baro_ok and self._last_baro_alt is not None:
-                nom.bb = np.array((self._last_baro_alt - (self.origin.alt0_m - nom.p[2]),))
-                self._reset_covariance_block(BBIAS, np.array((self.P[2, 2],)))
+                nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+                self._reset_covariance_block(BBIAS, self.P[2, 2])
                 self._baro_ok = True
-        elif b.source == "gps_vel":
-            dv = b.z - b.h0
-            nom.v = nom.v + dv
-            self._c_v += dv
-            self._reset_covariance_block(VEL, b.R)
+        elif source == "gps_vel":
+            nom.v = [nom.v[i] + dz[i] for i in range(3)]
+            self._c_v = [self._c_v[i] + dz[i] for i in range(3)]
+            self._reset_covariance_block(VEL, batch.R[a:a + 3])
             self._rej_since.pop("gps_vel", None)
 
     def _inject(self, dx: np.ndarray) -> None:
         """Fold an error-state estimate into the nominal state (dx is then zero)."""
+        (d0, d1, d2, d3, d4, d5, d6, d7, d8, d9, d10, d11, d12, d13, d14,
+         d15, d16, d17, d18, *dw) = dx.tolist()          # layout order (layout.py)
         nom = self.nom
-        dp = dx[POS]
-        dv = dx[VEL]
-        nom.p = nom.p + dp
-        nom.v = nom.v + dv
-        self._c_p += dp
-        self._c_v += dv
-        inject_attitude(nom, dx[ATT])
-        nom.ba = np.clip(nom.ba + dx[ABIAS], -_BA_MAX, _BA_MAX)
-        nom.bg = np.clip(nom.bg + dx[GBIAS], -_BG_MAX, _BG_MAX)
-        nom.bb = nom.bb + dx[BBIAS]
-        nom.gb = nom.gb + dx[GPSB]
-        if self.is_plane:
-            nom.wind = nom.wind + dx[WIND]
-
-    def _reset_covariance_block(self, sl: slice, var: np.ndarray) -> None:
-        P = self.P
-        P[sl, :] = 0.0
-        P[:, sl] = 0.0
-        P[sl, sl] = np.diag(var)
-        self._set_P(P)
+        p, v, cp, cv = nom.p, nom.v, self._c_p, self._c_v
+        nom.p = [p[0] + d0, p[1] + d1, p[2] + d2]
+        nom.v = [v[0] + d3, v[1] + d4, v[2] + d5]
+        self._c_p = [cp[0] + d0, cp[1] + d1, cp[2] + d2]
+        self._c_v = [cv[0] + d3, cv[1] + d4, cv[2] + d5]
+        inject_attitude(nom, d6, d7, d8)
+        ba, bg, gb = nom.ba, nom.bg, nom.gb
+        ba = [ba[0] + d9, ba[1] + d10, ba[2] + d11]
+        bg = [bg[0] + d12, bg[1] + d13, bg[2] + d14]
+        if max(abs(ba[0]), abs(ba[1]), abs(ba[2])) > _BA_MAX:
+            ba = [min(max(c, -_BA_MAX), _BA_MAX) for c in ba]
+        if max(abs(bg[0]), abs(bg[1]), abs(bg[2])) > _BG_MAX:
+            bg = [min(max(c, -_BG_MAX), _BG_MAX) for c in bg]
+        nom.ba, nom.bg = ba, bg
+        nom.bb += d15
+        nom.gb = [gb[0] + d16, gb[1] + d17, gb[2] + d18]
+        if dw:
+            w = nom.wind
+            nom.wind = [w[0] + dw[0], w[1] + dw[1]]
 
     def _condition(self, P: np.ndarray) -> np.ndarray:
-        """Symmetrise and keep the diagonal inside [floor, ceiling]."""
-        P = 0.5 * (P + P.T)
-        d = np.diagonal(P)
-        n = self.n
-        if np.any(d < _P_FLOOR[:n]) or np.any(d > _P_CEIL[:n]):
-            idx = np.arange(n)
-            P[idx, idx] = np.clip(d, _P_FLOOR[:n], _P_CEIL[:n])
+        """Symmetrise P and keep its diagonal inside [floor, ceiling]."""
+        P = P + P.T
+        P *= 0.5
+        P.flat[:: self.n + 1] = np.minimum(np.maximum(P.diagonal(), self._floor), self._ceil)
         return P
 
     # --------------------------------------------------------------------- output --
     def _update_health(self, t: int) -> None:
-        tout = self.params["EK_REJ_TOUT"] * 1e6
         P = self.P
         ok = (self.aligned and self._pos_src == "gps"
-              and bool(np.isfinite(P[0, 0] + P[1, 1] + P[6, 6] + P[8, 8]))
+              and math.isfinite(P[0, 0] + P[1, 1] + P[6, 6] + P[8, 8])
               and P[0, 0] + P[1, 1] <= self.params["EK_HPOS_MAX"] ** 2)
-        if ok:
+        if ok and self._rej_since:
+            tout = self.params["EK_REJ_TOUT"] * 1e6
             for since in self._rej_since.values():
                 if t - since > tout:
                     ok = False
@@ -512,33 +603,39 @@ class NavFilterBase:
 
     def _output(self, t: int) -> NavState:
         nom = self.nom
-        p = nom.p.copy()
+        p = nom.p
         if self.origin is not None:
             lat, lon, alt = self.origin.to_geodetic_fast(p)
         else:
-            lat, lon, alt = 0.0, 0.0, -float(p[2])
-        wind = np.zeros(3)
-        if self.is_plane:
-            wind[0], wind[1] = nom.wind
+            lat, lon, alt = 0.0, 0.0, -p[2]
+        w = nom.wind
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
-            vr = nom.v - wind
-            airspeed = math.sqrt(float(vr @ vr))
-        return NavState(t_us=t, p_ned=p, v_ned=nom.v.copy(), q_nb=nom.q.copy(),
-                        omega_b=nom.omega_b.copy(), lat_rad=lat, lon_rad=lon, alt_m=alt,
-                        airspeed_mps=airspeed, wind_ned=wind, aligned=self.aligned,
-                        healthy=self.healthy, source=self.SOURCE)
+            v = nom.v
+            airspeed = math.sqrt((v[0] - w[0]) ** 2 + (v[1] - w[1]) ** 2 + v[2] ** 2)
+        # one array for all vectors of the state, handed out as views (one allocation)
+        a = np.array(p + nom.v + nom.q + nom.omega_b + [w[0], w[1], 0.0])
+        return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
+                        a[13:16], self.aligned, self.healthy, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
+    def _reset_covariance_model(self) -> None:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _init_covariance(self, sd: np.ndarray) -> None:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover - overridden
+        raise NotImplementedError
+
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:  # pragma: no cover
         raise NotImplementedError
 
-    def _innovation_stats(self, blocks: list[Block]) -> None:  # pragma: no cover
+    def _gate_stats(self, batch: Batch) -> None:  # pragma: no cover - overridden
+        """Set batch.y = z - h(x) and batch.Sd = diag(H P H^T) + R."""
         raise NotImplementedError
 
-    def _fuse_blocks(self, blocks: list[Block]) -> None:  # pragma: no cover
-        raise NotImplementedError
-
-    def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover
+    def _fuse_rows(self, batch: Batch, rows: list[int] | None) -> None:  # pragma: no cover
+        """Fuse the given rows of the batch (None: all) and inject the correction."""
         raise NotImplementedError

@@ -31,14 +31,20 @@ symmetrised and its diagonal kept within a floor and ceiling after every update.
 measurements present in one step are gated one source at a time and then fused in one
 stacked update (equivalent to sequential updates for independent noises, and cheaper).
 Aiding sources, GPS latency and alignment: see :mod:`.base`.
+
+Cost (the closed loop must run >= 30x real time in Python): F is preallocated and only
+its 24 dynamic entries are rewritten each step (one ``put``); Q is a constant diagonal
+matrix for a given dt; the gain is solved with LAPACK ``dposv`` (Cholesky) instead of an
+explicit inverse.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from scipy.linalg import lapack
 
-from .base import NavFilterBase, skew
+from .base import NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, VEL, WIND
 from .strapdown import propagate
 
@@ -57,11 +63,17 @@ class InsGpsEkf(NavFilterBase):
     def _reset_covariance_model(self) -> None:
         n = self.n
         self._P = np.eye(n)
-        self._F = np.eye(n)          # preallocated; only the dynamic blocks are rewritten
+        self._F = np.eye(n)          # preallocated; only the dynamic entries are rewritten
         self._I = np.eye(n)
-        self._diag = np.arange(n)
-        self._Qd = np.zeros(n)
+        self._Q = np.zeros((n, n))
         self._q_dt = -1.0
+        # flat indices of F's dynamic entries: -[f_n x] dt (6 off-diagonal), -R dt (2 x 9)
+        a, b, g, v = ATT.start, ABIAS.start, GBIAS.start, VEL.start
+        idx = [(v + 0) * n + a + 1, (v + 0) * n + a + 2, (v + 1) * n + a + 0,
+               (v + 1) * n + a + 2, (v + 2) * n + a + 0, (v + 2) * n + a + 1]
+        idx += [(v + i) * n + b + j for i in range(3) for j in range(3)]
+        idx += [(a + i) * n + g + j for i in range(3) for j in range(3)]
+        self._F_idx = np.array(idx)
 
     @property
     def P(self) -> np.ndarray:
@@ -74,9 +86,9 @@ class InsGpsEkf(NavFilterBase):
         self._P = np.diag(np.asarray(sd, dtype=float) ** 2)
 
     def _process_noise(self, dt: float) -> None:
-        """Q (diagonal) and the constant blocks of F for a step of dt."""
+        """Q (diagonal) and the constant entries of F for a step of dt."""
         prm = self.params
-        q = self._Qd
+        q = np.zeros(self.n)
         q[VEL] = (prm["EK_ACC_NSE"] * dt) ** 2
         q[ATT] = (prm["EK_GYR_NSE"] * dt) ** 2
         q[ABIAS] = prm["EK_ACCB_NSE"] ** 2 * dt
@@ -84,9 +96,10 @@ class InsGpsEkf(NavFilterBase):
         q[BBIAS] = prm["EK_BAROB_NSE"] ** 2 * dt
         # first-order Gauss-Markov GPS error: b' = a b + w, a = exp(-dt/tau), var(w) = sd^2 (1 - a^2)
         a = math.exp(-dt / prm["EK_GPSB_TAU"])
-        q[GPSB] = self._gm_sd() ** 2 * (1.0 - a * a)
+        q[GPSB] = np.array(self._gm_sd()) ** 2 * (1.0 - a * a)
         if self.is_plane:
             q[WIND] = prm["EK_WIND_NSE"] ** 2 * dt
+        self._Q = np.diag(q)
         F = self._F
         F[0, 3] = F[1, 4] = F[2, 5] = dt
         i = GPSB.start
@@ -98,57 +111,47 @@ class InsGpsEkf(NavFilterBase):
         propagate(nom, f_m, omega_m, dt, self._g)
         if dt != self._q_dt:
             self._process_noise(dt)
+        fx, fy, fz = nom.f_n
+        r = nom.R
+        m = -dt
+        # F = I + F_c dt:  F[VEL, ATT] = -[f_n x] dt,  F[VEL, ABIAS] = F[ATT, GBIAS] = -R dt
+        self._F.put(self._F_idx, (
+            fz * dt, m * fy, m * fz, fx * dt, fy * dt, m * fx,
+            m * r[0], m * r[1], m * r[2], m * r[3], m * r[4], m * r[5], m * r[6], m * r[7], m * r[8],
+            m * r[0], m * r[1], m * r[2], m * r[3], m * r[4], m * r[5], m * r[6], m * r[7], m * r[8]))
         F = self._F
-        mRdt = nom.R * (-dt)
-        # F = I + F_c dt: the three dynamic blocks
-        F[VEL, ATT] = skew(nom.f_n * (-dt))
-        F[VEL, ABIAS] = mRdt
-        F[ATT, GBIAS] = mRdt
         # P = F P F^T + Q
         P = F @ self._P @ F.T
-        P[self._diag, self._diag] += self._Qd
+        P += self._Q
         self._P = P
 
-    def _innovation_stats(self, blocks) -> None:
-        H = blocks[0].H if len(blocks) == 1 else np.vstack([b.H for b in blocks])
+    def _gate_stats(self, batch) -> None:
+        H = batch.H
+        # P H^T, S = H P H^T (+ R below)
         PHt = self._P @ H.T
-        R = np.concatenate([b.R for b in blocks]) if len(blocks) > 1 else blocks[0].R
-        # diag(S) = diag(H P H^T) + R
-        S_diag = np.einsum("ij,ji->i", H, PHt) + R
-        i = 0
-        for b in blocks:
-            m = b.R.shape[0]
-            # y = z - h(x)
-            b.y = b.z - b.h0
-            b.S = S_diag[i:i + m]
-            i += m
-        self._stats = (blocks, H, PHt, R)
-
-    def _fuse_blocks(self, accepted) -> None:
-        blocks, H, PHt, R = self._stats
-        if len(accepted) != len(blocks):
-            rows = []
-            i = 0
-            keep = set(map(id, accepted))
-            for b in blocks:
-                m = b.R.shape[0]
-                if id(b) in keep:
-                    rows.extend(range(i, i + m))
-                i += m
-            H = H[rows]
-            PHt = PHt[:, rows]
-            R = R[rows]
-        y = np.concatenate([b.y for b in accepted]) if len(accepted) > 1 else accepted[0].y
-        P = self._P
-        # S = H P H^T + R
         S = H @ PHt
-        S[np.diag_indices_from(S)] += R
-        # K = P H^T S^-1
-        K = PHt @ np.linalg.inv(S)
+        # y = z - h(x)
+        batch.y = batch.z - batch.h0
+        batch.Sd = S.diagonal() + batch.R
+        self._PHt, self._S = PHt, S
+
+    def _fuse_rows(self, batch, rows) -> None:
+        H, PHt, S, R, y = batch.H, self._PHt, self._S, batch.R, batch.y
+        if rows is not None:
+            H, PHt, R, y = H[rows], PHt[:, rows], R[rows], y[rows]
+            S = S[np.ix_(rows, rows)]
+        # S = H P H^T + R
+        S.flat[:: S.shape[0] + 1] += R
+        # K = P H^T S^-1   (Cholesky solve of S K^T = H P)
+        _, KT, info = lapack.dposv(S, PHt.T)
+        if info != 0:
+            return                           # S not positive definite: skip this update
+        K = KT.T
         # dx = K y
         dx = K @ y
         # P = (I - K H) P (I - K H)^T + K R K^T      (Joseph form)
         A = self._I - K @ H
-        P = A @ P @ A.T + (K * R) @ K.T
+        P = A @ self._P @ A.T
+        P += (K * R) @ KT
         self._P = self._condition(P)
         self._inject(dx)

@@ -16,8 +16,8 @@ origin. The ``1/2 dt omega x f`` term rotates the specific force to the middle o
 step (the first-order rotation compensation of Savage 1998), which removes a bias of
 ``|omega| dt / 2 * |f|`` in turns.
 
-Everything here is written on Python floats for the 100 Hz loop: a 3x3 numpy
-matrix product costs as much as the whole float version.
+The nominal state is kept in Python floats: in the 100 Hz loop one numpy call on a
+3-vector costs as much as the whole float mechanisation.
 """
 from __future__ import annotations
 
@@ -28,67 +28,77 @@ import numpy as np
 from autopilot.geo import euler_to_quat, wrap_pi
 
 
+def dcm9(q) -> tuple:
+    """R(q_nb) as a row-major 9-tuple (same formula as autopilot.geo.quat_to_dcm)."""
+    w, x, y, z = q
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    return (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy),
+            2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx),
+            2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz)
+
+
 class Nominal:
-    """The nominal (full) navigation state around which the error state is estimated."""
+    """The nominal (full) navigation state around which the error state is estimated.
+    Lists of floats; ``R`` is R(q_nb) row-major, kept in step with ``q``."""
 
     __slots__ = ("p", "v", "q", "ba", "bg", "bb", "gb", "wind", "R", "f_n", "omega_b")
 
     def __init__(self):
-        self.p = np.zeros(3)          # position NED [m]
-        self.v = np.zeros(3)          # velocity NED [m/s]
-        self.q = np.array([1.0, 0.0, 0.0, 0.0])  # q_nb
-        self.ba = np.zeros(3)         # accelerometer bias, body [m/s^2]
-        self.bg = np.zeros(3)         # gyro bias, body [rad/s]
-        self.bb = np.zeros(1)         # barometer offset: baro altitude - altitude [m]
-        self.gb = np.zeros(3)         # GPS position error, NED [m]
-        self.wind = np.zeros(2)       # wind north, east [m/s]
-        self.R = np.eye(3)            # R(q_nb), kept in step with q
-        self.f_n = np.zeros(3)        # last bias-corrected specific force in NED [m/s^2]
-        self.omega_b = np.zeros(3)    # last bias-corrected body rate [rad/s]
+        self.p = [0.0, 0.0, 0.0]          # position NED [m]
+        self.v = [0.0, 0.0, 0.0]          # velocity NED [m/s]
+        self.q = [1.0, 0.0, 0.0, 0.0]     # q_nb
+        self.ba = [0.0, 0.0, 0.0]         # accelerometer bias, body [m/s^2]
+        self.bg = [0.0, 0.0, 0.0]         # gyro bias, body [rad/s]
+        self.bb = 0.0                     # barometer offset: baro altitude - altitude [m]
+        self.gb = [0.0, 0.0, 0.0]         # GPS position error, NED [m]
+        self.wind = [0.0, 0.0]            # wind north, east [m/s]
+        self.R = dcm9(self.q)
+        self.f_n = [0.0, 0.0, 0.0]        # last bias-corrected specific force, NED [m/s^2]
+        self.omega_b = [0.0, 0.0, 0.0]    # last bias-corrected body rate [rad/s]
 
-    def set_attitude(self, q: np.ndarray) -> None:
-        self.q = np.asarray(q, dtype=float).copy()
-        self.R = dcm(self.q)
+    def set_attitude(self, q) -> None:
+        self.q = [float(c) for c in q]
+        self.R = dcm9(self.q)
+
+    def R_matrix(self) -> np.ndarray:
+        return np.array(self.R).reshape(3, 3)
 
     def copy(self) -> "Nominal":
         n = Nominal()
         for name in self.__slots__:
-            setattr(n, name, getattr(self, name).copy())
+            v = getattr(self, name)
+            setattr(n, name, list(v) if isinstance(v, list) else v)
         return n
-
-
-def dcm(q: np.ndarray) -> np.ndarray:
-    """R(q_nb) (same formula as autopilot.geo.quat_to_dcm, inlined for speed)."""
-    w, x, y, z = q.tolist()
-    ww, xx, yy, zz = w * w, x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return np.array([
-        [ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy)],
-        [2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx)],
-        [2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz],
-    ])
 
 
 def propagate(nom: Nominal, f_m: np.ndarray, omega_m: np.ndarray, dt: float, g: float) -> None:
     """Advance the nominal state by one IMU sample (module docstring), in place."""
-    omega = omega_m - nom.bg
-    f = f_m - nom.ba
-    wx, wy, wz = omega.tolist()
-    fx, fy, fz = f.tolist()
+    bg = nom.bg
+    ba = nom.ba
+    wx, wy, wz = omega_m.tolist()
+    wx -= bg[0]
+    wy -= bg[1]
+    wz -= bg[2]
+    fx, fy, fz = f_m.tolist()
+    fx -= ba[0]
+    fy -= ba[1]
+    fz -= ba[2]
     h = 0.5 * dt
     # f + 1/2 dt omega x f  (rotation to mid-step)
     gx = fx + h * (wy * fz - wz * fy)
     gy = fy + h * (wz * fx - wx * fz)
     gz = fz + h * (wx * fy - wy * fx)
-    R = nom.R
-    f_n = R @ np.array((gx, gy, gz))
-    v0 = nom.v
-    # v' = v + (f_n + g_n) dt
-    v1 = v0 + f_n * dt
-    v1[2] += g * dt
-    # p' = p + 1/2 (v + v') dt
-    nom.p = nom.p + (v0 + v1) * h
-    nom.v = v1
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = nom.R
+    fnx = r00 * gx + r01 * gy + r02 * gz
+    fny = r10 * gx + r11 * gy + r12 * gz
+    fnz = r20 * gx + r21 * gy + r22 * gz
+    # v' = v + (f_n + g_n) dt ;  p' = p + 1/2 (v + v') dt
+    vx, vy, vz = nom.v
+    ux, uy, uz = vx + fnx * dt, vy + fny * dt, vz + (fnz + g) * dt
+    px, py, pz = nom.p
+    nom.p = [px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h]
+    nom.v = [ux, uy, uz]
     # q' = q (x) Exp(omega dt)
     ax, ay, az = wx * dt, wy * dt, wz * dt
     ang = math.sqrt(ax * ax + ay * ay + az * az)
@@ -97,7 +107,7 @@ def propagate(nom: Nominal, f_m: np.ndarray, omega_m: np.ndarray, dt: float, g: 
         dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
     else:
         dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    qw, qx, qy, qz = nom.q.tolist()
+    qw, qx, qy, qz = nom.q
     rw = qw * dw - qx * dx - qy * dy - qz * dz
     rx = qw * dx + qx * dw + qy * dz - qz * dy
     ry = qw * dy - qx * dz + qy * dw + qz * dx
@@ -105,22 +115,22 @@ def propagate(nom: Nominal, f_m: np.ndarray, omega_m: np.ndarray, dt: float, g: 
     n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     if rw < 0.0:
         n = -n
-    nom.q = np.array((rw * n, rx * n, ry * n, rz * n))
-    nom.R = dcm(nom.q)
-    nom.f_n = f_n
-    nom.omega_b = omega
+    q = [rw * n, rx * n, ry * n, rz * n]
+    nom.q = q
+    nom.R = dcm9(q)
+    nom.f_n = [fnx, fny, fnz]
+    nom.omega_b = [wx, wy, wz]
 
 
-def inject_attitude(nom: Nominal, dtheta: np.ndarray) -> None:
+def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:
     """q <- Exp(dtheta) (x) q: apply a global (NED-frame) attitude correction."""
-    ax, ay, az = dtheta.tolist()
     ang = math.sqrt(ax * ax + ay * ay + az * az)
     if ang > 1e-9:
         s = math.sin(0.5 * ang) / ang
         dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
     else:
         dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    qw, qx, qy, qz = nom.q.tolist()
+    qw, qx, qy, qz = nom.q
     rw = dw * qw - dx * qx - dy * qy - dz * qz
     rx = dw * qx + dx * qw + dy * qz - dz * qy
     ry = dw * qy - dx * qz + dy * qw + dz * qx
@@ -128,26 +138,25 @@ def inject_attitude(nom: Nominal, dtheta: np.ndarray) -> None:
     n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     if rw < 0.0:
         n = -n
-    nom.q = np.array((rw * n, rx * n, ry * n, rz * n))
-    nom.R = dcm(nom.q)
+    q = [rw * n, rx * n, ry * n, rz * n]
+    nom.q = q
+    nom.R = dcm9(q)
 
 
-def yaw_of(R: np.ndarray) -> float:
-    """3-2-1 yaw of R(q_nb) [rad]."""
-    return math.atan2(R[1, 0], R[0, 0])
-
-
-def mag_heading(R: np.ndarray, m_b: np.ndarray, declination_rad: float) -> float:
+def mag_heading(R: tuple, m_b: np.ndarray, declination_rad: float) -> float:
     """Heading measured by the magnetometer, tilt-compensated with the attitude R.
 
     The field is rotated into NED with the current estimate, ``m_hat = R m_b``; its
     horizontal direction, corrected for declination, gives the yaw error, so the
     measured heading is ``yaw(R) + dec - atan2(m_hat_e, m_hat_n)``. Roll/pitch errors
     of the estimate leak into it by about tan(inclination) per radian of tilt error
-    (modelled as part of EK_MAG_NSE).
+    (absorbed in EK_MAG_NSE).
     """
-    m_hat = R @ m_b
-    return wrap_pi(yaw_of(R) + declination_rad - math.atan2(m_hat[1], m_hat[0]))
+    mx, my, mz = m_b.tolist()
+    r00, r01, r02, r10, r11, r12 = R[:6]
+    mn = r00 * mx + r01 * my + r02 * mz
+    me = r10 * mx + r11 * my + r12 * mz
+    return wrap_pi(math.atan2(r10, r00) + declination_rad - math.atan2(me, mn))
 
 
 def level_from_accel(f_b: np.ndarray) -> tuple[float, float]:
@@ -162,6 +171,6 @@ def level_from_accel(f_b: np.ndarray) -> tuple[float, float]:
 def heading_from_mag(m_b: np.ndarray, roll: float, pitch: float, declination_rad: float) -> float:
     """Tilt-compensated magnetic heading [rad]: rotate m_b into the level frame
     (m_l = Ry(pitch) Rx(roll) m_b = Rz(-yaw) m_n) and read yaw = dec - atan2(m_l_y, m_l_x)."""
-    R_level = dcm(euler_to_quat(roll, pitch, 0.0))
+    R_level = np.array(dcm9(euler_to_quat(roll, pitch, 0.0))).reshape(3, 3)
     m_l = R_level @ np.asarray(m_b, dtype=float)
     return wrap_pi(declination_rad - math.atan2(m_l[1], m_l[0]))

@@ -42,6 +42,8 @@ Wind: ``wind_ned`` is the velocity of the air over ground (wind from the west is
 (``atmosphere/turb-type`` 4) at the standard probability-of-exceedance severities and
 20 ft wind speeds of MIL-F-8785C (light 15 kt, moderate 30 kt, severe 45 kt). JSBSim's
 own random generator drives it, seeded from the injected ``numpy.random.Generator``.
+It is off below 3 m/s airspeed and 3 m above the terrain, where JSBSim's filters
+fail (they divide by the airspeed, and their scale lengths shrink to zero at the ground).
 
 JSBSim's own trim cannot trim the Aerosonde (its one-control-per-axis iteration does
 not converge with Table E.2's strong aileron-yaw and rudder-roll coupling), so
@@ -51,6 +53,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,6 +87,8 @@ TURBULENCE = {
     "severe": (6, 45.0),
 }
 TURB_TYPE_TUSTIN = 4
+TURB_MIN_AIRSPEED_MPS = 3.0         # turbulence is off below this airspeed [m/s]
+TURB_MIN_AGL_M = 3.0                # and below this height above the terrain [m]
 
 _HELD, _FIRING, _FREE = "held", "firing", "free"
 
@@ -158,6 +163,8 @@ class JSBSimPlane:
 
         self._wind_ned = np.zeros(3)
         self._turbulence = "none"
+        self._turb_wanted = False
+        self._turb_on = False
         self._phase = _HELD
         self._armed_us: int | None = None
         self._rail_start_ecef_ft = (0.0, 0.0, 0.0)
@@ -218,6 +225,8 @@ class JSBSimPlane:
         for _ in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
+            if self._turb_wanted:
+                self._gate_turbulence()
             run()
             self._t_us += self._dt_us
         return self.state()
@@ -238,6 +247,7 @@ class JSBSimPlane:
             return
         n = self._n
         self._rail_start_ecef_ft = (n["ecef_x"](), n["ecef_y"](), n["ecef_z"]())
+        self._fdm["fcs/launcher-latch"] = 0.0
         self._fdm["fcs/catapult-force-lbs"] = CATAPULT_FORCE_N / LBF_N
         self._phase = _FIRING
 
@@ -257,12 +267,14 @@ class JSBSimPlane:
         self._phase = _FREE
         if self._af.catapult:
             fdm["fcs/catapult-force-lbs"] = 0.0
+            fdm["fcs/launcher-latch"] = 0.0
         for brake in self._af.brakes:
             fdm[brake] = 0.0
         for name in ("fcs/pitch-trim-cmd-norm", "fcs/roll-trim-cmd-norm",
                      "fcs/yaw-trim-cmd-norm"):
             fdm[name] = 0.0
         fdm["atmosphere/turb-type"] = 0
+        self._turb_on = False
         fdm.get_propulsion().init_running(-1)
 
         def residual(x: np.ndarray) -> np.ndarray:
@@ -411,6 +423,7 @@ class JSBSimPlane:
             "we": getter("atmosphere/total-wind-east-fps"),
             "wd": getter("atmosphere/total-wind-down-fps"),
             "vt": getter("velocities/vt-fps"),
+            "agl": getter("position/h-agl-ft"),
             "alpha": getter("aero/alpha-rad"),
             "beta": getter("aero/beta-rad"),
             "fx_gear": getter("forces/fbx-gear-lbs"),
@@ -437,11 +450,17 @@ class JSBSimPlane:
         self._set_throttle(controls.throttle)
 
     def _refresh(self) -> None:
-        """Recompute every derived value (airspeed, alpha, ...) without advancing time."""
+        """Recompute every derived value (airspeed, alpha, ...) without advancing time.
+
+        Turbulence is paused meanwhile: its filters divide by the (zero) time step.
+        """
         fdm = self._fdm
+        turb_type = fdm["atmosphere/turb-type"]
+        fdm["atmosphere/turb-type"] = 0
         fdm.suspend_integration()
         fdm.run()
         fdm.resume_integration()
+        fdm["atmosphere/turb-type"] = turb_type
 
     def _set_wind_values(self, wind_ned, turbulence: str) -> None:
         if turbulence not in TURBULENCE:
@@ -459,10 +478,29 @@ class JSBSimPlane:
         fdm["atmosphere/wind-east-fps"] = self._wind_ned[1] / FT_M
         fdm["atmosphere/wind-down-fps"] = self._wind_ned[2] / FT_M
         severity, w20_kt = TURBULENCE[self._turbulence]
-        fdm["atmosphere/turb-type"] = TURB_TYPE_TUSTIN if severity else 0
         fdm["atmosphere/turbulence/milspec/severity"] = severity
         fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = (
             w20_kt * KT_MPS / FT_M)
+        self._turb_wanted = severity > 0
+        self._turb_on = False
+        fdm["atmosphere/turb-type"] = 0
+        if self._turb_wanted:
+            self._gate_turbulence()
+
+    def _gate_turbulence(self) -> None:
+        """Run JSBSim's turbulence only above TURB_MIN_AIRSPEED_MPS and TURB_MIN_AGL_M.
+
+        Its Dryden filters divide by the airspeed: at rest (airspeed ~1e-9 m/s, not
+        exactly the zero JSBSim guards against) they return NaN and poison the run.
+        Its low-altitude scale lengths shrink with height (MIL-F-8785C holds them
+        fixed below 10 ft, JSBSim does not): on the ground its gusts diverge.
+        """
+        n = self._n
+        moving = (n["vt"]() * FT_M > TURB_MIN_AIRSPEED_MPS
+                  and n["agl"]() * FT_M > TURB_MIN_AGL_M)
+        if moving != self._turb_on:
+            self._turb_on = moving
+            self._fdm["atmosphere/turb-type"] = TURB_TYPE_TUSTIN if moving else 0
 
     def _rest_pose(self) -> tuple[float, float]:
         """Pitch [rad] and CG height above the ground [m] resting on the bogeys.
@@ -473,10 +511,13 @@ class JSBSimPlane:
         fdm = self._fdm
         fdm.run_ic()                              # the CG is computed at run_ic()
         gear = fdm.get_ground_reactions()
-        cg = np.asarray(fdm.get_mass_balance().get_xyz_cg()).ravel()
+        with warnings.catch_warnings():          # the binding returns numpy.matrix
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
+            cg = np.asarray(fdm.get_mass_balance().get_xyz_cg()).ravel()
+            locations = [np.asarray(gear.get_gear_unit(i).get_location()).ravel()
+                         for i in self._af.bogeys]
         pts = []
-        for i in self._af.bogeys:
-            s = np.asarray(gear.get_gear_unit(i).get_location()).ravel()
+        for s in locations:
             d = (s - cg) * 0.0254
             pts.append((-d[0], -d[2]))           # body x forward, z down [m]
         pts.sort(reverse=True)
@@ -504,15 +545,16 @@ class JSBSimPlane:
         for name in ("ic/u-fps", "ic/v-fps", "ic/w-fps",
                      "ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
             fdm[name] = 0.0
+        fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
         for brake in self._af.brakes:
             fdm[brake] = 1.0
         if self._af.catapult:
             fdm["fcs/catapult-force-lbs"] = 0.0
+            fdm["fcs/launcher-latch"] = 1.0
         else:
             fdm["fcs/mixture-cmd-norm"] = 1.0
         self._controls = None                     # force the write below
         self._apply_controls(PlaneControls())
-        fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
         fdm.get_propulsion().init_running(-1)
         fdm["position/terrain-elevation-asl-ft"] = deck_m / FT_M
         self._apply_wind()

@@ -1,0 +1,163 @@
+"""``sitl bench``: speed figures from one run of this command.
+
+Machines are shared and noisy, so what matters are the ratios measured back to back in
+one run: plant alone, the full loop on the memory pipe, the full loop over TCP between
+two processes, and the time per step of each block. Block times come from wrapping each
+block's entry point with a timer, so they include Python call overhead but not the
+timer's own (subtracted by a calibration).
+"""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections import defaultdict
+
+from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, RunConfig, Session, mission_home
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def bench_plant(seconds: float) -> float:
+    from autopilot.mission.files import load_mission
+    from sim_bridge.plants.base import PlaneControls
+    from sim_bridge.plants.jsbsim_plane import JSBSimPlane
+    import numpy as np
+    home = mission_home(load_mission(DEFAULT_MISSION))
+    plant = JSBSimPlane("aerosonde", home=home, rng=np.random.default_rng(1))
+    c = plant.trim(25.0, 100.0)
+    plant.set_wind((0.0, 5.0, 0.0), "light")
+    n = int(seconds * 100)
+    t0 = time.perf_counter()
+    for _ in range(n):
+        plant.step(c, 2)
+    return seconds / (time.perf_counter() - t0)
+
+
+class _Timers:
+    def __init__(self):
+        self.total = defaultdict(float)
+        self.count = defaultdict(int)
+
+    def wrap(self, obj, name: str, label: str):
+        fn = getattr(obj, name)
+        total, count = self.total, self.count
+        clock = time.perf_counter
+
+        def timed(*a, **k):
+            t = clock()
+            r = fn(*a, **k)
+            total[label] += clock() - t
+            count[label] += 1
+            return r
+        setattr(obj, name, timed)
+
+
+def bench_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tuple[float, Session]:
+    cfg = RunConfig(nav=nav, scenario=DEFAULT_SCENARIO, duration_s=1e9, seed=1)
+    s = Session(cfg)
+    # start-up (alignment, arming) is excluded: run until armed and flying
+    while not s.vehicle.armed or s.t_s < 5.0:
+        s.step()
+    if timers is not None:
+        v = s.vehicle
+        timers.wrap(s.plant, "step", "plant")
+        timers.wrap(s.world.sensors, "sample", "sensors")
+        timers.wrap(s.bridge.link, "send_step", "codec (sim: encode)")
+        timers.wrap(s.ap_end, "poll", "codec (autopilot: decode)")
+        timers.wrap(s.ap_end, "answer", "codec (autopilot: encode)")
+        timers.wrap(s.bridge.link, "poll_answer", "codec (sim: decode)")
+        timers.wrap(v.nav, "update", "navigation")
+        timers.wrap(v.sequencer, "update", "guidance (mission)")
+        timers.wrap(v.l1, "line", "guidance (L1)")
+        timers.wrap(v.l1, "loiter", "guidance (L1)")
+        timers.wrap(v.ctrl, "update", "control")
+        timers.wrap(v, "_log", "flight log")
+    t_end = s.t_s + seconds
+    t0 = time.perf_counter()
+    n = 0
+    while s.t_s < t_end:
+        s.step()
+        n += 1
+    wall = time.perf_counter() - t0
+    return seconds / wall, s
+
+
+def bench_tcp(seconds: float, nav: str) -> float:
+    """sim-bridge and autopilot as two processes on TCP loopback."""
+    port = _free_port()
+    env = dict(os.environ)
+    sim = subprocess.Popen([sys.executable, "-m", "sim_bridge.cli", "--listen", f"tcpin:127.0.0.1:{port}",
+                            "--scenario", str(DEFAULT_SCENARIO), "--duration", str(seconds + 30.0)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    try:
+        from autopilot.link.hil import AutopilotHilEnd
+        from autopilot.link.transports import open_url
+        from autopilot.log.flightlog import FlightLog
+        from autopilot.mission.files import load_mission
+        from autopilot.params import ParamStore
+        from autopilot.vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
+        transport = open_url(f"tcp:127.0.0.1:{port}", connect_timeout_s=30.0)
+        params = ParamStore(plane_param_declarations())
+        vehicle = PlaneVehicle(params, load_mission(DEFAULT_MISSION), nav, True, FlightLog(LOG_COLUMNS))
+        end = AutopilotHilEnd(transport)
+        t_s = 0.0
+        t0 = None
+        t_start = None
+        while True:
+            steps = end.poll(1.0)
+            if not steps and transport.closed:
+                break
+            for frame, truth in steps:
+                end.answer(vehicle.step(frame, truth))
+                t_s = frame.t_us * 1e-6
+            if t0 is None and vehicle.armed and t_s >= 5.0:
+                t0, t_start = time.perf_counter(), t_s
+            if t0 is not None and t_s - t_start >= seconds:
+                break
+        wall = time.perf_counter() - t0
+        transport.close()
+        return (t_s - t_start) / wall
+    finally:
+        sim.terminate()
+        sim.wait(10)
+
+
+def run_bench(seconds: float = 60.0) -> None:
+    print(f"sitl bench: {seconds:.0f} simulated seconds per measurement, default mission, 100 Hz lockstep")
+    plant_rtf = bench_plant(seconds)
+    print(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time")
+    rows = {}
+    for nav in ("truth", "ekf", "ukf"):
+        try:
+            rtf, _ = bench_memory(seconds if nav != "ukf" else min(seconds, 20.0), nav)
+        except ImportError as e:
+            print(f"  full loop, memory pipe, nav {nav}: unavailable ({e})")
+            continue
+        rows[nav] = rtf
+        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time")
+    try:
+        tcp = bench_tcp(seconds, "ekf" if "ekf" in rows else "truth")
+        print(f"  full loop, TCP, two processes:                 {tcp:8.1f} x real time")
+    except Exception as e:  # report, do not hide
+        print(f"  full loop, TCP, two processes: failed ({e})")
+    best = rows.get("ekf", rows.get("truth"))
+    if best:
+        print(f"  ratio closed loop (memory, ekf) / plant alone: {best / plant_rtf:8.3f}")
+    timers = _Timers()
+    nav = "ekf" if "ekf" in rows else "truth"
+    _, s = bench_memory(min(seconds, 30.0), nav, timers)
+    steps = max(timers.count["plant"], 1)
+    print(f"  time per 10 ms step by block (nav {nav}), microseconds:")
+    for label in sorted(timers.total, key=lambda k: -timers.total[k]):
+        print(f"    {label:28s} {timers.total[label] / steps * 1e6:8.1f}")
+    nav_obj = s.vehicle.nav
+    if hasattr(nav_obj, "timing"):
+        for k, v in nav_obj.timing().items():
+            print(f"    nav {k:24s} {v:8.1f}")
