@@ -48,6 +48,7 @@ LOG_COLUMNS = (
     "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
     "est_n_m", "est_e_m", "est_alt_m", "est_roll_rad", "est_pitch_rad", "est_yaw_rad",
     "est_vn_mps", "est_ve_mps", "est_vd_mps", "est_airspeed_mps", "est_wind_n_mps", "est_wind_e_mps",
+    # tgt_alt_m is the slew-limited altitude demand the control loops track
     "tgt_alt_m", "tgt_airspeed_mps", "cmd_roll_rad", "cmd_pitch_rad", "cmd_climb_mps",
     "leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m", "loiter_c_n_m", "loiter_c_e_m",
     "loiter_r_m", "loiter_dir", "xtrack_est_m",
@@ -250,7 +251,7 @@ class PlaneVehicle:
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             nav.v_ned[0], nav.v_ned[1], nav.v_ned[2], nav.airspeed_mps, w[0], w[1],
-            tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
+            c.alt_dem_m if c.alt_dem_m is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
             tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],

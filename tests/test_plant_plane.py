@@ -13,7 +13,6 @@ import pytest
 from sim_bridge.plants.base import PlaneControls, PlantState
 from sim_bridge.plants.jsbsim_plane import (
     LAUNCHER_HEIGHT_M,
-    RAIL_LENGTH_M,
     SPIN_UP_S,
     JSBSimPlane,
 )
@@ -303,10 +302,19 @@ def test_flies_east_across_the_180_meridian_at_45_south():
 
 
 def test_steady_wind_is_the_air_velocity_and_trim_is_relative_to_the_air():
-    plant = JSBSimPlane(home=HOME, wind_ned=(0.0, 5.0, 0.0))   # from the west
-    s = plant.state()
-    np.testing.assert_allclose(s.wind_ned, [0.0, 5.0, 0.0], atol=1e-9)
+    plant = JSBSimPlane(home=HOME, wind_ned=(0.0, 5.0, 0.0), turbulence="light",
+                        rng=np.random.default_rng(3))   # from the west
+    # on the launcher the rail holds the airframe: no weathervaning, no rolling
+    s0 = plant.state()
+    for _ in range(300):
+        s = plant.step(PlaneControls(), 1)
     assert s.on_ground
+    assert np.allclose(s.q_nb, s0.q_nb, atol=1e-6)
+    # released, the air moves
+    plant.launch()
+    s = plant.step(PlaneControls(throttle=1.0), 1)
+    np.testing.assert_allclose(s.wind_ned, [0.0, 5.0, 0.0], atol=2.0)
+    plant.set_wind((0.0, 5.0, 0.0), "none")
     plant.trim(airspeed_mps=22.0, height_m=100.0)
     s = plant.state()
     np.testing.assert_allclose(s.wind_ned, [0.0, 5.0, 0.0], atol=1e-9)
@@ -335,6 +343,19 @@ def test_same_seed_same_turbulent_flight_and_another_seed_differs():
     assert not np.allclose(a, c)
     # light turbulence really moves the air: the wind is no longer the steady zero
     assert 0.05 < np.linalg.norm(a[13:16]) < 10.0
+
+
+def test_turbulence_intensity_follows_mil_f_8785c():
+    def vertical_gust_std(level: str) -> float:
+        plant = JSBSimPlane(home=HOME, turbulence=level, rng=np.random.default_rng(3))
+        trim = plant.trim(airspeed_mps=22.0, height_m=100.0)
+        gusts = [plant.step(trim, 2).wind_ned[2] for _ in range(60 * 100)]
+        return float(np.std(gusts))
+
+    light, severe = vertical_gust_std("light"), vertical_gust_std("severe")
+    # sigma_w = 0.1 * W20: 0.77 m/s for light (15 kt), 2.3 m/s for severe (45 kt)
+    assert 0.3 < light < 1.5
+    assert severe / light == pytest.approx(3.0, rel=0.35)
 
 
 # ---------------------------------------------------------------- c172p

@@ -7,7 +7,11 @@ Loops are named by what they close:
 * climb rate from pitch:  theta_c = alpha_trim (V_t/V_c)^2 + asin(hdot_c / V)
                           + kp (hdot_c - hdot) + ki int(...)
                           + the turn compensation (1/cos(phi) - 1) * PTCH_TURN_FF
-* altitude to climb rate: hdot_c = clamp(ALT_KP (h_c - h), -SINK_MAX, CLMB_MAX)
+* altitude demand:        h_dem follows the guidance altitude h_c, slew-limited to
+                          DEM_CLMB_FRAC of the climb and sink limits (as TECS shapes its
+                          height demand), so a step in h_c becomes a ramp the aircraft
+                          can fly; its rate hdot_dem is fed forward
+* altitude to climb rate: hdot_c = clamp(hdot_dem + ALT_KP (h_dem - h), -SINK_MAX, CLMB_MAX)
 * speed priority:         hdot_c -= SPD_PRIO * dead(V_c - V, SPD_PRIO_DB): with the throttle
                           unable to hold airspeed (a climb beyond the aircraft's excess
                           power, or a dive at idle), trade height for speed rather than
@@ -58,6 +62,7 @@ FW_PARAMS = (
     Param("CLMB_KI", 0.01, 0.0, 2.0, "rad/m", "climb-rate error to pitch, integral"),
     Param("CLMB_MAX", 2.5, 0.5, 15.0, "m/s", "maximum climb rate"),
     Param("SINK_MAX", 3.0, 0.5, 15.0, "m/s", "maximum sink rate"),
+    Param("DEM_CLMB_FRAC", 0.7, 0.1, 1.0, "", "altitude demand slews at this fraction of CLMB_MAX / SINK_MAX"),
     Param("SPD_PRIO", 1.0, 0.0, 5.0, "", "climb-rate given up per m/s of airspeed error beyond the dead band"),
     Param("SPD_PRIO_DB", 1.5, 0.0, 10.0, "m/s", "airspeed error dead band of the speed priority"),
     Param("THR_TRIM", 0.38, 0.0, 1.0, "", "throttle in level cruise at TRIM_ARSPD"),
@@ -93,8 +98,10 @@ class FixedWingController:
         self.roll_cmd_rad = 0.0
         self.pitch_cmd_rad = 0.0
         self.climb_cmd_mps = 0.0
+        self.alt_dem_m: float | None = None
 
     def reset(self) -> None:
+        self.alt_dem_m = None
         for pid in (self.roll_pid, self.pitch_pid, self.climb_pid, self.speed_pid):
             pid.reset()
 
@@ -110,7 +117,16 @@ class FixedWingController:
 
         # altitude to climb rate (outer), climb rate to pitch (middle)
         hdot = -float(nav.v_ned[2])
-        hdot_c = min(max(p["ALT_KP"] * (alt_cmd_m - nav.alt_m), -p["SINK_MAX"]), p["CLMB_MAX"])
+        if self.alt_dem_m is None or throttle_override is not None:
+            self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
+        up, down = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
+        hdot_dem = min(max((alt_cmd_m - self.alt_dem_m) / dt, -down), up) if dt > 0 else 0.0
+        self.alt_dem_m += hdot_dem * dt
+        if throttle_override is not None:
+            hdot_dem, alt_err = 0.0, alt_cmd_m - nav.alt_m
+        else:
+            alt_err = self.alt_dem_m - nav.alt_m
+        hdot_c = min(max(hdot_dem + p["ALT_KP"] * alt_err, -p["SINK_MAX"]), p["CLMB_MAX"])
         dv = airspeed_cmd_mps - v_air
         db = p["SPD_PRIO_DB"]
         if abs(dv) > db:

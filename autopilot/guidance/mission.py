@@ -78,6 +78,7 @@ class MissionSequencer:
         self._loiter_start_us: int | None = None
         self._loiter_captured = False
         self._takeoff_heading: float | None = None
+        self._leg_along0: float | None = None
         self._arc = None          # the fillet being flown: (centre, radius, dir, angle, B)
         self._arc_angle = 0.0
         self._arc_last: float | None = None
@@ -149,6 +150,7 @@ class MissionSequencer:
         self._loiter_start_us = None
         self._loiter_captured = False
         self._leg_start = None
+        self._leg_along0 = None
 
     def _run_do_items(self, t_us: int) -> None:
         """Execute DO_ commands at the current index until a NAV command is current."""
@@ -270,12 +272,18 @@ class MissionSequencer:
             self._prev_wp_ne = b_ne
             self._prev_alt = alt_b
             self._advance(t_us)
-            if arc is not None and along >= length - d_turn:
+            xtrack = ((p_ne[0] - a_ne[0]) * -(b_ne[1] - a_ne[1]) + (p_ne[1] - a_ne[1]) * (b_ne[0] - a_ne[0])) / length if length > 1e-3 else 0.0
+            if arc is not None and along >= length - d_turn and abs(xtrack) < 0.3 * arc[1]:
+                # (far off the leg the arc would start from the wrong place: let L1
+                # capture the next leg directly instead)
                 self._arc, self._arc_angle, self._arc_last = arc, 0.0, None
             return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), v_ned, 0.0, alt_b)
-        # glide slope: reach the waypoint's altitude where the turn onto the next leg starts
-        ramp = length - d_turn
-        frac = min(max(along / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
+        # glide slope: from where this leg was joined (the end of the previous turn arc)
+        # to where the turn onto the next leg starts
+        if self._leg_along0 is None:
+            self._leg_along0 = min(max(along, 0.0), max(length - d_turn, 0.0))
+        ramp = length - d_turn - self._leg_along0
+        frac = min(max((along - self._leg_along0) / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
         alt = self._leg_start_alt + (alt_b - self._leg_start_alt) * frac
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 
@@ -334,8 +342,8 @@ class MissionSequencer:
             self._advance(t_us)
             self.finished = True
             return self._rtl_loiter(t_us, p_ne, alt_b)
-        # glide slope: reach the waypoint's altitude where the turn onto the next leg starts
-        ramp = length - d_turn
+        # glide slope: reach the RTL altitude where the loiter over home begins
+        ramp = length - radius
         frac = min(max(along / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
         alt = self._leg_start_alt + (alt_b - self._leg_start_alt) * frac
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)

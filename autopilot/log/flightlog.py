@@ -27,6 +27,9 @@ class FlightLog:
     def arrays(self) -> dict[str, np.ndarray]:
         if not self.rows:
             return {c: np.zeros(0) for c in self.columns}
+        if len(self.rows[0]) != len(self.columns):
+            raise ValueError(f"flight log rows have {len(self.rows[0])} values for "
+                             f"{len(self.columns)} columns")
         data = np.asarray(self.rows, dtype=float)
         return {c: data[:, i] for i, c in enumerate(self.columns)}
 

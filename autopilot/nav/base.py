@@ -22,9 +22,23 @@ and fused together (equivalent to sequential updates for independent noises). So
 * ``baro`` pressure altitude, ``h = alt0 - p_D + b_baro``: the barometer offset is an
   error state (layout.BBIAS), initialised from the first GPS altitude with the GPS's
   vertical variance, then estimated against GPS altitude.
-* ``mag`` tilt-compensated magnetic heading (3-axis mag is not fused, so a disturbed
-  field cannot pull roll and pitch): ``h = yaw(q)``, with the global attitude error
-  ``H_att = [-R00 R20 / d, -R10 R20 / d, 1]``, ``d = R00^2 + R10^2``.
+* ``mag`` magnetic heading: the measured field rotated into NED by the estimate,
+  ``m = R m_b``, must point at the declination. Innovation ``y = wrap(dec - atan2(m_E,
+  m_N))``; recorded as a heading observation ``yaw + y`` against ``h = yaw``. With the
+  global attitude error, ``R_true m_b = m + dtheta x m``, so
+  ``H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]`` (``B_h^2 = m_N^2 + m_E^2``): the tilt
+  terms carry the inclination (about 2.25 deg of heading per deg of tilt at -66 deg),
+  so tilt errors are not mistaken for heading errors. ``m`` in H is a smoothed copy of
+  the rotated field (the Earth field is constant in NED; gain 0.01 per sample), not the
+  sample itself: noise in H correlates with the noise in y and biased every update
+  (measured: a 4.5 deg pitch / 0.8 m/s^2 accel-bias drift at 6.8 sigma in 20 s of
+  straight flight). Only the field's horizontal
+  direction is fused (no field-strength or inclination model, so a disturbed field
+  magnitude does not pull roll and pitch); not fused where the field is within 13 deg
+  of vertical. Start predicate (as PX4's tilt alignment): fused only once the roll and
+  pitch sigmas are below 3 deg; before that a heading innovation (the crab angle after
+  an in-flight alignment) would be taken mostly for a tilt error, which then hides in
+  the tilt / accelerometer-bias combination that straight flight cannot observe.
 * ``airspeed`` (fixed-wing) true airspeed ``h = |v - w|`` with ``w = [w_N, w_E, 0]``;
   ``sideslip`` (fixed-wing) the synthetic zero body-y air velocity
   ``h = e_y^T R^T (v - w)``. Together with the heading they make velocity observable
@@ -45,7 +59,9 @@ Alignment: on the ground, from EK_ALIGN_T seconds of stationary samples (|omega|
 0.05 rad/s, ||f| - g| < 0.5 m/s^2): roll/pitch from the mean specific force, heading
 from the tilt-compensated mean magnetometer, gyro bias from the mean rate. In flight
 (or moving), from a 3D GPS fix with ground speed >= EK_ALIGN_GSPD: yaw from the ground
-track, pitch from the flight-path angle, roll zero, with wide attitude covariance.
+track, roll and pitch from the low-passed specific force (right in steady flight,
+"level-ish" in a coordinated turn, where it reads wings level), with wide attitude
+covariance (roll 0.3 rad for up to 30 deg of bank, yaw 0.35 rad for the crab angle).
 """
 from __future__ import annotations
 
@@ -62,7 +78,7 @@ from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
 from .strapdown import (Nominal, heading_from_mag, inject_attitude, level_from_accel,
-                        mag_heading)
+                        mag_ned, propagate)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -70,7 +86,9 @@ _FAKE_POS_SD = 1.0            # [m]
 _STATIC_GYRO = 0.05           # [rad/s]
 _STATIC_ACC = 0.5             # [m/s^2]
 _AIRSPEED_HOLD_US = 500_000   # a measured airspeed is reported this long [us]
-_MIN_COS2_PITCH_MAG = 0.1     # no heading fusion when cos^2(pitch) is below (|pitch| > 72 deg)
+_MIN_HORIZ_FIELD = 0.05       # no heading fusion when B_h^2 / |B|^2 is below (13 deg from vertical)
+_MAG_TILT_VAR = 0.05 ** 2     # heading fusion starts when roll/pitch variances are below [rad^2]
+_MAG_REF_GAIN = 0.01          # per-sample gain of the smoothed NED field used in the mag H
 _MAX_ROWS = 12                # measurement rows in one step (GPS 6 + baro, mag, airspeed, sideslip)
 _BARO_INIT_SD = 100.0         # baro offset sigma before the first GPS fix [m]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
@@ -148,6 +166,9 @@ class NavFilterBase:
         self._al_m = np.zeros(3)
         self._al_nm = 0
         self._al_t0: int | None = None
+        self._f_lp: np.ndarray | None = None  # low-passed specific force for in-flight alignment
+        self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
+        self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
         # history ring of (t, p - c_p, v - c_v) for the GPS latency
         self._hist: list = [None] * _HIST
         self._h_i = 0
@@ -238,6 +259,8 @@ class NavFilterBase:
     def _align_step(self, frame: SensorFrame, gps) -> None:
         imu = frame.imu
         f, w = imu.f_b, imu.omega_b
+        # specific force low-passed over ~0.3 s (30 samples at 100 Hz)
+        self._f_lp = f.copy() if self._f_lp is None else self._f_lp + (f - self._f_lp) / 30.0
         if gps is not None and math.hypot(gps.v_ned[0], gps.v_ned[1]) >= self.params["EK_ALIGN_GSPD"]:
             # moving (a straight, unaccelerated leg looks static to the IMU)
             self._align_in_flight(gps)
@@ -282,9 +305,9 @@ class NavFilterBase:
             return
         v = [float(c) for c in gps.v_ned]
         yaw = math.atan2(v[1], v[0])
-        pitch = math.atan2(-v[2], math.hypot(v[0], v[1]))
+        roll, pitch = level_from_accel(self._f_lp)
         nom = self.nom
-        nom.set_attitude(euler_to_quat(0.0, pitch, yaw))
+        nom.set_attitude(euler_to_quat(roll, pitch, yaw))
         nom.v = v
         z = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
         L = self._gps_delay
@@ -296,7 +319,7 @@ class NavFilterBase:
             nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._baro_ok = True
-        sd = np.concatenate([[1.0] * 3, [1.0] * 3, [0.3, 0.3, 0.4],
+        sd = np.concatenate([[1.0] * 3, [1.0] * 3, [0.3, 0.3, 0.35],
                              [0.2] * 3, [0.02] * 3, [baro_sd], self._gm_sd(), [8.0] * 2])
         self._init_covariance(sd[: self.n])
         self._position_from_gps_covariance(np.array(white) ** 2)
@@ -431,22 +454,32 @@ class NavFilterBase:
             hv.extend((-1.0, 1.0))
             r += 1
 
-        if frame.mag is not None:
+        if frame.mag is not None and self._tilt_aligned():
             Rm = nom.R
-            r00, r10, r20 = Rm[0], Rm[3], Rm[6]
-            d = r00 * r00 + r10 * r10
-            if d > _MIN_COS2_PITCH_MAG:
-                # mag: h = yaw(q),  H_att = [-R00 R20 / d, -R10 R20 / d, 1]
-                yaw_m = mag_heading(Rm, frame.mag.m_b, prm["EK_MAG_DEC"])
-                yaw0 = math.atan2(r10, r00)
+            mn, me, md = mag_ned(Rm, frame.mag.m_b)
+            bh2 = mn * mn + me * me
+            if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
+                # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q),
+                #      H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
+                yaw0 = math.atan2(Rm[3], Rm[0])
                 src.append("mag"), start.append(r), size.append(1), reset.append(False)
-                z.append(yaw0 + wrap_pi(yaw_m - yaw0))
+                z.append(yaw0 + wrap_pi(prm["EK_MAG_DEC"] - math.atan2(me, mn)))
                 h0.append(yaw0)
                 R.append(prm["EK_MAG_NSE"] ** 2)
                 g2.append(prm["EK_MAG_GATE"] ** 2)
                 row = r * n + _I_ATT
                 hi.extend((row, row + 1, row + 2))
-                hv.extend((-r00 * r20 / d, -r10 * r20 / d, 1.0))
+                # the tilt terms use the smoothed field, not this sample (see module doc)
+                lp = self._m_ref
+                if lp is None:
+                    lp = self._m_ref = [mn, me, md]
+                else:
+                    lp[0] += (mn - lp[0]) * _MAG_REF_GAIN
+                    lp[1] += (me - lp[1]) * _MAG_REF_GAIN
+                    lp[2] += (md - lp[2]) * _MAG_REF_GAIN
+                rn, re, rd = lp
+                rh2 = rn * rn + re * re
+                hv.extend((-rd * rn / rh2, -rd * re / rh2, 1.0))
                 r += 1
 
         if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
@@ -489,6 +522,23 @@ class NavFilterBase:
         Hb.fill(0.0)
         Hb.put(hi, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:r])
+
+    def _propagate_nominal(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> float:
+        """Strapdown step of the nominal state, and the mean decay of the Gauss-Markov
+        GPS error (b' = a b, a = exp(-dt / tau)). Returns a."""
+        nom = self.nom
+        propagate(nom, f_m, omega_m, dt, self._g)
+        a = math.exp(-dt / self.params["EK_GPSB_TAU"])
+        gb = nom.gb
+        nom.gb = [gb[0] * a, gb[1] * a, gb[2] * a]
+        return a
+
+    def _tilt_aligned(self) -> bool:
+        """Start predicate of heading fusion: roll and pitch known to 3 deg."""
+        if not self._tilt_ok:
+            P = self.P
+            self._tilt_ok = P[6, 6] < _MAG_TILT_VAR and P[7, 7] < _MAG_TILT_VAR
+        return self._tilt_ok
 
     # --------------------------------------------------------------------- fusion --
     def _fuse(self, batch: Batch, t: int) -> None:
@@ -590,7 +640,7 @@ class NavFilterBase:
     # --------------------------------------------------------------------- output --
     def _update_health(self, t: int) -> None:
         P = self.P
-        ok = (self.aligned and self._pos_src == "gps"
+        ok = bool(self.aligned and self._pos_src == "gps"
               and math.isfinite(P[0, 0] + P[1, 1] + P[6, 6] + P[8, 8])
               and P[0, 0] + P[1, 1] <= self.params["EK_HPOS_MAX"] ** 2)
         if ok and self._rej_since:

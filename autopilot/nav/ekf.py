@@ -46,7 +46,6 @@ from scipy.linalg import lapack
 
 from .base import NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, VEL, WIND
-from .strapdown import propagate
 
 
 class InsGpsEkf(NavFilterBase):
@@ -108,7 +107,7 @@ class InsGpsEkf(NavFilterBase):
 
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
         nom = self.nom
-        propagate(nom, f_m, omega_m, dt, self._g)
+        self._propagate_nominal(dt, f_m, omega_m)
         if dt != self._q_dt:
             self._process_noise(dt)
         fx, fy, fz = nom.f_n

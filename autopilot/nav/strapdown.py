@@ -143,20 +143,12 @@ def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:
     nom.R = dcm9(q)
 
 
-def mag_heading(R: tuple, m_b: np.ndarray, declination_rad: float) -> float:
-    """Heading measured by the magnetometer, tilt-compensated with the attitude R.
-
-    The field is rotated into NED with the current estimate, ``m_hat = R m_b``; its
-    horizontal direction, corrected for declination, gives the yaw error, so the
-    measured heading is ``yaw(R) + dec - atan2(m_hat_e, m_hat_n)``. Roll/pitch errors
-    of the estimate leak into it by about tan(inclination) per radian of tilt error
-    (absorbed in EK_MAG_NSE).
-    """
+def mag_ned(R: tuple, m_b: np.ndarray) -> tuple[float, float, float]:
+    """The measured field rotated into NED by the attitude R (row-major 9-tuple)."""
     mx, my, mz = m_b.tolist()
-    r00, r01, r02, r10, r11, r12 = R[:6]
-    mn = r00 * mx + r01 * my + r02 * mz
-    me = r10 * mx + r11 * my + r12 * mz
-    return wrap_pi(math.atan2(r10, r00) + declination_rad - math.atan2(me, mn))
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
+    return (r00 * mx + r01 * my + r02 * mz, r10 * mx + r11 * my + r12 * mz,
+            r20 * mx + r21 * my + r22 * mz)
 
 
 def level_from_accel(f_b: np.ndarray) -> tuple[float, float]:

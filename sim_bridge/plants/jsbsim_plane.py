@@ -14,14 +14,17 @@ Start and launch
     ``LAUNCHER_HEIGHT_M`` above the ground, pointing along the home heading. The deck is
     modelled as raised terrain under the cradle shoes, so the aircraft truly rests on
     it (``on_ground`` True, specific force (0, 0, -g), zero rates apart from the
-    Earth's rotation) about 4 deg nose up; the shoes' static friction holds it against
-    the propeller. The catapult fires when ``launch()`` is called, or by itself once
+    Earth's rotation) about 4 deg nose up; the launcher's release latch (an external
+    force cancelling the thrust) and the shoes' friction hold it against the running
+    propeller. The catapult fires when ``launch()`` is called, or by itself once
     the throttle command has stayed above ``AUTO_LAUNCH_THROTTLE`` for ``SPIN_UP_S``
     (the propeller reaches power first, as on a real launcher). It pushes with
-    ``CATAPULT_FORCE_N`` along body x for ``RAIL_LENGTH_M`` (about 0.3 s); the aircraft
-    leaves the rail at about 21.7 m/s (1.4 x the 15.3 m/s minimum level-flight speed),
-    the launcher is removed (terrain back at home altitude) and the autopilot climbs
-    out at full throttle and about 10 deg pitch.
+    ``CATAPULT_FORCE_N`` along body x for ``RAIL_LENGTH_M`` (0.29 s, about 8 g); the
+    aircraft leaves the rail at 21.9 m/s, 1.4 times its minimum level-flight speed
+    (14.9 m/s at sea level, 15.3 m/s at 500 m, where the elevator runs out at
+    alpha 23 deg), the launcher is removed (terrain back at home altitude) and the
+    autopilot climbs out at full throttle (steady climb 4.0 m/s at 20 m/s, pitch
+    22 deg, alpha 10.5 deg).
     *c172p, runway.* The aircraft starts at rest on its wheels at home with the
     brakes set; the brakes are released by ``launch()`` or when the throttle command
     first exceeds ``AUTO_LAUNCH_THROTTLE``, and the autopilot takes off on the wheels.
@@ -38,12 +41,10 @@ Table E.2 makes the Aerosonde's rudder a stronger roll than yaw effector
 (C_ldr 0.105, C_ndr -0.032): rudder +1 yaws the nose right but also rolls left.
 
 Wind: ``wind_ned`` is the velocity of the air over ground (wind from the west is
-+east). Turbulence is JSBSim's MIL-F-8785C Dryden model with Tustin discretisation
-(``atmosphere/turb-type`` 4) at the standard probability-of-exceedance severities and
-20 ft wind speeds of MIL-F-8785C (light 15 kt, moderate 30 kt, severe 45 kt). JSBSim's
-own random generator drives it, seeded from the injected ``numpy.random.Generator``.
-It is off below 3 m/s airspeed and 3 m above the terrain, where JSBSim's filters
-fail (they divide by the airspeed, and their scale lengths shrink to zero at the ground).
++east). Turbulence is MIL-F-8785C Dryden turbulence at the specification's 20 ft wind
+speeds (light 15 kt, moderate 30 kt, severe 45 kt), computed here (``_DrydenGusts``)
+from the injected ``numpy.random.Generator`` and fed to JSBSim's gust input; JSBSim's
+own implementation diverges when the gust dominates the airspeed (see the class).
 
 JSBSim's own trim cannot trim the Aerosonde (its one-control-per-axis iteration does
 not converge with Table E.2's strong aileron-yaw and rudder-roll coupling), so
@@ -79,16 +80,9 @@ CATAPULT_FORCE_N = 1000.0           # catapult push along body x [N]
 AUTO_LAUNCH_THROTTLE = 0.5          # throttle command that arms the launch
 SPIN_UP_S = 1.0                     # propeller spin-up before an automatic release [s]
 
-# turbulence name -> (MIL-F-8785C severity index in JSBSim, wind at 20 ft [kt])
-TURBULENCE = {
-    "none": (0, 0.0),
-    "light": (3, 15.0),
-    "moderate": (4, 30.0),
-    "severe": (6, 45.0),
-}
-TURB_TYPE_TUSTIN = 4
-TURB_MIN_AIRSPEED_MPS = 3.0         # turbulence is off below this airspeed [m/s]
-TURB_MIN_AGL_M = 3.0                # and below this height above the terrain [m]
+# turbulence name -> MIL-F-8785C wind speed at 20 ft [kt] (light, moderate, severe)
+TURBULENCE_W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}
+TURB_BLOCK = 1024                   # gust random numbers drawn per block of steps
 
 _HELD, _FIRING, _FREE = "held", "firing", "free"
 
@@ -145,7 +139,6 @@ class JSBSimPlane:
         self.dt_s = self._dt_us * 1e-6
         self._t_us = 0
         rng = rng if rng is not None else np.random.default_rng(0)
-        self._seed = int(rng.integers(1, 2**31 - 1))
 
         jsbsim.FGJSBBase().debug_lvl = 0          # no banner, no load chatter
         fdm = jsbsim.FGFDMExec(None)
@@ -157,14 +150,12 @@ class JSBSimPlane:
             raise RuntimeError(f"JSBSim could not load {self._af.model}")
         self._silence_outputs(fdm)
         fdm.set_dt(self.dt_s)
-        fdm["atmosphere/randomseed"] = self._seed
         self._fdm = fdm
         self._bind_nodes()
 
         self._wind_ned = np.zeros(3)
         self._turbulence = "none"
-        self._turb_wanted = False
-        self._turb_on = False
+        self._gusts = _DrydenGusts(rng, self.dt_s)
         self._phase = _HELD
         self._armed_us: int | None = None
         self._rail_start_ecef_ft = (0.0, 0.0, 0.0)
@@ -186,36 +177,33 @@ class JSBSimPlane:
 
     def state(self) -> PlantState:
         """The true state now, in SI units (see base.PlantState)."""
-        n = self._n
-        phi, theta, psi = n["phi"](), n["theta"](), n["psi"]()
+        (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
+         vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
+            get() for get in self._state_getters]
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
-        # Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
-        q_nb = np.array((
-            cr * cp * cy + sr * sp * sy,
-            sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-        ))
-        on_ground = (abs(n["fz_gear"]()) + abs(n["fx_gear"]())) > 1e-9
         return PlantState(
             t_us=self._t_us,
-            lat_rad=n["lat"](),
-            lon_rad=_wrap_pi(n["lon"]()),
-            alt_m=n["alt"](),
-            v_ned=np.array((n["vn"](), n["ve"](), n["vd"]())) * FT_M,
-            q_nb=q_nb,
-            omega_b=np.array((n["p"](), n["q"](), n["r"]())),
-            f_b=np.array((n["ax"](), n["ay"](), n["az"]())) * FT_M,
-            wind_ned=np.array((n["wn"](), n["we"](), n["wd"]())) * FT_M,
-            airspeed_mps=n["vt"]() * FT_M,
-            alpha_rad=n["alpha"](),
-            beta_rad=n["beta"](),
-            on_ground=on_ground,
-            rho_kgm3=n["rho"]() * SLUGFT3_KGM3,
-            pressure_pa=n["pressure"]() * PSF_PA,
-            temperature_k=n["temperature"]() * RANKINE_K,
+            lat_rad=lat,
+            lon_rad=_wrap_pi(lon),
+            alt_m=alt,
+            v_ned=np.array((vn * FT_M, ve * FT_M, vd * FT_M)),
+            # Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
+            q_nb=np.array((cr * cp * cy + sr * sp * sy,
+                           sr * cp * cy - cr * sp * sy,
+                           cr * sp * cy + sr * cp * sy,
+                           cr * cp * sy - sr * sp * cy)),
+            omega_b=np.array((p, q, r)),
+            f_b=np.array((ax * FT_M, ay * FT_M, az * FT_M)),
+            wind_ned=np.array((wn * FT_M, we * FT_M, wd * FT_M)),
+            airspeed_mps=vt * FT_M,
+            alpha_rad=alpha,
+            beta_rad=beta,
+            on_ground=abs(fz_gear) + abs(fx_gear) > 1e-9,
+            rho_kgm3=rho * SLUGFT3_KGM3,
+            pressure_pa=pressure * PSF_PA,
+            temperature_k=temperature * RANKINE_K,
         )
 
     def step(self, controls: PlaneControls, n_steps: int = 1) -> PlantState:
@@ -225,8 +213,8 @@ class JSBSimPlane:
         for _ in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
-            if self._turb_wanted:
-                self._gate_turbulence()
+            if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
+                self._gusts.step(self)
             run()
             self._t_us += self._dt_us
         return self.state()
@@ -250,6 +238,7 @@ class JSBSimPlane:
         self._fdm["fcs/launcher-latch"] = 0.0
         self._fdm["fcs/catapult-force-lbs"] = CATAPULT_FORCE_N / LBF_N
         self._phase = _FIRING
+        self._apply_wind()
 
     def trim(self, airspeed_mps: float = 22.0, height_m: float = 100.0) -> PlaneControls:
         """Restart in trimmed wings-level flight and return the controls that hold it.
@@ -273,8 +262,8 @@ class JSBSimPlane:
         for name in ("fcs/pitch-trim-cmd-norm", "fcs/roll-trim-cmd-norm",
                      "fcs/yaw-trim-cmd-norm"):
             fdm[name] = 0.0
-        fdm["atmosphere/turb-type"] = 0
-        self._turb_on = False
+        self._gusts.reset()                       # trim in still air
+        self._gusts.write(fdm, 0.0, 0.0, 0.0)
         fdm.get_propulsion().init_running(-1)
 
         def residual(x: np.ndarray) -> np.ndarray:
@@ -435,10 +424,17 @@ class JSBSimPlane:
             "ecef_y": getter("position/ecef-y-ft"),
             "ecef_z": getter("position/ecef-z-ft"),
         }
+        self._state_getters = tuple(self._n[name] for name in (
+            "lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
+            "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
+            "fz_gear", "rho", "pressure", "temperature"))
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
         self._set_throttle = setter("fcs/throttle-cmd-norm")
+        self._set_gust = (setter("atmosphere/gust-north-fps"),
+                          setter("atmosphere/gust-east-fps"),
+                          setter("atmosphere/gust-down-fps"))
 
     def _apply_controls(self, controls: PlaneControls) -> None:
         if controls == self._controls:
@@ -450,21 +446,15 @@ class JSBSimPlane:
         self._set_throttle(controls.throttle)
 
     def _refresh(self) -> None:
-        """Recompute every derived value (airspeed, alpha, ...) without advancing time.
-
-        Turbulence is paused meanwhile: its filters divide by the (zero) time step.
-        """
+        """Recompute every derived value (airspeed, alpha, ...) without advancing time."""
         fdm = self._fdm
-        turb_type = fdm["atmosphere/turb-type"]
-        fdm["atmosphere/turb-type"] = 0
         fdm.suspend_integration()
         fdm.run()
         fdm.resume_integration()
-        fdm["atmosphere/turb-type"] = turb_type
 
     def _set_wind_values(self, wind_ned, turbulence: str) -> None:
-        if turbulence not in TURBULENCE:
-            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE)}")
+        if turbulence not in TURBULENCE_W20_KT:
+            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_W20_KT)}")
         wind = np.asarray(wind_ned, dtype=float).reshape(3)
         if not np.all(np.isfinite(wind)):
             raise ValueError("wind_ned must be finite")
@@ -472,35 +462,21 @@ class JSBSimPlane:
         self._turbulence = turbulence
 
     def _apply_wind(self) -> None:
-        """Write wind and turbulence into JSBSim (run_ic() resets them)."""
+        """Write the steady wind into JSBSim (run_ic() resets it) and set the gusts.
+
+        While the Aerosonde is held on its launcher the rail constrains it completely,
+        so the air is kept still there: otherwise a crosswind weathervanes and rolls the
+        airframe on its shoes before launch. The wind starts blowing at release."""
         fdm = self._fdm
-        fdm["atmosphere/wind-north-fps"] = self._wind_ned[0] / FT_M
-        fdm["atmosphere/wind-east-fps"] = self._wind_ned[1] / FT_M
-        fdm["atmosphere/wind-down-fps"] = self._wind_ned[2] / FT_M
-        severity, w20_kt = TURBULENCE[self._turbulence]
-        fdm["atmosphere/turbulence/milspec/severity"] = severity
-        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = (
-            w20_kt * KT_MPS / FT_M)
-        self._turb_wanted = severity > 0
-        self._turb_on = False
-        fdm["atmosphere/turb-type"] = 0
-        if self._turb_wanted:
-            self._gate_turbulence()
-
-    def _gate_turbulence(self) -> None:
-        """Run JSBSim's turbulence only above TURB_MIN_AIRSPEED_MPS and TURB_MIN_AGL_M.
-
-        Its Dryden filters divide by the airspeed: at rest (airspeed ~1e-9 m/s, not
-        exactly the zero JSBSim guards against) they return NaN and poison the run.
-        Its low-altitude scale lengths shrink with height (MIL-F-8785C holds them
-        fixed below 10 ft, JSBSim does not): on the ground its gusts diverge.
-        """
-        n = self._n
-        moving = (n["vt"]() * FT_M > TURB_MIN_AIRSPEED_MPS
-                  and n["agl"]() * FT_M > TURB_MIN_AGL_M)
-        if moving != self._turb_on:
-            self._turb_on = moving
-            self._fdm["atmosphere/turb-type"] = TURB_TYPE_TUSTIN if moving else 0
+        held = self._af.catapult and self._phase == _HELD
+        wind = (0.0, 0.0, 0.0) if held else self._wind_ned
+        fdm["atmosphere/turb-type"] = 0           # JSBSim's own turbulence stays off
+        fdm["atmosphere/wind-north-fps"] = wind[0] / FT_M
+        fdm["atmosphere/wind-east-fps"] = wind[1] / FT_M
+        fdm["atmosphere/wind-down-fps"] = wind[2] / FT_M
+        self._gusts.configure(TURBULENCE_W20_KT[self._turbulence] * KT_MPS,
+                              self._wind_ned)
+        self._gusts.write(fdm, *self._gusts.gust_ned)
 
     def _rest_pose(self) -> tuple[float, float]:
         """Pitch [rad] and CG height above the ground [m] resting on the bogeys.
@@ -546,6 +522,7 @@ class JSBSimPlane:
                      "ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
             fdm[name] = 0.0
         fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
+        self._gusts.reset()
         for brake in self._af.brakes:
             fdm[brake] = 1.0
         if self._af.catapult:
@@ -557,10 +534,10 @@ class JSBSimPlane:
         self._apply_controls(PlaneControls())
         fdm.get_propulsion().init_running(-1)
         fdm["position/terrain-elevation-asl-ft"] = deck_m / FT_M
+        self._phase = _HELD
         self._apply_wind()
         for _ in range(int(round(self._af.settle_s * 1e6 / self._dt_us))):
             fdm.run()
-        self._phase = _HELD
         self._armed_us = None
 
     def _launcher_logic(self, throttle: float) -> None:
@@ -585,3 +562,95 @@ class JSBSimPlane:
             fdm["fcs/catapult-force-lbs"] = 0.0
             fdm["position/terrain-elevation-asl-ft"] = self.home[2] / FT_M
             self._phase = _FREE
+
+
+class _DrydenGusts:
+    """MIL-F-8785C low-altitude Dryden turbulence, written into JSBSim's gust input.
+
+    JSBSim's own MIL-F-8785C turbulence (``atmosphere/turb-type`` 3/4) is not used: its
+    filters take the airspeed *including* the turbulence, and when the gust dominates
+    the airspeed (a slow, tumbling or crashed aircraft) that feedback diverges; gusts
+    of over 100 m/s were measured after a spin into the ground in severe turbulence.
+    Here the airspeed relative to the steady wind is used, floored at 5 m/s, and each
+    component is an exact first-order Gauss-Markov process (MIL-STD-1797A form: the
+    lateral and vertical components with half the scale length), so the variance is
+    right at any step and the filters are stable for every airspeed and height.
+
+    Scale lengths and intensities (h = height above the terrain, clipped to 3..300 m,
+    the band of the low-altitude model; W20 = wind speed at 6 m):
+        L_w = h,  L_u = L_v = h / (0.177 + 0.000823 h_ft)^1.2
+        sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h_ft)^0.4
+    u is along the steady wind (north when there is none), w is down. The rotational
+    gust terms of the specification are not modelled. Random numbers come from the
+    plant's injected generator, drawn in blocks for speed.
+    """
+
+    def __init__(self, rng: np.random.Generator, dt_s: float) -> None:
+        self._rng = rng
+        self._dt_s = dt_s
+        self.active = False
+        self.gust_ned = (0.0, 0.0, 0.0)
+        self._sigma_w = 0.0
+        self._axis_u = (1.0, 0.0)                 # unit north, east of the u axis
+        self._x = [0.0, 0.0, 0.0]                 # u, v, w gust along the axes [m/s]
+        self._noise: list = []
+        self._k = 0
+
+    def reset(self) -> None:
+        """Calm air: the gust filters start again from zero."""
+        self._x = [0.0, 0.0, 0.0]
+        self.gust_ned = (0.0, 0.0, 0.0)
+
+    def configure(self, w20_mps: float, wind_ned: np.ndarray) -> None:
+        self._sigma_w = 0.1 * w20_mps
+        was_active, self.active = self.active, w20_mps > 0.0
+        if not self.active:
+            self._x = [0.0, 0.0, 0.0]
+            self.gust_ned = (0.0, 0.0, 0.0)
+        elif not was_active:
+            self._x = [0.0, 0.0, 0.0]
+        horizontal = math.hypot(wind_ned[0], wind_ned[1])
+        self._axis_u = ((wind_ned[0] / horizontal, wind_ned[1] / horizontal)
+                        if horizontal > 0.1 else (1.0, 0.0))
+
+    @staticmethod
+    def write(fdm, gust_n: float, gust_e: float, gust_d: float) -> None:
+        fdm["atmosphere/gust-north-fps"] = gust_n / FT_M
+        fdm["atmosphere/gust-east-fps"] = gust_e / FT_M
+        fdm["atmosphere/gust-down-fps"] = gust_d / FT_M
+
+    def step(self, plant: "JSBSimPlane") -> None:
+        """Advance the gust one time step and hand it to JSBSim."""
+        n = plant._n
+        h_m = n["agl"]() * FT_M
+        h_m = 3.0 if h_m < 3.0 else (300.0 if h_m > 300.0 else h_m)
+        wind = plant._wind_ned
+        du = n["vn"]() * FT_M - wind[0]
+        dv = n["ve"]() * FT_M - wind[1]
+        dw = n["vd"]() * FT_M - wind[2]
+        speed = max(math.sqrt(du * du + dv * dv + dw * dw), 5.0)
+        shape = 0.177 + 0.000823 * (h_m / FT_M)
+        length_u = h_m / shape ** 1.2
+        sigma_w = self._sigma_w
+        sigma_u = sigma_w / shape ** 0.4
+        if self._k >= len(self._noise):
+            self._noise = self._rng.standard_normal((TURB_BLOCK, 3)).tolist()
+            self._k = 0
+        nu_u, nu_v, nu_w = self._noise[self._k]
+        self._k += 1
+        x = self._x
+        step_m = speed * self._dt_s
+        a = math.exp(-step_m / length_u)
+        x[0] = a * x[0] + sigma_u * math.sqrt(1.0 - a * a) * nu_u
+        a = math.exp(-2.0 * step_m / length_u)
+        x[1] = a * x[1] + sigma_u * math.sqrt(1.0 - a * a) * nu_v
+        a = math.exp(-2.0 * step_m / h_m)
+        x[2] = a * x[2] + sigma_w * math.sqrt(1.0 - a * a) * nu_w
+        cu, su = self._axis_u
+        gust_n = cu * x[0] - su * x[1]
+        gust_e = su * x[0] + cu * x[1]
+        self.gust_ned = (gust_n, gust_e, x[2])
+        set_n, set_e, set_d = plant._set_gust
+        set_n(gust_n / FT_M)
+        set_e(gust_e / FT_M)
+        set_d(x[2] / FT_M)
