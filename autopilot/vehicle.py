@@ -171,6 +171,7 @@ class PlaneVehicle:
         if nav is None:
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
+        self.euler = quat_to_euler(nav.q_nb)  # (roll, pitch, yaw), computed once per step
 
         # modes
         if not self.armed and self.autostart:
@@ -193,7 +194,7 @@ class PlaneVehicle:
         p = self.params
         hf = self.home_frame
         p_ned = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        _, _, yaw = quat_to_euler(nav.q_nb)
+        yaw = self.euler[2]
         if self.mode == PlaneMode.RTL and not self.sequencer.finished:
             self.sequencer.finished = True  # RTL mode: go straight to the home loiter
         tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
@@ -223,14 +224,15 @@ class PlaneVehicle:
         if tgt.kind != "takeoff" and -p_ned[2] < p["TKOFF_LVL_ALT"]:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
-        return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle)
+        return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
+                                euler=self.euler)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         hf = self.home_frame
         if hf is None:
             return
         p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        er, ep, ey = quat_to_euler(nav.q_nb)
+        er, ep, ey = self.euler
         if truth is not None:
             p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
             tr, tp, ty = quat_to_euler(truth.q_nb)

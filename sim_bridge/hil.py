@@ -14,14 +14,20 @@ import math
 import time
 
 from autopilot.link.codec import MAV, Codec
-from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
+from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_GPS,
+                                ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
                                 SIM_COMPONENT_ID, SIM_SYSTEM_ID)
 
 G0 = 9.80665
 
 
+MG_PER_MS2 = 1000.0 / G0
+
+
 def _clamp_int(v: float, lo: int, hi: int) -> int:
-    return int(max(lo, min(hi, round(v))))
+    """Round half away from zero and saturate to the field's range."""
+    i = int(v + 0.5) if v >= 0.0 else int(v - 0.5)
+    return lo if i < lo else hi if i > hi else i
 
 
 class SimulatorHilEnd:
@@ -40,15 +46,14 @@ class SimulatorHilEnd:
 
     # --- sending ---------------------------------------------------------------------
     def send_step(self, readings, truth) -> None:
-        mav = self.codec.mav
-        enc = self.codec.encode
+        enc = self.codec.encode_values
         out = []
         gps = readings.gps
         if gps is not None:
             vn, ve, vd = (float(x) for x in gps.v_ned)
             vel = math.hypot(vn, ve)
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
-            out.append(enc(mav.hil_gps_encode(
+            out.append(enc(ID_GPS, (
                 gps.t_us, int(gps.fix_type),
                 _clamp_int(gps.lat_rad * RAD_TO_E7, -900000000, 900000000),
                 _clamp_int(gps.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
@@ -57,14 +62,14 @@ class SimulatorHilEnd:
                 _clamp_int(vel * 100.0, 0, 65534),
                 _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
                 _clamp_int(vd * 100.0, -32767, 32767),
-                _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites))))
+                _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites), 0, 0)))
         q = truth.q_nb
         v = truth.v_ned
         f = truth.f_b
         w = truth.omega_b
         ias = truth.airspeed_mps * math.sqrt(truth.rho_kgm3 / 1.225)
-        out.append(enc(mav.hil_state_quaternion_encode(
-            truth.t_us, [float(q[0]), float(q[1]), float(q[2]), float(q[3])],
+        out.append(enc(ID_STATE, (
+            truth.t_us, float(q[0]), float(q[1]), float(q[2]), float(q[3]),
             float(w[0]), float(w[1]), float(w[2]),
             _clamp_int(truth.lat_rad * RAD_TO_E7, -900000000, 900000000),
             _clamp_int(truth.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
@@ -72,8 +77,8 @@ class SimulatorHilEnd:
             _clamp_int(v[0] * 100.0, -32767, 32767), _clamp_int(v[1] * 100.0, -32767, 32767),
             _clamp_int(v[2] * 100.0, -32767, 32767),
             _clamp_int(ias * 100.0, 0, 65535), _clamp_int(truth.airspeed_mps * 100.0, 0, 65535),
-            _clamp_int(f[0] / G0 * 1000.0, -32767, 32767), _clamp_int(f[1] / G0 * 1000.0, -32767, 32767),
-            _clamp_int(f[2] / G0 * 1000.0, -32767, 32767))))
+            _clamp_int(f[0] * MG_PER_MS2, -32767, 32767), _clamp_int(f[1] * MG_PER_MS2, -32767, 32767),
+            _clamp_int(f[2] * MG_PER_MS2, -32767, 32767))))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS
@@ -82,11 +87,11 @@ class SimulatorHilEnd:
         if readings.airspeed_updated:
             flags |= DIFF_FLAG
         a, g, m = readings.accel_b, readings.gyro_b, readings.mag_b_gauss
-        self._sensor_buf = enc(mav.hil_sensor_encode(
+        self._sensor_buf = enc(ID_SENSOR, (
             readings.t_us, float(a[0]), float(a[1]), float(a[2]),
             float(g[0]), float(g[1]), float(g[2]), float(m[0]), float(m[1]), float(m[2]),
             readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,
-            readings.pressure_alt_m, readings.temperature_k - 273.15, flags))
+            readings.pressure_alt_m, readings.temperature_k - 273.15, flags, 0))
         out.append(self._sensor_buf)
         self.transport.send(b"".join(out))
 
@@ -100,15 +105,16 @@ class SimulatorHilEnd:
         """Controls answering step ``t_us`` if they arrived (else None)."""
         data = self.transport.recv(timeout_s)
         found = None
-        for msg in self.codec.decode(data):
-            mtype = msg.get_type()
-            if mtype == "HIL_ACTUATOR_CONTROLS":
-                if msg.time_usec == t_us:
-                    found = tuple(msg.controls)
-                    self.armed = bool(msg.mode & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
+        for msg in self.codec.decode(data, HIL_IDS):
+            mid = getattr(msg, "msg_id", None)
+            if mid == ID_ACTUATORS:
+                v = msg.values
+                if v[0] == t_us:
+                    found = v[1:17]
+                    self.armed = bool(v[17] & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
                 else:
                     self.stale += 1
-            elif mtype == "COMMAND_LONG":
+            elif mid is None and msg.get_type() == "COMMAND_LONG":
                 self.commands.append(msg)
         return found
 

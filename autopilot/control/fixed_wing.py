@@ -107,9 +107,10 @@ class FixedWingController:
 
     def update(self, nav: NavState, dt: float, bank_cmd_rad: float, alt_cmd_m: float,
                airspeed_cmd_mps: float, pitch_min_rad: float | None = None,
-               throttle_override: float | None = None) -> tuple[float, float, float, float]:
+               throttle_override: float | None = None,
+               euler: tuple[float, float, float] | None = None) -> tuple[float, float, float, float]:
         p = self.params
-        roll, pitch, _ = quat_to_euler(nav.q_nb)
+        roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b
         v_air = max(nav.airspeed_mps, 5.0)
         roll_lim = math.radians(p["ROLL_LIMIT_DEG"])

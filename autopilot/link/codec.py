@@ -19,6 +19,7 @@ to pymavlink's decoder. Everything on the wire stays standard MAVLink bytes.
 from __future__ import annotations
 
 import struct
+from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -53,6 +54,52 @@ def _field_plan(cls):
 
 
 _PLANS: dict[int, tuple | None] = {}
+
+
+class _Flat:
+    """For one message class: the declared-order flat field list <-> the wire-order
+    tuple of its struct (arrays flattened in place), as C-level itemgetters."""
+
+    __slots__ = ("cls", "to_declared", "to_wire", "n")
+
+    def __init__(self, cls):
+        plan = _field_plan(cls)
+        if plan is None:
+            raise ValueError(f"{cls.msgname} has text fields: no flat form")
+        flat = [k for s, ln in plan for k in range(s, s + ln)]
+        inverse = [0] * len(flat)
+        for declared, wire in enumerate(flat):
+            inverse[wire] = declared
+        self.cls = cls
+        self.to_declared = itemgetter(*flat)
+        self.to_wire = itemgetter(*inverse)
+        self.n = len(flat)
+
+
+_FLAT: dict[int, _Flat] = {}
+
+
+def _flat(msg_id: int) -> _Flat:
+    f = _FLAT.get(msg_id)
+    if f is None:
+        f = _FLAT[msg_id] = _Flat(_MAP[msg_id])
+    return f
+
+
+class RawMessage:
+    """A decoded message as a flat tuple of its field values in declared order (arrays
+    flattened in place): the fast form the lockstep HIL link reads."""
+
+    __slots__ = ("msg_id", "src_system", "src_component", "values")
+
+    def __init__(self, msg_id: int, src_system: int, src_component: int, values: tuple):
+        self.msg_id = msg_id
+        self.src_system = src_system
+        self.src_component = src_component
+        self.values = values
+
+    def get_type(self) -> str:
+        return _MAP[self.msg_id].msgname
 
 
 class Codec:
@@ -95,9 +142,23 @@ class Codec:
         self.mav.seq = (self.mav.seq + 1) % 256
         return buf
 
+    def encode_values(self, msg_id: int, values) -> bytes:
+        """Pack a message from its field values in declared order, arrays flattened
+        (the fast path of the lockstep link: no message object is built)."""
+        f = _flat(msg_id)
+        payload = f.cls.unpacker.pack(*f.to_wire(values))
+        p = payload.rstrip(b"\x00") or b"\x00"
+        mav = self.mav
+        head = _V2_HEADER.pack(STX_V2, len(p), 0, 0, mav.seq, mav.srcSystem, mav.srcComponent,
+                               msg_id & 0xFFFF, msg_id >> 16)
+        mav.seq = (mav.seq + 1) % 256
+        body = head[1:] + p
+        return head[:1] + body + _CRC.pack(_crc16(body + bytes((f.cls.crc_extra,)), 0xFFFF))
+
     # ------------------------------------------------------------------ decode ---
-    def decode(self, data: bytes) -> list:
-        """Feed received bytes; return the complete, valid messages among them."""
+    def decode(self, data: bytes, raw_ids: frozenset = frozenset()) -> list:
+        """Feed received bytes; return the complete, valid messages among them.
+        Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`."""
         buf = self._buf
         if data:
             buf += data
@@ -141,6 +202,18 @@ class Codec:
                     _CRC.unpack_from(buf, end)[0] != _crc16(bytes(buf[j + 1:end]) + bytes((cls.crc_extra,)), 0xFFFF):
                 self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
                 i = j + 1
+                continue
+            if msg_id in raw_ids and not incompat:
+                f = _flat(msg_id)
+                payload = bytes(buf[j + hlen:end])
+                size = cls.unpacker.size
+                if plen < size:
+                    payload += bytes(size - plen)
+                m = RawMessage(msg_id, buf[j + 5] if hlen == 10 else buf[j + 3],
+                               buf[j + 6] if hlen == 10 else buf[j + 4],
+                               f.to_declared(cls.unpacker.unpack(payload[:size])))
+                out.append(m)
+                i = j + total
                 continue
             frame = bytes(buf[j:j + total])
             m = self._message(cls, msg_id, frame, hlen, plen, incompat)

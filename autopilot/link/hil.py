@@ -41,44 +41,58 @@ SIM_SYSTEM_ID = 1
 SIM_COMPONENT_ID = U.MAV_COMP_ID_USER1  # the simulator's identity on the HIL link
 
 
+ID_SENSOR = MAV.MAVLINK_MSG_ID_HIL_SENSOR
+ID_GPS = MAV.MAVLINK_MSG_ID_HIL_GPS
+ID_STATE = MAV.MAVLINK_MSG_ID_HIL_STATE_QUATERNION
+ID_ACTUATORS = MAV.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS
+HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS})
+# The lockstep messages travel through the codec's flat fast path: field values in the
+# message definition's declared order, arrays flattened (see Codec.encode_values).
+#   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
+#                abs_pressure, diff_pressure, pressure_alt, temperature, fields_updated, id
+#   HIL_GPS:     time_usec, fix_type, lat, lon, alt, eph, epv, vel, vn, ve, vd, cog,
+#                satellites_visible, id, yaw
+#   HIL_STATE_QUATERNION: time_usec, q[4], rollspeed, pitchspeed, yawspeed, lat, lon,
+#                alt, vx, vy, vz, ind_airspeed, true_airspeed, xacc, yacc, zacc
+#   HIL_ACTUATOR_CONTROLS: time_usec, controls[16], mode, flags
+
+
 class TruthSample:
     """Truth from HIL_STATE_QUATERNION, in SI (for logging and scoring only)."""
 
     __slots__ = ("t_us", "q_nb", "omega_b", "lat_rad", "lon_rad", "alt_m", "v_ned",
                  "airspeed_mps", "f_b")
 
-    def __init__(self, msg):
-        self.t_us = int(msg.time_usec)
-        self.q_nb = np.array(msg.attitude_quaternion, dtype=float)
-        self.omega_b = np.array([msg.rollspeed, msg.pitchspeed, msg.yawspeed])
-        self.lat_rad = msg.lat / RAD_TO_E7
-        self.lon_rad = msg.lon / RAD_TO_E7
-        self.alt_m = msg.alt * 1e-3
-        self.v_ned = np.array([msg.vx, msg.vy, msg.vz]) * 0.01
-        self.airspeed_mps = msg.true_airspeed * 0.01
-        self.f_b = np.array([msg.xacc, msg.yacc, msg.zacc]) * (9.80665e-3)
+    def __init__(self, v):
+        self.t_us = int(v[0])
+        self.q_nb = np.array(v[1:5])
+        self.omega_b = np.array(v[5:8])
+        self.lat_rad = v[8] / RAD_TO_E7
+        self.lon_rad = v[9] / RAD_TO_E7
+        self.alt_m = v[10] * 1e-3
+        self.v_ned = np.array((v[11] * 0.01, v[12] * 0.01, v[13] * 0.01))
+        self.airspeed_mps = v[15] * 0.01
+        self.f_b = np.array((v[16] * 9.80665e-3, v[17] * 9.80665e-3, v[18] * 9.80665e-3))
 
 
-def sensor_frame_from(msg, mag_prev: MagSample | None, gps: GpsFix | None) -> SensorFrame:
-    """HIL_SENSOR (+ a pending HIL_GPS) -> SensorFrame in SI."""
-    t_us = int(msg.time_usec)
-    flags = msg.fields_updated
-    imu = ImuSample(t_us, np.array([msg.xacc, msg.yacc, msg.zacc]),
-                    np.array([msg.xgyro, msg.ygyro, msg.zgyro]))
-    mag = MagSample(t_us, np.array([msg.xmag, msg.ymag, msg.zmag])) if flags & MAG_FLAGS else None
-    baro = (BaroSample(t_us, msg.abs_pressure * 100.0, float(msg.pressure_alt),
-                       msg.temperature + 273.15) if flags & BARO_FLAGS else None)
+def sensor_frame_from(v, gps: GpsFix | None) -> SensorFrame:
+    """HIL_SENSOR values (+ a pending HIL_GPS) -> SensorFrame in SI."""
+    t_us = int(v[0])
+    flags = v[14]
+    imu = ImuSample(t_us, np.array(v[1:4]), np.array(v[4:7]))
+    mag = MagSample(t_us, np.array(v[7:10])) if flags & MAG_FLAGS else None
+    baro = BaroSample(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
-        dp_pa = msg.diff_pressure * 100.0
+        dp_pa = v[11] * 100.0
         air = AirspeedSample(t_us, dp_pa, math.sqrt(max(0.0, 2.0 * dp_pa / RHO0)))
     return SensorFrame(t_us, imu, mag, baro, air, gps)
 
 
-def gps_fix_from(msg) -> GpsFix:
-    v = np.array([msg.vn, msg.ve, msg.vd]) * 0.01
-    return GpsFix(int(msg.time_usec), msg.lat / RAD_TO_E7, msg.lon / RAD_TO_E7, msg.alt * 1e-3,
-                  v, msg.eph * 0.01, msg.epv * 0.01, int(msg.fix_type), int(msg.satellites_visible))
+def gps_fix_from(v) -> GpsFix:
+    return GpsFix(int(v[0]), v[2] / RAD_TO_E7, v[3] / RAD_TO_E7, v[4] * 1e-3,
+                  np.array((v[8] * 0.01, v[9] * 0.01, v[10] * 0.01)), v[5] * 0.01, v[6] * 0.01,
+                  int(v[1]), int(v[12]))
 
 
 class AutopilotHilEnd:
@@ -103,10 +117,11 @@ class AutopilotHilEnd:
     def poll(self, timeout_s: float = 0.0) -> list[tuple[SensorFrame, TruthSample | None]]:
         steps = []
         data = self.transport.recv(timeout_s)
-        for msg in self.codec.decode(data):
-            mtype = msg.get_type()
-            if mtype == "HIL_SENSOR":
-                t_us = int(msg.time_usec)
+        for msg in self.codec.decode(data, HIL_IDS):
+            mid = getattr(msg, "msg_id", None)
+            if mid == ID_SENSOR:
+                v = msg.values
+                t_us = int(v[0])
                 if t_us == self._last_t_us:
                     # the simulator did not get our answer: repeat it, do not re-run
                     self.duplicates += 1
@@ -116,21 +131,20 @@ class AutopilotHilEnd:
                 if self._last_t_us is not None and t_us < self._last_t_us:
                     continue  # stale (late duplicate of an older step)
                 truth = self._truth if self._truth is not None and self._truth.t_us == t_us else None
-                steps.append((sensor_frame_from(msg, None, self._gps), truth))
+                steps.append((sensor_frame_from(v, self._gps), truth))
                 self._gps = None
                 self._last_t_us = t_us
-            elif mtype == "HIL_GPS":
-                self._gps = gps_fix_from(msg)
-            elif mtype == "HIL_STATE_QUATERNION":
-                self._truth = TruthSample(msg)
-            else:
+            elif mid == ID_GPS:
+                self._gps = gps_fix_from(msg.values)
+            elif mid == ID_STATE:
+                self._truth = TruthSample(msg.values)
+            elif mid is None:
                 self.other.append(msg)
         return steps
 
     def answer(self, outputs: ActuatorOutputs) -> None:
-        controls = list(outputs.controls) + [0.0] * (16 - len(outputs.controls))
+        controls = tuple(outputs.controls) + (0.0,) * (16 - len(outputs.controls))
         mode = MAV.MAV_MODE_FLAG_SAFETY_ARMED if outputs.armed else 0
-        msg = self.codec.mav.hil_actuator_controls_encode(outputs.t_us, controls, mode, 0)
-        buf = self.codec.encode(msg)
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us,) + controls + (mode, 0))
         self._last_answer = buf
         self.transport.send(buf)

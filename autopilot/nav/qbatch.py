@@ -13,12 +13,12 @@ def mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product p (x) q, row by row."""
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack((
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    ), axis=-1)
+    out = np.empty(np.broadcast_shapes(p.shape, q.shape))
+    out[..., 0] = pw * qw - px * qx - py * qy - pz * qz
+    out[..., 1] = pw * qx + px * qw + py * qz - pz * qy
+    out[..., 2] = pw * qy - px * qz + py * qw + pz * qx
+    out[..., 3] = pw * qz + px * qy - py * qx + pz * qw
+    return out
 
 
 def conj(q: np.ndarray) -> np.ndarray:
@@ -31,7 +31,10 @@ def from_rotvec(phi: np.ndarray) -> np.ndarray:
     half = 0.5 * ang
     small = ang < 1e-9
     s = np.where(small, 0.5, np.sin(half) / np.where(small, 1.0, ang))
-    return np.concatenate((np.cos(half)[..., None], phi * s[..., None]), axis=-1)
+    out = np.empty(phi.shape[:-1] + (4,))
+    out[..., 0] = np.cos(half)
+    out[..., 1:] = phi * s[..., None]
+    return out
 
 
 def to_rotvec(q: np.ndarray) -> np.ndarray:
@@ -43,6 +46,17 @@ def to_rotvec(q: np.ndarray) -> np.ndarray:
     ang = 2.0 * np.arctan2(s, q[..., 0])
     k = np.where(small, 2.0, ang / np.where(small, 1.0, s))
     return v * k[..., None]
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a x b of (N, 3) stacks (np.cross is several times slower)."""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = ay * bz - az * by
+    out[..., 1] = az * bx - ax * bz
+    out[..., 2] = ax * by - ay * bx
+    return out
 
 
 def normalize(q: np.ndarray) -> np.ndarray:

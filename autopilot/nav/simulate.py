@@ -140,17 +140,27 @@ def _gauss_markov(rng: np.random.Generator, n: int, sigma: float, tau: float, dt
 
 def simulate_flight(rng: np.random.Generator, cfg: SimConfig = SimConfig(),
                     segments: Sequence[tuple[float, float, float]] = DEFAULT_SEGMENTS,
-                    heading0_rad: float = 0.0, repeat: int = 1,
+                    heading0_rad: float = 0.0, repeat: int = 1, duration_s: float | None = None,
                     gps_outages: Sequence[tuple[float, float]] = (),
                     gps_glitches: Sequence[tuple[float, float, Sequence[float]]] = (),
                     start_alt_m: float = 100.0) -> SimRun:
-    """A fixed-wing flight through ``segments`` (repeated ``repeat`` times).
+    """A fixed-wing flight through ``segments`` (repeated ``repeat`` times, or cycled
+    and cut to ``duration_s`` when given).
 
     ``gps_outages``: (t0, t1) [s] windows without GPS fixes (by arrival time);
     ``gps_glitches``: (t0, t1, offset_ned [m]) windows whose fixes are shifted.
     """
     dt = cfg.dt_s
     segs = list(segments) * repeat
+    if duration_s is not None:
+        segs, total = [], 0.0
+        while total < duration_s - 1e-9:
+            for d, b, c in segments:
+                d = min(d, duration_s - total)
+                if d <= 1e-9:
+                    break
+                segs.append((d, b, c))
+                total += d
     steps = [int(round(d / dt)) for d, _, _ in segs]
     n = sum(steps) + 1
     bank_tgt = np.repeat([math.radians(b) for _, b, _ in segs], steps)
@@ -276,3 +286,74 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
             tas = float(airspeed[k] + na[j])
             arsp[int(k)] = AirspeedSample(int(t_us[k]), 0.5 * 1.225 * tas * tas, tas)
     return SimRun(cfg, t_us, p, v, q, omega, wind, gps_err, imu_f, imu_w, gps, baro, mag, arsp)
+
+
+# --------------------------------------------------------------------------- scoring --
+
+@dataclass
+class FilterTrace:
+    """A filter run against a simulation: errors (estimate - truth) and 1-sigmas."""
+
+    t_s: np.ndarray          # (N,)
+    aligned: np.ndarray      # (N,) bool
+    healthy: np.ndarray      # (N,) bool
+    p_err: np.ndarray        # (N, 3) [m]
+    v_err: np.ndarray        # (N, 3) [m/s]
+    att_err: np.ndarray      # (N, 3) rotation vector of q_true (x) q_est^*, NED [rad]
+    euler_err: np.ndarray    # (N, 3) roll, pitch, yaw (wrapped) [rad]
+    sigma: np.ndarray        # (N, 9) 1-sigma of p, v, att
+    records: list            # per step: the filter's innovation records (if kept)
+
+    def after(self, t_from_s: float) -> np.ndarray:
+        return (self.t_s >= t_from_s) & self.aligned
+
+
+def run_filter(filt, sim: SimRun, start: int = 0, stop: int | None = None,
+               keep_records: bool = True) -> FilterTrace:
+    """Feed ``sim``'s frames to ``filt`` (anything with ``update(frame) -> NavState``
+    and ``P``) and collect errors against the truth."""
+    stop = len(sim) if stop is None else stop
+    n = stop - start
+    p = np.full((n, 3), np.nan)
+    v = np.full((n, 3), np.nan)
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    sig = np.full((n, 9), np.nan)
+    aligned = np.zeros(n, dtype=bool)
+    healthy = np.zeros(n, dtype=bool)
+    records = []
+    for i, frame in enumerate(sim.frames(start, stop)):
+        s = filt.update(frame)
+        aligned[i] = s.aligned
+        healthy[i] = s.healthy
+        if keep_records:
+            records.append(filt.innovations)
+        if s.aligned:
+            p[i], v[i], q[i] = s.p_ned, s.v_ned, s.q_nb
+            sig[i] = np.sqrt(np.diagonal(filt.P)[:9])
+    sl = slice(start, stop)
+    att = qbatch.to_rotvec(qbatch.mul(sim.q_nb[sl], qbatch.conj(q)))
+    de = qbatch.to_euler(q) - qbatch.to_euler(sim.q_nb[sl])
+    de = (de + np.pi) % (2.0 * np.pi) - np.pi
+    att[~aligned] = np.nan
+    de[~aligned] = np.nan
+    return FilterTrace(sim.t_us[sl] * 1e-6, aligned, healthy, p - sim.p_ned[sl], v - sim.v_ned[sl],
+                       att, de, sig, records)
+
+
+def accuracy(trace: FilterTrace, sim: SimRun, t_from_s: float) -> dict[str, float]:
+    """The product's acceptance figures over samples after ``t_from_s``:
+    nav_pos_h_rms, gps_pos_h_rms (of the fixes valid in the same window), their ratio,
+    roll/pitch/yaw RMS [deg], and the fraction of samples with |error| <= 3 sigma for
+    each position, velocity and attitude component (worst component and all nine)."""
+    m = trace.after(t_from_s)
+    pe = trace.p_err[m]
+    nav_h = float(np.sqrt(np.mean(pe[:, 0] ** 2 + pe[:, 1] ** 2)))
+    t0_us = t_from_s * 1e6
+    ge = sim.gps_err_ned[(sim.t_us >= t0_us) & ~np.isnan(sim.gps_err_ned[:, 0])]
+    gps_h = float(np.sqrt(np.mean(ge[:, 0] ** 2 + ge[:, 1] ** 2)))
+    err = np.hstack((trace.p_err[m], trace.v_err[m], trace.att_err[m]))
+    inside = np.mean(np.abs(err) <= 3.0 * trace.sigma[m], axis=0)
+    rpy = np.degrees(np.sqrt(np.mean(trace.euler_err[m] ** 2, axis=0)))
+    return {"nav_pos_h_rms": nav_h, "gps_pos_h_rms": gps_h, "ratio": nav_h / gps_h,
+            "roll_rms_deg": float(rpy[0]), "pitch_rms_deg": float(rpy[1]), "yaw_rms_deg": float(rpy[2]),
+            "inside_3sigma_min": float(inside.min()), "inside_3sigma": inside}

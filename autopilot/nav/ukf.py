@@ -121,7 +121,7 @@ class InsGpsUkf(NavFilterBase):
         w = omega_m - (np.asarray(nom0.bg) + sig[:, GBIAS])
         f = f_m - (np.asarray(nom0.ba) + sig[:, ABIAS])
         # f + 1/2 dt omega x f, rotated to NED
-        fg = f + 0.5 * dt * np.cross(w, f)
+        fg = f + 0.5 * dt * qbatch.cross(w, f)
         f_n = np.einsum("nij,nj->ni", qbatch.to_dcm(q), fg)
         v1 = v + f_n * dt
         v1[:, 2] += g * dt
