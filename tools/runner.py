@@ -27,6 +27,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 MISSIONS_DIR = REPO_ROOT / "missions"
 DEFAULT_MISSION = MISSIONS_DIR / "default.waypoints"
 DEFAULT_SCENARIO = MISSIONS_DIR / "default_scenario.toml"
+LAUNCH_INTO_WIND_MPS = 3.0
 
 
 @dataclass
@@ -77,6 +78,12 @@ class Session:
         self.home = cfg.home or mission_home(self.mission)
         world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
                             cfg.turbulence, cfg.vehicle)
+        if cfg.home is None and world.wind.speed_mps >= LAUNCH_INTO_WIND_MPS:
+            # as an operator would: the launcher points into the wind (a catapult shot
+            # downwind leaves the rail below stall speed); --home's heading overrides
+            self.home = (*self.home[:3], world.wind.from_deg % 360.0)
+            world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
+                                cfg.turbulence, cfg.vehicle)
         self.world = world
         self.wind = world.wind
         self.plant = world.plant

@@ -120,6 +120,12 @@ class MissionSequencer:
         t = math.tan(0.5 * abs(dchi))
         d = min(r * t, 0.5 * l2, 0.5 * l1)  # each leg shares its length between its two turns
         r = d / t
+        v_air = self.airspeed_mps
+        r_min = v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+        if r < r_min:
+            # legs too short for a turn this sharp: no arc can be flown; fly over the
+            # waypoint and let L1 turn back onto the next leg
+            return 0.0, None
         direction = 1 if dchi > 0 else -1
         t1 = (b_ne[0] - d * u1[0], b_ne[1] - d * u1[1])
         centre = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
@@ -268,7 +274,7 @@ class MissionSequencer:
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         accept = max(item.param2, 0.0) or self.params["WP_RADIUS"]
         d_turn, arc = self._fillet(a_ne, b_ne)
-        if along >= length - d_turn or dist <= min(accept, self.params["WP_RADIUS"]):
+        if along >= length - d_turn or dist <= min(accept, self.params["WP_RADIUS"], 0.5 * length):
             self._prev_wp_ne = b_ne
             self._prev_alt = alt_b
             self._advance(t_us)

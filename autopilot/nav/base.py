@@ -151,6 +151,7 @@ class NavFilterBase:
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
         self._t_us: int | None = None
+        self._gyro = np.zeros(3)              # last raw gyro sample [rad/s]
         self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
         self._fake_hold = [0.0, 0.0, 0.0]
         self._baro_ok = False                 # baro offset initialised from GPS
@@ -229,12 +230,10 @@ class NavFilterBase:
         if gps is not None and self.origin is None:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
 
+        self._gyro = imu.omega_b
         if not self.aligned:
             self._align_step(frame, gps)
             if not self.aligned:
-                bg = self.nom.bg
-                w = imu.omega_b.tolist()
-                self.nom.omega_b = [w[0] - bg[0], w[1] - bg[1], w[2] - bg[2]]
                 return self._output(t)
             self._push_history(t)
             if self._pos_src == "gps":   # aligned in flight on this very fix
@@ -664,8 +663,11 @@ class NavFilterBase:
         else:
             v = nom.v
             airspeed = math.sqrt((v[0] - w[0]) ** 2 + (v[1] - w[1]) ** 2 + v[2] ** 2)
+        # omega_b = gyro - bias estimate (after this step's update)
+        bg = nom.bg
+        gx, gy, gz = self._gyro.tolist()
         # one array for all vectors of the state, handed out as views (one allocation)
-        a = np.array(p + nom.v + nom.q + nom.omega_b + [w[0], w[1], 0.0])
+        a = np.array(p + nom.v + nom.q + [gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
                         a[13:16], self.aligned, self.healthy, self.SOURCE)
 

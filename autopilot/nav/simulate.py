@@ -357,3 +357,24 @@ def accuracy(trace: FilterTrace, sim: SimRun, t_from_s: float) -> dict[str, floa
     return {"nav_pos_h_rms": nav_h, "gps_pos_h_rms": gps_h, "ratio": nav_h / gps_h,
             "roll_rms_deg": float(rpy[0]), "pitch_rms_deg": float(rpy[1]), "yaw_rms_deg": float(rpy[2]),
             "inside_3sigma_min": float(inside.min()), "inside_3sigma": inside}
+
+
+def golden_numbers(filt, trace: FilterTrace) -> dict[str, list[float]]:
+    """Numbers that pin a run down for a golden regression: the final nominal state,
+    the diagonal of P, and per source the sum of innovations, of test ratios and the
+    number of rejections over the run."""
+    nom = filt.nom
+    out = {"p": list(nom.p), "v": list(nom.v), "q": list(nom.q), "ba": list(nom.ba),
+           "bg": list(nom.bg), "bb": [nom.bb], "gb": list(nom.gb), "wind": list(nom.wind),
+           "P_diag": np.diagonal(filt.P).tolist()}
+    sums: dict[str, list[float]] = {}
+    for recs in trace.records:
+        for r in recs:
+            s = sums.setdefault(r.source, [0.0, 0.0, 0.0, 0.0])
+            s[0] += float(np.sum(r.innovation))
+            s[1] += float(np.sum(r.test_ratio))
+            s[2] += float(r.rejected)
+            s[3] += 1.0
+    for name, s in sorted(sums.items()):
+        out["innov_" + name] = s
+    return out

@@ -18,7 +18,8 @@ residuals are plain vectors: no ``residual_x`` / ``x_mean_fn`` hooks are needed.
   ``compute_process_sigmas``). Q is the EKF's (additive). The mean of the propagated
   error is folded into the nominal state and the sigma points re-centred.
 * Update: linear rows (GPS, baro) are evaluated on the sigma points through the EKF's
-  H; the nonlinear ones (magnetic heading, airspeed, sideslip) exactly. One stacked
+  H; the nonlinear ones (magnetic heading, airspeed, sideslip) exactly (the heading
+  about the smoothed Earth field, as the EKF's H, see base.py). One stacked
   filterpy ``update`` per step with the rows that passed their gates (filterpy reuses
   the prior sigma points for every update of a step, so several updates per predict
   would be wrong); then the mean is folded into the nominal state, ``x = 0``.
@@ -156,8 +157,10 @@ class InsGpsUkf(NavFilterBase):
         for k, name in enumerate(batch.src):
             r = batch.start[k]
             if name == "mag":
-                # h_i = yaw + (g(x_i) - g(x_nom)),  g = heading of the field rotated into NED
-                m = self._m_hat
+                # h_i = yaw + (g(x_i) - g(x_nom)),  g = heading of the field rotated into NED;
+                # about the smoothed field, as the EKF's H (noise in the spread of the
+                # sigma points would correlate with the noise of the innovation)
+                m = np.asarray(self._m_ref)
                 m_i = np.einsum("nij,j->ni", qbatch.to_dcm(qbatch.from_rotvec(sig[:, ATT])), m)
                 dg = np.arctan2(m_i[:, 1], m_i[:, 0]) - np.arctan2(m[1], m[0])
                 Zs[:, r] = batch.h0[r] + (dg + np.pi) % (2.0 * np.pi) - np.pi
@@ -172,12 +175,6 @@ class InsGpsUkf(NavFilterBase):
                 c1_i = np.einsum("nij,j->ni", qbatch.to_dcm(qbatch.from_rotvec(sig[:, ATT])), c1)
                 Zs[:, r] = np.einsum("ni,ni->n", c1_i, vr)
         return Zs
-
-    def _assemble(self, frame, gps):
-        if frame.mag is not None:
-            # the field rotated into NED by the nominal attitude, for the mag sigma points
-            self._m_hat = np.array(self.nom.R).reshape(3, 3) @ frame.mag.m_b
-        return super()._assemble(frame, gps)
 
     def _gate_stats(self, batch: Batch) -> None:
         ukf = self._ukf
