@@ -24,7 +24,8 @@ from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog
 from .messages import ActuatorOutputs, NavState, SensorFrame
 from .mission.items import Mission
-from .modes.plane import PlaneMode
+from .link.codec import MAV
+from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .params import Param, ParamStore
 
 GUIDANCE_PARAMS = (
@@ -99,7 +100,12 @@ def make_nav(source: str, params: ParamStore):
 
 class PlaneVehicle:
     """The fixed-wing autopilot's loop. ``autostart``: arm and fly AUTO by itself once
-    navigation is healthy (headless runs); otherwise wait for a ground station."""
+    navigation is healthy (headless runs); otherwise wait for a ground station.
+    Implements ``autopilot.vehicle_api.VehicleApi`` for the ground-station service."""
+
+    mav_type = MAV.MAV_TYPE_FIXED_WING
+    modes = PlaneMode
+    implemented_modes = IMPLEMENTED_PLANE_MODES
 
     def __init__(self, params: ParamStore, mission: Mission | None, nav_source: str = "ekf",
                  autostart: bool = True, log: FlightLog | None = None):
@@ -138,7 +144,10 @@ class PlaneVehicle:
             return "no valid mission"
         return None
 
-    def arm(self, t_us: int, truth=None) -> None:
+    def arm(self, t_us: int, truth=None) -> str | None:
+        reason = self.arm_checks()
+        if reason is not None:
+            return reason
         nav = self.nav_state
         self.home_frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
         if truth is not None:
@@ -148,11 +157,79 @@ class PlaneVehicle:
         self.armed = True
         self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
                                     f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.1f} m")
+        return None
 
-    def set_mode(self, mode: PlaneMode, t_us: int) -> None:
+    def disarm(self, t_us: int, force: bool = False) -> str | None:
+        if not self.armed:
+            return None
+        if not self.landed and not force:
+            return "Disarm refused: flying"
+        self.armed = False
+        self.set_mode(PlaneMode.MANUAL, t_us)
+        self.log.event(t_us * 1e-6, "disarmed")
+        return None
+
+    def set_mode(self, mode: PlaneMode, t_us: int) -> str | None:
+        if mode not in self.implemented_modes:
+            return f"mode {int(mode)} not implemented"
         if mode != self.mode:
             self.log.event(t_us * 1e-6, f"mode {mode.name}")
         self.mode = mode
+        return None
+
+    @property
+    def landed(self) -> bool:
+        """On the launcher or back on the ground: not armed, or armed but not yet
+        launched (no mission item reached and below 2 m above home)."""
+        if not self.armed or self.home_frame is None or self.nav_state is None:
+            return True
+        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.reached
+
+    def current_seq(self) -> int:
+        if self.sequencer is None:
+            return 1 if self.mission is not None and len(self.mission) > 1 else 0
+        return min(self.sequencer.current, max(len(self.sequencer.items) - 1, 0))
+
+    def reached_events(self) -> list[tuple[int, int]]:
+        return list(self.sequencer.reached) if self.sequencer is not None else []
+
+    def set_mission(self, mission: Mission, t_us: int) -> str | None:
+        """Replace the mission atomically. In flight the new mission starts from its
+        item 1 (ArduPilot keeps the index; a fresh start is the simpler promise)."""
+        if len(mission) < 1:
+            return "empty mission"
+        self.mission = mission
+        if self.sequencer is not None:
+            self.sequencer.load(mission)
+        self.log.event(t_us * 1e-6, f"mission replaced: {len(mission) - 1} items")
+        return None
+
+    def set_current(self, seq: int, t_us: int) -> str | None:
+        if self.mission is None or not 0 < seq < len(self.mission):
+            return f"no mission item {seq}"
+        if self.sequencer is not None:
+            self.sequencer.set_current(seq)
+        return None
+
+    def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
+        self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
+        if self.sequencer is not None:
+            self.sequencer.frame = self.home_frame
+            self.sequencer.home_alt_m = alt_m
+        self.log.event(t_us * 1e-6, "home moved")
+        return None
+
+    def set_param(self, name: str, value: float) -> str | None:
+        from .params import ParamError
+        try:
+            self.params.set(name, value)
+        except ParamError as e:
+            return str(e)
+        if name in ("NAVL1_PERIOD", "NAVL1_DAMPING"):
+            self.l1.set_design(self.params["NAVL1_PERIOD"], self.params["NAVL1_DAMPING"])
+        else:
+            self.ctrl.configure_gains()
+        return None
 
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
@@ -178,14 +255,14 @@ class PlaneVehicle:
             if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
                 if self.healthy_since_us is None:
                     self.healthy_since_us = t_us
-                if (t_us - self.healthy_since_us) * 1e-6 >= self.params["ARM_SETTLE_S"] and self.arm_checks() is None:
-                    self.arm(t_us, truth)
+                if (t_us - self.healthy_since_us) * 1e-6 >= self.params["ARM_SETTLE_S"] \
+                        and self.arm(t_us, truth) is None:
                     self.set_mode(PlaneMode.AUTO, t_us)
             else:
                 self.healthy_since_us = None
 
         controls = (0.0, 0.0, 0.0, 0.0)
-        if self.armed and self.home_frame is not None:
+        if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
         self._log(t_us, nav, truth, controls)
         return ActuatorOutputs(t_us, controls, self.armed)

@@ -101,3 +101,13 @@ def test_two_processes_over_tcp(tmp_path):
     assert z["truth_alt_m"][-1] - z["truth_alt_m"][0] > 20.0
     assert np.all(np.diff(z["t_s"]) > 0)
     assert "missed 0" in sim_err
+
+
+def test_stock_c172p_stays_selectable_and_flies_its_circuit():
+    # the c172p takes off from the runway on its wheels with its own parameter file
+    s, summary = fly(airframe="c172p", mission=MISSIONS_DIR / "c172p_circuit.waypoints",
+                     nav="truth", seed=4, duration_s=900.0)
+    assert summary["airframe"] == "c172p"
+    assert summary["completed"] is True and not summary["crashed"]
+    assert summary["alt_rms_m"] <= 5.0
+    assert s.params["TRIM_ARSPD"] == 45.0

@@ -91,6 +91,9 @@ class Session:
         self.bridge = world.bridge(sim_pipe, cfg.vehicle)
         self.sim_end = self.bridge.link
         self.params = ParamStore(plane_param_declarations())
+        airframe_parm = MISSIONS_DIR / "params" / f"{cfg.airframe}.parm"
+        if airframe_parm.exists():
+            self.params.load(airframe_parm)   # the airframe's tuning, before the user's
         if cfg.params_file is not None:
             self.params.load(cfg.params_file)
         for k, v in cfg.param_overrides.items():

@@ -72,9 +72,9 @@ FW_PARAMS = (
     Param("SPD_KI", 0.03, 0.0, 2.0, "1/m", "airspeed error to throttle, integral"),
     Param("YAW_KD", 0.3, 0.0, 5.0, "s/rad", "yaw-rate error (vs coordinated turn) to rudder"),
     Param("ROLL_LIMIT_DEG", 45.0, 5.0, 65.0, "deg", "maximum bank angle"),
-    Param("TRIM_ARSPD", 25.0, 10.0, 40.0, "m/s", "cruise airspeed"),
-    Param("ARSPD_FBW_MIN", 20.0, 8.0, 40.0, "m/s", "minimum airspeed command"),
-    Param("ARSPD_FBW_MAX", 30.0, 10.0, 60.0, "m/s", "maximum airspeed command"),
+    Param("TRIM_ARSPD", 25.0, 10.0, 80.0, "m/s", "cruise airspeed"),
+    Param("ARSPD_FBW_MIN", 20.0, 8.0, 80.0, "m/s", "minimum airspeed command"),
+    Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
 )
 
 
@@ -85,6 +85,20 @@ class FixedWingController:
     def __init__(self, params):
         self.params = params
         self.configure()
+
+    def configure_gains(self) -> None:
+        """Re-read the gains after a parameter change (integrators kept)."""
+        p = self.params
+        for pid, (kp, ki, kd) in ((self.roll_pid, ("RLL_KP", "RLL_KI", "RLL_KD")),
+                                  (self.pitch_pid, ("PTCH_KP", "PTCH_KI", "PTCH_KD")),
+                                  (self.climb_pid, ("CLMB_KP", "CLMB_KI", None)),
+                                  (self.speed_pid, ("SPD_KP", "SPD_KI", None))):
+            pid.kp, pid.ki = p[kp], p[ki]
+            if kd is not None:
+                pid.kd = p[kd]
+        self.speed_pid.out_max = p["THR_MAX"]
+        self.climb_pid.out_min = math.radians(p["PTCH_LIM_MIN_DEG"])
+        self.climb_pid.out_max = math.radians(p["PTCH_LIM_MAX_DEG"])
 
     def configure(self) -> None:
         p = self.params

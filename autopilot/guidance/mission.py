@@ -83,6 +83,19 @@ class MissionSequencer:
         self._arc_angle = 0.0
         self._arc_last: float | None = None
 
+    def set_current(self, seq: int) -> None:
+        """Jump to item ``seq`` (MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT)."""
+        self.current = seq
+        self.finished = False
+        self.rtl_established = False
+        self.leg_id += 1
+        self._arc = None
+        self._leg_start = None
+        self._leg_along0 = None
+        self._loiter_captured = False
+        self._loiter_angle = 0.0
+        self._loiter_last_bearing = None
+
     def item_alt_m(self, item: MissionItem) -> float:
         """Item altitude as MSL [m]."""
         if item.frame in RELATIVE_FRAMES:

@@ -94,13 +94,32 @@ _BARO_INIT_SD = 100.0         # baro offset sigma before the first GPS fix [m]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
 
-# Diagonal floor and ceiling of P, per error state (variances), in layout order.
-_P_FLOOR = np.array([1e-4] * 3 + [1e-6] * 3 + [1e-10] * 3 + [1e-12] * 3 + [1e-16] * 3
-                    + [1e-4] + [1e-6] * 3 + [1e-6] * 2)
-_P_CEIL = np.array([1e8] * 3 + [1e4] * 3 + [10.0] * 3 + [4.0] * 3 + [0.01] * 3
-                   + [1e6] + [1e4] * 3 + [1e4] * 2)
+# Diagonal floor and ceiling of P (variances) per error-state block.
+_P_LIMITS = ((POS, 1e-4, 1e8), (VEL, 1e-6, 1e4), (ATT, 1e-10, 10.0), (ABIAS, 1e-12, 4.0),
+             (GBIAS, 1e-16, 0.01), (BBIAS, 1e-4, 1e6), (GPSB, 1e-6, 1e4), (WIND, 1e-6, 1e4))
+_P_FLOOR = np.zeros(N_WIND)
+_P_CEIL = np.zeros(N_WIND)
+for _sl, _lo, _hi in _P_LIMITS:
+    _P_FLOOR[_sl], _P_CEIL[_sl] = _lo, _hi
 
-_I_ATT, _I_BA, _I_BB, _I_GB, _I_W = ATT.start, ABIAS.start, BBIAS.start, GPSB.start, WIND.start
+# Columns of H's nonzeros per source, (row, column), from the layout.
+_IP, _IV, _IA, _IBA = POS.start, VEL.start, ATT.start, ABIAS.start
+_IBB, _IGB, _IW = BBIAS.start, GPSB.start, WIND.start
+_POS_COLS = tuple((i, _IP + i) for i in range(3))
+_ATT_COLS = tuple((0, _IA + i) for i in range(3))
+_GPS_POS_COLS = tuple(c for i in range(3) for c in ((i, _IP + i), (i, _IV + i), (i, _IGB + i)))
+_GPS_VEL_COLS = (tuple((i, _IV + i) for i in range(3))
+                 + ((0, _IA + 1), (0, _IA + 2), (1, _IA), (1, _IA + 2), (2, _IA), (2, _IA + 1))
+                 + tuple((i, _IBA + j) for i in range(3) for j in range(3)))
+_BARO_COLS = ((0, _IP + 2), (0, _IBB))
+_AIRSPEED_COLS = ((0, _IV), (0, _IV + 1), (0, _IV + 2), (0, _IW), (0, _IW + 1))
+_SIDESLIP_COLS = _ATT_COLS + _AIRSPEED_COLS
+_H_COLS = {"gps_pos": _GPS_POS_COLS, "gps_vel": _GPS_VEL_COLS, "fake_pos": _POS_COLS,
+           "baro": _BARO_COLS, "mag": _ATT_COLS, "airspeed": _AIRSPEED_COLS,
+           "sideslip": _SIDESLIP_COLS}
+# _inject unpacks dx in this order; a layout change must be mirrored there
+assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, BBIAS.start, GPSB.start,
+        WIND.start) == (0, 3, 6, 9, 12, 15, 16, 19)
 
 
 class Batch:
@@ -137,6 +156,9 @@ class NavFilterBase:
         self.is_plane = self.n == N_WIND
         self._home = origin
         self._Hbuf = np.zeros((_MAX_ROWS, self.n))
+        # flat offsets row * n + col of each source's H nonzeros
+        self._h_offsets = {name: tuple(row * self.n + col for row, col in cols)
+                           for name, cols in _H_COLS.items()}
         self._floor = _P_FLOOR[: self.n].copy()
         self._ceil = _P_CEIL[: self.n].copy()
         self.reset()
@@ -383,103 +405,78 @@ class NavFilterBase:
 
     # ----------------------------------------------------------- measurement models --
     def _assemble(self, frame: SensorFrame, gps) -> Batch | None:
-        """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H."""
+        """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H
+        (as flat indices into the (rows, n) buffer, written with one ``put``)."""
         prm = self.params
         nom = self.nom
         n = self.n
         src, start, size, reset = [], [], [], []
         z, h0, R, g2 = [], [], [], []
-        hi, hv = [], []                  # flat indices and values of H's nonzeros
-        r = 0
+        hi, hv = [], []
+        offsets = self._h_offsets
+
+        def add(name, zs, hs, var, gate, vals, forced=False):
+            """Append one source at row r: z, h, R; H[r + row, col] = val for the
+            (row, col) pairs of _H_COLS[name], kept as flat offsets row * n + col."""
+            r = len(z)
+            m = len(zs)
+            src.append(name)
+            start.append(r)
+            size.append(m)
+            reset.append(forced)
+            z.extend(zs)
+            h0.extend(hs)
+            R.extend(var)
+            g2.extend((gate * gate,) * m)
+            hi.extend(map((r * n).__add__, offsets[name]))
+            hv.extend(vals)
+
         if gps is not None:
             L = self._gps_delay
             pd, vd = self._delayed(frame.t_us - self._gps_delay_us)
             sh, _, sv = self._gps_white(gps)
             gb = nom.gb
-            rs = self._pos_src != "gps"
+            forced = self._pos_src != "gps"
             # gps_pos: h = p(t-L) + b_gps,  H = [I, -L I, 0 ..., I (GPSB), 0]
-            src.append("gps_pos"), start.append(r), size.append(3), reset.append(rs)
-            z.extend(self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist())
-            h0.extend((pd[0] + gb[0], pd[1] + gb[1], pd[2] + gb[2]))
-            R.extend((sh * sh, sh * sh, sv * sv))
-            gg = prm["EK_GPS_P_GATE"] ** 2
-            g2.extend((gg, gg, gg))
-            for i in range(3):
-                row = (r + i) * n
-                hi.extend((row + i, row + 3 + i, row + _I_GB + i))
-                hv.extend((1.0, -L, 1.0))
-            r += 3
+            add("gps_pos", self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist(),
+                (pd[0] + gb[0], pd[1] + gb[1], pd[2] + gb[2]), (sh * sh, sh * sh, sv * sv),
+                prm["EK_GPS_P_GATE"], (1.0, -L, 1.0) * 3, forced)
             # gps_vel: h = v(t-L),  H = [0, I, L [f_n x], L R, 0 ...]
-            src.append("gps_vel"), start.append(r), size.append(3), reset.append(rs)
-            z.extend(gps.v_ned.tolist())
-            h0.extend(vd)
-            s2 = prm["EK_GPS_V_NSE"] ** 2
-            R.extend((s2, s2, s2))
-            gg = prm["EK_GPS_V_GATE"] ** 2
-            g2.extend((gg, gg, gg))
             fx, fy, fz = nom.f_n
-            Rm = nom.R
-            a, b = _I_ATT, _I_BA
-            r0, r1, r2 = r * n, (r + 1) * n, (r + 2) * n
-            hi.extend((r0 + 3, r1 + 4, r2 + 5,
-                       r0 + a + 1, r0 + a + 2, r1 + a, r1 + a + 2, r2 + a, r2 + a + 1,
-                       r0 + b, r0 + b + 1, r0 + b + 2, r1 + b, r1 + b + 1, r1 + b + 2,
-                       r2 + b, r2 + b + 1, r2 + b + 2))
-            hv.extend((1.0, 1.0, 1.0,
-                       -L * fz, L * fy, L * fz, -L * fx, -L * fy, L * fx,
-                       L * Rm[0], L * Rm[1], L * Rm[2], L * Rm[3], L * Rm[4], L * Rm[5],
-                       L * Rm[6], L * Rm[7], L * Rm[8]))
-            r += 3
+            s2 = prm["EK_GPS_V_NSE"] ** 2
+            add("gps_vel", gps.v_ned.tolist(), vd, (s2, s2, s2), prm["EK_GPS_V_GATE"],
+                (1.0, 1.0, 1.0, -L * fz, L * fy, L * fz, -L * fx, -L * fy, L * fx)
+                + tuple(L * c for c in nom.R), forced)
         elif self._pos_src == "fake":
             # fake_pos: h = p,  H = [I, 0 ...]
-            src.append("fake_pos"), start.append(r), size.append(3), reset.append(False)
-            z.extend(self._fake_hold)
-            h0.extend(nom.p)
             s2 = _FAKE_POS_SD ** 2
-            R.extend((s2, s2, s2))
-            g2.extend((1e6, 1e6, 1e6))
-            hi.extend((r * n, (r + 1) * n + 1, (r + 2) * n + 2))
-            hv.extend((1.0, 1.0, 1.0))
-            r += 3
+            add("fake_pos", self._fake_hold, nom.p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
 
         if frame.baro is not None and self._baro_ok:
             # baro: h = alt0 - p_D + b_baro
-            src.append("baro"), start.append(r), size.append(1), reset.append(False)
-            z.append(frame.baro.alt_m)
-            h0.append(self.origin.alt0_m - nom.p[2] + nom.bb)
-            R.append(prm["EK_BARO_NSE"] ** 2)
-            g2.append(prm["EK_BARO_GATE"] ** 2)
-            hi.extend((r * n + 2, r * n + _I_BB))
-            hv.extend((-1.0, 1.0))
-            r += 1
+            add("baro", (frame.baro.alt_m,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
+                (prm["EK_BARO_NSE"] ** 2,), prm["EK_BARO_GATE"], (-1.0, 1.0))
 
         if frame.mag is not None and self._tilt_aligned():
             Rm = nom.R
             mn, me, md = mag_ned(Rm, frame.mag.m_b)
             bh2 = mn * mn + me * me
             if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
+                # the tilt terms use the smoothed field, not this sample (module docstring)
+                ref = self._m_ref
+                if ref is None:
+                    ref = self._m_ref = [mn, me, md]
+                else:
+                    ref[0] += (mn - ref[0]) * _MAG_REF_GAIN
+                    ref[1] += (me - ref[1]) * _MAG_REF_GAIN
+                    ref[2] += (md - ref[2]) * _MAG_REF_GAIN
+                rn, re, rd = ref
+                rh2 = rn * rn + re * re
                 # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q),
                 #      H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
                 yaw0 = math.atan2(Rm[3], Rm[0])
-                src.append("mag"), start.append(r), size.append(1), reset.append(False)
-                z.append(yaw0 + wrap_pi(prm["EK_MAG_DEC"] - math.atan2(me, mn)))
-                h0.append(yaw0)
-                R.append(prm["EK_MAG_NSE"] ** 2)
-                g2.append(prm["EK_MAG_GATE"] ** 2)
-                row = r * n + _I_ATT
-                hi.extend((row, row + 1, row + 2))
-                # the tilt terms use the smoothed field, not this sample (see module doc)
-                lp = self._m_ref
-                if lp is None:
-                    lp = self._m_ref = [mn, me, md]
-                else:
-                    lp[0] += (mn - lp[0]) * _MAG_REF_GAIN
-                    lp[1] += (me - lp[1]) * _MAG_REF_GAIN
-                    lp[2] += (md - lp[2]) * _MAG_REF_GAIN
-                rn, re, rd = lp
-                rh2 = rn * rn + re * re
-                hv.extend((-rd * rn / rh2, -rd * re / rh2, 1.0))
-                r += 1
+                add("mag", (yaw0 + wrap_pi(prm["EK_MAG_DEC"] - math.atan2(me, mn)),), (yaw0,),
+                    (prm["EK_MAG_NSE"] ** 2,), prm["EK_MAG_GATE"], (-rd * rn / rh2, -rd * re / rh2, 1.0))
 
         if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
                 and frame.airspeed.airspeed_mps >= prm["EK_ARSP_MIN"]):
@@ -490,37 +487,22 @@ class NavFilterBase:
             if tas > 1.0:
                 # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|)
                 ux, uy, uz = ax / tas, ay / tas, az / tas
-                src.append("airspeed"), start.append(r), size.append(1), reset.append(False)
-                z.append(frame.airspeed.airspeed_mps)
-                h0.append(tas)
-                R.append(prm["EK_ARSP_NSE"] ** 2)
-                g2.append(prm["EK_ARSP_GATE"] ** 2)
-                row = r * n
-                hi.extend((row + 3, row + 4, row + 5, row + _I_W, row + _I_W + 1))
-                hv.extend((ux, uy, uz, -ux, -uy))
-                r += 1
+                add("airspeed", (frame.airspeed.airspeed_mps,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
+                    prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
                 # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
                 #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
                 Rm = nom.R
                 cx, cy, cz = Rm[1], Rm[4], Rm[7]
-                src.append("sideslip"), start.append(r), size.append(1), reset.append(False)
-                z.append(0.0)
-                h0.append(cx * ax + cy * ay + cz * az)
-                R.append(prm["EK_BETA_NSE"] ** 2)
-                g2.append(prm["EK_BETA_GATE"] ** 2)
-                row = r * n
-                hi.extend((row + _I_ATT, row + _I_ATT + 1, row + _I_ATT + 2,
-                           row + 3, row + 4, row + 5, row + _I_W, row + _I_W + 1))
-                hv.extend((cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax,
-                           cx, cy, cz, -cx, -cy))
-                r += 1
+                add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
+                    prm["EK_BETA_GATE"],
+                    (cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax, cx, cy, cz, -cx, -cy))
 
-        if r == 0:
+        if not z:
             return None
         Hb = self._Hbuf
         Hb.fill(0.0)
         Hb.put(hi, hv)
-        return Batch(src, start, size, reset, z, h0, R, g2, Hb[:r])
+        return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
     def _propagate_nominal(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> float:
         """Strapdown step of the nominal state, and the mean decay of the Gauss-Markov
@@ -536,7 +518,7 @@ class NavFilterBase:
         """Start predicate of heading fusion: roll and pitch known to 3 deg."""
         if not self._tilt_ok:
             P = self.P
-            self._tilt_ok = P[6, 6] < _MAG_TILT_VAR and P[7, 7] < _MAG_TILT_VAR
+            self._tilt_ok = P[_IA, _IA] < _MAG_TILT_VAR and P[_IA + 1, _IA + 1] < _MAG_TILT_VAR
         return self._tilt_ok
 
     # --------------------------------------------------------------------- fusion --
@@ -596,7 +578,7 @@ class NavFilterBase:
             self._pos_src = "gps"
             if not self._baro_ok and self._last_baro_alt is not None:
                 nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
-                self._reset_covariance_block(BBIAS, self.P[2, 2])
+                self._reset_covariance_block(BBIAS, self.P[_IP + 2, _IP + 2])
                 self._baro_ok = True
         elif source == "gps_vel":
             nom.v = [nom.v[i] + dz[i] for i in range(3)]
@@ -640,8 +622,8 @@ class NavFilterBase:
     def _update_health(self, t: int) -> None:
         P = self.P
         ok = bool(self.aligned and self._pos_src == "gps"
-              and math.isfinite(P[0, 0] + P[1, 1] + P[6, 6] + P[8, 8])
-              and P[0, 0] + P[1, 1] <= self.params["EK_HPOS_MAX"] ** 2)
+              and math.isfinite(P[_IP, _IP] + P[_IP + 1, _IP + 1] + P[_IA, _IA] + P[_IA + 2, _IA + 2])
+              and P[_IP, _IP] + P[_IP + 1, _IP + 1] <= self.params["EK_HPOS_MAX"] ** 2)
         if ok and self._rej_since:
             tout = self.params["EK_REJ_TOUT"] * 1e6
             for since in self._rej_since.values():
