@@ -54,7 +54,14 @@ LOG_COLUMNS = (
     "leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m", "loiter_c_n_m", "loiter_c_e_m",
     "loiter_r_m", "loiter_dir", "xtrack_est_m",
     "ctl_aileron", "ctl_elevator", "ctl_rudder", "ctl_throttle",
+    # navigation filter: 1-sigma of its errors (NaN on truth; attitude as a NED-frame
+    # rotation vector, the error state of autopilot/nav), health, and the GPS fixes
+    # received this step (NaN when none), for scoring the estimate and the receiver
+    "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
+    "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
+    "gps_n_m", "gps_e_m", "gps_alt_m",
 )
+_NAN9 = (math.nan,) * 9
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3}
 
 
@@ -129,6 +136,7 @@ class PlaneVehicle:
         self.gps_fix_type = 0
         self.last_t_us: int | None = None
         self.steps = 0
+        self._gps_this_step = None
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -237,6 +245,7 @@ class PlaneVehicle:
         dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
         self.last_t_us = t_us
         self.steps += 1
+        self._gps_this_step = frame.gps
         if frame.gps is not None:
             self.gps_fix_type = frame.gps.fix_type
 
@@ -324,6 +333,16 @@ class PlaneVehicle:
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         w = nav.wind_ned
+        sig = _NAN9
+        if hasattr(self.nav, "P"):
+            d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
+            sig = tuple(d.tolist())
+        gps = self._gps_this_step
+        if gps is not None:
+            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
+            gps_row = (g[0], g[1], gps.alt_m)
+        else:
+            gps_row = (math.nan, math.nan, math.nan)
         self.log.append((
             t_us * 1e-6, float(self.armed), float(self.mode.value), float(tgt.seq), float(tgt.leg_id),
             float(KIND_CODES[tgt.kind]),
@@ -334,4 +353,4 @@ class PlaneVehicle:
             tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],
-        ))
+        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row)

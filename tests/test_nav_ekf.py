@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from autopilot.geo import LocalFrame, euler_to_quat, quat_to_euler
-from autopilot.messages import AirspeedSample, BaroSample, ImuSample, MagSample, NavState, SensorFrame
+from autopilot.messages import (AirspeedSample, BaroSample, GpsFix, ImuSample, MagSample, NavState,
+                                SensorFrame)
 from autopilot.nav import InsGpsEkf, InsGpsUkf, NAV_PARAMS
 from autopilot.nav.layout import N_BASE, N_WIND, STATE_NAMES
 from autopilot.nav.records import SOURCES, InnovationRecord
@@ -27,7 +28,7 @@ from autopilot.params import ParamStore
 
 GOLDEN = Path(__file__).parent / "data" / "nav_golden.json"
 CFG = SimConfig()
-PARAMS = {"EK_MAG_DEC": math.radians(CFG.mag_declination_deg)}
+PARAMS = {"EK_MAG_DEC": math.radians(CFG.mag_declination_deg), "EK_MAG_AUTODEC": 0}
 
 
 def make(cls=InsGpsEkf, cfg: SimConfig = CFG, origin="sim", **overrides):
@@ -282,7 +283,7 @@ def test_copter_has_no_wind_or_air_data():
 # ----------------------------------------------------------------- measurement models --
 
 def _aligned_filter(vehicle="plane"):
-    f = InsGpsEkf({"EK_MAG_DEC": 0.2, "EK_GPS_DELAY": 0.0}, vehicle, LocalFrame.from_degrees(-35, 149, 500))
+    f = InsGpsEkf({"EK_MAG_DEC": 0.2, "EK_MAG_AUTODEC": 0, "EK_GPS_DELAY": 0.0}, vehicle, LocalFrame.from_degrees(-35, 149, 500))
     f.aligned, f._pos_src, f._baro_ok, f._tilt_ok = True, "gps", True, True
     nom = f.nom
     nom.p, nom.v = [10.0, -20.0, -100.0], [15.0, 8.0, -1.0]
@@ -301,7 +302,6 @@ def _measurements_of(f) -> SensorFrame:
     vr = np.array(nom.v) - np.array([*nom.wind, 0.0])
     t = 1_000_000
     lat, lon, alt = f.origin.to_geodetic_fast(np.array(nom.p) + np.array(nom.gb))
-    from autopilot.messages import GpsFix
     return SensorFrame(t, ImuSample(t, np.zeros(3), np.zeros(3)), MagSample(t, R.T @ field),
                        BaroSample(t, 1e5, f.origin.alt0_m - nom.p[2] + nom.bb, 288.0),
                        AirspeedSample(t, 300.0, float(np.linalg.norm(vr))),

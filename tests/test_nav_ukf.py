@@ -4,15 +4,14 @@ The interface/record contract test covering both filters is in test_nav_ekf.py."
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
 
 from autopilot.geo import quat_to_euler
 from autopilot.nav import InsGpsEkf, InsGpsUkf
-from autopilot.nav.simulate import (DEFAULT_SEGMENTS, SimConfig, accuracy, golden_numbers,
-                                    run_filter, simulate_flight, simulate_static)
+from autopilot.nav.simulate import (DEFAULT_SEGMENTS, accuracy, golden_numbers, run_filter,
+                                    simulate_flight, simulate_static)
 
 from test_nav_ekf import CFG, check_golden, make
 

@@ -17,7 +17,7 @@ from autopilot.geo import LocalFrame, euler_to_quat, quat_to_dcm
 from sim_bridge.faults import FaultInjector, FaultSpecError
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import SensorParams, SensorSuite, isa
-from sim_bridge.sensors.magfield import declination_inclination_rad, igrf_field_ned_gauss
+from autopilot.geo.magfield import declination_inclination_rad, igrf_field_ned_gauss
 
 HOME = (math.radians(-35.36), math.radians(149.17), 584.0)
 G = 9.80665

@@ -100,10 +100,14 @@ def _nav_error(plt, run_dir: Path, a: dict, armed: np.ndarray) -> Path:
         ("v north [m/s]", a["est_vn_mps"] - a["truth_vn_mps"], a["sig_vn_mps"]),
         ("v east [m/s]", a["est_ve_mps"] - a["truth_ve_mps"], a["sig_ve_mps"]),
         ("v down [m/s]", a["est_vd_mps"] - a["truth_vd_mps"], a["sig_vd_mps"]),
-        ("roll [deg]", np.degrees(_wrap(a["est_roll_rad"] - a["truth_roll_rad"])), np.degrees(a["sig_roll_rad"])),
-        ("pitch [deg]", np.degrees(_wrap(a["est_pitch_rad"] - a["truth_pitch_rad"])), np.degrees(a["sig_pitch_rad"])),
-        ("yaw [deg]", np.degrees(_wrap(a["est_yaw_rad"] - a["truth_yaw_rad"])), np.degrees(a["sig_yaw_rad"])),
+        ("attitude N [deg]", None, np.degrees(a["sig_att_n_rad"])),
+        ("attitude E [deg]", None, np.degrees(a["sig_att_e_rad"])),
+        ("attitude D (yaw) [deg]", None, np.degrees(a["sig_att_d_rad"])),
     ]
+    from .summary import attitude_error_ned
+    att = np.full((len(t), 3), np.nan)
+    att[armed] = np.degrees(attitude_error_ned(a, armed))
+    rows = [(n, att[:, k - 6] if e is None else e, sg) for k, (n, e, sg) in enumerate(rows)]
     fig, axes = plt.subplots(3, 3, figsize=(14, 9), sharex=True)
     for ax, (name, err, sig) in zip(axes.flat, rows):
         ax.plot(t[armed], err[armed], lw=0.7)
@@ -111,7 +115,7 @@ def _nav_error(plt, run_dir: Path, a: dict, armed: np.ndarray) -> Path:
         ax.plot(t[armed], -3 * sig[armed], "r--", lw=0.6)
         ax.set_title(name)
         ax.grid(True, alpha=0.3)
-    fig.suptitle("Estimate error and +-3 sigma")
+    fig.suptitle("Estimate error (attitude: NED rotation vector) and +-3 sigma")
     p = run_dir / "nav_error.png"
     fig.savefig(p, dpi=100, bbox_inches="tight")
     plt.close(fig)

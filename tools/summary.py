@@ -69,6 +69,81 @@ def flight_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: floa
     return out
 
 
+def attitude_error_ned(a: dict, mask: np.ndarray) -> np.ndarray:
+    """Estimate-minus-truth attitude error as a NED-frame rotation vector [rad]:
+    q_true = Exp(err) (x) q_est, the navigation filter's own error definition."""
+    from scipy.spatial.transform import Rotation
+    est = Rotation.from_euler("ZYX", np.column_stack([a["est_yaw_rad"][mask], a["est_pitch_rad"][mask],
+                                                     a["est_roll_rad"][mask]]))
+    tru = Rotation.from_euler("ZYX", np.column_stack([a["truth_yaw_rad"][mask], a["truth_pitch_rad"][mask],
+                                                     a["truth_roll_rad"][mask]]))
+    return (tru * est.inv()).as_rotvec()
+
+
+def _wrap(x):
+    return (x + np.pi) % (2 * np.pi) - np.pi
+
+
+def nav_figures(a: dict, gps_latency_s: float, fault_log=()) -> dict:
+    """Estimate against truth over the flight (armed, aligned), and the GPS receiver's
+    own horizontal error in the same run (each fix against truth at its time of
+    validity, ``gps_latency_s`` before its arrival)."""
+    out: dict = {}
+    m = (a["armed"] > 0) & (a["nav_aligned"] > 0) & np.isfinite(a["truth_n_m"])
+    if not m.any():
+        return out
+    en, ee = a["est_n_m"] - a["truth_n_m"], a["est_e_m"] - a["truth_e_m"]
+    eh = np.hypot(en, ee)
+    ev = a["est_alt_m"] - a["truth_alt_m"]
+    evel = np.column_stack([a["est_vn_mps"] - a["truth_vn_mps"], a["est_ve_mps"] - a["truth_ve_mps"],
+                            a["est_vd_mps"] - a["truth_vd_mps"]])
+    droll = _wrap(a["est_roll_rad"] - a["truth_roll_rad"])
+    dpitch = _wrap(a["est_pitch_rad"] - a["truth_pitch_rad"])
+    dyaw = _wrap(a["est_yaw_rad"] - a["truth_yaw_rad"])
+    out["nav_pos_h_rms_m"] = float(np.sqrt(np.mean(eh[m] ** 2)))
+    out["nav_pos_h_err_max_m"] = float(np.max(eh[m]))
+    out["nav_pos_v_rms_m"] = float(np.sqrt(np.mean(ev[m] ** 2)))
+    out["nav_vel_rms_mps"] = float(np.sqrt(np.mean(np.sum(evel[m] ** 2, axis=1))))
+    out["nav_roll_pitch_rms_deg"] = float(np.degrees(np.sqrt(np.mean(np.concatenate([droll[m], dpitch[m]]) ** 2))))
+    out["nav_yaw_rms_deg"] = float(np.degrees(np.sqrt(np.mean(dyaw[m] ** 2))))
+    if np.isfinite(a["sig_pn_m"][m]).all():
+        att = attitude_error_ned(a, m)
+        errs = np.column_stack([en[m], ee[m], ev[m], evel[m], att])
+        sig = np.column_stack([a[c][m] for c in ("sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps",
+                                                 "sig_vd_mps", "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad")])
+        out["nav_consistency_3sigma"] = float(np.mean(np.all(np.abs(errs) <= 3.0 * sig, axis=1)))
+    # the receiver's own error
+    g = m & np.isfinite(a["gps_n_m"])
+    if g.any():
+        t = a["t_s"]
+        tv = t[g] - gps_latency_s
+        tn = np.interp(tv, t, a["truth_n_m"])
+        te = np.interp(tv, t, a["truth_e_m"])
+        out["gps_pos_h_rms_m"] = float(np.sqrt(np.mean((a["gps_n_m"][g] - tn) ** 2 + (a["gps_e_m"][g] - te) ** 2)))
+    # GPS outages (scenario or MAVLink "gps off" ... "gps ok")
+    outages = []
+    start = None
+    for r in fault_log:
+        if r.unit != "gps":
+            continue
+        if r.type == "off" and start is None:
+            start = r.at_s
+        elif r.type == "ok" and start is not None:
+            outages.append((start, r.at_s))
+            start = None
+    res = []
+    t = a["t_s"]
+    for s0, s1 in outages:
+        i_end = min(np.searchsorted(t, s1), len(t) - 1)
+        after = np.flatnonzero((t >= s1) & m & (eh < 3.0))
+        res.append({"start_s": round(s0, 3), "end_s": round(s1, 3),
+                    "pos_h_err_at_end_m": float(eh[i_end]),
+                    "pos_h_err_max_m": float(np.max(eh[(t >= s0) & (t <= s1)])) if ((t >= s0) & (t <= s1)).any() else None,
+                    "reconverge_s": float(t[after[0]] - s1) if after.size else None})
+    out["gps_outages"] = res
+    return out
+
+
 def run_summary(session) -> dict:
     """summary.json of a finished in-process session (tools.runner.Session)."""
     v = session.vehicle
@@ -102,6 +177,8 @@ def run_summary(session) -> dict:
              "accepted": r.accepted, "source": r.source} for r in session.bridge.fault_log],
     }
     s.update(figs)
+    latency = session.params["EK_GPS_DELAY"] if "EK_GPS_DELAY" in session.params else 0.15
+    s.update(nav_figures(a, latency, session.bridge.fault_log))
     return s
 
 
@@ -121,7 +198,9 @@ def _fmt(v):
 def format_summary(s: dict) -> str:
     keys = ["vehicle", "nav_source", "seed", "completed", "mission_items_reached",
             "mission_items_total", "sim_time_s", "wall_time_s", "realtime_factor",
-            "xtrack_rms_m", "xtrack_max_m", "alt_rms_m", "airspeed_rms_mps"]
+            "xtrack_rms_m", "xtrack_max_m", "alt_rms_m", "airspeed_rms_mps",
+            "nav_pos_h_rms_m", "gps_pos_h_rms_m", "nav_pos_v_rms_m", "nav_vel_rms_mps",
+            "nav_roll_pitch_rms_deg", "nav_yaw_rms_deg", "nav_consistency_3sigma"]
     lines = [f"{k:>24}: {_fmt(s.get(k))}" for k in keys if k in s]
     rest = [k for k in sorted(s) if k not in keys and not isinstance(s[k], (list, dict))]
     lines += [f"{k:>24}: {_fmt(s[k])}" for k in rest]

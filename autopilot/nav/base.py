@@ -7,7 +7,8 @@ Aiding: all measurements of one step are stacked in one :class:`Batch` (rows of
 ``z``, ``h(x)``, ``H = dh/d(dx)``, ``R``; ``y = z - h(x)``), gated one source at a time
 and fused together (equivalent to sequential updates for independent noises). Sources:
 
-* ``gps_pos`` z = NED position of the fix, valid at ``t - EK_GPS_DELAY``. The innovation
+* ``gps_pos`` z = NED position of a 3D fix (2D fixes are ignored), valid at
+  ``t - EK_GPS_DELAY``. The innovation
   is formed against the nominal state of that instant, kept in a short history (a ring
   of the last 1.28 s; corrections fused since are added back, so the history is always
   in the current estimate's frame). The correction is applied to the current error
@@ -32,13 +33,13 @@ and fused together (equivalent to sequential updates for independent noises). So
   the rotated field (the Earth field is constant in NED; gain 0.01 per sample), not the
   sample itself: noise in H correlates with the noise in y and biased every update
   (measured: a 4.5 deg pitch / 0.8 m/s^2 accel-bias drift at 6.8 sigma in 20 s of
-  straight flight). Only the field's horizontal
-  direction is fused (no field-strength or inclination model, so a disturbed field
-  magnitude does not pull roll and pitch); not fused where the field is within 13 deg
-  of vertical. Start predicate (as PX4's tilt alignment): fused only once the roll and
-  pitch sigmas are below 3 deg; before that a heading innovation (the crab angle after
-  an in-flight alignment) would be taken mostly for a tilt error, which then hides in
-  the tilt / accelerometer-bias combination that straight flight cannot observe.
+  straight flight). Only the field's horizontal direction is fused (no field-strength
+  or inclination model, so a disturbed field magnitude does not pull roll and pitch);
+  not fused where the field is within 13 deg of vertical. Start predicate (as PX4's
+  tilt alignment): fused only once the roll and pitch sigmas are below 3 deg; before
+  that a heading innovation (the crab angle after an in-flight alignment) would be
+  taken mostly for a tilt error, which then hides in the tilt / accelerometer-bias
+  combination that straight flight cannot observe.
 * ``airspeed`` (fixed-wing) true airspeed ``h = |v - w|`` with ``w = [w_N, w_E, 0]``;
   ``sideslip`` (fixed-wing) the synthetic zero body-y air velocity
   ``h = e_y^T R^T (v - w)``. Together with the heading they make velocity observable
@@ -51,9 +52,14 @@ source is rejected for this step. Reset rule: if GPS position (velocity) has bee
 rejected continuously for EK_GPS_RST_T seconds, position (velocity) is reset to the GPS
 (latency compensated), its covariance to that of one fix (R plus the GPS error
 state's), cross-covariances zeroed; the record of that fix says ``rejected=True,
-fused=True``. After an outage the dead-reckoning
-covariance has grown, so a returning GPS normally passes the gate and is fused at once;
-the reset is for the case where it does not, so the filter never rejects GPS forever.
+fused=True``. After an outage the dead-reckoning covariance has grown, so a returning
+GPS normally passes the gate and is fused at once; the reset is for the case where it
+does not, so the filter never rejects GPS forever (a GPS that really jumped and stays
+jumped is then followed, as in ArduPilot and PX4).
+
+Health (``NavState.healthy``): aligned, a GPS position has been fused since alignment,
+P finite, horizontal position sigma below EK_HPOS_MAX, and no source rejected
+continuously for longer than EK_REJ_TOUT. ``aligned``: attitude initialised.
 
 Alignment: on the ground, from EK_ALIGN_T seconds of stationary samples (|omega| <
 0.05 rad/s, ||f| - g| < 0.5 m/s^2): roll/pitch from the mean specific force, heading
@@ -117,6 +123,8 @@ _SIDESLIP_COLS = _ATT_COLS + _AIRSPEED_COLS
 _H_COLS = {"gps_pos": _GPS_POS_COLS, "gps_vel": _GPS_VEL_COLS, "fake_pos": _POS_COLS,
            "baro": _BARO_COLS, "mag": _ATT_COLS, "airspeed": _AIRSPEED_COLS,
            "sideslip": _SIDESLIP_COLS}
+_BLOCKS = {"pos": POS, "vel": VEL, "att": ATT, "abias": ABIAS, "gbias": GBIAS, "bbias": BBIAS,
+           "gpsb": GPSB, "wind": WIND}
 # _inject unpacks dx in this order; a layout change must be mirrored there
 assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, BBIAS.start, GPSB.start,
         WIND.start) == (0, 3, 6, 9, 12, 15, 16, 19)
@@ -166,8 +174,11 @@ class NavFilterBase:
     # ------------------------------------------------------------------ lifecycle --
     def reset(self) -> None:
         """Forget everything; the filter re-aligns from the next samples."""
-        self.origin: LocalFrame | None = self._home
-        self._g = gravity_m_s2(self.origin.lat0_rad, self.origin.alt0_m) if self.origin else G0
+        self.origin: LocalFrame | None = None
+        self._g = G0
+        self._declination: float | None = None
+        if self._home is not None:
+            self._set_origin(self._home)
         self.nom = Nominal()
         self.aligned = False
         self.healthy = False
@@ -276,6 +287,19 @@ class NavFilterBase:
     def _set_origin(self, origin: LocalFrame) -> None:
         self.origin = origin
         self._g = gravity_m_s2(origin.lat0_rad, origin.alt0_m)
+        if self.params["EK_MAG_AUTODEC"]:
+            # as ArduPilot's COMPASS_AUTODEC: the declination of the place, from the
+            # IGRF main-field model, once the origin (first GPS fix) is known
+            from ..geo.magfield import declination_inclination_rad, igrf_field_ned_gauss
+            self._declination = declination_inclination_rad(
+                igrf_field_ned_gauss(origin.lat0_rad, origin.lon0_rad, origin.alt0_m))[0]
+
+    @property
+    def declination_rad(self) -> float | None:
+        """The declination in use (None while it waits for a position)."""
+        if self.params["EK_MAG_AUTODEC"]:
+            return self._declination
+        return self.params["EK_MAG_DEC"]
 
     def _align_step(self, frame: SensorFrame, gps) -> None:
         imu = frame.imu
@@ -303,20 +327,21 @@ class NavFilterBase:
         if frame.mag is not None:
             self._al_m += frame.mag.m_b
             self._al_nm += 1
-        if (frame.t_us - self._al_t0) * 1e-6 >= self.params["EK_ALIGN_T"] and self._al_nm > 0:
+        if (frame.t_us - self._al_t0) * 1e-6 >= self.params["EK_ALIGN_T"] and self._al_nm > 0 \
+                and self.declination_rad is not None:
             self._align_on_ground()
 
     def _align_on_ground(self) -> None:
         f_mean = self._al_f / self._al_n
         roll, pitch = level_from_accel(f_mean)
-        yaw = heading_from_mag(self._al_m / self._al_nm, roll, pitch, self.params["EK_MAG_DEC"])
+        yaw = heading_from_mag(self._al_m / self._al_nm, roll, pitch, self.declination_rad)
         nom = self.nom
         nom.set_attitude(euler_to_quat(roll, pitch, yaw))
         nom.bg = (self._al_w / self._al_n).tolist()
         nom.omega_b = [0.0, 0.0, 0.0]
-        sd = np.concatenate([[_FAKE_POS_SD] * 3, [0.5] * 3, [0.02, 0.02, 0.1],
-                             [0.2] * 3, [0.003] * 3, [_BARO_INIT_SD], self._gm_sd(), [8.0] * 2])
-        self._init_covariance(sd[: self.n])
+        self._init_covariance(self._sd_vector(
+            pos=_FAKE_POS_SD, vel=0.5, att=(0.02, 0.02, 0.1), abias=0.2, gbias=0.003,
+            bbias=_BARO_INIT_SD, gpsb=self._gm_sd(), wind=8.0))
         self.aligned = True
         self._pos_src = "fake"
         self._fake_hold = list(nom.p)
@@ -340,13 +365,22 @@ class NavFilterBase:
             nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._baro_ok = True
-        sd = np.concatenate([[1.0] * 3, [1.0] * 3, [0.3, 0.3, 0.35],
-                             [0.2] * 3, [0.02] * 3, [baro_sd], self._gm_sd(), [8.0] * 2])
-        self._init_covariance(sd[: self.n])
+        self._init_covariance(self._sd_vector(
+            pos=1.0, vel=1.0, att=(0.3, 0.3, 0.35), abias=0.2, gbias=0.02,
+            bbias=baro_sd, gpsb=self._gm_sd(), wind=8.0))
         self._position_from_gps_covariance(np.array(white) ** 2)
         self.aligned = True
         self._pos_src = "gps"
         self._hist = [None] * _HIST   # the history must not hold the unaligned state
+
+    def _sd_vector(self, **blocks) -> np.ndarray:
+        """Initial 1-sigmas by layout block name (pos=..., att=(r, p, y), ...)."""
+        sd = np.zeros(self.n)
+        for name, value in blocks.items():
+            sl = _BLOCKS[name]
+            if sl.start < self.n:
+                sd[sl] = value
+        return sd
 
     def _gm_sd(self) -> list[float]:
         """Stationary sigma of the GPS Gauss-Markov error states (N, E, D)."""
@@ -475,7 +509,7 @@ class NavFilterBase:
                 # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q),
                 #      H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
                 yaw0 = math.atan2(Rm[3], Rm[0])
-                add("mag", (yaw0 + wrap_pi(prm["EK_MAG_DEC"] - math.atan2(me, mn)),), (yaw0,),
+                add("mag", (yaw0 + wrap_pi(self.declination_rad - math.atan2(me, mn)),), (yaw0,),
                     (prm["EK_MAG_NSE"] ** 2,), prm["EK_MAG_GATE"], (-rd * rn / rh2, -rd * re / rh2, 1.0))
 
         if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"

@@ -24,7 +24,7 @@ def bench(cls=InsGpsEkf, aux_hz: float = 50.0, seconds: float = 30.0, repeats: i
     cfg = SimConfig(mag_rate_hz=aux_hz, baro_rate_hz=aux_hz, airspeed_rate_hz=aux_hz)
     sim = simulate_flight(np.random.default_rng(seed), cfg, segments=((seconds + 5.0, 20.0, 1.0),))
     frames = list(sim.frames())
-    params = {"EK_MAG_DEC": math.radians(cfg.mag_declination_deg)}
+    params = {"EK_MAG_DEC": math.radians(cfg.mag_declination_deg), "EK_MAG_AUTODEC": 0}
     best = None
     for _ in range(repeats):
         f = cls(params, "plane", cfg.origin())
@@ -56,6 +56,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--aux-hz", type=float, nargs="+", default=[50.0, 100.0])
     ap.add_argument("--ukf", action="store_true", help="also time the UKF (slow)")
+    ap.add_argument("--repeats", type=int, default=5, help="best of this many runs (shared machines)")
     args = ap.parse_args()
     classes = [InsGpsEkf]
     if args.ukf:
@@ -63,8 +64,9 @@ def main() -> None:
         classes.append(InsGpsUkf)
     for cls in classes:
         for hz in args.aux_hz:
-            secs = 30.0 if cls is InsGpsEkf else 8.0
-            r = bench(cls, hz, seconds=secs, repeats=5 if cls is InsGpsEkf else 2)
+            ekf = cls is InsGpsEkf
+            r = bench(cls, hz, seconds=30.0 if ekf else 8.0,
+                      repeats=args.repeats if ekf else max(2, args.repeats // 3))
             print(f"{cls.__name__:10s} aux {hz:5.0f} Hz: predict {r['predict_us']:6.1f} us, "
                   f"update {r['update_us']:6.1f} us, step {r['step_us']:6.1f} us")
 

@@ -45,7 +45,8 @@ NAV_PARAMS: tuple[Param, ...] = (
     Param("EK_BARO_GATE", 5.0, 1.0, 100.0, "SD", "barometric altitude innovation gate"),
     Param("EK_MAG_NSE", 0.05, 0.001, 1.0, "rad", "magnetic heading noise, 1 sigma"),
     Param("EK_MAG_GATE", 5.0, 1.0, 100.0, "SD", "magnetic heading innovation gate"),
-    Param("EK_MAG_DEC", 0.0, -math.pi, math.pi, "rad", "magnetic declination (east positive)"),
+    Param("EK_MAG_DEC", 0.0, -math.pi, math.pi, "rad", "magnetic declination (east positive), used when EK_MAG_AUTODEC = 0"),
+    Param("EK_MAG_AUTODEC", 1.0, 0.0, 1.0, "bool", "1: declination from the IGRF model at the navigation origin", is_int=True),
     # --- airspeed and synthetic sideslip (fixed-wing) ----------------------------
     Param("EK_ARSP_NSE", 0.5, 0.01, 10.0, "m/s", "true airspeed noise, 1 sigma"),
     Param("EK_ARSP_GATE", 5.0, 1.0, 100.0, "SD", "airspeed innovation gate"),

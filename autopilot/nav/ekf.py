@@ -1,23 +1,23 @@
 """INS/GPS error-state extended Kalman filter (seed ch. 7 sec. 1.12-1.13, eq 1.22; ch. 8 sec. 2.1.2).
 
 Formulation: error-state (multiplicative, "indirect") EKF. A nominal state -- position,
-NED velocity, attitude quaternion q_nb, accelerometer and gyro biases, north/east wind
-(fixed-wing) -- is propagated by the strapdown mechanisation (:mod:`.strapdown`) at
+NED velocity, attitude quaternion q_nb, accelerometer and gyro biases, barometer offset,
+GPS position error, north/east wind (fixed-wing) -- is propagated by the strapdown mechanisation (:mod:`.strapdown`) at
 the IMU rate; the filter estimates the error state ``dx`` (layout in :mod:`.layout`)
 whose attitude part is a 3-element rotation vector in NED, ``q_true = Exp(dtheta) (x)
 q``. After each update ``dx`` is folded into the nominal state and reset to zero (the
 reset Jacobian ``I + [dtheta/2 x]`` is taken as I). References: J. Sola, "Quaternion
-kinematics for the error-state Kalman filter", arXiv:1711.02508 (2017), sec. 7 (global
-angular error); P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
-Navigation Systems", 2nd ed. (2013), ch. 14; D. Simon, "Optimal State Estimation"
-(2006), sec. 13.2 (the seed's reference for fig 1.21).
+kinematics for the error-state Kalman filter", arXiv:1711.02508 (2017), the ESKF with
+global angular errors; P. D. Groves, "Principles of GNSS, Inertial, and Multisensor
+Integrated Navigation Systems", 2nd ed. (2013), ch. 14 (INS/GNSS integration); D.
+Simon, "Optimal State Estimation" (2006) (the seed's reference for fig 1.21).
 
 The seed's eq 1.22 lost its subscripts in extraction. Rebuilt, it is the 15-state
 vector ``x = [L, lambda, h, V_N, V_E, V_D, phi, theta, psi, b_ax, b_ay, b_az, b_gx,
 b_gy, b_gz]``; we hold the same quantities with position in local NED and the attitude
 as a quaternion plus a rotation-vector error (see :mod:`.layout`).
 
-Continuous error dynamics (Sola 2017 eqs. 341-347 with global error; f_n = R (f_m - b_a)):
+Continuous error dynamics (Sola 2017, global angular error; f_n = R (f_m - b_a)):
 
     d(dp)/dt     = dv
     d(dv)/dt     = -[f_n x] dtheta - R db_a - R n_a

@@ -3,7 +3,7 @@
 Both :class:`~autopilot.nav.ekf.InsGpsEkf` and :class:`~autopilot.nav.ukf.InsGpsUkf`
 carry a *nominal* state (position, velocity, attitude quaternion, biases, wind) and
 estimate a small *error* state ``dx`` around it (error-state / multiplicative filter,
-Sola 2017 sec. 7 "global angular error"; Groves 2013 sec. 14.2). The error state holds
+Sola 2017, "global angular error" formulation; Groves 2013 ch. 14). The error state holds
 what seed eq 1.22 holds (position, NED velocity, attitude, three accelerometer and three
 gyro biases), plus two error models of the aiding sensors (barometer offset, GPS
 position error) and, for the fixed-wing, the north/east wind:
@@ -33,8 +33,9 @@ slice       indices  meaning                                                 uni
   claims a position sigma well below the error it actually has (37-70 % inside
   3 sigma); inflating R enough to fix that (x600 for tau = 60 s at 5 Hz) makes the
   re-acquisition after an outage take minutes. Augmenting the state with the
-  coloured measurement noise (Bryson & Henrikson 1968; Groves 2013 sec. 3.4.3,
-  14.3.2) is exact for that model and costs three states.
+  coloured measurement noise (Bryson & Henrikson 1968, "Estimation using sampled data
+  containing sequentially correlated noise") is exact for that model and costs three
+  states.
 
 The seed writes position as latitude, longitude and height and attitude as Euler
 angles; we carry position in the local NED frame of the nav origin (small-area

@@ -237,11 +237,12 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
     ks = ks[ks - lag >= 0]
     m = len(ks)
     gdt = every * dt
-    err = np.stack((
-        _gauss_markov(rng, m, cfg.gps_gm_sigma_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_white_m * rng.standard_normal(m),
-        _gauss_markov(rng, m, cfg.gps_gm_sigma_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_white_m * rng.standard_normal(m),
-        _gauss_markov(rng, m, cfg.gps_vert_gm_m, cfg.gps_gm_tau_s, gdt) + cfg.gps_vert_white_m * rng.standard_normal(m),
-    ), axis=-1)
+    err = np.empty((m, 3))
+    for axis, (gm, white) in enumerate(((cfg.gps_gm_sigma_m, cfg.gps_white_m),
+                                        (cfg.gps_gm_sigma_m, cfg.gps_white_m),
+                                        (cfg.gps_vert_gm_m, cfg.gps_vert_white_m))):
+        err[:, axis] = _gauss_markov(rng, m, gm, cfg.gps_gm_tau_s, gdt)   # draw order matters:
+        err[:, axis] += white * rng.standard_normal(m)                     # golden runs use it
     verr = cfg.gps_vel_sigma * rng.standard_normal((m, 3))
     eph = math.hypot(cfg.gps_gm_sigma_m, cfg.gps_white_m)
     epv = math.hypot(cfg.gps_vert_gm_m, cfg.gps_vert_white_m)

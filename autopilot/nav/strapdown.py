@@ -1,7 +1,7 @@
 """Nominal-state strapdown mechanisation and initial alignment.
 
 Mechanisation (Groves 2013 ch. 5, simplified to a flat, non-rotating local NED frame;
-Sola 2017 eq. 260 for the nominal kinematics), one IMU sample held over ``dt``:
+Sola 2017 for the nominal-state kinematics), one IMU sample held over ``dt``:
 
     omega = omega_m - b_g                      bias-corrected body rate
     f     = f_m - b_a                          bias-corrected specific force

@@ -5,7 +5,8 @@ aiding sources, GPS latency, gating, resets, alignment (:mod:`.base`) -- with th
 error covariance carried by an unscented transform instead of Jacobians.
 
 Formulation: a UKF over the *error state* with the nominal state propagated separately
-(error-state UKF; e.g. Sola 2017 sec. 7 for the error definitions, Van der Merwe 2004
+(error-state UKF; Sola 2017 for the error definitions, R. van der Merwe's 2004 thesis
+"Sigma-point Kalman filters for probabilistic inference in dynamic state-space models"
 for the scaled sigma points). filterpy's ``UnscentedKalmanFilter`` with
 ``MerweScaledSigmaPoints`` holds ``x = dx`` and ``P``. Because the attitude error is a
 rotation vector in the tangent space of the nominal attitude, sigma points, means and

@@ -17,8 +17,10 @@ Sources of the defaults (datasheet figures, then the margin we add for an airfra
   for M9N; velocity 0.05 m/s at 50 %; navigation rate 5-10 Hz; latency ~100-200 ms).
   Per-axis horizontal sigma sqrt(1.2^2 + 0.3^2) = 1.24 m, i.e. CEP = 1.1774 sigma =
   1.46 m; vertical about twice the horizontal, as GNSS geometry gives. The slow part
-  of the error is a first-order Gauss-Markov process (tau a few hundred s: satellite
-  geometry and ionosphere change slowly), the fast part white.
+  of the error is a first-order Gauss-Markov process, the fast part white. Its
+  correlation time is 60 s, the value PX4's Gazebo SITL GPS model uses
+  (gazebo_gps_plugin, gps_corellation_time = 60 s); slower drifts (ionosphere over
+  tens of minutes) are left out.
 * Barometer: TE MS5611 (RMS resolution 0.012 mbar = 1.2 Pa at OSR 4096, ~1 cm of
   altitude per 0.12 Pa); we use 3 Pa (about 0.25 m) to include airframe and propwash
   pressure noise, plus a slow random-walk drift (thermal) of 0.3 Pa/sqrt(s), about
@@ -57,7 +59,7 @@ class SensorParams:
     gps_pos_white_sigma_v: float = 0.5       # white position error, vertical [m]
     gps_pos_gm_sigma_h: float = 1.2          # Gauss-Markov steady-state sigma, per horiz. axis [m]
     gps_pos_gm_sigma_v: float = 2.5          # Gauss-Markov steady-state sigma, vertical [m]
-    gps_pos_gm_tau_s: float = 300.0          # Gauss-Markov correlation time [s]
+    gps_pos_gm_tau_s: float = 60.0           # Gauss-Markov correlation time [s] (PX4 SITL's)
     gps_vel_sigma_h: float = 0.1             # white velocity error, per horizontal axis [m/s]
     gps_vel_sigma_v: float = 0.15            # white velocity error, vertical [m/s]
     gps_fix_type: int = 3                    # GPS_FIX_TYPE_3D_FIX

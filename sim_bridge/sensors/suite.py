@@ -43,7 +43,7 @@ import numpy as np
 from autopilot.geo import meridian_radius, prime_vertical_radius
 
 from . import isa
-from .magfield import igrf_field_ned_gauss
+from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
 from .readings import GpsReading, SensorReadings
 

@@ -1,0 +1,476 @@
+"""Multirotor control: PDD attitude loops, PID altitude loop and the reference-angle
+generator of the seed (ch. 9 sec. 3.6.2.2, eqs 3.30-3.41), for the quadrotor of
+``sim_bridge/plants/quadrotor.py``.
+
+Our copy of the seed lost the subscripts, the fractions and some brackets of these
+equations. They are rebuilt here from its references (Hoffmann, Huang, Waslander &
+Tomlin, AIAA GNC 2007; Bayezit & Fidan, IEEE TIE 60(12) 2013), and where the text
+still left a choice, the choice was made by checking stability on our airframe; every
+such choice is stated below.
+
+Plant (eq 3.31, per axis; its numerator was lost)
+-------------------------------------------------
+With the mixer of eq 3.30 (control/mixer.py) a roll input u_phi [N per rotor] gives
+the moment 2 l u_phi, a yaw input 4 k_M u_psi, and every rotor's thrust follows its
+command through the first-order lag tau, so
+
+    Phi(s) / U_phi(s) = K / (s^2 (tau s + 1)),   K_roll = 2 l / I_xx,  K_pitch = 2 l / I_yy,
+                                                K_yaw = 4 k_M / I_zz.
+
+F450 numbers (QD_* parameters): K_roll = K_pitch = 24.6, K_yaw = 3.12 (rad/s^2)/N,
+tau = 0.055 s.
+
+PDD attitude law (eqs 3.32-3.36)
+--------------------------------
+Rebuilt as
+
+    U_phi(s) = C_phi(s) [Phi_d(s) - Phi(s)],
+    C_phi(s) = [k_P + k_D s / (s + p_d) + k_DD s^2 / (s + p_d)^2] Cbar(s)
+
+The surviving text, "C(s) = <frac> + <frac> + k Cbar(s)", shows two fractions (the
+derivative and double-derivative actions, p_d "the pole of the filter in the derivative
+and double-derivative actions") and k_P next to the lead term Cbar(s). Two readings of
+the fractions exist: k_D p_d s / (s + p_d) (k_D the derivative gain) and
+k_D s / (s + p_d) (k_D the high-frequency gain, k_D / p_d the derivative gain). With the
+seed's numbers the first reading is unstable on this airframe for every assignment of
+the three coefficients (a closed-loop pair near 32 +- 188j rad/s: k_DD ~ 1 N s^2/rad
+against K ~ 25 leaves a loop gain of ~20 up to 1/tau); the second is stable for every
+assignment. We take the second. The seed lists the coefficients "0.99, 1.48, 0.83"
+(roll/pitch) and "0.99, 0.67, 1.11" (yaw) in the order of the text's k_P, k_D, k_DD;
+the root locus gives (roll/pitch, all assignments stable, damping 0.30-0.36; in the
+listed order closed-loop poles -1.27 +- 3.63j, -11.9, ...). The seed's yaw set is
+unstable on this airframe in either reading and any assignment (its Cbar_psi =
+0.0187 (s + 1)/(s + 0.27) is a lag compensator on a double integrator; poles near
++0.09 +- 0.35j): the yaw effectiveness K_yaw of an F450 is far below what the seed's
+numbers assume. ``SEED_ROLL_PITCH`` / ``SEED_YAW`` keep the seed set (QD_GAIN_SET = 1).
+
+Our design (QD_GAIN_SET = 0, the default) keeps the same law and places three
+closed-loop poles: a pair at natural frequency QD_RP_WN / damping QD_RP_ZETA and a real
+pole at -QD_RP_P3 (yaw: QD_YAW_*). The characteristic polynomial
+
+    den_Cbar(s) (s + p_d)^2 s^2 (tau s + 1) + K num_Cbar(s) [k_P (s + p_d)^2
+                                      + k_D s (s + p_d) + k_DD s^2] = 0
+
+is linear in (k_P, k_D, k_DD), so requiring it to vanish at the three chosen poles is a
+3x3 linear system (:func:`place_pdd`); the remaining poles (from the p_d filters) are
+checked to be stable and faster (:func:`closed_loop_poles`; tests). Placing all three
+dominant poles needs no lead, so our set has Cbar(s) = 1 (the structure keeps it). With
+the defaults (12 rad/s, 0.8, 25 rad/s; yaw 4 rad/s, 0.9, 15 rad/s) the gains are
+k_P = 8.6 N/rad, k_D/p_d = 1.5 N s/rad, k_DD/p_d^2 = 0.066 N s^2/rad (roll/pitch).
+
+Implementation: derivative actions on the measurement (the gyro rates), not on the
+error, so a step of the reference does not kick (STYLE lesson 8):
+
+    u = Cbar(s) [k_P e - F(s) omega],   F(s) = (k_D (s + p_d) + k_DD s) / (s + p_d)^2,
+
+with e the attitude error and omega the body rate; since s Phi = omega this has the
+same characteristic polynomial as eq 3.32. F and Cbar are discretised at the loop rate
+by Tustin (``scipy.signal.cont2discrete``, at construction only) and run as difference
+equations. The attitude error is the body-frame rotation vector from the attitude to
+the reference attitude (roll, pitch, yaw errors to first order, without the
+yaw/tilt coupling of Euler-angle differences at large heading errors).
+
+Altitude (eq 3.37)
+------------------
+    u_z = [k_D (zdot_d - zdot) + k_P (z_d - z) + k_I int (z_d - z) dt + T_n] / (cos phi cos theta)
+
+z up, T_n = m (g + zddot_d) the nominal thrust (eq 3.37's T_n, with the reference
+acceleration as feed-forward), divided by cos phi cos theta ("feedback linearization
+... to compensate for the gravity offset and thrust deflection"). The seed's "7, 7.5
+and 6" are (k_D, k_P, k_I): of the six assignments all are stable on the plant
+m s^2 (tau s + 1), this one is the best damped (dominant pair -0.55 +- 0.89j, then
+-7.1, -10.0). Kept as the default.
+
+Reference-angle generator (eqs 3.38-3.41)
+-----------------------------------------
+    U(s) = k_P + k_I / s + k_D s                                       (3.38)
+    phi_d   =  U_phi(s) e_y + a_y / g                                  (3.39)
+    theta_d = -U_theta(s) e_x - a_x / g                                (3.40)
+    psi_d   =  the commanded heading (eq 3.41's psi_d = 0, generalised)
+
+e_x, e_y: the north/east position error rotated by the yaw into the heading frame (x
+forward, y right); the sign of eq 3.40 follows eq 3.29 (x'' = -g theta). The derivative
+acts on the velocity error (reference velocity from the trajectory generator minus the
+navigation velocity: no differentiation of noise, no kick), the integral accumulates
+the north/east error and is rotated with the yaw (a wind fixed in the earth frame stays
+compensated while the vehicle turns), a_x, a_y is the reference acceleration fed
+forward. The tilt is limited to QD_ANGLE_MAX (the seed: "limited with 30 deg").
+
+The seed's (P, I, D) = pitch (0.72, 0.72, 0.3), roll (0.6, 0.6, 0.42) [rad/m, rad/(m s),
+rad s/m], read in eq 3.38's order, make with this attitude loop a lightly damped pair
+(pitch -0.52 +- 2.86j: damping 0.18; the other assignments leave a pair at 0.15-0.23
+damping around 6-7 rad/s). Kept as the seed set; the default places the poles of
+s^3 + g k_D s^2 + g k_P s + g k_I at a pair (QD_POS_WN, QD_POS_ZETA) and -QD_POS_P3.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..params import Param
+from .mixer import QuadPlusMixer
+
+G = 9.80665
+
+#: the seed's numbers (sec. 3.7.1), with the assignment argued above
+SEED_ROLL_PITCH = dict(k_p=0.99, k_d=1.48, k_dd=0.83, p_d=100.0, lead=(2.7872, 3.57, 21.3))
+SEED_YAW = dict(k_p=0.99, k_d=0.67, k_dd=1.11, p_d=100.0, lead=(0.0187, 1.0, 0.27))
+SEED_ALT = dict(k_d=7.0, k_p=7.5, k_i=6.0)
+SEED_POS_PITCH = dict(k_p=0.72, k_i=0.72, k_d=0.3)
+SEED_POS_ROLL = dict(k_p=0.6, k_i=0.6, k_d=0.42)
+NO_LEAD = (1.0, 1.0, 1.0)   # Cbar(s) = 1 (s + 1)/(s + 1)
+
+MULTIROTOR_PARAMS = (
+    # --- the airframe as the autopilot knows it (design inputs of the loops) -----------
+    Param("QD_MASS", 1.4, 0.1, 50.0, "kg", "vehicle mass"),
+    Param("QD_ARM", 0.2335, 0.05, 2.0, "m", "rotor distance from the centre of gravity"),
+    Param("QD_IXX", 0.019, 1e-4, 10.0, "kg m^2", "roll moment of inertia"),
+    Param("QD_IYY", 0.019, 1e-4, 10.0, "kg m^2", "pitch moment of inertia"),
+    Param("QD_IZZ", 0.0252, 1e-4, 10.0, "kg m^2", "yaw moment of inertia"),
+    Param("QD_KM", 0.0197, 1e-4, 0.2, "m", "rotor reaction moment per newton of thrust"),
+    Param("QD_TAU", 0.055, 0.001, 0.5, "s", "rotor thrust time constant"),
+    Param("QD_THST_MAX", 15.7, 1.0, 500.0, "N", "static thrust of one rotor at full command, sea level"),
+    Param("QD_THST_EXPO", 0.78, 0.0, 1.0, "", "thrust curve: T/T_max = (1-e) u + e u^2"),
+    Param("QD_SPIN_ARM", 0.08, 0.0, 0.3, "", "motor command when armed on the ground"),
+    Param("QD_SPIN_MIN", 0.10, 0.0, 0.3, "", "lowest motor command in flight"),
+    # --- attitude (PDD) ---------------------------------------------------------
+    Param("QD_GAIN_SET", 0, 0, 1, "", "0: gains from the design inputs; 1: the seed's numbers", is_int=True),
+    Param("QD_RP_WN", 12.0, 1.0, 60.0, "rad/s", "roll/pitch closed-loop natural frequency"),
+    Param("QD_RP_ZETA", 0.8, 0.3, 1.5, "", "roll/pitch closed-loop damping"),
+    Param("QD_RP_P3", 25.0, 1.0, 200.0, "rad/s", "roll/pitch third closed-loop pole"),
+    Param("QD_YAW_WN", 4.0, 0.5, 30.0, "rad/s", "yaw closed-loop natural frequency"),
+    Param("QD_YAW_ZETA", 0.9, 0.3, 1.5, "", "yaw closed-loop damping"),
+    Param("QD_YAW_P3", 15.0, 1.0, 200.0, "rad/s", "yaw third closed-loop pole"),
+    Param("QD_PDD_PD", 100.0, 10.0, 500.0, "rad/s", "pole p_d of the derivative filters"),
+    Param("ANGLE_MAX_DEG", 30.0, 5.0, 60.0, "deg", "maximum tilt (roll/pitch reference)"),
+    Param("YAW_RATE_MAX", 90.0, 5.0, 360.0, "deg/s", "heading reference slew rate"),
+    # --- altitude (PID, eq 3.37) -------------------------------------------------
+    Param("QD_ALT_KD", 7.0, 0.0, 100.0, "N s/m", "altitude: climb-rate error to thrust"),
+    Param("QD_ALT_KP", 7.5, 0.0, 100.0, "N/m", "altitude: height error to thrust"),
+    Param("QD_ALT_KI", 6.0, 0.0, 100.0, "N/(m s)", "altitude: integral of height error to thrust"),
+    Param("QD_ALT_IMAX", 5.0, 0.0, 100.0, "N", "altitude integrator limit"),
+    # --- position to reference angles (PID, eqs 3.38-3.40) -------------------------
+    Param("QD_POS_WN", 1.4, 0.1, 5.0, "rad/s", "position loop natural frequency"),
+    Param("QD_POS_ZETA", 0.9, 0.3, 1.5, "", "position loop damping"),
+    Param("QD_POS_P3", 0.5, 0.0, 5.0, "rad/s", "position loop integrator pole"),
+    Param("QD_POS_IMAX", 20.0, 0.0, 45.0, "deg", "position integrator limit (tilt)"),
+)
+
+
+# --------------------------------------------------------------------- design ------
+def axis_gains(params) -> dict[str, float]:
+    """K of eq 3.31 for each axis [(rad/s^2)/N] and tau, from the airframe parameters."""
+    two_l = 2.0 * params["QD_ARM"]
+    return {"roll": two_l / params["QD_IXX"], "pitch": two_l / params["QD_IYY"],
+            "yaw": 4.0 * params["QD_KM"] / params["QD_IZZ"], "tau": params["QD_TAU"]}
+
+
+def _char_parts(K: float, tau: float, p_d: float, lead: tuple):
+    """Polynomials (highest power first) of the characteristic equation
+    A(s) + K [k_P B_P(s) + k_D B_D(s) + k_DD B_DD(s)] = 0."""
+    g, z, p = lead
+    fil = np.polymul([1.0, p_d], [1.0, p_d])
+    den, num = ([1.0], np.array([g])) if z == p else ([1.0, p], g * np.array([1.0, z]))
+    A = np.polymul(np.polymul(den, fil), np.polymul([1.0, 0.0, 0.0], [tau, 1.0]))
+    B_P = np.polymul(num, fil)
+    B_D = np.polymul(num, np.polymul([1.0, 0.0], [1.0, p_d]))
+    B_DD = np.polymul(num, [1.0, 0.0, 0.0])
+    return A, B_P, B_D, B_DD
+
+
+def closed_loop_poles(K: float, tau: float, k_p: float, k_d: float, k_dd: float,
+                      p_d: float, lead: tuple = NO_LEAD) -> np.ndarray:
+    """Roots of 1 + C(s) G(s) (eq 3.31 with the PDD of eq 3.33), slowest first."""
+    A, B_P, B_D, B_DD = _char_parts(K, tau, p_d, lead)
+    char = np.polyadd(A, K * (k_p * np.pad(B_P, (len(A) - len(B_P), 0))
+                              + k_d * np.pad(B_D, (len(A) - len(B_D), 0))
+                              + k_dd * np.pad(B_DD, (len(A) - len(B_DD), 0))))
+    r = np.roots(char)
+    return r[np.argsort(-r.real)]
+
+
+def place_pdd(K: float, tau: float, wn: float, zeta: float, p3: float, p_d: float,
+              lead: tuple = NO_LEAD) -> tuple[float, float, float]:
+    """(k_P, k_D, k_DD) of eq 3.33 placing closed-loop poles at
+    wn (-zeta +- j sqrt(1 - zeta^2)) and -p3 (for zeta >= 1: -wn (zeta +- sqrt(zeta^2 - 1)))."""
+    if zeta < 1.0:
+        lam = [complex(-zeta * wn, wn * math.sqrt(1.0 - zeta * zeta))]
+    else:
+        d = wn * math.sqrt(zeta * zeta - 1.0)
+        lam = [complex(-zeta * wn + d, 0.0), complex(-zeta * wn - d, 0.0)]
+    lam.append(complex(-p3, 0.0))
+    A, B_P, B_D, B_DD = _char_parts(K, tau, p_d, lead)
+    rows, rhs = [], []
+    for s in lam:
+        a = np.polyval(A, s)
+        b = [K * np.polyval(B, s) for B in (B_P, B_D, B_DD)]
+        rows.append([x.real for x in b])
+        rhs.append(-a.real)
+        if abs(s.imag) > 0.0:
+            rows.append([x.imag for x in b])
+            rhs.append(-a.imag)
+    k = np.linalg.solve(np.array(rows), np.array(rhs))
+    return float(k[0]), float(k[1]), float(k[2])
+
+
+def place_position(wn: float, zeta: float, p3: float) -> tuple[float, float, float]:
+    """(k_P, k_I, k_D) of eq 3.38 [rad/m, rad/(m s), rad s/m] for x'' = g theta_cmd:
+    s^3 + g k_D s^2 + g k_P s + g k_I = (s^2 + 2 zeta wn s + wn^2)(s + p3)."""
+    return ((wn * wn + 2.0 * zeta * wn * p3) / G, wn * wn * p3 / G, (2.0 * zeta * wn + p3) / G)
+
+
+def _tustin(num, den, dt: float) -> tuple[list[float], list[float]]:
+    from scipy.signal import cont2discrete
+    b, a, _ = cont2discrete((np.atleast_1d(num), np.atleast_1d(den)), dt, method="bilinear")
+    b = np.atleast_1d(np.squeeze(b)).astype(float)
+    a = np.atleast_1d(np.squeeze(a)).astype(float)
+    return (b / a[0]).tolist(), (a / a[0]).tolist()
+
+
+class DiscretePdd:
+    """One axis of eq 3.32-3.36: ``u = Cbar(s) [k_P e - F(s) omega]`` as difference
+    equations (Tustin at ``dt``). ``update(e, omega) -> u`` [N per rotor]."""
+
+    __slots__ = ("k_p", "k_d", "k_dd", "p_d", "lead", "dt", "_fb", "_fa", "_lb", "_la",
+                 "_f1", "_f2", "_l1")
+
+    def __init__(self, k_p: float, k_d: float, k_dd: float, p_d: float, lead: tuple, dt: float):
+        self.k_p, self.k_d, self.k_dd, self.p_d, self.lead, self.dt = k_p, k_d, k_dd, p_d, lead, dt
+        # F(s) = ((k_D + k_DD) s + k_D p_d) / (s + p_d)^2
+        self._fb, self._fa = _tustin([k_d + k_dd, k_d * p_d], [1.0, 2.0 * p_d, p_d * p_d], dt)
+        g, z, p = lead
+        self._lb, self._la = _tustin([g, g * z], [1.0, p], dt)
+        self.reset()
+
+    def reset(self, omega: float = 0.0, e: float = 0.0) -> None:
+        """Filter states at the steady state of a constant rate ``omega`` and error ``e``
+        (F(0) = k_D / p_d, Cbar(0) = g z / p)."""
+        b0, b1, b2 = self._fb
+        _, a1, a2 = self._fa
+        y = (self.k_d / self.p_d) * omega
+        self._f2 = b2 * omega - a2 * y
+        self._f1 = b1 * omega - a1 * y + self._f2
+        v = self.k_p * e - y
+        lb0, lb1 = self._lb
+        _, la1 = self._la
+        u = v * (self.lead[0] * self.lead[1] / self.lead[2])
+        self._l1 = lb1 * v - la1 * u
+
+    def update(self, e: float, omega: float) -> float:
+        b0, b1, b2 = self._fb
+        _, a1, a2 = self._fa
+        f = b0 * omega + self._f1
+        self._f1 = b1 * omega - a1 * f + self._f2
+        self._f2 = b2 * omega - a2 * f
+        v = self.k_p * e - f
+        lb0, lb1 = self._lb
+        u = lb0 * v + self._l1
+        self._l1 = lb1 * v - self._la[1] * u
+        return u
+
+
+# ----------------------------------------------------------------- attitude --------
+def _euler_quat(roll: float, pitch: float, yaw: float) -> tuple:
+    """q_nb of 3-2-1 Euler angles (autopilot.geo.euler_to_quat, on floats)."""
+    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
+    return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+
+
+def attitude_error(q, roll_d: float, pitch_d: float, yaw_d: float) -> tuple[float, float, float]:
+    """Body-frame rotation vector of q^-1 (x) q_d (q_d from the reference Euler angles):
+    (phi_d - phi, theta_d - theta, psi_d - psi) to first order, shortest way round."""
+    qw, qx, qy, qz = q
+    dw, dx, dy, dz = _euler_quat(roll_d, pitch_d, yaw_d)
+    # conj(q) (x) q_d
+    ew = qw * dw + qx * dx + qy * dy + qz * dz
+    ex = qw * dx - qx * dw - qy * dz + qz * dy
+    ey = qw * dy + qx * dz - qy * dw - qz * dx
+    ez = qw * dz - qx * dy + qy * dx - qz * dw
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    s = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if s < 1e-9:
+        return 2.0 * ex, 2.0 * ey, 2.0 * ez
+    k = 2.0 * math.atan2(s, ew) / s
+    return ex * k, ey * k, ez * k
+
+
+class AttitudeController:
+    """Roll, pitch and yaw PDD loops: ``update(q, omega_b, roll_d, pitch_d, yaw_d)``
+    -> (u_phi, u_theta, u_psi) [N per rotor]."""
+
+    def __init__(self, params, dt: float):
+        self.params = params
+        self.dt = dt
+        self.configure()
+
+    def gains(self) -> dict:
+        """The gains in use per axis: dict(k_p, k_d, k_dd, p_d, lead)."""
+        p = self.params
+        if int(p["QD_GAIN_SET"]) == 1:
+            return {"roll": dict(SEED_ROLL_PITCH), "pitch": dict(SEED_ROLL_PITCH), "yaw": dict(SEED_YAW)}
+        ax = axis_gains(p)
+        pd = p["QD_PDD_PD"]
+        out = {}
+        for axis, (wn, zeta, p3) in (("roll", ("QD_RP_WN", "QD_RP_ZETA", "QD_RP_P3")),
+                                     ("pitch", ("QD_RP_WN", "QD_RP_ZETA", "QD_RP_P3")),
+                                     ("yaw", ("QD_YAW_WN", "QD_YAW_ZETA", "QD_YAW_P3"))):
+            k = place_pdd(ax[axis], ax["tau"], p[wn], p[zeta], p[p3], pd)
+            out[axis] = dict(k_p=k[0], k_d=k[1], k_dd=k[2], p_d=pd, lead=NO_LEAD)
+        return out
+
+    def configure(self) -> None:
+        g = self.gains()
+        self.loops = tuple(DiscretePdd(dt=self.dt, **g[a]) for a in ("roll", "pitch", "yaw"))
+        self.error = (0.0, 0.0, 0.0)
+
+    def reset(self) -> None:
+        for loop in self.loops:
+            loop.reset()
+
+    def update(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float) -> tuple:
+        ex, ey, ez = attitude_error(q, roll_d, pitch_d, yaw_d)
+        self.error = (ex, ey, ez)
+        w0, w1, w2 = omega_b
+        lr, lp, ly = self.loops
+        return lr.update(ex, w0), lp.update(ey, w1), ly.update(ez, w2)
+
+
+# ----------------------------------------------------------------- altitude --------
+class AltitudeController:
+    """Eq 3.37 with tilt compensation: ``update(h_d, hdot_d, hddot_d, h, hdot, tilt_cos,
+    dt, hold_integrator)`` -> u_z total thrust [N]."""
+
+    def __init__(self, params):
+        self.params = params
+        self.integ = 0.0
+        self.configure()
+
+    def configure(self) -> None:
+        p = self.params
+        if int(p["QD_GAIN_SET"]) == 1:
+            s = SEED_ALT
+            self.k_d, self.k_p, self.k_i = s["k_d"], s["k_p"], s["k_i"]
+        else:
+            self.k_d, self.k_p, self.k_i = p["QD_ALT_KD"], p["QD_ALT_KP"], p["QD_ALT_KI"]
+        self.i_max = p["QD_ALT_IMAX"]
+        self.mass = p["QD_MASS"]
+
+    def reset(self, integ: float = 0.0) -> None:
+        self.integ = integ
+
+    def update(self, h_d: float, hdot_d: float, hddot_d: float, h: float, hdot: float,
+               tilt_cos: float, dt: float, hold_integrator: bool = False,
+               sat_hi: bool = False, sat_lo: bool = False) -> float:
+        e = h_d - h
+        t_nom = self.mass * (G + hddot_d)
+        u = self.k_d * (hdot_d - hdot) + self.k_p * e + self.integ + t_nom
+        u /= tilt_cos if tilt_cos > 0.5 else 0.5
+        if not hold_integrator and not ((sat_hi and e > 0.0) or (sat_lo and e < 0.0)):
+            i = self.integ + self.k_i * e * dt
+            self.integ = i if -self.i_max <= i <= self.i_max else math.copysign(self.i_max, i)
+        return u if u > 0.0 else 0.0
+
+
+# ------------------------------------------------------ reference-angle generator ---
+class ReferenceAngleGenerator:
+    """Eqs 3.38-3.41: ``update(e_ne, ev_ne, a_ne, yaw, dt)`` -> (phi_d, theta_d)."""
+
+    def __init__(self, params):
+        self.params = params
+        self.i_n = self.i_e = 0.0
+        self.configure()
+
+    def configure(self) -> None:
+        p = self.params
+        if int(p["QD_GAIN_SET"]) == 1:
+            pt, rl = SEED_POS_PITCH, SEED_POS_ROLL
+            self.pitch = (pt["k_p"], pt["k_i"], pt["k_d"])
+            self.roll = (rl["k_p"], rl["k_i"], rl["k_d"])
+        else:
+            k = place_position(p["QD_POS_WN"], p["QD_POS_ZETA"], p["QD_POS_P3"])
+            self.pitch = self.roll = k
+        self.angle_max = math.radians(p["ANGLE_MAX_DEG"])
+        self.i_max = math.radians(p["QD_POS_IMAX"])
+
+    def reset(self) -> None:
+        self.i_n = self.i_e = 0.0
+
+    def update(self, e_n: float, e_e: float, ev_n: float, ev_e: float, a_n: float, a_e: float,
+               yaw: float, dt: float, hold_integrator: bool = False) -> tuple[float, float]:
+        c, s = math.cos(yaw), math.sin(yaw)
+        ex, ey = c * e_n + s * e_e, -s * e_n + c * e_e
+        vx, vy = c * ev_n + s * ev_e, -s * ev_n + c * ev_e
+        ax, ay = c * a_n + s * a_e, -s * a_n + c * a_e
+        ix, iy = c * self.i_n + s * self.i_e, -s * self.i_n + c * self.i_e
+        kpp, kip, kdp = self.pitch
+        kpr, kir, kdr = self.roll
+        theta = -(kpp * ex + kip * ix + kdp * vx) - ax / G
+        phi = (kpr * ey + kir * iy + kdr * vy) + ay / G
+        tilt = math.hypot(phi, theta)
+        saturated = tilt > self.angle_max
+        if saturated:
+            k = self.angle_max / tilt
+            phi, theta = phi * k, theta * k
+        if not hold_integrator and not saturated:
+            self.i_n += e_n * dt
+            self.i_e += e_e * dt
+            # keep each axis' integral action within QD_POS_IMAX
+            lim_n = self.i_max / max(kip, kir, 1e-6)
+            m = math.hypot(self.i_n, self.i_e)
+            if m > lim_n:
+                self.i_n *= lim_n / m
+                self.i_e *= lim_n / m
+        return phi, theta
+
+
+class MultirotorController:
+    """The loops of Fig 3.6 end to end: reference angles or a thrust, the attitude and
+    altitude loops, the mixer. Outputs are the four motor commands 0..1."""
+
+    def __init__(self, params, dt: float):
+        self.params = params
+        self.dt = dt
+        self.att = AttitudeController(params, dt)
+        self.alt = AltitudeController(params)
+        self.pos = ReferenceAngleGenerator(params)
+        self.mixer = QuadPlusMixer(params["QD_THST_MAX"], params["QD_THST_EXPO"], params["QD_SPIN_MIN"])
+        self.roll_d = self.pitch_d = self.yaw_d = 0.0
+        self.u = (0.0, 0.0, 0.0, 0.0)       # (u_z, u_phi, u_theta, u_psi) before mixing
+        self.motors = (0.0, 0.0, 0.0, 0.0)
+
+    def configure(self) -> None:
+        """Re-derive every gain after a parameter change."""
+        p = self.params
+        self.att.configure()
+        self.alt.configure()
+        self.pos.configure()
+        self.mixer.configure(p["QD_THST_MAX"], p["QD_THST_EXPO"], p["QD_SPIN_MIN"])
+
+    def reset(self) -> None:
+        self.att.reset()
+        self.alt.reset()
+        self.pos.reset()
+
+    def hover_thrust(self) -> float:
+        return self.params["QD_MASS"] * G
+
+    def attitude(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float,
+                 u_z: float) -> tuple:
+        """Attitude loops and mixer for given reference angles and total thrust."""
+        self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
+        u_phi, u_theta, u_psi = self.att.update(q, omega_b, roll_d, pitch_d, yaw_d)
+        self.u = (u_z, u_phi, u_theta, u_psi)
+        self.motors = self.mixer.mix(u_z, u_phi, u_theta, u_psi)
+        return self.motors
+
+    def idle(self, spin: float) -> tuple:
+        """Armed on the ground: every motor at ``spin``, loops held at rest."""
+        self.att.reset()
+        self.u = (0.0, 0.0, 0.0, 0.0)
+        self.motors = (spin, spin, spin, spin)
+        return self.motors

@@ -1,0 +1,395 @@
+"""Quadrotor plant: the seed's nonlinear rigid-body model (ch. 9 sec. 3.6.2.1).
+
+Equations (seed eqs 3.23-3.26; the extraction lost their subscripts, rebuilt here from
+the seed's references, Hoffmann, Huang, Waslander & Tomlin, "Quadrotor helicopter
+flight dynamics and control: theory and experiment", AIAA GNC 2007, eqs 1-2, and
+Bayezit & Fidan, "Distributed cohesive motion control of flight vehicle formations",
+IEEE Trans. Ind. Electron. 60(12), 2013):
+
+    F = m p''                                                    (3.23)
+    M = I omega' + omega x I omega                               (3.24)
+    F = -D(V_a) e_V + m g e_D + sum_j (-T_j R e_z)               (3.25)
+    M = sum_j (M_j + r_j x (-T_j e_z))                           (3.26)
+
+with p the position (NED), omega the body rate (FRD), R = R(q_nb), e_D the unit down
+vector, e_z the body z axis (rotor planes are the body x-y plane), r_j the position of
+rotor j from the centre of gravity, T_j its thrust and M_j its reaction moment
+(+-k_M T_j about body z). D is the body drag along e_V, the direction of the velocity
+*relative to the air* (wind and turbulence included), as the seed says "a function of
+vehicle and wind speed":
+
+    D(V_a) = c_lin V_a + 1/2 rho CdA V_a^2
+
+The rotors' angular momenta cancel in pairs and are neglected, as in the seed. Each
+rotor's thrust follows its static value T_ss(u_j) through a first-order lag
+(the seed's "time delay in thrust ... approximated as a first-order delay", eq 3.31):
+
+    tau T_j' = T_ss(u_j) - T_j          (exact discretisation: T += (T_ss - T)(1 - e^(-dt/tau)))
+
+Attitude is the quaternion q_nb, propagated by q <- q (x) Exp(omega dt) and
+renormalised (seed eqs 1.13-1.14; the convention of ``autopilot.geo.rotations``,
+written here on plain floats for speed and checked against it in the tests).
+
+Airframe: the F450 class, numbers from JSBSim's F450 aircraft (the ``jsbsim`` wheel's
+``aircraft/F450``, ``engine/DJI_E305.xml``, ``engine/DJI_9450.xml``): mass 1.4 kg,
+I = diag(0.019, 0.019, 0.0252) kg m^2, rotors at 0.1651 m on both body axes of its X
+layout, i.e. 0.2335 m from the centre; DJI E305 motor (960 rpm/V, 0.117 ohm, 0.45 A
+no-load, 14.63 V at full command) with the DJI 9450 propeller (9.4 in; static
+C_T = 0.1288, C_P = 0.0666; rotor inertia 6.05e-5 kg m^2); drag area 0.0161 m^2 (CD 1.0
+on 0.016129 m^2). Derived:
+
+* static thrust: the motor current (V - omega/Kv)/R less the no-load current, times
+  the torque constant 1/Kv, balances the propeller torque C_P rho n^2 D^5 / 2 pi; the
+  resulting omega gives T_ss = C_T rho n^2 D^4 (n = omega / 2 pi). About 15.7 N per
+  rotor at full command at sea level; hover (3.43 N per rotor) at u = 0.41.
+* reaction moment per newton of thrust: k_M = C_P D / (2 pi C_T) = 0.0197 m.
+* thrust time constant: the rotor speed's small-signal time constant at hover,
+  tau = J_rotor / (1/(R Kv^2) + 2 c_Q omega_hover) = 0.055 s (thrust ~ omega^2 has
+  the same time constant).
+* the linear drag c_lin = 0.25 N s/m stands for the rotors' drag (blade flapping and
+  induced drag), which the JSBSim model lacks; it is an estimate for this size of
+  vehicle, not a measured figure.
+
+The seed's mixer (eq 3.30) is written for rotors on the body axes (a "+" layout), so
+the F450 is flown "+": body x along one arm (a symmetric frame; its inertia is the same
+in both layouts). Rotors, numbered as eq 3.30 needs them with FRD signs, and the
+HIL_ACTUATOR_CONTROLS channel that drives each (0..1):
+
+    channel 0  rotor 1  aft    (x = -l)   spins counter-clockwise seen from above
+    channel 1  rotor 2  left   (y = -l)   clockwise
+    channel 2  rotor 3  front  (x = +l)   counter-clockwise
+    channel 3  rotor 4  right  (y = +l)   clockwise
+
+so that thrust on 2 rolls right, on 3 pitches nose up, and on 1 and 3 (whose drag
+torque on the airframe points down, +z) yaws the nose right:
+
+    M = (l (T2 - T4), l (T3 - T1), k_M (T1 + T3 - T2 - T4)).
+
+Ground contact: the terrain is flat at the home altitude; the vehicle rests on its
+skids with the centre of gravity ``gear_height_m`` above it. Resting, it is held level
+and still (the specific force reads -g along body z) until the rotors' upward thrust
+exceeds its weight; a touchdown (the skids reaching the ground) stops it dead and
+levels it -- no sinking, no bouncing. A touchdown faster than ``CRASH_SPEED_MPS`` or
+more tilted than ``CRASH_TILT_RAD`` sets ``crashed``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from autopilot.geo import LocalFrame, gravity_m_s2
+from sim_bridge.plants.base import PlantState
+from sim_bridge.sensors import isa
+from sim_bridge.wind import DrydenGusts
+
+CRASH_SPEED_MPS = 3.0     # touchdown faster than this counts as a crash [m/s]
+CRASH_TILT_RAD = math.radians(35.0)
+
+
+@dataclass(frozen=True, slots=True)
+class QuadAirframe:
+    """Data of a quadrotor (SI). Defaults: the F450 of JSBSim (module docstring)."""
+
+    name: str = "f450"
+    mass_kg: float = 1.4
+    ixx: float = 0.019                 # [kg m^2]
+    iyy: float = 0.019
+    izz: float = 0.0252
+    arm_m: float = 0.1651 * math.sqrt(2.0)   # rotor distance from the CG [m]
+    prop_diameter_m: float = 9.4 * 0.0254
+    c_t: float = 0.1288                # static thrust coefficient C_T
+    c_p: float = 0.0666                # static power coefficient C_P
+    rotor_inertia: float = 6.05e-5     # propeller + rotor [kg m^2]
+    motor_kv: float = 960.0            # [rpm/V]
+    motor_r_ohm: float = 0.117
+    motor_i0_a: float = 0.45           # no-load current [A]
+    motor_v_max: float = 14.63         # voltage at full command [V]
+    drag_lin: float = 0.25             # c_lin [N s/m]
+    drag_area_m2: float = 0.016129     # CdA [m^2]
+    gear_height_m: float = 0.1524      # CG above the skids' contact plane [m]
+
+    # --- derived -----------------------------------------------------------------
+    @property
+    def kv_rad(self) -> float:
+        """Speed constant [rad/s per V]; the torque constant is its inverse [N m/A]."""
+        return self.motor_kv * 2.0 * math.pi / 60.0
+
+    def c_thrust(self, rho: float) -> float:
+        """T = c_thrust omega^2 [N s^2]."""
+        return self.c_t * rho * self.prop_diameter_m ** 4 / (4.0 * math.pi ** 2)
+
+    def c_torque(self, rho: float) -> float:
+        """Q = c_torque omega^2 [N m s^2]."""
+        return self.c_p * rho * self.prop_diameter_m ** 5 / (8.0 * math.pi ** 3)
+
+    @property
+    def k_m(self) -> float:
+        """Reaction moment per newton of thrust, C_P D / (2 pi C_T) [m]."""
+        return self.c_p * self.prop_diameter_m / (2.0 * math.pi * self.c_t)
+
+    def rotor_speed(self, u: float, rho: float) -> float:
+        """Steady rotor speed [rad/s] at command u (0..1): motor torque = propeller torque,
+        (1/Kv) ((u V_max - omega/Kv)/R - I0) = c_Q omega^2."""
+        kt = 1.0 / self.kv_rad
+        drive = kt * (u * self.motor_v_max / self.motor_r_ohm - self.motor_i0_a)
+        if drive <= 0.0:
+            return 0.0
+        a = self.c_torque(rho)
+        b = kt / (self.motor_r_ohm * self.kv_rad)
+        return (-b + math.sqrt(b * b + 4.0 * a * drive)) / (2.0 * a)
+
+    def static_thrust(self, u: float, rho: float = 1.225) -> float:
+        """T_ss(u): thrust of one rotor at steady command u [N]."""
+        w = self.rotor_speed(min(max(u, 0.0), 1.0), rho)
+        return self.c_thrust(rho) * w * w
+
+    def hover_command(self, rho: float = 1.225, g: float = 9.80665) -> float:
+        """The command at which four rotors carry the weight (bisection on T_ss)."""
+        target = self.mass_kg * g / 4.0
+        lo, hi = 0.0, 1.0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if self.static_thrust(mid, rho) < target:
+                lo = mid
+            else:
+                hi = mid
+        return 0.5 * (lo + hi)
+
+    def thrust_time_constant(self, rho: float = 1.225, g: float = 9.80665) -> float:
+        """tau = J / (d(Q_prop - Q_motor)/d omega) at hover [s] (module docstring)."""
+        w = math.sqrt(self.mass_kg * g / 4.0 / self.c_thrust(rho))
+        damping = 1.0 / (self.motor_r_ohm * self.kv_rad ** 2) + 2.0 * self.c_torque(rho) * w
+        return self.rotor_inertia / damping
+
+
+F450 = QuadAirframe()
+AIRFRAMES = {"f450": F450}
+
+# rotor j (0-based channel): (x, y) position [in units of arm length] and spin sign
+# (+1: counter-clockwise from above, drag torque on the airframe along +z)
+ROTOR_LAYOUT = ((-1.0, 0.0, 1.0), (0.0, -1.0, -1.0), (1.0, 0.0, 1.0), (0.0, 1.0, -1.0))
+
+
+class QuadrotorPlant:
+    """The quadrotor behind the ``Plant`` protocol; controls are the four rotor
+    commands 0..1 (module docstring for the order)."""
+
+    def __init__(self, home: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+                 airframe: QuadAirframe | str = F450, dt_s: float = 0.004,
+                 wind_ned=(0.0, 0.0, 0.0), turbulence: str = "none",
+                 rng: np.random.Generator | None = None):
+        if isinstance(airframe, str):
+            if airframe not in AIRFRAMES:
+                raise ValueError(f"unknown quadrotor airframe {airframe!r}; known: {sorted(AIRFRAMES)}")
+            airframe = AIRFRAMES[airframe]
+        self.af = af = airframe
+        lat_deg, lon_deg, alt_m, heading_deg = (float(v) for v in home)
+        self.home = (lat_deg, lon_deg, alt_m, heading_deg)
+        self._frame = LocalFrame.from_degrees(lat_deg, lon_deg, alt_m)
+        self._dt_us = int(round(dt_s * 1e6))
+        if self._dt_us <= 0:
+            raise ValueError("dt_s must be at least 1 us")
+        self.dt_s = self._dt_us * 1e-6
+        self._t_us = 0
+        rng = rng if rng is not None else np.random.default_rng(0)
+        # air at the home altitude (ISA); density sets the rotor thrust
+        self.rho = isa.density_kgm3(alt_m)
+        self.g = gravity_m_s2(math.radians(lat_deg), alt_m)
+        self.tau_s = af.thrust_time_constant(self.rho, self.g)
+        self._lag = 1.0 - math.exp(-self.dt_s / self.tau_s)
+        self._ct = af.c_thrust(self.rho)
+        self._km = af.k_m
+        self._wind = tuple(float(w) for w in wind_ned)
+        self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind)
+        self._cmd: tuple | None = None
+        self._t_ss = [0.0, 0.0, 0.0, 0.0]
+        self.crashed = False
+        self.touchdown_speed_mps: float | None = None
+        self.reset()
+
+    # ------------------------------------------------------------------- state ---
+    def reset(self) -> None:
+        """At rest on the ground at home, heading as home's, motors stopped."""
+        psi = math.radians(self.home[3])
+        self.p = [0.0, 0.0, -self.af.gear_height_m]      # NED from home's ground point
+        self.v = [0.0, 0.0, 0.0]
+        self.q = [math.cos(0.5 * psi), 0.0, 0.0, math.sin(0.5 * psi)]
+        self.w = [0.0, 0.0, 0.0]
+        self.thrust = [0.0, 0.0, 0.0, 0.0]
+        self.on_ground = True
+        self.crashed = False
+        self._f_b = (0.0, 0.0, -self.g)
+        self._gusts.reset()
+
+    @property
+    def t_us(self) -> int:
+        return self._t_us
+
+    def set_airborne(self, height_m: float, yaw_rad: float = 0.0) -> None:
+        """Put the vehicle in hover ``height_m`` above home (tests): level, still, each
+        rotor at the hover thrust, its command held at the hover command."""
+        self.p = [0.0, 0.0, -height_m]
+        self.v = [0.0, 0.0, 0.0]
+        self.q = [math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad)]
+        self.w = [0.0, 0.0, 0.0]
+        t = self.af.mass_kg * self.g / 4.0
+        self.thrust = [t, t, t, t]
+        self.on_ground = False
+        self._f_b = (0.0, 0.0, -self.g)
+
+    def state(self) -> PlantState:
+        qw, qx, qy, qz = self.q
+        lat, lon, alt = self._frame.to_geodetic_fast(self.p)
+        gn, ge, gd = self._gusts.gust_ned
+        wn, we, wd = self._wind
+        wind = (wn + gn, we + ge, wd + gd)
+        vn, ve, vd = self.v
+        ax, ay, az = vn - wind[0], ve - wind[1], vd - wind[2]
+        airspeed = math.sqrt(ax * ax + ay * ay + az * az)
+        # air velocity in body axes for alpha / beta: R^T (v - w)
+        r = _dcm(qw, qx, qy, qz)
+        ub = r[0] * ax + r[3] * ay + r[6] * az
+        vb = r[1] * ax + r[4] * ay + r[7] * az
+        wb = r[2] * ax + r[5] * ay + r[8] * az
+        alpha = math.atan2(wb, ub) if airspeed > 1e-6 else 0.0
+        beta = math.asin(max(-1.0, min(1.0, vb / airspeed))) if airspeed > 1e-6 else 0.0
+        return PlantState(
+            t_us=self._t_us, lat_rad=lat, lon_rad=lon, alt_m=alt,
+            v_ned=np.array(self.v), q_nb=np.array(self.q), omega_b=np.array(self.w),
+            f_b=np.array(self._f_b), wind_ned=np.array(wind), airspeed_mps=airspeed,
+            alpha_rad=alpha, beta_rad=beta, on_ground=self.on_ground, rho_kgm3=self.rho)
+
+    # ---------------------------------------------------------------- stepping ---
+    def static_thrusts(self, controls) -> list[float]:
+        """T_ss of each rotor for a command vector (cached for repeated commands)."""
+        cmd = tuple(float(c) for c in controls[:4])
+        if cmd != self._cmd:
+            self._cmd = cmd
+            af, rho = self.af, self.rho
+            self._t_ss = [af.static_thrust(c, rho) for c in cmd]
+        return self._t_ss
+
+    def step(self, controls, n_steps: int = 1) -> PlantState:
+        """Hold the rotor commands for ``n_steps`` integration steps."""
+        t_ss = self.static_thrusts(controls)
+        for _ in range(n_steps):
+            self._integrate(t_ss)
+            self._t_us += self._dt_us
+        return self.state()
+
+    def _integrate(self, t_ss) -> None:
+        af = self.af
+        dt = self.dt_s
+        lag = self._lag
+        T = self.thrust
+        for j in range(4):
+            T[j] += (t_ss[j] - T[j]) * lag
+        t1, t2, t3, t4 = T
+        total = t1 + t2 + t3 + t4
+        m = af.mass_kg
+        g = self.g
+        qw, qx, qy, qz = self.q
+        r = _dcm(qw, qx, qy, qz)
+
+        # air-relative velocity (steady wind + Dryden gust) and the body drag (3.25)
+        vn, ve, vd = self.v
+        h_agl = -self.p[2]
+        wn, we, wd = self._wind
+        if self._gusts.active:
+            an0, ae0, ad0 = vn - wn, ve - we, vd - wd
+            gn, ge, gd = self._gusts.step(h_agl, math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
+            wn, we, wd = wn + gn, we + ge, wd + gd
+        an, ae, ad = vn - wn, ve - we, vd - wd
+        va = math.sqrt(an * an + ae * ae + ad * ad)
+        dk = af.drag_lin + 0.5 * self.rho * af.drag_area_m2 * va   # D / V_a
+        dn, de, dd = -dk * an, -dk * ae, -dk * ad                    # -D e_V [N]
+
+        # thrust -T e_z in NED: third column of R times -total
+        fn = -total * r[2] + dn
+        fe = -total * r[5] + de
+        fdn = -total * r[8] + dd          # (gravity added below)
+        if self.on_ground:
+            if fdn + m * g < 0.0:
+                self.on_ground = False    # thrust exceeds weight: lift off
+            else:
+                self._rest(r)
+                return
+
+        # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
+        l, km = af.arm_m, self._km
+        mx = l * (t2 - t4)
+        my = l * (t3 - t1)
+        mz = km * (t1 + t3 - t2 - t4)
+        p, q, rr = self.w
+        ixx, iyy, izz = af.ixx, af.iyy, af.izz
+        pd = (mx - (izz - iyy) * q * rr) / ixx
+        qd = (my - (ixx - izz) * p * rr) / iyy
+        rd = (mz - (iyy - ixx) * p * q) / izz
+        p1, q1, r1 = p + pd * dt, q + qd * dt, rr + rd * dt
+        self.w = [p1, q1, r1]
+        # attitude: q <- q (x) Exp(omega_mid dt), renormalised (1.13-1.14)
+        self.q = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt, 0.5 * (q + q1) * dt,
+                            0.5 * (rr + r1) * dt)
+
+        # translational dynamics (3.23), (3.25)
+        a_n, a_e, a_d = fn / m, fe / m, fdn / m + g
+        u_n, u_e, u_d = vn + a_n * dt, ve + a_e * dt, vd + a_d * dt
+        pn, pe, pdn = self.p
+        pdn1 = pdn + 0.5 * (vd + u_d) * dt
+        self.p = [pn + 0.5 * (vn + u_n) * dt, pe + 0.5 * (ve + u_e) * dt, pdn1]
+        self.v = [u_n, u_e, u_d]
+        # specific force (accelerometer truth): non-gravitational force / m, body axes
+        self._f_b = ((r[0] * dn + r[3] * de + r[6] * dd) / m,
+                     (r[1] * dn + r[4] * de + r[7] * dd) / m,
+                     (r[2] * dn + r[5] * de + r[8] * dd - total) / m)
+        if pdn1 > -af.gear_height_m:
+            self._touchdown(u_d)
+
+    def _touchdown(self, v_down: float) -> None:
+        qw, qx, qy, qz = self.q
+        tilt = math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (qx * qx + qy * qy))))
+        self.touchdown_speed_mps = v_down
+        if v_down > CRASH_SPEED_MPS or tilt > CRASH_TILT_RAD:
+            self.crashed = True
+        self.on_ground = True
+        self._rest(_dcm(*self.q))
+
+    def _rest(self, r) -> None:
+        """On the skids: level (heading kept), still, on the ground plane."""
+        qw, qx, qy, qz = self.q
+        if qx != 0.0 or qy != 0.0:
+            yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+            self.q = [math.cos(0.5 * yaw), 0.0, 0.0, math.sin(0.5 * yaw)]
+        self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
+        self.v = [0.0, 0.0, 0.0]
+        self.w = [0.0, 0.0, 0.0]
+        self._f_b = (0.0, 0.0, -self.g)
+
+
+def _dcm(w: float, x: float, y: float, z: float) -> tuple:
+    """R(q_nb) row-major (the formula of autopilot.geo.quat_to_dcm, on floats)."""
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
+            2.0 * (x * y + w * z), ww - xx + yy - zz, 2.0 * (y * z - w * x),
+            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
+
+
+def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
+    """q (x) Exp([ax, ay, az]) renormalised, w >= 0 (autopilot.geo.quat_integrate)."""
+    ang = math.sqrt(ax * ax + ay * ay + az * az)
+    if ang > 1e-9:
+        s = math.sin(0.5 * ang) / ang
+        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
+    else:
+        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
+    rw = qw * dw - qx * dx - qy * dy - qz * dz
+    rx = qw * dx + qx * dw + qy * dz - qz * dy
+    ry = qw * dy - qx * dz + qy * dw + qz * dx
+    rz = qw * dz + qx * dy - qy * dx + qz * dw
+    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
+    if rw < 0.0:
+        n = -n
+    return [rw * n, rx * n, ry * n, rz * n]
+

@@ -1,0 +1,84 @@
+"""Turbulence for plants that integrate their own equations of motion (the quadrotor).
+
+:class:`DrydenGusts` is the MIL-F-8785C low-altitude Dryden model of
+``sim_bridge.plants.jsbsim_plane._DrydenGusts`` (the same specification, intensities
+and exact Gauss-Markov discretisation), without the JSBSim coupling: the plant passes
+its height above the terrain and its speed relative to the steady wind, and adds the
+returned gust (NED, m/s) to the steady wind itself. The fixed-wing keeps its own class,
+which writes straight into JSBSim's gust properties.
+
+Scale lengths and intensities (h = height above the terrain, clipped to 3..300 m, the
+band of the low-altitude model; W20 = wind speed at 6 m):
+
+    L_w = h,  L_u = L_v = h / (0.177 + 0.000823 h_ft)^1.2
+    sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h_ft)^0.4
+
+Each component is a first-order Gauss-Markov process over the distance flown through
+the air mass (MIL-STD-1797A form: the lateral and vertical components with half the
+scale length), exact at any step. The distance uses the speed relative to the steady
+wind floored at 5 m/s (frozen-turbulence hypothesis; a hovering vehicle still sees the
+air mass drift past at the wind speed, and the floor keeps the correlation time finite
+in calm air). u is along the steady wind (north when there is none), w is down.
+Random numbers come from the injected generator, drawn in blocks.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+FT_M = 0.3048
+KT_MPS = 1852.0 / 3600.0
+# turbulence name -> MIL-F-8785C wind speed at 20 ft [kt] (light, moderate, severe)
+TURBULENCE_W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}
+MIN_SPEED_MPS = 5.0
+_BLOCK = 1024
+
+
+class DrydenGusts:
+    """``step(h_agl_m, speed_mps) -> (gust_n, gust_e, gust_d)`` once per plant step."""
+
+    def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
+                 wind_ned=(0.0, 0.0, 0.0)):
+        if turbulence not in TURBULENCE_W20_KT:
+            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_W20_KT)}")
+        self._rng = rng
+        self._dt_s = float(dt_s)
+        self._sigma_w = 0.1 * TURBULENCE_W20_KT[turbulence] * KT_MPS
+        self.active = self._sigma_w > 0.0
+        h = math.hypot(wind_ned[0], wind_ned[1])
+        self._axis_u = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
+        self._x = [0.0, 0.0, 0.0]
+        self.gust_ned = (0.0, 0.0, 0.0)
+        self._noise: list = []
+        self._k = 0
+
+    def reset(self) -> None:
+        self._x = [0.0, 0.0, 0.0]
+        self.gust_ned = (0.0, 0.0, 0.0)
+
+    def step(self, h_agl_m: float, speed_mps: float) -> tuple[float, float, float]:
+        if not self.active:
+            return self.gust_ned
+        h_m = 3.0 if h_agl_m < 3.0 else (300.0 if h_agl_m > 300.0 else h_agl_m)
+        speed = speed_mps if speed_mps > MIN_SPEED_MPS else MIN_SPEED_MPS
+        shape = 0.177 + 0.000823 * (h_m / FT_M)
+        length_u = h_m / shape ** 1.2
+        sigma_w = self._sigma_w
+        sigma_u = sigma_w / shape ** 0.4
+        if self._k >= len(self._noise):
+            self._noise = self._rng.standard_normal((_BLOCK, 3)).tolist()
+            self._k = 0
+        nu_u, nu_v, nu_w = self._noise[self._k]
+        self._k += 1
+        x = self._x
+        step_m = speed * self._dt_s
+        a = math.exp(-step_m / length_u)
+        x[0] = a * x[0] + sigma_u * math.sqrt(1.0 - a * a) * nu_u
+        a = math.exp(-2.0 * step_m / length_u)
+        x[1] = a * x[1] + sigma_u * math.sqrt(1.0 - a * a) * nu_v
+        a = math.exp(-2.0 * step_m / h_m)
+        x[2] = a * x[2] + sigma_w * math.sqrt(1.0 - a * a) * nu_w
+        cu, su = self._axis_u
+        self.gust_ned = (cu * x[0] - su * x[1], su * x[0] + cu * x[1], x[2])
+        return self.gust_ned
