@@ -62,7 +62,7 @@ LOG_COLUMNS = (
     "gps_n_m", "gps_e_m", "gps_alt_m",
 )
 _NAN9 = (math.nan,) * 9
-KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3}
+KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 
 
 def plane_param_declarations() -> list[Param]:
@@ -297,7 +297,7 @@ class PlaneVehicle:
             pitch_min = tgt.pitch_min_rad
             throttle = p["THR_MAX"]
             self.xtrack_m = 0.0
-        elif tgt.kind == "line":
+        elif tgt.kind in ("line", "direct"):
             cmd = self.l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
             bank = cmd.bank_rad
             self.xtrack_m = cmd.xtrack_m

@@ -18,6 +18,9 @@ from .bridge import SimBridge
 from .scenario import Wind, load_scenario
 from .sensors import SensorParams, SensorSuite
 
+QUAD_DT_S = 0.004          # quadrotor plant step = its HIL period (250 Hz)
+QUAD_HIL_RATE_HZ = 250.0
+
 
 @dataclass
 class World:
@@ -54,12 +57,23 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
 
     root = np.random.SeedSequence(seed)
     rng_plant, rng_sensors, rng_faults = (np.random.default_rng(s) for s in root.spawn(3))
+    sp = sensor_params or SensorParams()
+    if vehicle == "quad":
+        # the seed's quadrotor model (plants/quadrotor.py), 4 ms steps: one per 250 Hz
+        # HIL period; motor instances 0..3 are control channels 0..3
+        from .plants.quadrotor import QuadrotorPlant
+        quad_airframe = "f450" if airframe == "aerosonde" else airframe
+        plant = QuadrotorPlant(home, quad_airframe, dt_s=QUAD_DT_S, wind_ned=tuple(w.wind_ned()),
+                               turbulence=w.turbulence, rng=rng_plant)
+        sensors = SensorSuite(sp, rng_sensors, dt_s=QUAD_DT_S)
+        sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
+        return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=QUAD_DT_S,
+                                                   motor_channels=(0, 1, 2, 3)), events, w)
     if vehicle != "plane":
-        raise ValueError(f"vehicle {vehicle!r} is not implemented yet")
+        raise ValueError(f"vehicle {vehicle!r} is not implemented (plane, quad)")
     from .plants.jsbsim_plane import JSBSimPlane
     plant = JSBSimPlane(airframe, home=home, wind_ned=tuple(w.wind_ned()),
                         turbulence=w.turbulence, rng=rng_plant)
-    sp = sensor_params or SensorParams()
     sensors = SensorSuite(sp, rng_sensors, dt_s=0.01)
     sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
     return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w)

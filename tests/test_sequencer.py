@@ -77,7 +77,7 @@ def test_turn_arc_starts_before_a_right_angle_and_ends_on_the_next_leg():
     for ang in np.linspace(-math.pi / 2, -0.05, 20):   # bearing (atan2(e, n)) from the centre
         t = fly(s, [(c[0] + r * math.cos(ang), c[1] + r * math.sin(ang))])[0]
         assert t.kind == "loiter"
-    t = fly(s, [(c[0] + r * math.cos(0.05), c[1] + r * math.sin(0.05))])[0]
+    t = fly(s, [(c[0] + r * math.cos(0.05), c[1] + r * math.sin(0.05))], v=(-1.0, 25.0, 0.0))[0]
     assert t.kind == "line" and t.seq == 2
     assert t.a_ne == pytest.approx((500.0, 0.0), abs=1e-6)
 
@@ -99,13 +99,19 @@ def test_do_jump_repeats_then_continues_and_do_change_speed_applies():
     s = seq_for(m, TURN_BANK_DEG=30.0, WP_RADIUS=10.0)
     order = []
     pos = [(0.0, 0.0)]
+    vel = (25.0, 0.0, 0.0)
     targets = {2: (1000.0, 0.0), 3: (1000.0, 1000.0)}
     for _ in range(200):
-        t = fly(s, pos)[0]
+        t = fly(s, pos, v=vel)[0]
+        if t.kind == "direct":               # turning towards the next waypoint first
+            d = np.subtract(t.b_ne, pos[0])
+            vel = (*(25.0 * d / np.linalg.norm(d)), 0.0)
+            continue
         if t.kind == "loiter":               # a turn arc: fly along it
             c, r = t.c_ne, t.radius_m
             b = math.atan2(pos[0][1] - c[1], pos[0][0] - c[0]) + t.direction * 0.1
             pos = [(c[0] + r * math.cos(b), c[1] + r * math.sin(b))]
+            vel = (-25.0 * t.direction * math.sin(b), 25.0 * t.direction * math.cos(b), 0.0)
             continue
         if t.kind == "line":
             if not order or order[-1] != t.seq:
@@ -140,3 +146,15 @@ def test_relative_and_absolute_altitudes():
     s = seq_for(m)
     assert s.item_alt_m(s.items[1]) == pytest.approx(620.0)
     assert s.item_alt_m(s.items[2]) == pytest.approx(700.0)
+
+
+def test_joining_a_leg_flying_the_other_way_turns_first_then_starts_the_leg_there():
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 1000, 0)))
+    s._prev_wp_ne = (0.0, 0.0)
+    # GIVEN the vehicle flying south, away from a northbound leg
+    t = fly(s, [(0.0, -50.0)], v=(-25.0, 0.0, 0.0))[0]
+    # THEN it turns towards the waypoint first (not scored as a leg)
+    assert t.kind == "direct" and t.b_ne == pytest.approx(s.item_ne(s.items[1]))
+    # WHEN it points at the waypoint THEN the leg starts where it is, not behind it
+    t = fly(s, [(-100.0, -60.0)], v=(25.0, 1.0, 0.0))[0]
+    assert t.kind == "line" and t.a_ne == pytest.approx((-100.0, -60.0))

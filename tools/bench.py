@@ -129,7 +129,77 @@ def bench_tcp(seconds: float, nav: str) -> float:
         sim.wait(10)
 
 
-def run_bench(seconds: float = 60.0) -> None:
+def bench_quad_plant(seconds: float) -> float:
+    """The quadrotor model alone, one 4 ms step per call, commands changing every step
+    (as they do in flight, so the thrust-curve cache never hits)."""
+    import numpy as np
+    from sim_bridge.plants.quadrotor import QuadrotorPlant
+    plant = QuadrotorPlant(home=(-35.36, 149.17, 584.0, 0.0), wind_ned=(0.0, 3.0, 0.0),
+                           turbulence="light", rng=np.random.default_rng(1))
+    plant.set_airborne(10.0)
+    u = plant.af.hover_command(plant.rho, plant.g)
+    n = int(seconds / plant.dt_s)
+    t0 = time.perf_counter()
+    for k in range(n):
+        d = 1e-4 * (k % 7)
+        plant.step((u + d, u - d, u + d, u - d))
+    return seconds / (time.perf_counter() - t0)
+
+
+def bench_quad_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tuple[float, Session]:
+    from .runner import QUAD_DEFAULT_MISSION
+    cfg = RunConfig(vehicle="quad", airframe="f450", mission=QUAD_DEFAULT_MISSION, nav=nav,
+                    scenario=DEFAULT_SCENARIO, duration_s=1e9, seed=1)
+    s = Session(cfg)
+    # start-up (alignment, arming, takeoff) is excluded: run until flying the mission
+    while not s.vehicle.armed or s.t_s < 12.0:
+        s.step()
+    if timers is not None:
+        v = s.vehicle
+        timers.wrap(s.plant, "step", "plant")
+        timers.wrap(s.world.sensors, "sample", "sensors")
+        timers.wrap(s.bridge.link, "send_step", "codec (sim: encode)")
+        timers.wrap(s.ap_end, "poll", "codec (autopilot: decode)")
+        timers.wrap(s.ap_end, "answer", "codec (autopilot: encode)")
+        timers.wrap(s.bridge.link, "poll_answer", "codec (sim: decode)")
+        if nav != "truth":
+            timers.wrap(v.nav, "update", "navigation (filter + predictor)")
+        timers.wrap(v, "_fly", "guidance + control")
+        timers.wrap(v, "_log", "flight log")
+    t_end = s.t_s + seconds
+    t0 = time.perf_counter()
+    while s.t_s < t_end and not s.done():
+        s.step()
+    wall = time.perf_counter() - t0
+    return (s.t_s - (t_end - seconds)) / wall, s
+
+
+def run_quad_bench(seconds: float = 60.0) -> None:
+    """``sitl bench --vehicle quad``: the quadrotor at its 250 Hz lockstep."""
+    print(f"sitl bench --vehicle quad: {seconds:.0f} simulated seconds per measurement, "
+          f"quad_default mission, 250 Hz lockstep (4 ms), inner loop every step")
+    plant_rtf = bench_quad_plant(seconds)
+    print(f"  plant alone (quadrotor model, 4 ms steps):     {plant_rtf:8.1f} x real time")
+    rows = {}
+    for nav in ("truth", "ekf"):
+        rtf, s = bench_quad_memory(seconds, nav)
+        rows[nav] = rtf
+        extra = f" (filter every {int(s.params['QD_NAV_DIV'])} steps)" if nav != "truth" else ""
+        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time{extra}")
+    timers = _Timers()
+    _, s = bench_quad_memory(min(seconds, 30.0), "ekf", timers)
+    steps = max(timers.count["plant"], 1)
+    total = sum(timers.total.values()) / steps * 1e6
+    print(f"  time per 4 ms step by block (nav ekf), microseconds (sum {total:.0f}; "
+          f"20x real time needs <= 200 in all):")
+    for label in sorted(timers.total, key=lambda k: -timers.total[k]):
+        print(f"    {label:32s} {timers.total[label] / steps * 1e6:8.1f}")
+
+
+def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
+    if vehicle == "quad":
+        run_quad_bench(seconds)
+        return
     print(f"sitl bench: {seconds:.0f} simulated seconds per measurement, default mission, 100 Hz lockstep")
     plant_rtf = bench_plant(seconds)
     print(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time")

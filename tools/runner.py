@@ -27,6 +27,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 MISSIONS_DIR = REPO_ROOT / "missions"
 DEFAULT_MISSION = MISSIONS_DIR / "default.waypoints"
 DEFAULT_SCENARIO = MISSIONS_DIR / "default_scenario.toml"
+QUAD_DEFAULT_MISSION = MISSIONS_DIR / "quad_default.waypoints"
 LAUNCH_INTO_WIND_MPS = 3.0
 
 
@@ -78,7 +79,8 @@ class Session:
         self.home = cfg.home or mission_home(self.mission)
         world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
                             cfg.turbulence, cfg.vehicle)
-        if cfg.home is None and world.wind.speed_mps >= LAUNCH_INTO_WIND_MPS:
+        quad = cfg.vehicle == "quad"
+        if cfg.home is None and world.wind.speed_mps >= LAUNCH_INTO_WIND_MPS and not quad:
             # as an operator would: the launcher points into the wind (a catapult shot
             # downwind leaves the rail below stall speed); --home's heading overrides
             self.home = (*self.home[:3], world.wind.from_deg % 360.0)
@@ -88,9 +90,17 @@ class Session:
         self.wind = world.wind
         self.plant = world.plant
         sim_pipe, ap_pipe = memory_pair()
-        self.bridge = world.bridge(sim_pipe, cfg.vehicle)
+        if quad:
+            from sim_bridge.world import QUAD_HIL_RATE_HZ
+            self.bridge = world.bridge(sim_pipe, cfg.vehicle, hil_rate_hz=QUAD_HIL_RATE_HZ)
+        else:
+            self.bridge = world.bridge(sim_pipe, cfg.vehicle)
         self.sim_end = self.bridge.link
-        self.params = ParamStore(plane_param_declarations())
+        if quad:
+            from autopilot.vehicle_quad import quad_param_declarations
+            self.params = ParamStore(quad_param_declarations())
+        else:
+            self.params = ParamStore(plane_param_declarations())
         airframe_parm = MISSIONS_DIR / "params" / f"{cfg.airframe}.parm"
         if airframe_parm.exists():
             self.params.load(airframe_parm)   # the airframe's tuning, before the user's
@@ -99,8 +109,14 @@ class Session:
         for k, v in cfg.param_overrides.items():
             self.params.set(k, v)
         self.ap_end = AutopilotHilEnd(ap_pipe)
-        self.log = FlightLog(LOG_COLUMNS)
-        self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav, autostart=True, log=self.log)
+        if quad:
+            from autopilot.vehicle_quad import LOG_COLUMNS as QUAD_COLUMNS, QuadVehicle
+            self.log = FlightLog(QUAD_COLUMNS)
+            self.vehicle = QuadVehicle(self.params, self.mission, cfg.nav, autostart=True,
+                                       log=self.log, dt_s=self.bridge.hil_period_us * 1e-6)
+        else:
+            self.log = FlightLog(LOG_COLUMNS)
+            self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav, autostart=True, log=self.log)
         self.crashed = False
         self.wall_loop_s = 0.0
 
@@ -117,6 +133,12 @@ class Session:
         self.bridge.advance(controls)
 
     def done(self) -> bool:
+        if self.cfg.vehicle == "quad":
+            # landed at the end of the mission (and disarmed), or crashed
+            if getattr(self.plant, "crashed", False):
+                self.crashed = True
+                return True
+            return bool(self.vehicle.mission_landed and not self.vehicle.armed)
         seq = self.vehicle.sequencer
         if seq is not None and seq.finished and seq.rtl_established:
             return True
@@ -166,7 +188,7 @@ def write_run(session: Session, summary: dict, log_dir: Path) -> Path:
     hf = session.vehicle.home_frame
     if hf is not None:
         for it in session.mission:
-            if it.command in POSITION_COMMANDS:
+            if it.command in POSITION_COMMANDS and (it.x_lat_deg, it.y_lon_deg) != (0.0, 0.0):
                 p = hf.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), hf.alt0_m)
                 mission_xy.append((it.seq, p[0], p[1]))
     session.log.save(log_dir / "flight.npz",

@@ -1,11 +1,11 @@
 """``sitl``: run, report and benchmark headless SITL flights.
 
-    sitl run    [--vehicle plane] [--airframe NAME] [--mission FILE] [--scenario FILE]
+    sitl run    [--vehicle plane|quad] [--airframe NAME] [--mission FILE] [--scenario FILE]
                 [--wind SPEED,FROM_DEG] [--turbulence LEVEL] [--seed N] [--speedup max|X]
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
     sitl report RUN_DIR
-    sitl bench  [--seconds S]
+    sitl bench  [--vehicle plane|quad] [--seconds S]
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, RunConfig
+from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, QUAD_DEFAULT_MISSION, RunConfig
 
 
 class CliError(Exception):
@@ -33,8 +33,7 @@ def _floats(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def _config(args) -> RunConfig:
-    if args.vehicle != "plane":
-        raise CliError(f"--vehicle {args.vehicle}: only 'plane' is implemented so far")
+    airframe = args.airframe or ("f450" if args.vehicle == "quad" else "aerosonde")
     wind = None
     if args.wind is not None:
         speed, frm = _floats(args.wind, 2, "--wind")
@@ -64,8 +63,9 @@ def _config(args) -> RunConfig:
             raise CliError(f"--param {kv!r}: expected NAME=VALUE")
         k, v = kv.split("=", 1)
         overrides[k.strip()] = v.strip()
-    return RunConfig(vehicle=args.vehicle, airframe=args.airframe,
-                     mission=Path(args.mission) if args.mission else DEFAULT_MISSION,
+    default_mission = QUAD_DEFAULT_MISSION if args.vehicle == "quad" else DEFAULT_MISSION
+    return RunConfig(vehicle=args.vehicle, airframe=airframe,
+                     mission=Path(args.mission) if args.mission else default_mission,
                      scenario=scenario, wind=wind, turbulence=args.turbulence, seed=args.seed,
                      speedup=speedup, duration_s=args.duration, nav=args.nav, home=home,
                      log_dir=Path(args.log_dir) if args.log_dir else None,
@@ -110,7 +110,7 @@ def cmd_report(args) -> int:
 
 def cmd_bench(args) -> int:
     from .bench import run_bench
-    run_bench(args.seconds)
+    run_bench(args.seconds, vehicle=args.vehicle)
     return 0
 
 
@@ -119,8 +119,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run", help="fly a mission headless and print its summary")
     r.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
-    r.add_argument("--airframe", default="aerosonde", help="aerosonde (default) or c172p")
-    r.add_argument("--mission", help=f"mission file (.waypoints or .plan); default {DEFAULT_MISSION.name}")
+    r.add_argument("--airframe", default=None,
+                   help="plane: aerosonde (default) or c172p; quad: f450 (default)")
+    r.add_argument("--mission", help=f"mission file (.waypoints or .plan); default {DEFAULT_MISSION.name}"
+                                     f" (quad: {QUAD_DEFAULT_MISSION.name})")
     r.add_argument("--scenario", help="scenario TOML: wind, turbulence, timed fault events")
     r.add_argument("--wind", help="steady wind SPEED_MPS,FROM_DEG")
     r.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
@@ -140,6 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     rp.set_defaults(func=cmd_report)
     b = sub.add_parser("bench", help="real-time factors and time per block")
     b.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per measurement")
+    b.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     b.set_defaults(func=cmd_bench)
     return ap
 

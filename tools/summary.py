@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 CAPTURE_M = 10.0
-KIND_LINE, KIND_LOITER, KIND_TAKEOFF = 2, 3, 1
+KIND_LINE, KIND_LOITER, KIND_TAKEOFF, KIND_DIRECT = 2, 3, 1, 4
 
 
 def leg_xtrack(a: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -56,7 +56,7 @@ def flight_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: floa
     else:
         out["xtrack_rms_m"] = None
         out["xtrack_max_m"] = None
-    flying = (a["armed"] > 0) & ((a["kind"] == KIND_LINE) | (a["kind"] == KIND_LOITER))
+    flying = (a["armed"] > 0) & np.isin(a["kind"], (KIND_LINE, KIND_LOITER, KIND_DIRECT))
     if flying.any() and home_truth_alt_m is not None and home_est_alt_m is not None:
         h_true = a["truth_alt_m"][flying] - home_truth_alt_m
         h_cmd = a["tgt_alt_m"][flying] - home_est_alt_m

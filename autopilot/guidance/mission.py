@@ -36,7 +36,7 @@ RELATIVE_FRAMES = (3, 6, 11)  # GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT, TE
 
 @dataclass(frozen=True, slots=True)
 class NavTarget:
-    kind: str                    # "idle" | "takeoff" | "line" | "loiter"
+    kind: str                    # "idle" | "takeoff" | "line" | "loiter" | "direct"
     seq: int                     # mission item being flown
     leg_id: int                  # increments at every new leg/loiter (for scoring)
     alt_m: float                 # altitude target, MSL [m]
@@ -79,6 +79,7 @@ class MissionSequencer:
         self._loiter_captured = False
         self._takeoff_heading: float | None = None
         self._leg_along0: float | None = None
+        self._v_ned = np.zeros(3)
         self._arc = None          # the fillet being flown: (centre, radius, dir, angle, B)
         self._arc_angle = 0.0
         self._arc_last: float | None = None
@@ -204,6 +205,7 @@ class MissionSequencer:
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float) -> NavTarget:
         p_ne = (float(p_ned[0]), float(p_ned[1]))
+        self._v_ned = v_ned
         if self._arc is not None:
             arc_target = self._fly_arc(t_us, p_ne)
             if arc_target is not None:
@@ -236,10 +238,13 @@ class MissionSequencer:
             self._prev_alt = target
             # the next leg starts at the takeoff item's location when it has one (the
             # line the mission's author drew), else where the climb ended
+            # (unless the climb ended far from it, e.g. after a launch into the wind)
             has_pos = not (item.x_lat_deg == 0 and item.y_lon_deg == 0)
-            self._prev_wp_ne = self.item_ne(item) if has_pos else p_ne
+            t_ne = self.item_ne(item) if has_pos else p_ne
+            near = math.hypot(t_ne[0] - p_ne[0], t_ne[1] - p_ne[1]) <= self.params["WP_RADIUS"]
+            self._prev_wp_ne = t_ne if near else p_ne
             self._advance(t_us)
-            return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), np.zeros(3),
+            return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), self._v_ned,
                                heading_rad, alt_m)
         pitch = math.radians(item.param1) if item.param1 > 0 else math.radians(self.params["TKOFF_PITCH"])
         return NavTarget("takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
@@ -276,6 +281,19 @@ class MissionSequencer:
         b_ne = self.item_ne(item)
         if self._leg_start is None:
             a_ne = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
+            # joining a leg while flying the other way (after a takeoff into the wind, a
+            # loiter, a skipped arc): first turn towards the waypoint ("direct"), then
+            # start the leg where the turn ends, so the leg is not flown backwards
+            chi_leg = math.atan2(b_ne[1] - a_ne[1], b_ne[0] - a_ne[0])
+            gs = math.hypot(float(v_ned[0]), float(v_ned[1]))
+            if gs > 5.0:
+                chi = math.atan2(float(v_ned[1]), float(v_ned[0]))
+                chi_direct = math.atan2(b_ne[1] - p_ne[1], b_ne[0] - p_ne[0])
+                if abs(wrap_pi(chi_leg - chi)) > math.radians(90.0):
+                    if abs(wrap_pi(chi_direct - chi)) > math.radians(20.0):
+                        return NavTarget("direct", item.seq, self.leg_id, self._prev_alt,
+                                         self.airspeed_mps, a_ne=p_ne, b_ne=b_ne)
+                    a_ne = p_ne
             self._leg_start = a_ne
             self._leg_start_alt = self._prev_alt
         a_ne = self._leg_start
@@ -287,7 +305,8 @@ class MissionSequencer:
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         accept = max(item.param2, 0.0) or self.params["WP_RADIUS"]
         d_turn, arc = self._fillet(a_ne, b_ne)
-        if along >= length - d_turn or dist <= min(accept, self.params["WP_RADIUS"], 0.5 * length):
+        # the acceptance radius only stands in for the arc where there is none
+        if along >= length - d_turn or (arc is None and dist <= min(accept, self.params["WP_RADIUS"], 0.5 * length)):
             self._prev_wp_ne = b_ne
             self._prev_alt = alt_b
             self._advance(t_us)
@@ -335,7 +354,7 @@ class MissionSequencer:
                 self._prev_wp_ne = c_ne
                 self._prev_alt = alt
                 self._advance(t_us)
-                return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), np.zeros(3), 0.0, alt)
+                return self.update(t_us, np.array([p_ne[0], p_ne[1], 0.0]), self._v_ned, 0.0, alt)
         return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
                          c_ne=c_ne, radius_m=radius, direction=direction)
 

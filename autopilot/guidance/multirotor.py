@@ -18,7 +18,7 @@ cannot follow (a headwind beyond its tilt limit): beyond WP_LEASH metres of erro
 reference brakes and waits. Every waypoint is flown to a stop (no corner cutting), so
 a mission is a sequence of straight legs whose ends are exact.
 
-Heading (eq 3.41 generalised): towards the goal on legs longer than 2 m, else held;
+Heading (eq 3.41 generalised): towards the goal on legs longer than 5 m, else held;
 slewed at YAW_RATE_MAX. A NAV_WAYPOINT's param4 (degrees, not NaN) fixes the heading.
 
 Landing: the reference flies to the land point at the current height, then descends at
@@ -51,6 +51,7 @@ from ..params import Param
 
 RELATIVE_FRAMES = (3, 6, 11)
 LOITER_TURN_S = 20.0
+YAW_MIN_LEG_M = 5.0           # shorter moves keep the heading
 
 COPTER_GUIDANCE_PARAMS = (
     Param("WP_SPEED", 5.0, 0.5, 20.0, "m/s", "horizontal speed between waypoints"),
@@ -81,6 +82,12 @@ class CopterTarget:
     hold: bool = False              # a timed hold / loiter is running (scored)
     goal_ne: tuple = (0.0, 0.0)     # the goal / hold / land point (north, east)
     leg_a: tuple = (0.0, 0.0)       # the straight leg being flown (north, east)
+
+
+# what the position loops are doing in each navigator phase (CopterTarget.kind)
+_PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
+               "rtl_climb": "move", "rtl_return": "move", "land_approach": "move",
+               "land_descend": "land", "landed": "idle"}
 
 
 class Trajectory:
@@ -219,7 +226,7 @@ class CopterNavigator:
         self.leg_id += 1
         self.goal_ne = (goal[0], goal[1])
         dn, de = goal[0] - self.traj.start[0], goal[1] - self.traj.start[1]
-        self._yaw_goal = math.atan2(de, dn) if math.hypot(dn, de) > 2.0 else None
+        self._yaw_goal = math.atan2(de, dn) if math.hypot(dn, de) > YAW_MIN_LEG_M else None
 
     def takeoff(self, p_ned, height_m: float) -> None:
         """Vertical climb from p_ned to ``height_m`` above home."""
@@ -302,9 +309,7 @@ class CopterNavigator:
 
     def target(self, seq: int, hold: bool = False) -> CopterTarget:
         tr = self.traj
-        kind = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
-                "rtl_climb": "move", "rtl_return": "move", "land_approach": "move",
-                "land_descend": "land", "landed": "idle"}[self.phase]
+        kind = _PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
         return CopterTarget(kind, seq, self.leg_id, tuple(tr.p), tuple(tr.v), tuple(tr.a),
                             self.yaw_ref, hold, goal, (tr.start[0], tr.start[1]))
@@ -334,6 +339,7 @@ class CopterMissionSequencer:
         self._hold_start_us: int | None = None
         self._hold_s = 0.0
         self._end_rtl = False
+        self._goal = (0.0, 0.0, 0.0)
 
     def set_current(self, seq: int) -> None:
         self.current = seq
@@ -400,9 +406,17 @@ class CopterMissionSequencer:
                 return
 
     def update(self, t_us: int, p_ned, touchdown: bool) -> CopterTarget:
+        """Advance the mission; the target of the current action (reference not stepped)."""
+        seq, hold = self.advance(t_us, p_ned, touchdown)
+        return self.nav.target(seq, hold)
+
+    def advance(self, t_us: int, p_ned, touchdown: bool) -> tuple[int, bool]:
+        """Advance the mission: start the actions of new items, detect their ends.
+        Returns (seq being flown, timed hold running). ``touchdown``: the vehicle's land
+        detector saw the ground this step."""
         nav = self.nav
         if self.landed:
-            return nav.target(self.current)
+            return self.current, False
         self._run_do_items(t_us)
         if self.current >= len(self.items):
             # past the last item without a landing: return to launch and land
@@ -412,7 +426,7 @@ class CopterMissionSequencer:
             if touchdown:
                 nav.touchdown()
                 self.finished = self.landed = self.rtl_established = True
-            return nav.target(len(self.items))
+            return len(self.items), False
         item = self.items[self.current]
         cmd = item.command
         seq = self.current
@@ -427,12 +441,12 @@ class CopterMissionSequencer:
                     nav.goto((nav.traj.p[0], nav.traj.p[1], min(goal_d, nav.traj.p[2])))
             if nav.arrived and abs(p_ned[2] - nav.traj.p[2]) <= self.params["TKOFF_ALT_TOL"]:
                 self._advance(t_us)
-                return self.update(t_us, p_ned, touchdown)
-            return nav.target(seq)
+                return self.advance(t_us, p_ned, touchdown)
+            return seq, False
         if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
                    MAV_CMD_NAV_LOITER_TURNS):
-            goal = self.item_ned(item, nav.traj.p)
             if entering:
+                self._goal = goal = self.item_ned(item, nav.traj.p)
                 yaw = None
                 if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param4) and item.param4 != 0.0:
                     yaw = math.radians(item.param4)
@@ -445,6 +459,7 @@ class CopterMissionSequencer:
                     self._hold_s = max(item.param1, 0.0) * LOITER_TURN_S
                 else:
                     self._hold_s = math.inf
+            goal = self._goal
             radius = self.params["WP_RADIUS"]
             if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
                 radius = item.param2
@@ -457,9 +472,9 @@ class CopterMissionSequencer:
             if self._hold_start_us is not None:
                 if (t_us - self._hold_start_us) * 1e-6 >= self._hold_s:
                     self._advance(t_us)
-                    return self.update(t_us, p_ned, touchdown)
-                return nav.target(seq, hold=self._hold_s > 0.0)
-            return nav.target(seq)
+                    return self.advance(t_us, p_ned, touchdown)
+                return seq, self._hold_s > 0.0
+            return seq, False
         if cmd in (MAV_CMD_NAV_LAND, MAV_CMD_NAV_RETURN_TO_LAUNCH):
             if entering:
                 if cmd == MAV_CMD_NAV_LAND:
@@ -471,7 +486,7 @@ class CopterMissionSequencer:
                 nav.touchdown()
                 self._advance(t_us)
                 self.finished = self.landed = self.rtl_established = True
-            return nav.target(seq)
+            return seq, False
         # refused at load time; skip defensively
         self._advance(t_us)
-        return self.update(t_us, p_ned, touchdown)
+        return self.advance(t_us, p_ned, touchdown)

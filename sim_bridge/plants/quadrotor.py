@@ -205,6 +205,12 @@ class QuadrotorPlant:
         self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind)
         self._cmd: tuple | None = None
         self._t_ss = [0.0, 0.0, 0.0, 0.0]
+        # T_ss(u) in closed form (QuadAirframe.rotor_speed): omega = (sqrt(b^2 + k1 u - k0) - b) / 2a
+        a = af.c_torque(self.rho)
+        kt = 1.0 / af.kv_rad
+        b = kt / (af.motor_r_ohm * af.kv_rad)
+        self._ts = (b * b, 4.0 * a * kt * af.motor_v_max / af.motor_r_ohm,
+                    4.0 * a * kt * af.motor_i0_a, b, 0.5 / a, self._ct)
         self.crashed = False
         self.touchdown_speed_mps: float | None = None
         self.reset()
@@ -240,35 +246,40 @@ class QuadrotorPlant:
         self._f_b = (0.0, 0.0, -self.g)
 
     def state(self) -> PlantState:
-        qw, qx, qy, qz = self.q
         lat, lon, alt = self._frame.to_geodetic_fast(self.p)
         gn, ge, gd = self._gusts.gust_ned
         wn, we, wd = self._wind
-        wind = (wn + gn, we + ge, wd + gd)
+        wn, we, wd = wn + gn, we + ge, wd + gd
         vn, ve, vd = self.v
-        ax, ay, az = vn - wind[0], ve - wind[1], vd - wind[2]
+        ax, ay, az = vn - wn, ve - we, vd - wd
         airspeed = math.sqrt(ax * ax + ay * ay + az * az)
-        # air velocity in body axes for alpha / beta: R^T (v - w)
-        r = _dcm(qw, qx, qy, qz)
-        ub = r[0] * ax + r[3] * ay + r[6] * az
-        vb = r[1] * ax + r[4] * ay + r[7] * az
-        wb = r[2] * ax + r[5] * ay + r[8] * az
-        alpha = math.atan2(wb, ub) if airspeed > 1e-6 else 0.0
-        beta = math.asin(max(-1.0, min(1.0, vb / airspeed))) if airspeed > 1e-6 else 0.0
-        return PlantState(
-            t_us=self._t_us, lat_rad=lat, lon_rad=lon, alt_m=alt,
-            v_ned=np.array(self.v), q_nb=np.array(self.q), omega_b=np.array(self.w),
-            f_b=np.array(self._f_b), wind_ned=np.array(wind), airspeed_mps=airspeed,
-            alpha_rad=alpha, beta_rad=beta, on_ground=self.on_ground, rho_kgm3=self.rho)
+        alpha = beta = 0.0
+        if airspeed > 1e-6:
+            # air velocity in body axes for alpha / beta: R^T (v - w)
+            r = _dcm(*self.q)
+            ub = r[0] * ax + r[3] * ay + r[6] * az
+            vb = r[1] * ax + r[4] * ay + r[7] * az
+            wb = r[2] * ax + r[5] * ay + r[8] * az
+            alpha = math.atan2(wb, ub)
+            beta = math.asin(max(-1.0, min(1.0, vb / airspeed)))
+        arr = np.array((vn, ve, vd, *self.q, *self.w, *self._f_b, wn, we, wd))
+        return PlantState(self._t_us, lat, lon, alt, arr[0:3], arr[3:7], arr[7:10], arr[10:13],
+                          arr[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
 
     # ---------------------------------------------------------------- stepping ---
     def static_thrusts(self, controls) -> list[float]:
         """T_ss of each rotor for a command vector (cached for repeated commands)."""
-        cmd = tuple(float(c) for c in controls[:4])
+        cmd = tuple(controls[:4])
         if cmd != self._cmd:
             self._cmd = cmd
-            af, rho = self.af, self.rho
-            self._t_ss = [af.static_thrust(c, rho) for c in cmd]
+            b2, k1, k0, b, inv2a, ct = self._ts
+            out = []
+            for u in cmd:
+                u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else float(u))
+                d = k1 * u - k0
+                w = (math.sqrt(b2 + d) - b) * inv2a if d > 0.0 else 0.0
+                out.append(ct * w * w)
+            self._t_ss = out
         return self._t_ss
 
     def step(self, controls, n_steps: int = 1) -> PlantState:

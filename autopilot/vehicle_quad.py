@@ -1,0 +1,681 @@
+"""The quadrotor vehicle loop: one visible, synchronous pipeline per lockstep step.
+
+    sensors -> navigation -> modes -> guidance -> reference angles / altitude
+            -> PDD attitude -> mixer -> motors
+
+``QuadVehicle.step(frame, truth)`` runs once per HIL_SENSOR (250 Hz: the HIL period of
+the quadrotor is 4 ms) on simulation time only; truth is logged for scoring and used to
+fly only with ``--nav truth``. It implements ``autopilot.vehicle_api.VehicleApi``.
+
+Navigation rate. The inner (attitude) loop runs at every step. The INS/GPS filter
+(``InsGpsEkf(vehicle="quad")``) runs every QD_NAV_DIV-th step on the IMU samples
+averaged over its interval (coning and sculling are negligible at these rates and
+rotation speeds), with the magnetometer, barometer and GPS samples of the interval; in
+between, an output predictor (as PX4's EKF2 has) carries the latest estimate forward
+with each bias-corrected IMU sample: q <- q (x) Exp(omega dt), v <- v + (R f + g) dt,
+p <- p + v dt. The attitude loop thus sees a fresh attitude and the raw gyro rate at
+every step. QD_NAV_DIV = 1 runs the filter at the full rate.
+
+Frames: the filter's origin is its first GPS fix; home is set at arming from the
+navigation solution (as ArduPilot does) and guidance works in the NED frame of home,
+``p_home = p_nav - p_nav(home)`` (the two tangent frames are metres apart).
+
+Ground handling: armed on the ground, the motors idle at QD_SPIN_ARM and the loops are
+held; a takeoff starts them, with the integrators frozen until the vehicle is 0.5 m up.
+The land detector (as ArduCopter's): while landing, a thrust demand below 75 % of the
+weight with a vertical speed under 0.3 m/s for LAND_DET_S seconds is a touchdown; the
+motors stop and the vehicle disarms.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
+from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
+                                  CopterNavigator, CopterTarget)
+from .link.codec import MAV
+from .log.flightlog import FlightLog
+from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
+from .mission.items import Mission
+from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
+from .params import Param, ParamStore
+
+RHO0 = 1.225
+R_AIR = 287.05287
+
+QUAD_VEHICLE_PARAMS = (
+    Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
+    Param("QD_NAV_DIV", 3, 1, 10, "", "run the navigation filter every Nth step (output predictor between)", is_int=True),
+    Param("QD_NAV_AUX_HZ", 25.0, 1.0, 250.0, "Hz", "fuse magnetometer / barometer (averaged) at most this often"),
+    Param("QD_LOG_DIV", 2, 1, 100, "", "flight log: one row every Nth step", is_int=True),
+    Param("LAND_DET_S", 0.5, 0.1, 5.0, "s", "land detector: conditions held this long"),
+    Param("PILOT_THR_HOV", 0.41, 0.1, 0.9, "", "STABILIZE: collective command without a pilot"),
+    Param("PILOT_SPEED_UP", 2.5, 0.1, 10.0, "m/s", "ALT_HOLD: climb rate at full stick"),
+)
+
+LOG_COLUMNS = (
+    "t_s", "armed", "mode", "seq", "leg_id", "kind", "hold", "landed",
+    "truth_n_m", "truth_e_m", "truth_alt_m", "truth_roll_rad", "truth_pitch_rad", "truth_yaw_rad",
+    "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
+    "est_n_m", "est_e_m", "est_alt_m", "est_roll_rad", "est_pitch_rad", "est_yaw_rad",
+    "est_vn_mps", "est_ve_mps", "est_vd_mps",
+    # the reference trajectory (home NED: tgt_alt_m is MSL like the plane's)
+    "tgt_n_m", "tgt_e_m", "tgt_alt_m", "tgt_vn_mps", "tgt_ve_mps", "tgt_vd_mps",
+    "goal_n_m", "goal_e_m", "leg_a_n_m", "leg_a_e_m",
+    # reference angles and thrust (eqs 3.37-3.41) and the effective inputs of eq 3.30
+    "cmd_roll_rad", "cmd_pitch_rad", "cmd_yaw_rad", "cmd_thrust_n",
+    "u_roll_n", "u_pitch_n", "u_yaw_n",
+    "motor_1", "motor_2", "motor_3", "motor_4",
+    # navigation filter sigmas, health and the GPS fixes (as the fixed-wing's log)
+    "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
+    "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
+    "gps_n_m", "gps_e_m", "gps_alt_m",
+)
+KIND_CODES = {"ground": 0, "takeoff": 1, "move": 2, "hold": 3, "land": 4, "idle": 5, "manual": 6}
+_NAN9 = (math.nan,) * 9
+
+
+def quad_param_declarations() -> list[Param]:
+    decls = list(MULTIROTOR_PARAMS) + list(COPTER_GUIDANCE_PARAMS) + list(QUAD_VEHICLE_PARAMS)
+    try:
+        from .nav.config import NAV_PARAMS
+        decls += list(NAV_PARAMS)
+    except ImportError:
+        pass
+    return decls
+
+
+class PilotInput:
+    """Stick inputs of STABILIZE / ALT_HOLD (the ground-station service writes them from
+    RC_CHANNELS_OVERRIDE / MANUAL_CONTROL). Neutral sticks by default."""
+
+    __slots__ = ("roll_rad", "pitch_rad", "yaw_rate_rps", "throttle")
+
+    def __init__(self, throttle: float | None = None):
+        self.roll_rad = 0.0
+        self.pitch_rad = 0.0
+        self.yaw_rate_rps = 0.0
+        self.throttle = throttle      # 0..1; None: PILOT_THR_HOV (STABILIZE), centre (ALT_HOLD)
+
+
+class TruthNav:
+    """NavState from HIL_STATE_QUATERNION: the ``--nav truth`` debugging aid."""
+
+    def __init__(self):
+        self.origin: LocalFrame | None = None
+
+    def update(self, frame: SensorFrame, truth) -> NavState | None:
+        if truth is None:
+            return None
+        if self.origin is None:
+            self.origin = LocalFrame(truth.lat_rad, truth.lon_rad, truth.alt_m)
+        p = self.origin.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
+        return NavState(frame.t_us, p, truth.v_ned, truth.q_nb, truth.omega_b,
+                        truth.lat_rad, truth.lon_rad, truth.alt_m, truth.airspeed_mps,
+                        source="truth")
+
+
+class DecimatedNav:
+    """The navigation filter every ``div`` steps, an output predictor in between
+    (module docstring). Magnetometer and barometer samples are averaged and handed to
+    the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
+    the average keeps the information of every sample). ``update(frame) -> (nav_state,
+    p, v, q, omega)`` with p, v, q the predicted state as float lists (nav origin NED,
+    q_nb) and omega the bias-corrected rate of this step."""
+
+    def __init__(self, filt, div: int, aux_hz: float = 25.0):
+        self.filt = filt
+        self.div = max(1, int(div))
+        self._aux_us = int(1e6 / aux_hz) if aux_hz > 0 else 0
+        self._k = 0
+        self._f = [0.0, 0.0, 0.0]
+        self._w = [0.0, 0.0, 0.0]
+        self._m = [0.0, 0.0, 0.0]
+        self._nm = 0
+        self._b = [0.0, 0.0, 0.0]       # pressure, altitude, temperature sums
+        self._nb = 0
+        self._aux_t: int | None = None
+        self._gps = self._air = None
+        self.nav: NavState | None = None
+        self._p = self._v = self._q = None
+        self._ba = (0.0, 0.0, 0.0)
+        self._bg = (0.0, 0.0, 0.0)
+        self._g = G
+        self._last_t: int | None = None
+
+    @property
+    def P(self):
+        return self.filt.P
+
+    def _aux(self, t: int):
+        """The averaged magnetometer and barometer samples, if due."""
+        if self._aux_t is not None and t - self._aux_t < self._aux_us:
+            return None, None
+        mag = baro = None
+        if self._nm:
+            n = 1.0 / self._nm
+            m = self._m
+            mag = MagSample(t, np.array((m[0] * n, m[1] * n, m[2] * n)))
+            m[0] = m[1] = m[2] = 0.0
+            self._nm = 0
+        if self._nb:
+            n = 1.0 / self._nb
+            b = self._b
+            baro = BaroSample(t, b[0] * n, b[1] * n, b[2] * n)
+            b[0] = b[1] = b[2] = 0.0
+            self._nb = 0
+        if mag is not None or baro is not None:
+            self._aux_t = t
+        return mag, baro
+
+    def update(self, frame: SensorFrame):
+        imu = frame.imu
+        fx, fy, fz = imu.f_b.tolist()
+        wx, wy, wz = imu.omega_b.tolist()
+        t = frame.t_us
+        dt = 0.0 if self._last_t is None else (t - self._last_t) * 1e-6
+        self._last_t = t
+        if frame.mag is not None:
+            mx, my, mz = frame.mag.m_b.tolist()
+            m = self._m
+            m[0] += mx; m[1] += my; m[2] += mz
+            self._nm += 1
+        if frame.baro is not None:
+            bs = frame.baro
+            b = self._b
+            b[0] += bs.pressure_pa; b[1] += bs.alt_m; b[2] += bs.temperature_k
+            self._nb += 1
+        if frame.gps is not None:
+            self._gps = frame.gps
+        if frame.airspeed is not None:
+            self._air = frame.airspeed
+        f, w = self._f, self._w
+        f[0] += fx; f[1] += fy; f[2] += fz
+        w[0] += wx; w[1] += wy; w[2] += wz
+        self._k += 1
+        if self._k >= self.div or self.nav is None or not self.nav.aligned:
+            mag, baro = self._aux(t)
+            if self._k == 1:
+                imu_f = imu
+            else:
+                n = 1.0 / self._k
+                imu_f = ImuSample(t, np.array((f[0] * n, f[1] * n, f[2] * n)),
+                                  np.array((w[0] * n, w[1] * n, w[2] * n)))
+            fr = SensorFrame(t, imu_f, mag, baro, self._air, self._gps)
+            self._k = 0
+            f[0] = f[1] = f[2] = w[0] = w[1] = w[2] = 0.0
+            self._gps = self._air = None
+            nav = self.filt.update(fr)
+            self.nav = nav
+            self._p = nav.p_ned.tolist()
+            self._v = nav.v_ned.tolist()
+            self._q = nav.q_nb.tolist()
+            nom = getattr(self.filt, "nom", None)
+            if nom is not None:
+                self._ba = tuple(nom.ba)
+                self._bg = tuple(nom.bg)
+                self._g = getattr(self.filt, "_g", G)
+            # this step's rate: the raw gyro less the bias estimate
+            bg = self._bg
+            return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
+        # output predictor
+        bg, ba = self._bg, self._ba
+        wx -= bg[0]; wy -= bg[1]; wz -= bg[2]
+        fx -= ba[0]; fy -= ba[1]; fz -= ba[2]
+        qw, qx, qy, qz = self._q
+        r = _dcm(qw, qx, qy, qz)
+        an = r[0] * fx + r[1] * fy + r[2] * fz
+        ae = r[3] * fx + r[4] * fy + r[5] * fz
+        ad = r[6] * fx + r[7] * fy + r[8] * fz + self._g
+        v = self._v
+        v1 = [v[0] + an * dt, v[1] + ae * dt, v[2] + ad * dt]
+        p = self._p
+        self._p = [p[0] + 0.5 * (v[0] + v1[0]) * dt, p[1] + 0.5 * (v[1] + v1[1]) * dt,
+                   p[2] + 0.5 * (v[2] + v1[2]) * dt]
+        self._v = v1
+        self._q = _quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
+        return self.nav, self._p, self._v, self._q, [wx, wy, wz]
+
+
+def make_quad_nav(source: str, params: ParamStore):
+    if source == "truth":
+        return TruthNav()
+    values = {n: v for n, v in params.items()}
+    div = int(params["QD_NAV_DIV"])
+    if source == "ekf":
+        from .nav.ekf import InsGpsEkf
+        return DecimatedNav(InsGpsEkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"])
+    if source == "ukf":
+        from .nav.ukf import InsGpsUkf
+        return DecimatedNav(InsGpsUkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"])
+    raise ValueError(f"unknown navigation source {source!r} (truth, ekf, ukf)")
+
+
+class QuadVehicle:
+    """The quadrotor autopilot's loop. ``autostart``: arm and fly AUTO by itself once
+    navigation is healthy (headless runs); otherwise wait for a ground station."""
+
+    mav_type = MAV.MAV_TYPE_QUADROTOR
+    modes = CopterMode
+    implemented_modes = IMPLEMENTED_COPTER_MODES
+
+    def __init__(self, params: ParamStore, mission: Mission | None, nav_source: str = "ekf",
+                 autostart: bool = True, log: FlightLog | None = None, dt_s: float = 0.004):
+        self.params = params
+        self.mission = mission
+        self.nav_source = nav_source
+        self.nav = make_quad_nav(nav_source, params)
+        self.autostart = autostart
+        self.log = log if log is not None else FlightLog(LOG_COLUMNS)
+        self.dt_nominal = dt_s
+        self.ctrl = MultirotorController(params, dt_s)
+        self.navigator = CopterNavigator(params)
+        self.pilot = PilotInput()
+        self.mode = CopterMode.STABILIZE
+        self.armed = False
+        self.home_frame: LocalFrame | None = None
+        self.home_truth_alt_m: float | None = None
+        self._home_nav_p = (0.0, 0.0, 0.0)      # home in the navigation frame
+        self.sequencer: CopterMissionSequencer | None = None
+        self.nav_state: NavState | None = None
+        self.target: CopterTarget | None = None
+        self.on_ground = True                   # the land detector's state
+        self.flying = False                     # airborne far enough for the integrators
+        self.mission_landed = False             # a landing (mission, RTL or LAND) ended
+        self.healthy_since_us: int | None = None
+        self.gps_fix_type = 0
+        self.last_t_us: int | None = None
+        self.steps = 0
+        self._gps_this_step = None
+        self._land_since_us: int | None = None
+        self._alt_ref = 0.0                     # ALT_HOLD height reference (home frame, up)
+        self._yaw_hold = 0.0
+        self.euler = (0.0, 0.0, 0.0)
+        self.p_home = (0.0, 0.0, 0.0)
+        self.v_ned = (0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ arming ---
+    def arm_checks(self) -> str | None:
+        nav = self.nav_state
+        if nav is None or not nav.aligned:
+            return "navigation not aligned"
+        if not nav.healthy:
+            return "navigation unhealthy"
+        if self.gps_fix_type < 3:
+            return "no 3D fix"
+        if self.mode == CopterMode.AUTO and (self.mission is None or len(self.mission) < 2):
+            return "no valid mission"
+        return None
+
+    def arm(self, t_us: int, truth=None) -> str | None:
+        reason = self.arm_checks()
+        if reason is not None:
+            return reason
+        nav = self.nav_state
+        self.home_frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        self._home_nav_p = tuple(float(c) for c in nav.p_ned)
+        self.p_home = (0.0, 0.0, 0.0)
+        if truth is not None:
+            self.home_truth_alt_m = truth.alt_m
+        if self.mission is not None:
+            self.sequencer = CopterMissionSequencer(self.mission, self.home_frame, self.params,
+                                                    self.navigator)
+        self.ctrl.reset()
+        self.navigator.init((0.0, 0.0, 0.0), self.euler[2])
+        self.navigator.speed_mps = None
+        self.on_ground = True
+        self.flying = False
+        self.mission_landed = False
+        self.armed = True
+        self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
+                                    f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.2f} m")
+        return None
+
+    def disarm(self, t_us: int, force: bool = False) -> str | None:
+        if not self.armed:
+            return None
+        if not self.on_ground and not force:
+            return "Disarm refused: flying"
+        self.armed = False
+        self.log.event(t_us * 1e-6, "disarmed")
+        return None
+
+    def set_mode(self, mode, t_us: int) -> str | None:
+        try:
+            mode = CopterMode(int(mode))
+        except ValueError:
+            return f"mode {int(mode)} not implemented"
+        if mode not in self.implemented_modes:
+            return f"mode {int(mode)} not implemented"
+        if mode in POSITION_MODES and (self.nav_state is None or not self.nav_state.healthy):
+            return f"{mode.name} needs a healthy position estimate"
+        if mode == self.mode:
+            return None
+        prev = self.mode
+        self.mode = mode
+        self.log.event(t_us * 1e-6, f"mode {mode.name}")
+        self._enter_mode(prev, mode)
+        return None
+
+    def _enter_mode(self, prev: CopterMode, mode: CopterMode) -> None:
+        nv = self.navigator
+        if prev not in POSITION_MODES or nv.phase in ("idle", "landed") and not self.on_ground:
+            nv.init(self.p_home, self.euler[2])
+        if not self.armed or self.on_ground:
+            if mode == CopterMode.AUTO and self.sequencer is not None:
+                self.sequencer.set_current(self.sequencer.current)
+            return
+        if mode == CopterMode.AUTO and self.sequencer is not None:
+            self.sequencer.set_current(self.sequencer.current)
+        elif mode in (CopterMode.GUIDED, CopterMode.LOITER):
+            nv.hold(None)
+        elif mode == CopterMode.RTL:
+            nv.rtl(self.p_home)
+        elif mode == CopterMode.LAND:
+            nv.land(None)
+        elif mode == CopterMode.ALT_HOLD:
+            self._alt_ref = -self.p_home[2]
+        self._yaw_hold = self.euler[2]
+
+    @property
+    def landed(self) -> bool:
+        return not self.armed or self.on_ground
+
+    def current_seq(self) -> int:
+        if self.sequencer is None:
+            return 1 if self.mission is not None and len(self.mission) > 1 else 0
+        return min(self.sequencer.current, max(len(self.sequencer.items) - 1, 0))
+
+    def reached_events(self) -> list[tuple[int, int]]:
+        return list(self.sequencer.reached) if self.sequencer is not None else []
+
+    def set_mission(self, mission: Mission, t_us: int) -> str | None:
+        if len(mission) < 1:
+            return "empty mission"
+        self.mission = mission
+        if self.sequencer is not None:
+            self.sequencer.load(mission)
+        elif self.home_frame is not None:
+            self.sequencer = CopterMissionSequencer(mission, self.home_frame, self.params, self.navigator)
+        self.log.event(t_us * 1e-6, f"mission replaced: {len(mission) - 1} items")
+        return None
+
+    def set_current(self, seq: int, t_us: int) -> str | None:
+        if self.mission is None or not 0 < seq < len(self.mission):
+            return f"no mission item {seq}"
+        if self.sequencer is not None:
+            self.sequencer.set_current(seq)
+        return None
+
+    def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
+        """Move home: guidance positions shift to the new frame."""
+        if self.home_frame is None or self.nav_state is None:
+            self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
+            return None
+        old = self.home_frame
+        d = old.to_ned_fast(lat_rad, lon_rad, alt_m)
+        self._home_nav_p = (self._home_nav_p[0] + d[0], self._home_nav_p[1] + d[1],
+                            self._home_nav_p[2] + d[2])
+        self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
+        if self.sequencer is not None:
+            self.sequencer.frame = self.home_frame
+            self.sequencer.home_alt_m = alt_m
+        tr = self.navigator.traj
+        tr.reset((tr.p[0] - d[0], tr.p[1] - d[1], tr.p[2] - d[2]))
+        self.log.event(t_us * 1e-6, "home moved")
+        return None
+
+    def set_param(self, name: str, value: float) -> str | None:
+        from .params import ParamError
+        try:
+            self.params.set(name, value)
+        except ParamError as e:
+            return str(e)
+        self.ctrl.configure()
+        return None
+
+    def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float,
+                          t_us: int) -> str | None:
+        """GUIDED: fly to (lat, lon, alt MSL) and hold there."""
+        if self.mode != CopterMode.GUIDED or self.home_frame is None or not self.armed:
+            return "not in GUIDED flight"
+        p = self.home_frame.to_ned_fast(lat_rad, lon_rad, alt_m)
+        self.navigator.goto((float(p[0]), float(p[1]), float(p[2])))
+        self.log.event(t_us * 1e-6, "guided target")
+        return None
+
+    # -------------------------------------------------------------------- loop ---
+    def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
+        t_us = frame.t_us
+        dt = self.dt_nominal if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
+        self.last_t_us = t_us
+        self.steps += 1
+        self._gps_this_step = frame.gps
+        if frame.gps is not None:
+            self.gps_fix_type = frame.gps.fix_type
+        if frame.baro is not None and frame.baro.temperature_k > 150.0:
+            # air density for the thrust model (thrust at full command ~ rho)
+            self.ctrl.mixer.set_density_ratio(
+                frame.baro.pressure_pa / (R_AIR * frame.baro.temperature_k) / RHO0)
+
+        # sensors -> navigation
+        if self.nav_source == "truth":
+            nav = self.nav.update(frame, truth)
+            if nav is None:
+                return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
+            p_nav = nav.p_ned.tolist()
+            v = nav.v_ned.tolist()
+            q = nav.q_nb.tolist()
+            omega = nav.omega_b.tolist()
+        else:
+            nav, p_nav, v, q, omega = self.nav.update(frame)
+        self.nav_state = nav
+        hp = self._home_nav_p
+        self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
+        self.v_ned = v
+        self.q_nb = q
+        self.euler = quat_to_euler(q)
+
+        # modes
+        if not self.armed and self.autostart and not self.mission_landed:
+            if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
+                if self.healthy_since_us is None:
+                    self.healthy_since_us = t_us
+                if (t_us - self.healthy_since_us) * 1e-6 >= self.params["ARM_SETTLE_S"]:
+                    self.mode = CopterMode.AUTO
+                    if self.arm(t_us, truth) is None:
+                        self.log.event(t_us * 1e-6, "mode AUTO")
+            else:
+                self.healthy_since_us = None
+
+        motors = (0.0, 0.0, 0.0, 0.0)
+        if self.armed:
+            motors = self._fly(dt, t_us, q, omega)
+        if self.steps % int(self.params["QD_LOG_DIV"]) == 0 or not self.log.rows:
+            self._log(t_us, nav, truth, motors)
+        return ActuatorOutputs(t_us, motors, self.armed)
+
+    def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
+        p = self.params
+        ctrl = self.ctrl
+        mode = self.mode
+        roll, pitch, yaw = self.euler
+        pos = self.p_home
+        v = self.v_ned
+        h = -pos[2]
+        if self.on_ground:
+            self._yaw_hold = yaw
+        if mode in (CopterMode.STABILIZE, CopterMode.ALT_HOLD):
+            self.target = None
+            pl = self.pilot
+            lim = math.radians(p["ANGLE_MAX_DEG"])
+            r_d = max(-lim, min(lim, pl.roll_rad))
+            p_d = max(-lim, min(lim, pl.pitch_rad))
+            self._yaw_hold = wrap_pi(self._yaw_hold + pl.yaw_rate_rps * dt)
+            if mode == CopterMode.STABILIZE:
+                thr = pl.throttle if pl.throttle is not None else p["PILOT_THR_HOV"]
+                if self.on_ground and thr <= p["QD_SPIN_ARM"] + 0.02:
+                    return ctrl.idle(p["QD_SPIN_ARM"])
+                u_z = 4.0 * ctrl.mixer.thrust_of(thr)
+                self._update_ground_state(u_z, v, t_us, landing=thr < 0.3)
+                return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
+            stick = 0.5 if pl.throttle is None else pl.throttle
+            climb = (stick - 0.5) * 2.0 * p["PILOT_SPEED_UP"] if abs(stick - 0.5) > 0.05 else 0.0
+            if self.on_ground and climb <= 0.0:
+                self._alt_ref = h
+                return ctrl.idle(p["QD_SPIN_ARM"])
+            self._alt_ref += climb * dt
+            u_z = self._altitude(self._alt_ref, climb, 0.0, h, v, roll, pitch, dt)
+            self._update_ground_state(u_z, v, t_us, landing=climb < 0.0)
+            return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
+
+        # position modes: guidance -> reference trajectory
+        nv = self.navigator
+        touchdown = self._touchdown_pending
+        self._touchdown_pending = False
+        seq, hold = 0, False
+        if mode == CopterMode.AUTO and self.sequencer is not None:
+            seq, hold = self.sequencer.advance(t_us, pos, touchdown)
+            if self.sequencer.landed and not self.mission_landed:
+                self._landed_end(t_us)
+        elif touchdown and nv.phase == "land_descend":
+            nv.touchdown()
+            self._landed_end(t_us)
+        nv.update(dt, pos, yaw)
+        tgt = nv.target(seq, hold)
+        self.target = tgt
+        if not self.armed:
+            return (0.0, 0.0, 0.0, 0.0)
+        if self.on_ground and (tgt.kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
+            # waiting on the ground (or a hold / landing asked while landed)
+            nv.init(pos, yaw)
+            return ctrl.idle(p["QD_SPIN_ARM"])
+        hold_i = not self.flying
+        tp, tv, ta = tgt.p_ned, tgt.v_ned, tgt.a_ned
+        r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
+                                   ta[0], ta[1], yaw, dt, hold_i)
+        u_z = self._altitude(-tp[2], -tv[2], -ta[2], h, v, roll, pitch, dt)
+        self._update_ground_state(u_z, v, t_us, landing=tgt.kind == "land")
+        return ctrl.attitude(q, omega, r_d, p_d, tgt.yaw_rad, u_z)
+
+    _touchdown_pending = False
+
+    def _altitude(self, h_d, hdot_d, hddot_d, h, v, roll, pitch, dt) -> float:
+        ctrl = self.ctrl
+        m = ctrl.mixer
+        sat = m.saturated[2]
+        req = ctrl.u[0]
+        sat_hi = sat and m.collective < req - 1e-6
+        sat_lo = sat and m.collective > req + 1e-6
+        return ctrl.alt.update(h_d, hdot_d, hddot_d, h, -v[2], math.cos(roll) * math.cos(pitch),
+                               dt, not self.flying, sat_hi, sat_lo)
+
+    def _update_ground_state(self, u_z: float, v, t_us: int, landing: bool) -> None:
+        """Leaving the ground, and the land detector (module docstring)."""
+        h = -self.p_home[2]
+        if self.on_ground:
+            if u_z > 0.8 * self.ctrl.hover_thrust():
+                self.on_ground = False
+                self._land_since_us = None
+            return
+        if not self.flying and h > 0.5:
+            self.flying = True
+        if landing and u_z < 0.75 * self.ctrl.hover_thrust() and abs(v[2]) < 0.3:
+            if self._land_since_us is None:
+                self._land_since_us = t_us
+            elif (t_us - self._land_since_us) * 1e-6 >= self.params["LAND_DET_S"]:
+                self.on_ground = True
+                self.flying = False
+                self._touchdown_pending = True
+                self.log.event(t_us * 1e-6, "touchdown")
+                if self.mode in (CopterMode.STABILIZE, CopterMode.ALT_HOLD):
+                    self.ctrl.reset()
+        else:
+            self._land_since_us = None
+
+    def _landed_end(self, t_us: int) -> None:
+        """A landing ended (mission, RTL or LAND): motors off, disarm."""
+        self.mission_landed = True
+        self.ctrl.reset()
+        self.disarm(t_us, force=True)
+
+    def _log(self, t_us: int, nav: NavState, truth, motors) -> None:
+        hf = self.home_frame
+        if hf is None:
+            return
+        p = self.p_home
+        er, ep, ey = self.euler
+        if truth is not None:
+            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
+            tr, tp, ty = quat_to_euler(truth.q_nb)
+            tv = truth.v_ned
+            t_alt, t_as = truth.alt_m, truth.airspeed_mps
+        else:
+            p_tru = (math.nan, math.nan, math.nan)
+            tr = tp = ty = t_alt = t_as = math.nan
+            tv = (math.nan, math.nan, math.nan)
+        tgt = self.target
+        c = self.ctrl
+        alt0 = hf.alt0_m
+        if tgt is None:
+            kind = 6.0 if self.armed and not self.on_ground else 0.0
+            tgt_row = (p[0], p[1], alt0 - p[2], 0.0, 0.0, 0.0, p[0], p[1], p[0], p[1])
+            hold = 0.0
+        else:
+            kind = 0.0 if self.on_ground and tgt.kind != "takeoff" else float(KIND_CODES[tgt.kind])
+            tp_ = tgt.p_ned
+            tgt_row = (tp_[0], tp_[1], alt0 - tp_[2], tgt.v_ned[0], tgt.v_ned[1], tgt.v_ned[2],
+                       tgt.goal_ne[0], tgt.goal_ne[1], tgt.leg_a[0], tgt.leg_a[1])
+            hold = float(tgt.hold)
+        sig = _NAN9
+        if hasattr(self.nav, "P"):
+            d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
+            sig = tuple(d.tolist())
+        gps = self._gps_this_step
+        if gps is not None:
+            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
+            gps_row = (g[0], g[1], gps.alt_m)
+        else:
+            gps_row = (math.nan, math.nan, math.nan)
+        seq = float(tgt.seq) if tgt is not None else 0.0
+        leg = float(tgt.leg_id) if tgt is not None else 0.0
+        u = c.u
+        v = self.v_ned
+        self.log.append((
+            t_us * 1e-6, float(self.armed), float(self.mode.value), seq, leg, kind, hold,
+            float(self.on_ground),
+            p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
+            p[0], p[1], alt0 - p[2], er, ep, ey, v[0], v[1], v[2],
+        ) + tgt_row + (
+            c.roll_d, c.pitch_d, c.yaw_d, u[0], u[1], u[2], u[3],
+            motors[0], motors[1], motors[2], motors[3],
+        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row)
+
+
+def _dcm(w: float, x: float, y: float, z: float) -> tuple:
+    """R(q_nb) row-major (autopilot.geo.quat_to_dcm, on floats)."""
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
+            2.0 * (x * y + w * z), ww - xx + yy - zz, 2.0 * (y * z - w * x),
+            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
+
+
+def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
+    """q (x) Exp([ax, ay, az]) renormalised (autopilot.geo.quat_integrate, on floats)."""
+    ang = math.sqrt(ax * ax + ay * ay + az * az)
+    if ang > 1e-9:
+        s = math.sin(0.5 * ang) / ang
+        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
+    else:
+        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
+    rw = qw * dw - qx * dx - qy * dy - qz * dz
+    rx = qw * dx + qx * dw + qy * dz - qz * dy
+    ry = qw * dy - qx * dz + qy * dw + qz * dx
+    rz = qw * dz + qx * dy - qy * dx + qz * dw
+    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
+    if rw < 0.0:
+        n = -n
+    return [rw * n, rx * n, ry * n, rz * n]
