@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from autopilot.link.codec import MAV
 
+from .battery import Battery
 from .hil import SimulatorHilEnd
 from .plants.base import PlaneControls
 
@@ -48,6 +49,10 @@ class SimBridge:
         self.fault_log: list[FaultRecord] = []
         self.state = plant.state()
         self.steps = 0
+        # the propulsion battery, reported as BATTERY_STATUS once a second of sim time
+        self.battery = Battery() if vehicle == "plane" else Battery(cells=4, capacity_ah=5.0, max_power_w=800.0)
+        self.battery_period_us = 1_000_000
+        self._next_battery_us = 0
 
     @property
     def t_us(self) -> int:
@@ -103,8 +108,14 @@ class SimBridge:
             c = tuple(self.faults.apply_controls(c))
         if self.vehicle == "plane":
             cmd = PlaneControls(c[0], c[1], c[2], c[3])
+            u = c[3]
         else:
             cmd = c
+            u = sum(c[:4]) / 4.0 if len(c) >= 4 else 0.0
+        self.battery.update(u if self.link.armed else 0.0, self.hil_period_us * 1e-6)
+        if self.t_us >= self._next_battery_us:
+            self._next_battery_us = self.t_us + self.battery_period_us
+            self.link.send_battery(self.battery)
         self.state = self.plant.step(cmd, self.substeps)
         self.steps += 1
 

@@ -95,6 +95,16 @@ class SimulatorHilEnd:
         out.append(self._sensor_buf)
         self.transport.send(b"".join(out))
 
+    def send_battery(self, battery) -> None:
+        """BATTERY_STATUS of the simulated pack (``sim_bridge.battery.Battery``)."""
+        cells = [min(int(battery.voltage_v / battery.cells * 1000.0), 65534)] * battery.cells
+        cells += [65535] * (10 - len(cells))
+        self.transport.send(self.codec.encode(MAV.MAVLink_battery_status_message(
+            0, MAV.MAV_BATTERY_FUNCTION_ALL, MAV.MAV_BATTERY_TYPE_LIPO, 32767, cells,
+            min(int(battery.current_a * 100.0), 32767), int(battery.consumed_mah),
+            int(battery.energy_j / 100.0), battery.remaining_pct, 0, MAV.MAV_BATTERY_CHARGE_STATE_OK,
+            [0, 0, 0, 0], 0, 0)))
+
     def send_command_ack(self, command: int, result: int, target_system: int, target_component: int):
         mav = self.codec.mav
         self.transport.send(self.codec.encode(mav.command_ack_encode(

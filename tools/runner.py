@@ -48,6 +48,10 @@ class RunConfig:
     progress: bool = False
     params_file: Path | None = None
     param_overrides: dict = field(default_factory=dict)
+    # ground stations (autopilot/gcs): None = headless (arm and fly by itself); a list of
+    # URLs = interactive: serve them, sit disarmed at home until a ground station flies it
+    gcs: tuple[str, ...] | None = None
+    param_store: Path | None = None                # parameters persisted across runs (gcs)
 
 
 def mission_home(mission: Mission) -> tuple[float, float, float, float]:
@@ -96,14 +100,23 @@ class Session:
         else:
             self.bridge = world.bridge(sim_pipe, cfg.vehicle)
         self.sim_end = self.bridge.link
+        self.interactive = cfg.gcs is not None
         if quad:
             from autopilot.vehicle_quad import quad_param_declarations
-            self.params = ParamStore(quad_param_declarations())
+            decls = quad_param_declarations()
         else:
-            self.params = ParamStore(plane_param_declarations())
+            decls = plane_param_declarations()
+        if self.interactive:
+            from autopilot.gcs import GCS_PARAMS
+            decls = list(decls) + list(GCS_PARAMS)
+        self.params = ParamStore(decls)
         airframe_parm = MISSIONS_DIR / "params" / f"{cfg.airframe}.parm"
         if airframe_parm.exists():
             self.params.load(airframe_parm)   # the airframe's tuning, before the user's
+        if self.interactive and cfg.param_store is not None and Path(cfg.param_store).exists():
+            from autopilot.gcs import load_lenient
+            for problem in load_lenient(self.params, Path(cfg.param_store))[1]:
+                print(f"sitl: parameter store: {problem} (ignored)", file=sys.stderr)
         if cfg.params_file is not None:
             self.params.load(cfg.params_file)
         for k, v in cfg.param_overrides.items():
@@ -112,13 +125,21 @@ class Session:
         if quad:
             from autopilot.vehicle_quad import LOG_COLUMNS as QUAD_COLUMNS, QuadVehicle
             self.log = FlightLog(QUAD_COLUMNS)
-            self.vehicle = QuadVehicle(self.params, self.mission, cfg.nav, autostart=True,
+            self.vehicle = QuadVehicle(self.params, self.mission, cfg.nav, autostart=not self.interactive,
                                        log=self.log, dt_s=self.bridge.hil_period_us * 1e-6)
         else:
             self.log = FlightLog(LOG_COLUMNS)
-            self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav, autostart=True, log=self.log)
+            self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav,
+                                        autostart=not self.interactive, log=self.log)
         self.crashed = False
         self.wall_loop_s = 0.0
+        self.interrupted = False
+        self.gcs = None
+        if self.interactive:
+            from autopilot.gcs import DEFAULT_URLS, GcsService
+            tlog = Path(cfg.log_dir) / "gcs.tlog" if cfg.log_dir is not None else None
+            self.gcs = GcsService(self.vehicle, cfg.gcs or DEFAULT_URLS, hil=self.ap_end,
+                                  tlog_path=tlog, param_store_path=cfg.param_store)
 
     @property
     def t_s(self) -> float:
@@ -126,11 +147,16 @@ class Session:
 
     def step(self) -> None:
         self.bridge.send_current()
+        gcs = self.gcs
         for frame, truth in self.ap_end.poll():
             out = self.vehicle.step(frame, truth)
             self.ap_end.answer(out)
+            if gcs is not None:
+                gcs.after_step(frame, out)
         controls = self.sim_end.poll_answer(self.bridge.t_us)
         self.bridge.advance(controls)
+        if gcs is not None:
+            gcs.step(self.bridge.t_us)
 
     def done(self) -> bool:
         if self.cfg.vehicle == "quad":
@@ -155,20 +181,32 @@ class Session:
         t0 = time.perf_counter()
         sim0 = self.t_s
         next_progress = 0.0
-        while self.t_s < end_s:
-            self.step()
-            if self.done():
-                break
-            if cfg.speedup is not None:
-                ahead = (self.t_s - sim0) / cfg.speedup - (time.perf_counter() - t0)
-                if ahead > 0.002:
-                    time.sleep(ahead)
-            if cfg.progress and self.t_s >= next_progress:
-                _progress(self, end_s)
-                next_progress = self.t_s + 10.0
+        gcs = self.gcs
+        try:
+            while self.t_s < end_s:
+                self.step()
+                if gcs is None and self.done():
+                    break  # interactive runs go on until Ctrl-C or --duration
+                if cfg.speedup is not None:
+                    ahead = (self.t_s - sim0) / cfg.speedup - (time.perf_counter() - t0)
+                    if gcs is not None:
+                        if ahead > 0.0:
+                            gcs.wait(ahead)  # answer requests while waiting for real time
+                    elif ahead > 0.002:
+                        time.sleep(ahead)
+                if cfg.progress and self.t_s >= next_progress:
+                    _progress(self, end_s)
+                    next_progress = self.t_s + 10.0
+        except KeyboardInterrupt:
+            self.interrupted = True  # Ctrl-C: stop cleanly, the run folder is still written
         self.wall_loop_s = time.perf_counter() - t0
         if cfg.progress:
             sys.stderr.write("\n")
+
+    def close(self) -> None:
+        """Close the ground-station links and flush their telemetry log."""
+        if self.gcs is not None:
+            self.gcs.close()
 
 
 def _progress(s: Session, end_s: float) -> None:

@@ -144,6 +144,94 @@ def nav_figures(a: dict, gps_latency_s: float, fault_log=()) -> dict:
     return out
 
 
+# --- quadrotor (autopilot/vehicle_quad.py log) ---------------------------------------
+QUAD_MOVE, QUAD_HOLD, QUAD_LAND = 2, 3, 4
+QUAD_FLYING = (1, 2, 3, 4, 6)      # takeoff, move, hold, land, manual
+
+
+def quad_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: float | None) -> dict:
+    """The quadrotor's figures, from truth in home's NED frame as the fixed-wing's:
+
+    * ``xtrack_rms_m`` / ``xtrack_max_m``: horizontal distance of the true position from
+      the straight leg being flown (from where the leg started to its goal; legs
+      shorter than 1 m, e.g. vertical ones, are left out);
+    * ``alt_rms_m``: true height above home against the reference height above home
+      (the fixed-wing's convention: a constant navigation altitude offset at arming
+      does not count), over legs and holds;
+    * ``hold_pos_rms_m`` / ``hold_alt_rms_m``: horizontal distance from the hold point,
+      and the height error as above, while a timed hold or loiter runs;
+    * ``land_error_m``: horizontal distance of the touchdown (the true position when
+      the land detector stopped the motors) from the land point (the last landing);
+    * ``max_tilt_deg``: largest true tilt (angle of the body z axis from the vertical)
+      in flight.
+
+    These absolute figures include the navigation solution's own error (GPS: about a
+    metre horizontally, wandering with a 60 s correlation time; see the nav_* figures).
+    The ``*_ctl`` figures are the same quantities measured with the navigation solution
+    instead of truth: what guidance and control achieve on the position they are given
+    (for the hold and the landing, the difference is the navigation error)."""
+    out: dict = {}
+    armed = a["armed"] > 0
+    kind = a["kind"]
+    if not armed.any():
+        return out
+    tn, te = a["truth_n_m"], a["truth_e_m"]
+    en, ee = a["est_n_m"], a["est_e_m"]
+    gn, ge = a["goal_n_m"], a["goal_e_m"]
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x ** 2)))
+
+    # straight legs
+    move = armed & (kind == QUAD_MOVE)
+    dn, de = gn - a["leg_a_n_m"], ge - a["leg_a_e_m"]
+    length = np.hypot(dn, de)
+    ok = move & (length > 1.0)
+    if ok.any():
+        ln = np.where(ok, length, 1.0)
+        xt = ((tn - a["leg_a_n_m"]) * (-de) + (te - a["leg_a_e_m"]) * dn) / ln
+        out["xtrack_rms_m"] = rms(xt[ok])
+        out["xtrack_max_m"] = float(np.max(np.abs(xt[ok])))
+    else:
+        out["xtrack_rms_m"] = out["xtrack_max_m"] = None
+    # heights
+    h_ok = home_truth_alt_m is not None and home_est_alt_m is not None
+    dh = dh_ctl = None
+    if h_ok:
+        dh = (a["truth_alt_m"] - home_truth_alt_m) - (a["tgt_alt_m"] - home_est_alt_m)
+        dh_ctl = a["est_alt_m"] - a["tgt_alt_m"]
+    fly = armed & np.isin(kind, (QUAD_MOVE, QUAD_HOLD))
+    out["alt_rms_m"] = rms(dh[fly]) if h_ok and fly.any() else None
+    out["alt_max_err_m"] = float(np.max(np.abs(dh[fly]))) if h_ok and fly.any() else None
+    # holds and loiters
+    hold = armed & (a["hold"] > 0)
+    if hold.any():
+        out["hold_time_s"] = float(np.sum(np.diff(a["t_s"], prepend=a["t_s"][0])[hold]))
+        out["hold_pos_rms_m"] = rms(np.hypot(tn - gn, te - ge)[hold])
+        out["hold_pos_ctl_rms_m"] = rms(np.hypot(en - gn, ee - ge)[hold])
+        out["hold_alt_rms_m"] = rms(dh[hold]) if h_ok else None
+        out["hold_alt_ctl_rms_m"] = rms(dh_ctl[hold]) if h_ok else None
+    else:
+        out["hold_time_s"] = 0.0
+        out["hold_pos_rms_m"] = out["hold_pos_ctl_rms_m"] = None
+        out["hold_alt_rms_m"] = out["hold_alt_ctl_rms_m"] = None
+    # the last landing: the last armed sample of a landing descent
+    land = np.flatnonzero(armed & (kind == QUAD_LAND))
+    if land.size:
+        i = land[-1]
+        out["land_error_m"] = float(math.hypot(tn[i] - gn[i], te[i] - ge[i]))
+        out["land_error_ctl_m"] = float(math.hypot(en[i] - gn[i], ee[i] - ge[i]))
+    else:
+        out["land_error_m"] = out["land_error_ctl_m"] = None
+    flying = armed & np.isin(kind, QUAD_FLYING)
+    if flying.any():
+        c = np.cos(a["truth_roll_rad"][flying]) * np.cos(a["truth_pitch_rad"][flying])
+        out["max_tilt_deg"] = float(np.degrees(np.max(np.arccos(np.clip(c, -1.0, 1.0)))))
+    else:
+        out["max_tilt_deg"] = None
+    return out
+
+
 def run_summary(session) -> dict:
     """summary.json of a finished in-process session (tools.runner.Session)."""
     v = session.vehicle
@@ -153,7 +241,10 @@ def run_summary(session) -> dict:
     total = seq.total_items if seq else max(len(session.mission) - 1, 0)
     completed = bool(seq is not None and seq.finished and seq.rtl_established and not session.crashed)
     home_est = v.home_frame.alt0_m if v.home_frame is not None else None
-    figs = flight_figures(a, v.home_truth_alt_m, home_est)
+    if session.cfg.vehicle == "quad":
+        figs = quad_figures(a, v.home_truth_alt_m, home_est)
+    else:
+        figs = flight_figures(a, v.home_truth_alt_m, home_est)
     sim_time = session.t_s
     wall = session.wall_loop_s
     s = {
@@ -199,6 +290,7 @@ def format_summary(s: dict) -> str:
     keys = ["vehicle", "nav_source", "seed", "completed", "mission_items_reached",
             "mission_items_total", "sim_time_s", "wall_time_s", "realtime_factor",
             "xtrack_rms_m", "xtrack_max_m", "alt_rms_m", "airspeed_rms_mps",
+            "hold_pos_rms_m", "hold_alt_rms_m", "land_error_m", "max_tilt_deg",
             "nav_pos_h_rms_m", "gps_pos_h_rms_m", "nav_pos_v_rms_m", "nav_vel_rms_mps",
             "nav_roll_pitch_rms_deg", "nav_yaw_rms_deg", "nav_consistency_3sigma"]
     lines = [f"{k:>24}: {_fmt(s.get(k))}" for k in keys if k in s]

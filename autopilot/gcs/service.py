@@ -168,8 +168,10 @@ class GcsService:
         self.core.outbox = []
         peers = self.links.peers
         clients = self.core.clients
+        logged = set()
         for cid, msg, telemetry in out:
-            if self.tlog is not None:
+            if self.tlog is not None and id(msg) not in logged:
+                logged.add(id(msg))
                 buf = self._encode(self._log_codec, msg, False)
                 if buf is not None:
                     self.tlog.write(self.t_us, buf)

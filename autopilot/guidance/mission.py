@@ -80,6 +80,7 @@ class MissionSequencer:
         self._takeoff_heading: float | None = None
         self._leg_along0: float | None = None
         self._v_ned = np.zeros(3)
+        self._direct = False      # turning towards the waypoint before joining its leg
         self._arc = None          # the fillet being flown: (centre, radius, dir, angle, B)
         self._arc_angle = 0.0
         self._arc_last: float | None = None
@@ -289,11 +290,13 @@ class MissionSequencer:
             if gs > 5.0:
                 chi = math.atan2(float(v_ned[1]), float(v_ned[0]))
                 chi_direct = math.atan2(b_ne[1] - p_ne[1], b_ne[0] - p_ne[0])
-                if abs(wrap_pi(chi_leg - chi)) > math.radians(90.0):
-                    if abs(wrap_pi(chi_direct - chi)) > math.radians(20.0):
+                if self._direct or abs(wrap_pi(chi_leg - chi)) > math.radians(90.0):
+                    if abs(wrap_pi(chi_direct - chi)) > math.radians(5.0):
+                        self._direct = True
                         return NavTarget("direct", item.seq, self.leg_id, self._prev_alt,
                                          self.airspeed_mps, a_ne=p_ne, b_ne=b_ne)
                     a_ne = p_ne
+            self._direct = False
             self._leg_start = a_ne
             self._leg_start_alt = self._prev_alt
         a_ne = self._leg_start

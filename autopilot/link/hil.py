@@ -100,8 +100,10 @@ class AutopilotHilEnd:
     answers each one with HIL_ACTUATOR_CONTROLS.
 
     ``poll()`` returns the new steps to run as ``(SensorFrame, TruthSample | None)``;
-    after running one, call ``answer(outputs)``. Other messages from the simulator (for
-    instance COMMAND_ACK of a relayed fault injection) are kept in ``self.other``.
+    after running one, call ``answer(outputs)``. The simulator's battery (BATTERY_STATUS,
+    1 Hz) is kept as ``self.battery``; ``relay_command`` sends a COMMAND_LONG (fault
+    injection from a ground station) and ``take_command_acks`` returns the simulator's
+    COMMAND_ACKs. Other messages from the simulator are kept in ``self.other``.
     """
 
     def __init__(self, transport, codec: Codec | None = None):
@@ -113,6 +115,8 @@ class AutopilotHilEnd:
         self._last_answer: bytes | None = None
         self.duplicates = 0
         self.other: list = []
+        self.acks: list = []
+        self.battery = None
 
     def poll(self, timeout_s: float = 0.0) -> list[tuple[SensorFrame, TruthSample | None]]:
         steps = []
@@ -139,8 +143,24 @@ class AutopilotHilEnd:
             elif mid == ID_STATE:
                 self._truth = TruthSample(msg.values)
             elif mid is None:
-                self.other.append(msg)
+                kind = msg.get_type()
+                if kind == "BATTERY_STATUS":
+                    self.battery = msg
+                elif kind == "COMMAND_ACK":
+                    self.acks.append(msg)
+                else:
+                    self.other.append(msg)
         return steps
+
+    def relay_command(self, command: int, params) -> None:
+        """COMMAND_LONG to the simulator (MAV_CMD_INJECT_FAILURE from a ground station)."""
+        p = [float(x) for x in params] + [0.0] * (7 - len(params))
+        self.transport.send(self.codec.encode(MAV.MAVLink_command_long_message(
+            SIM_SYSTEM_ID, SIM_COMPONENT_ID, command, 0, *p[:7])))
+
+    def take_command_acks(self) -> list:
+        acks, self.acks = self.acks, []
+        return acks
 
     def answer(self, outputs: ActuatorOutputs) -> None:
         controls = tuple(outputs.controls) + (0.0,) * (16 - len(outputs.controls))
