@@ -227,7 +227,12 @@ def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
     print(f"  time per 10 ms step by block (nav {nav}), microseconds:")
     for label in sorted(timers.total, key=lambda k: -timers.total[k]):
         print(f"    {label:28s} {timers.total[label] / steps * 1e6:8.1f}")
-    nav_obj = s.vehicle.nav
-    if hasattr(nav_obj, "timing"):
-        for k, v in nav_obj.timing().items():
-            print(f"    nav {k:24s} {v:8.1f}")
+    # the filters alone, on the navigation simulator's manoeuvring flight
+    from autopilot.nav.bench import bench as nav_bench
+    from autopilot.nav.ukf import InsGpsUkf
+    from autopilot.nav.ekf import InsGpsEkf
+    print("  navigation filters alone, per 100 Hz step (best of 3), microseconds:")
+    for name, cls, secs in (("EKF", InsGpsEkf, 20.0), ("UKF", InsGpsUkf, 5.0)):
+        r = nav_bench(cls, aux_hz=50.0, seconds=secs, repeats=3)
+        print(f"    {name}: predict {r['predict_us']:7.1f}   update {r['update_us']:7.1f}   "
+              f"step {r['step_us']:7.1f}")
