@@ -32,45 +32,88 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--duration", type=float, default=1e9, help="stop after this much simulated time [s]")
     ap.add_argument("--log-dir", help="write flight.npz and params.parm here at the end")
     ap.add_argument("--connect-timeout", type=float, default=30.0)
+    ap.add_argument("--gcs", action="append", nargs="?", const="default", metavar="URL",
+                    help="serve ground stations (tcpin:/udpout:/udpin:HOST:PORT, repeatable; alone: "
+                         "tcpin:0.0.0.0:5760 + udpout:127.0.0.1:14550) and wait for one to fly")
+    ap.add_argument("--param-store", help="with --gcs: parameters persisted across runs")
     return ap
+
+
+def _gcs_urls(values) -> tuple[str, ...] | None:
+    from .gcs import DEFAULT_URLS, parse_url
+    if not values:
+        return None
+    urls = []
+    for u in values:
+        for part in (DEFAULT_URLS if u == "default" else (u,)):
+            parse_url(part)
+            if part not in urls:
+                urls.append(part)
+    return tuple(urls)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        gcs_urls = _gcs_urls(args.gcs)
         mission = load_mission(args.mission)
-        params = ParamStore(plane_param_declarations())
+        decls = list(plane_param_declarations())
+        if gcs_urls is not None:
+            from .gcs import GCS_PARAMS, load_lenient
+            decls += list(GCS_PARAMS)
+        params = ParamStore(decls)
+        if gcs_urls is not None and args.param_store and Path(args.param_store).exists():
+            load_lenient(params, Path(args.param_store))
         if args.params:
             params.load(args.params)
         transport = open_url(args.sim, connect_timeout_s=args.connect_timeout)
-    except (MissionFileError, ParamError, TransportError, FileNotFoundError) as e:
+    except (MissionFileError, ParamError, TransportError, FileNotFoundError, ValueError) as e:
         print(f"autopilot: error: {e}", file=sys.stderr)
         return 2
     if args.sim.startswith(("udp:", "udpout:")):
         transport.send(b"")  # make ourselves known to a udpin simulator
     log = FlightLog(LOG_COLUMNS)
-    vehicle = PlaneVehicle(params, mission, args.nav, autostart=True, log=log)
+    vehicle = PlaneVehicle(params, mission, args.nav, autostart=gcs_urls is None, log=log)
     end = AutopilotHilEnd(transport)
+    gcs = None
+    if gcs_urls is not None:
+        from .gcs import GcsService
+        try:
+            gcs = GcsService(vehicle, gcs_urls, hil=end, param_store_path=args.param_store,
+                             tlog_path=Path(args.log_dir) / "gcs.tlog" if args.log_dir else None)
+        except OSError as e:
+            print(f"autopilot: error: --gcs: {e}", file=sys.stderr)
+            transport.close()
+            return 2
+        print(f"autopilot: {gcs.describe()}", file=sys.stderr, flush=True)
     last_rx = time.monotonic()
     t_s = 0.0
     try:
         while t_s < args.duration:
-            steps = end.poll(timeout_s=0.5)
+            steps = end.poll(timeout_s=0.5 if gcs is None else 0.005)
             for frame, truth in steps:
-                end.answer(vehicle.step(frame, truth))
+                out = vehicle.step(frame, truth)
+                end.answer(out)
                 t_s = frame.t_us * 1e-6
+                if gcs is not None:
+                    gcs.after_step(frame, out)
+                    gcs.step(frame.t_us)
             if steps:
                 last_rx = time.monotonic()
             elif getattr(transport, "closed", False) or time.monotonic() - last_rx > 10.0:
                 break
+            elif gcs is not None:
+                gcs.wait(0.005)
             seq = vehicle.sequencer
-            if seq is not None and seq.finished and seq.rtl_established:
+            if gcs is None and seq is not None and seq.finished and seq.rtl_established:
                 print(f"autopilot: mission complete at t={t_s:.1f} s", file=sys.stderr)
                 break
     except KeyboardInterrupt:
         pass
     finally:
         transport.close()
+        if gcs is not None:
+            gcs.close()
     if args.log_dir:
         d = Path(args.log_dir)
         d.mkdir(parents=True, exist_ok=True)

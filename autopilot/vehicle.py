@@ -13,6 +13,7 @@ the local NED frame of home (``home_frame``). Mission item 0 is replaced by that
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -26,6 +27,7 @@ from .messages import ActuatorOutputs, NavState, SensorFrame
 from .mission.items import Mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
+from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, FaultMonitor
 from .params import Param, ParamStore
 
 GUIDANCE_PARAMS = (
@@ -60,13 +62,14 @@ LOG_COLUMNS = (
     "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
     "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
     "gps_n_m", "gps_e_m", "gps_alt_m",
-)
+) + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
+_FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 _NAN9 = (math.nan,) * 9
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 
 
 def plane_param_declarations() -> list[Param]:
-    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS)
+    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(FDI_PARAMS)
     try:
         from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
         decls += list(NAV_PARAMS)
@@ -120,6 +123,9 @@ class PlaneVehicle:
         self.mission = mission
         self.nav_source = nav_source
         self.nav = make_nav(nav_source, params)
+        # fault monitor on the filter's innovations (none on truth navigation)
+        self.monitor = FaultMonitor(params, self.nav) if hasattr(self.nav, "innovations") else None
+        self._fdi_events = 0
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.l1 = L1Guidance(params["NAVL1_PERIOD"], params["NAVL1_DAMPING"])
@@ -131,6 +137,7 @@ class PlaneVehicle:
         self.sequencer: MissionSequencer | None = None
         self.nav_state: NavState | None = None
         self.target: NavTarget | None = None
+        self.hold: NavTarget | None = None      # LOITER / GUIDED: the circle to fly
         self.xtrack_m = 0.0
         self.healthy_since_us: int | None = None
         self.gps_fix_type = 0
@@ -182,7 +189,37 @@ class PlaneVehicle:
             return f"mode {int(mode)} not implemented"
         if mode != self.mode:
             self.log.event(t_us * 1e-6, f"mode {mode.name}")
+            if mode in (PlaneMode.LOITER, PlaneMode.GUIDED) and self.nav_state is not None:
+                nav = self.nav_state  # circle where we are, at this height
+                self.hold = self._hold_at(nav.lat_rad, nav.lon_rad, nav.alt_m)
         self.mode = mode
+        return None
+
+    def _hold_at(self, lat_rad: float, lon_rad: float, alt_m: float) -> NavTarget | None:
+        if self.home_frame is None:
+            return None
+        p = self.home_frame.to_ned_fast(lat_rad, lon_rad, alt_m)
+        seq = self.sequencer
+        return NavTarget("loiter", self.current_seq(), (seq.leg_id + 1) if seq else 0, alt_m,
+                         seq.airspeed_mps if seq else self.params["TRIM_ARSPD"],
+                         c_ne=(float(p[0]), float(p[1])), radius_m=self.params["LOITER_RAD"], direction=1)
+
+    def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
+        """GUIDED: circle (lat, lon) at alt_m MSL (ArduPlane's guided waypoint)."""
+        if self.mode != PlaneMode.GUIDED or not self.armed or self.home_frame is None:
+            return "not in GUIDED flight"
+        self.hold = self._hold_at(lat_rad, lon_rad, alt_m)
+        self.log.event(t_us * 1e-6, "guided target")
+        return None
+
+    def set_speed(self, airspeed_mps: float, t_us: int) -> str | None:
+        """DO_CHANGE_SPEED: the airspeed demand, within ARSPD_FBW_MIN..MAX."""
+        if self.sequencer is None:
+            return "not armed"
+        lo, hi = self.params["ARSPD_FBW_MIN"], self.params["ARSPD_FBW_MAX"]
+        self.sequencer.airspeed_mps = min(max(airspeed_mps, lo), hi)
+        if self.hold is not None:
+            self.hold = dataclasses.replace(self.hold, airspeed_mps=self.sequencer.airspeed_mps)
         return None
 
     @property
@@ -259,6 +296,18 @@ class PlaneVehicle:
         self.nav_state = nav
         self.euler = quat_to_euler(nav.q_nb)  # (roll, pitch, yaw), computed once per step
 
+        # navigation -> fault monitor
+        mon = self.monitor
+        if mon is not None:
+            mon.update(t_us, self.armed and not self.landed)
+            if len(mon.events) > self._fdi_events:
+                for t_s, _sev, text in mon.events[self._fdi_events:]:
+                    self.log.event(t_s, text)
+                self._fdi_events = len(mon.events)
+            if mon.failsafe == "RTL" and self.armed and self.mode not in (PlaneMode.RTL, PlaneMode.MANUAL):
+                mon.failsafe = None
+                self.set_mode(PlaneMode.RTL, t_us)
+
         # modes
         if not self.armed and self.autostart:
             if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
@@ -281,9 +330,14 @@ class PlaneVehicle:
         hf = self.home_frame
         p_ned = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
         yaw = self.euler[2]
-        if self.mode == PlaneMode.RTL and not self.sequencer.finished:
-            self.sequencer.finished = True  # RTL mode: go straight to the home loiter
-        tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
+        if self.mode in (PlaneMode.LOITER, PlaneMode.GUIDED):
+            if self.hold is None or self.landed:
+                return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
+            tgt = self.hold
+        else:
+            if self.mode == PlaneMode.RTL and not self.sequencer.finished:
+                self.sequencer.finished = True  # RTL mode: go straight to the home loiter
+            tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
         self.target = tgt
         v_ne = (float(nav.v_ned[0]), float(nav.v_ned[1]))
         p_ne = (float(p_ned[0]), float(p_ned[1]))
@@ -353,4 +407,5 @@ class PlaneVehicle:
             tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],
-        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row)
+        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row
+            + (self.monitor.log_row() if self.monitor is not None else _FDI_IDLE))

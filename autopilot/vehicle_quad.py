@@ -48,9 +48,9 @@ R_AIR = 287.05287
 
 QUAD_VEHICLE_PARAMS = (
     Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
-    Param("QD_NAV_DIV", 3, 1, 10, "", "run the navigation filter every Nth step (output predictor between)", is_int=True),
+    Param("QD_NAV_DIV", 4, 1, 10, "", "run the navigation filter every Nth step (output predictor between)", is_int=True),
     Param("QD_NAV_AUX_HZ", 25.0, 1.0, 250.0, "Hz", "fuse magnetometer / barometer (averaged) at most this often"),
-    Param("QD_LOG_DIV", 2, 1, 100, "", "flight log: one row every Nth step", is_int=True),
+    Param("QD_LOG_DIV", 4, 1, 100, "", "flight log: one row every Nth step (and at every GPS fix)", is_int=True),
     Param("LAND_DET_S", 0.5, 0.1, 5.0, "s", "land detector: conditions held this long"),
     Param("PILOT_THR_HOV", 0.41, 0.1, 0.9, "", "STABILIZE: collective command without a pilot"),
     Param("PILOT_SPEED_UP", 2.5, 0.1, 10.0, "m/s", "ALT_HOLD: climb rate at full stick"),
@@ -291,6 +291,7 @@ class QuadVehicle:
         self.steps = 0
         self._gps_this_step = None
         self._land_since_us: int | None = None
+        self._log_div = int(params["QD_LOG_DIV"])
         self._alt_ref = 0.0                     # ALT_HOLD height reference (home frame, up)
         self._yaw_hold = 0.0
         self.euler = (0.0, 0.0, 0.0)
@@ -435,6 +436,8 @@ class QuadVehicle:
         except ParamError as e:
             return str(e)
         self.ctrl.configure()
+        self.navigator.traj.w = self.params["WPNAV_SMOOTH"]
+        self._log_div = int(self.params["QD_LOG_DIV"])
         return None
 
     def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float,
@@ -447,14 +450,24 @@ class QuadVehicle:
         self.log.event(t_us * 1e-6, "guided target")
         return None
 
+    def guided_takeoff(self, height_m: float, t_us: int) -> str | None:
+        """GUIDED on the ground (MAV_CMD_NAV_TAKEOFF): climb to ``height_m`` above home."""
+        if self.mode != CopterMode.GUIDED or not self.armed:
+            return "takeoff needs GUIDED and armed"
+        if not self.on_ground:
+            return "already flying"
+        self.navigator.takeoff(self.p_home, max(height_m, 0.5))
+        self.log.event(t_us * 1e-6, f"guided takeoff to {height_m:.1f} m")
+        return None
+
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
         t_us = frame.t_us
         dt = self.dt_nominal if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
         self.last_t_us = t_us
         self.steps += 1
-        self._gps_this_step = frame.gps
         if frame.gps is not None:
+            self._gps_this_step = frame.gps     # logged with the next row
             self.gps_fix_type = frame.gps.fix_type
         if frame.baro is not None and frame.baro.temperature_k > 150.0:
             # air density for the thrust model (thrust at full command ~ rho)
@@ -494,7 +507,7 @@ class QuadVehicle:
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)
-        if self.steps % int(self.params["QD_LOG_DIV"]) == 0 or not self.log.rows:
+        if self.steps % self._log_div == 0 or self._gps_this_step is not None or not self.log.rows:
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs(t_us, motors, self.armed)
 
@@ -609,9 +622,9 @@ class QuadVehicle:
         p = self.p_home
         er, ep, ey = self.euler
         if truth is not None:
-            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-            tr, tp, ty = quat_to_euler(truth.q_nb)
-            tv = truth.v_ned
+            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
+            tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
+            tv = truth.v_ned.tolist()
             t_alt, t_as = truth.alt_m, truth.airspeed_mps
         else:
             p_tru = (math.nan, math.nan, math.nan)
@@ -631,13 +644,14 @@ class QuadVehicle:
                        tgt.goal_ne[0], tgt.goal_ne[1], tgt.leg_a[0], tgt.leg_a[1])
             hold = float(tgt.hold)
         sig = _NAN9
-        if hasattr(self.nav, "P"):
-            d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
-            sig = tuple(d.tolist())
+        P = getattr(self.nav, "P", None)
+        if P is not None:
+            sig = tuple(math.sqrt(x) if x > 0.0 else 0.0 for x in P.diagonal()[:9].tolist())
         gps = self._gps_this_step
         if gps is not None:
-            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
+            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)
+            self._gps_this_step = None
         else:
             gps_row = (math.nan, math.nan, math.nan)
         seq = float(tgt.seq) if tgt is not None else 0.0

@@ -21,6 +21,7 @@ from autopilot.mission.files import (
     save_waypoints,
 )
 from autopilot.mission.items import (
+    NAV_LAND,
     DO_CHANGE_SPEED,
     DO_JUMP,
     DO_SET_HOME,
@@ -125,14 +126,14 @@ def test_missions_folder_holds_the_expected_files():
 
 
 @pytest.mark.parametrize("path", MISSION_FILES, ids=lambda p: p.name)
-def test_every_shipped_mission_loads_valid_and_ends_in_rtl(path):
+def test_every_shipped_mission_loads_valid_and_ends_in_rtl_or_land(path):
     mission = load_mission(path)
     assert validate_mission(mission.items) is None
     assert all(validate_item(it) is None for it in mission)
     assert mission.home.seq == 0 and mission.home.command == NAV_WAYPOINT
     assert mission.home.frame == FRAME_GLOBAL
     assert mission[1].command == NAV_TAKEOFF
-    assert mission[-1].command == NAV_RETURN_TO_LAUNCH
+    assert mission[-1].command in (NAV_RETURN_TO_LAUNCH, NAV_LAND)
     assert [it.seq for it in mission] == list(range(len(mission)))
 
 

@@ -102,9 +102,11 @@ def test_gyro_and_accel_biases_converge(bias_run):
     np.testing.assert_allclose(filt.gyro_bias, cfg.gyro_bias, atol=5e-4)
     np.testing.assert_allclose(filt.accel_bias, cfg.accel_bias, atol=0.02)
     np.testing.assert_allclose(filt.nom.wind, cfg.wind_ned[:2], atol=0.2)
-    # and the attitude is consistent with its covariance from the first minute on
+    # and velocity and attitude are consistent with their covariance after 30 s
+    # (position consistency over a 3-minute run depends on the GPS error's draw -- the
+    # Gauss-Markov part is not separable from the position within tau; long_run checks it)
     a = accuracy(trace, sim, 30.0)
-    assert a["inside_3sigma_min"] >= 0.95, a
+    assert a["inside_3sigma"][3:].min() >= 0.95, a
     assert a["roll_rms_deg"] < 0.5 and a["pitch_rms_deg"] < 0.5 and a["yaw_rms_deg"] < 2.0, a
 
 
@@ -164,8 +166,9 @@ def test_outage_dead_reckoning(outage_run):
     sig_h = np.hypot(trace.sigma[:, 0], trace.sigma[:, 1])
     # THEN the horizontal error after 30 s without GPS is within 30 m,
     assert herr[k_out] <= 30.0, herr[k_out]
-    # the position variance rises all through the outage (not the GPS bias states' share),
-    assert np.all(np.diff(sig_h[k_in + 10:k_out]) > -1e-9)
+    # the position variance rises all through the outage, every second (the air data
+    # fused at 50 Hz take a little off between predictions: a sawtooth on the rise),
+    assert np.all(np.diff(sig_h[k_in + 10:k_out:100]) > 0.0)
     assert sig_h[k_out] > 2.0 * sig_h[k_in]
     # and the filter's 3 sigma holds the error
     assert np.all(herr[k_in:k_out] <= 3.0 * sig_h[k_in:k_out])
@@ -181,11 +184,12 @@ def test_reacquisition_after_outage(outage_run):
     assert first and first[0].fused and not first[0].rejected
     assert herr[k_10] < 3.0, herr[k_10]
     # no step moves the estimate (relative to the truth) by more than that step's GPS
-    # position innovation warrants, nor by more than 5 cm between fixes,
+    # position innovation warrants (+10 %: the current position's correction includes
+    # the latency's share of the velocity correction), nor by more than 5 cm between fixes,
     for k in range(k_back, k_10):
         step = float(np.linalg.norm(trace.p_err[k, :2] - trace.p_err[k - 1, :2]))
         gps = [r for r in trace.records[k] if r.source == "gps_pos"]
-        allowed = float(np.linalg.norm(gps[0].innovation[:2])) + 0.05 if gps else 0.05
+        allowed = 1.1 * float(np.linalg.norm(gps[0].innovation[:2])) + 0.05 if gps else 0.05
         assert step <= allowed, (trace.t_s[k], step, allowed)
     # and nothing diverges afterwards
     assert herr[k_10:].max() < 5.0
@@ -302,9 +306,11 @@ def _measurements_of(f) -> SensorFrame:
     vr = np.array(nom.v) - np.array([*nom.wind, 0.0])
     t = 1_000_000
     lat, lon, alt = f.origin.to_geodetic_fast(np.array(nom.p) + np.array(nom.gb))
+    # the pitot's dynamic pressure of that true airspeed in the barometer's air
+    qbar = 0.5 * 1e5 / (287.05287 * 288.0) * float(vr @ vr)
     return SensorFrame(t, ImuSample(t, np.zeros(3), np.zeros(3)), MagSample(t, R.T @ field),
                        BaroSample(t, 1e5, f.origin.alt0_m - nom.p[2] + nom.bb, 288.0),
-                       AirspeedSample(t, 300.0, float(np.linalg.norm(vr))),
+                       AirspeedSample(t, qbar, math.sqrt(2.0 * qbar / 1.225)),
                        GpsFix(t, lat, lon, alt, np.array(nom.v), 1.6, 2.6, 3, 12))
 
 
@@ -319,11 +325,12 @@ def test_measurement_jacobians_match_finite_differences(i):
     frame = _measurements_of(truth)
     est = _aligned_filter()
     # WHEN it forms this step's innovations from the true state's measurements
-    batch = est._assemble(frame, frame.gps)
+    batch = est._assemble(frame, frame.gps, est._accumulate_aux(frame))
     y = batch.z - batch.h0
     # (sideslip is a pseudo-measurement of zero: compare the change of its prediction)
     k = batch.src.index("sideslip")
-    y[batch.start[k]] = truth._assemble(frame, frame.gps).h0[batch.start[k]] - batch.h0[batch.start[k]]
+    h_true = truth._assemble(frame, frame.gps, truth._accumulate_aux(frame)).h0
+    y[batch.start[k]] = h_true[batch.start[k]] - batch.h0[batch.start[k]]
     # THEN y = H dx to first order for every source
     np.testing.assert_allclose(y / eps, batch.H @ dx / eps, atol=1e-3, err_msg=str(batch.src))
 

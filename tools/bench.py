@@ -166,12 +166,20 @@ def bench_quad_memory(seconds: float, nav: str, timers: _Timers | None = None) -
             timers.wrap(v.nav, "update", "navigation (filter + predictor)")
         timers.wrap(v, "_fly", "guidance + control")
         timers.wrap(v, "_log", "flight log")
-    t_end = s.t_s + seconds
+    t_start = s.t_s
+    t_end = t_start + seconds
     t0 = time.perf_counter()
+    best = 0.0
     while s.t_s < t_end and not s.done():
-        s.step()
+        # 5 s windows: the best one shows the speed when the machine is not shared
+        w0, sim0 = time.perf_counter(), s.t_s
+        while s.t_s < min(sim0 + 5.0, t_end) and not s.done():
+            s.step()
+        if s.t_s - sim0 >= 4.99:
+            best = max(best, (s.t_s - sim0) / (time.perf_counter() - w0))
     wall = time.perf_counter() - t0
-    return (s.t_s - (t_end - seconds)) / wall, s
+    s.bench_best_window_rtf = best
+    return (s.t_s - t_start) / wall, s
 
 
 def run_quad_bench(seconds: float = 60.0) -> None:
@@ -184,8 +192,9 @@ def run_quad_bench(seconds: float = 60.0) -> None:
     for nav in ("truth", "ekf"):
         rtf, s = bench_quad_memory(seconds, nav)
         rows[nav] = rtf
-        extra = f" (filter every {int(s.params['QD_NAV_DIV'])} steps)" if nav != "truth" else ""
-        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time{extra}")
+        extra = f"; filter every {int(s.params['QD_NAV_DIV'])} steps" if nav != "truth" else ""
+        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time "
+              f"(best 5 s window {s.bench_best_window_rtf:.1f}{extra})")
     timers = _Timers()
     _, s = bench_quad_memory(min(seconds, 30.0), "ekf", timers)
     steps = max(timers.count["plant"], 1)

@@ -5,6 +5,11 @@
 * ``xtrack.png``    cross-track error on the straight legs (counted part highlighted)
 * ``nav_error.png`` estimate error of each state with its +-3 sigma bound (when the
                     log carries the filter's sigmas)
+
+Quadrotor runs: ``track.png``, ``alt.png`` (height, distance from the reference and the
+hold points), ``attitude.png`` (roll, pitch, yaw against the attitude loops'
+references), ``motors.png`` (the four motor commands and the effective inputs of eq
+3.30) and ``nav_error.png``.
 """
 from __future__ import annotations
 
@@ -54,6 +59,12 @@ def make_report(run_dir: Path) -> list[Path]:
     plt.close(fig)
     out.append(p)
 
+    if "motor_1" in a:           # the quadrotor's log (autopilot/vehicle_quad.py)
+        out += _quad_pictures(plt, run_dir, a, armed, summary)
+        if "sig_pn_m" in a:
+            out.append(_nav_error(plt, run_dir, a, armed))
+        return out
+
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
     ax1.plot(t[armed], a["truth_alt_m"][armed], label="true altitude")
     ax1.plot(t[armed], a["tgt_alt_m"][armed], "--", label="target")
@@ -89,6 +100,79 @@ def make_report(run_dir: Path) -> list[Path]:
     if "sig_pn_m" in a:
         out.append(_nav_error(plt, run_dir, a, armed))
     return out
+
+
+def _quad_pictures(plt, run_dir: Path, a: dict, armed: np.ndarray, summary: dict) -> list[Path]:
+    """Quadrotor: ``alt.png`` height against its reference; ``attitude.png`` roll,
+    pitch and yaw (true and estimated) against the references of the attitude loops;
+    ``motors.png`` the four motor commands and the total thrust command."""
+    t = a["t_s"]
+    out = []
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    ax1.plot(t[armed], a["truth_alt_m"][armed], label="true altitude")
+    ax1.plot(t[armed], a["est_alt_m"][armed], lw=0.6, label="estimate")
+    ax1.plot(t[armed], a["tgt_alt_m"][armed], "--", label="reference")
+    ax1.set_ylabel("altitude MSL [m]")
+    ax1.legend()
+    ax1.grid(True, alpha=0.3)
+    hold = armed & (a["hold"] > 0)
+    ax2.plot(t[armed], np.hypot(a["truth_n_m"] - a["tgt_n_m"], a["truth_e_m"] - a["tgt_e_m"])[armed],
+             lw=0.6, label="true distance from the reference")
+    ax2.plot(t[hold], np.hypot(a["truth_n_m"] - a["goal_n_m"], a["truth_e_m"] - a["goal_e_m"])[hold],
+             ".", ms=1.5, label="from the hold point (holds)")
+    ax2.set_ylabel("horizontal [m]")
+    ax2.set_xlabel("time [s]")
+    ax2.set_title(f"hold_pos_rms_m {_fmt(summary.get('hold_pos_rms_m'))}, "
+                  f"land_error_m {_fmt(summary.get('land_error_m'))}")
+    ax2.legend()
+    ax2.grid(True, alpha=0.3)
+    p = run_dir / "alt.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+
+    fig, axes = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
+    for ax, name in zip(axes, ("roll", "pitch", "yaw")):
+        series = [a[f"truth_{name}_rad"][armed], a[f"est_{name}_rad"][armed], a[f"cmd_{name}_rad"][armed]]
+        if name == "yaw":        # continuous through +-180 deg, all on the truth's branch
+            base = np.unwrap(np.nan_to_num(series[0]))
+            series = [base] + [base + (s_ - series[0] + np.pi) % (2 * np.pi) - np.pi for s_ in series[1:]]
+        ax.plot(t[armed], np.degrees(series[0]), lw=0.8, label="true")
+        ax.plot(t[armed], np.degrees(series[1]), lw=0.6, ls=":", label="estimate")
+        ax.plot(t[armed], np.degrees(series[2]), "--", lw=0.8, label="reference")
+        ax.set_ylabel(f"{name} [deg]")
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right")
+    axes[0].set_title(f"Attitude against its references (max tilt {_fmt(summary.get('max_tilt_deg'))} deg)")
+    axes[-1].set_xlabel("time [s]")
+    p = run_dir / "attitude.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
+    names = ("1 aft", "2 left", "3 front", "4 right")
+    for k in range(4):
+        ax1.plot(t[armed], a[f"motor_{k + 1}"][armed], lw=0.7, label=f"motor {names[k]}")
+    ax1.set_ylabel("command 0..1")
+    ax1.set_ylim(-0.02, 1.02)
+    ax1.legend(loc="upper right", ncol=4)
+    ax1.grid(True, alpha=0.3)
+    ax2.plot(t[armed], a["cmd_thrust_n"][armed], lw=0.7, label="total thrust u_z [N]")
+    for col, lab in (("u_roll_n", "u_phi"), ("u_pitch_n", "u_theta"), ("u_yaw_n", "u_psi")):
+        ax2.plot(t[armed], 10.0 * a[col][armed], lw=0.6, label=f"10 x {lab} [N]")
+    ax2.set_xlabel("time [s]")
+    ax2.legend(loc="upper right", ncol=4)
+    ax2.grid(True, alpha=0.3)
+    p = run_dir / "motors.png"
+    fig.savefig(p, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    out.append(p)
+    return out
+
+
+def _fmt(v) -> str:
+    return f"{v:.3f}" if isinstance(v, float) else str(v)
 
 
 def _nav_error(plt, run_dir: Path, a: dict, armed: np.ndarray) -> Path:

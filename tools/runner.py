@@ -153,6 +153,8 @@ class Session:
             self.ap_end.answer(out)
             if gcs is not None:
                 gcs.after_step(frame, out)
+                if out.armed and truth is not None and self.vehicle.home_truth_alt_m is None:
+                    self.vehicle.home_truth_alt_m = truth.alt_m  # armed by a ground station: scoring
         controls = self.sim_end.poll_answer(self.bridge.t_us)
         self.bridge.advance(controls)
         if gcs is not None:

@@ -4,6 +4,8 @@
                 [--wind SPEED,FROM_DEG] [--turbulence LEVEL] [--seed N] [--speedup max|X]
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
+                [--gcs [URL] ...] [--param-store FILE] [--wipe]
+    sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
 """
@@ -64,14 +66,43 @@ def _config(args) -> RunConfig:
         k, v = kv.split("=", 1)
         overrides[k.strip()] = v.strip()
     default_mission = QUAD_DEFAULT_MISSION if args.vehicle == "quad" else DEFAULT_MISSION
+    gcs, param_store = _gcs_urls(args), None
+    duration = args.duration
+    if gcs is not None:
+        # interactive: real time unless told otherwise, until Ctrl-C unless told otherwise
+        if args.speedup is None:
+            speedup = 1.0
+        if duration is None:
+            duration = float("inf")
+        if not args.wipe:
+            param_store = Path(args.param_store or f"sitl-params-{args.vehicle}.parm")
     return RunConfig(vehicle=args.vehicle, airframe=airframe,
                      mission=Path(args.mission) if args.mission else default_mission,
                      scenario=scenario, wind=wind, turbulence=args.turbulence, seed=args.seed,
-                     speedup=speedup, duration_s=args.duration, nav=args.nav, home=home,
+                     speedup=speedup, duration_s=1800.0 if duration is None else duration,
+                     nav=args.nav, home=home,
                      log_dir=Path(args.log_dir) if args.log_dir else None,
-                     progress=not args.json and sys.stderr.isatty(),
+                     progress=not args.json and sys.stderr.isatty() and gcs is None,
                      params_file=Path(args.params) if args.params else None,
-                     param_overrides=overrides)
+                     param_overrides=overrides, gcs=gcs, param_store=param_store)
+
+
+def _gcs_urls(args) -> tuple[str, ...] | None:
+    """``--gcs`` alone: TCP server on 5760 + UDP out to 127.0.0.1:14550 (ArduPilot SITL's
+    links); ``--gcs URL`` (repeatable): exactly those."""
+    from autopilot.gcs import DEFAULT_URLS, LinkUrlError, parse_url
+    if not args.gcs:
+        return None
+    urls: list[str] = []
+    for u in args.gcs:
+        for part in (DEFAULT_URLS if u == "default" else (u,)):
+            try:
+                parse_url(part)
+            except LinkUrlError as e:
+                raise CliError(f"--gcs: {e}") from None
+            if part not in urls:
+                urls.append(part)
+    return tuple(urls)
 
 
 def cmd_run(args) -> int:
@@ -82,13 +113,25 @@ def cmd_run(args) -> int:
     from .summary import format_summary, run_summary
 
     cfg = _config(args)
+    if cfg.log_dir is None:
+        cfg.log_dir = Path("runs") / time.strftime(f"%Y%m%d-%H%M%S-seed{cfg.seed}")
+    log_dir = cfg.log_dir
     try:
         session = Session(cfg)
     except (MissionFileError, ScenarioError, ParamError, FileNotFoundError) as e:
         raise CliError(str(e)) from None
-    session.run()
+    except OSError as e:  # a ground-station port that cannot be opened
+        raise CliError(f"--gcs: {e}") from None
+    if session.gcs is not None:
+        print(f"sitl: {session.gcs.describe()}; waiting for a ground station "
+              f"(Ctrl-C to stop)", file=sys.stderr, flush=True)
+    try:
+        session.run()
+    finally:
+        session.close()
+    if session.gcs is not None:
+        print(f"sitl: ground stations: {session.gcs.stats()}", file=sys.stderr, flush=True)
     summary = run_summary(session)
-    log_dir = cfg.log_dir or Path("runs") / time.strftime(f"%Y%m%d-%H%M%S-seed{cfg.seed}")
     write_run(session, summary, log_dir)
     if args.json:
         print(json.dumps(summary, indent=2, sort_keys=True))
@@ -96,6 +139,14 @@ def cmd_run(args) -> int:
         print(format_summary(summary))
         print(f"{'run folder':>24}: {log_dir}")
     return 0
+
+
+def cmd_params(args) -> int:
+    from .params_cli import params_command
+    try:
+        return params_command(args)
+    except (OSError, ValueError) as e:
+        raise CliError(str(e)) from None
 
 
 def cmd_report(args) -> int:
@@ -128,7 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
     r.add_argument("--seed", type=int, default=1)
     r.add_argument("--speedup", default=None, help="'max' (default) or a real-time multiple")
-    r.add_argument("--duration", type=float, default=1800.0, help="simulated seconds at most")
+    r.add_argument("--duration", type=float, default=None,
+                   help="simulated seconds at most (default 1800; with --gcs: until Ctrl-C)")
     r.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"],
                    help="navigation source (truth is a debugging aid)")
     r.add_argument("--home", help="LAT,LON,ALT_M,HEADING_DEG (default: the mission's item 0)")
@@ -136,7 +188,22 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--param", action="append", help="NAME=VALUE parameter override (repeatable)")
     r.add_argument("--params", help=".parm file of parameters to load")
     r.add_argument("--json", action="store_true", help="print only the summary JSON on stdout")
+    r.add_argument("--gcs", action="append", nargs="?", const="default", metavar="URL",
+                   help="serve ground stations and wait for one to fly the vehicle: tcpin:HOST:PORT, "
+                        "udpout:HOST:PORT, udpin:HOST:PORT (repeatable); alone: "
+                        "tcpin:0.0.0.0:5760 + udpout:127.0.0.1:14550")
+    r.add_argument("--param-store", help="with --gcs: parameters persisted across runs "
+                                         "(default sitl-params-VEHICLE.parm here)")
+    r.add_argument("--wipe", action="store_true", help="with --gcs: start from the default parameters "
+                                                       "and persist nothing")
     r.set_defaults(func=cmd_run)
+    pp = sub.add_parser("params", help="save or load a .parm file (persistent store or a live vehicle)")
+    pp.add_argument("action", choices=["save", "load"])
+    pp.add_argument("file")
+    pp.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    pp.add_argument("--param-store", help="the persistent store (default sitl-params-VEHICLE.parm)")
+    pp.add_argument("--connect", help="a running vehicle instead, e.g. tcp:127.0.0.1:5760")
+    pp.set_defaults(func=cmd_params)
     rp = sub.add_parser("report", help="draw PNG pictures of a run folder")
     rp.add_argument("run_dir")
     rp.set_defaults(func=cmd_report)

@@ -144,6 +144,89 @@ def nav_figures(a: dict, gps_latency_s: float, fault_log=()) -> dict:
     return out
 
 
+# --- fault monitor (autopilot/monitor) ----------------------------------------------
+FAULT_GRACE_S = 10.0   # a detection this soon after a fault's "ok" is its aftermath
+
+
+def _fault_spans(fault_log, end_s: float) -> list[tuple]:
+    """(record, start_s, end_s) of every accepted non-"ok" injection; it lasts until
+    the "ok" of its unit (and instance, for servo / motor) or the end of the run."""
+    spans = []
+    for i, r in enumerate(fault_log):
+        if r.type == "ok" or not r.accepted:
+            continue
+        stop = end_s
+        for q in fault_log[i + 1:]:
+            if q.unit == r.unit and (q.unit not in ("servo", "motor") or q.instance == r.instance):
+                stop = q.at_s
+                break
+        spans.append((r, r.at_s, stop))
+    return spans
+
+
+def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
+    """``faults``: one entry per injected event with ``at_s``, ``unit``, ``type``,
+    ``instance``, ``detected_s`` (start of the first monitor detection at or after the
+    injection and before the fault ended, or one already running; null if none),
+    ``delay_s``, ``isolated`` (channel named by that detection's episode) and
+    ``isolated_s``, ``identified`` (null: actuator identification not implemented).
+    ``ok`` events get ``cleared_s`` (end of the episode running at the ok, if any).
+    ``false_alarms``: detections that start while no fault is active and not within
+    FAULT_GRACE_S after one ended. With ``t_s``/``eh`` (horizontal estimate error per
+    log sample): ``nav_pos_h_rms_during_fault_m`` over the sensor-fault spans."""
+    spans = _fault_spans(fault_log, end_s)
+    out = []
+    for r in fault_log:
+        e = {"at_s": round(r.at_s, 3), "unit": r.unit, "type": r.type, "instance": r.instance,
+             "detected_s": None, "delay_s": None, "isolated": None, "isolated_s": None,
+             "identified": None}
+        if r.type == "ok":
+            e.pop("detected_s"), e.pop("delay_s")
+            e["cleared_s"] = None
+            for ep in episodes:
+                if ep.start_s <= r.at_s + 1e-9 and (ep.end_s is None or ep.end_s >= r.at_s):
+                    e["cleared_s"] = ep.end_s
+        elif r.accepted:
+            stop = next(s1 for q, _s0, s1 in spans if q is r)
+            for ep in episodes:
+                running = ep.start_s <= r.at_s and (ep.end_s is None or ep.end_s >= r.at_s)
+                if running or r.at_s <= ep.start_s <= stop:
+                    e["detected_s"] = ep.start_s
+                    e["delay_s"] = round(max(ep.start_s - r.at_s, 0.0), 3)
+                    e["isolated"] = ep.isolated
+                    e["isolated_s"] = ep.isolated_s
+                    break
+        out.append(e)
+    false_alarms = 0
+    for ep in episodes:
+        if not any(s0 <= ep.start_s <= s1 + FAULT_GRACE_S for _r, s0, s1 in spans):
+            false_alarms += 1
+    res = {"faults": out, "false_alarms": false_alarms,
+           "fdi_episodes": [{"start_s": ep.start_s, "trigger": ep.trigger, "isolated": ep.isolated,
+                             "isolated_s": ep.isolated_s, "end_s": ep.end_s} for ep in episodes]}
+    if t_s is not None and eh is not None:
+        m = np.zeros(len(t_s), dtype=bool)
+        for r, s0, s1 in spans:
+            if r.unit not in ("servo", "motor"):
+                m |= (t_s >= s0) & (t_s <= s1)
+        m &= np.isfinite(eh)
+        res["nav_pos_h_rms_during_fault_m"] = float(np.sqrt(np.mean(eh[m] ** 2))) if m.any() else None
+    return res
+
+
+def okf_replay(cfg) -> float | None:
+    """``nav_pos_h_rms_during_fault_okf_m``: the same run (same seed, scenario, mission)
+    replayed with R adaptation off (FDI_RADAPT = 0), the plain EKF."""
+    import dataclasses
+
+    from .runner import Session
+    cfg2 = dataclasses.replace(cfg, param_overrides={**cfg.param_overrides, "FDI_RADAPT": 0},
+                               log_dir=None, progress=False, gcs=None)
+    s = Session(cfg2)
+    s.run()
+    return run_summary(s).get("nav_pos_h_rms_during_fault_m")
+
+
 # --- quadrotor (autopilot/vehicle_quad.py log) ---------------------------------------
 QUAD_MOVE, QUAD_HOLD, QUAD_LAND = 2, 3, 4
 QUAD_FLYING = (1, 2, 3, 4, 6)      # takeoff, move, hold, land, manual
@@ -160,8 +243,8 @@ def quad_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: float 
       does not count), over legs and holds;
     * ``hold_pos_rms_m`` / ``hold_alt_rms_m``: horizontal distance from the hold point,
       and the height error as above, while a timed hold or loiter runs;
-    * ``land_error_m``: horizontal distance of the touchdown (the true position when
-      the land detector stopped the motors) from the land point (the last landing);
+    * ``land_error_m``: horizontal distance of the touchdown (the true position when the
+      skids reached the ground) from the land point (the last landing);
     * ``max_tilt_deg``: largest true tilt (angle of the body z axis from the vertical)
       in flight.
 
@@ -215,10 +298,16 @@ def quad_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: float 
         out["hold_time_s"] = 0.0
         out["hold_pos_rms_m"] = out["hold_pos_ctl_rms_m"] = None
         out["hold_alt_rms_m"] = out["hold_alt_ctl_rms_m"] = None
-    # the last landing: the last armed sample of a landing descent
+    # the last landing: the touchdown is the first sample of the last descent at which
+    # the true height has reached its final value (the vehicle stays put afterwards)
     land = np.flatnonzero(armed & (kind == QUAD_LAND))
     if land.size:
-        i = land[-1]
+        gaps = np.flatnonzero(np.diff(land) > 1)
+        if gaps.size:
+            land = land[gaps[-1] + 1:]
+        h = a["truth_alt_m"][land]
+        down = np.flatnonzero(np.abs(h - h[-1]) < 0.01) if np.isfinite(h[-1]) else []
+        i = land[down[0]] if len(down) else land[-1]
         out["land_error_m"] = float(math.hypot(tn[i] - gn[i], te[i] - ge[i]))
         out["land_error_ctl_m"] = float(math.hypot(en[i] - gn[i], ee[i] - ge[i]))
     else:
@@ -270,6 +359,10 @@ def run_summary(session) -> dict:
     s.update(figs)
     latency = session.params["EK_GPS_DELAY"] if "EK_GPS_DELAY" in session.params else 0.15
     s.update(nav_figures(a, latency, session.bridge.fault_log))
+    mon = getattr(v, "monitor", None)
+    if mon is not None and len(a["t_s"]):
+        eh = np.hypot(a["est_n_m"] - a["truth_n_m"], a["est_e_m"] - a["truth_e_m"])
+        s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh))
     return s
 
 

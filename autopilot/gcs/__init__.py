@@ -10,6 +10,8 @@ pymavlink scripts (DESIGN.md section 2: the vehicle looks like ArduPilot on the 
     tlog.py       the .tlog of the link
     service.py    glue: links + codec + core, polled between lockstep steps
 """
-from .links import DEFAULT_URLS, LinkUrlError, parse_url  # noqa: F401
-from .params import GCS_PARAMS, load_lenient  # noqa: F401
-from .service import GcsService  # noqa: F401
+from .links import DEFAULT_URLS, LinkUrlError, parse_url
+from .params import GCS_PARAMS, load_lenient
+from .service import GcsService
+
+__all__ = ["DEFAULT_URLS", "GCS_PARAMS", "GcsService", "LinkUrlError", "load_lenient", "parse_url"]

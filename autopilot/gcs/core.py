@@ -152,12 +152,12 @@ class GcsCore:
         """STATUSTEXT to every client, in 50-character chunks if it is longer."""
         text = text.encode("ascii", "replace").decode("ascii")
         if len(text) <= 50:
-            self._broadcast(R.MAVLink_statustext_message(severity, text, 0, 0))
+            self._broadcast(R.MAVLink_statustext_message(severity, text.encode(), 0, 0))
             return
         self._say_id = getattr(self, "_say_id", 0) % 65535 + 1
         chunks = [text[i:i + 50] for i in range(0, len(text), 50)]
         for k, c in enumerate(chunks):
-            self._broadcast(R.MAVLink_statustext_message(severity, c, self._say_id, k))
+            self._broadcast(R.MAVLink_statustext_message(severity, c.encode(), self._say_id, k))
 
     def _ack(self, cmd: Cmd, result: int) -> None:
         self.outbox.append((self._cid, R.MAVLink_command_ack_message(cmd.command, result, 0, 0,
@@ -265,8 +265,10 @@ class GcsCore:
 
     def observe(self, frame=None, outputs=None) -> None:
         """After every vehicle step: what the telemetry needs from the step itself."""
-        if self.clients:
+        try:
             self.tm.observe(frame, outputs)
+        except Exception:  # noqa: BLE001
+            self.errors += 1
 
     def tick(self, t_us: int) -> None:
         """Between lockstep steps: streams due at ``t_us``, vehicle events, protocol timers."""
@@ -276,10 +278,17 @@ class GcsCore:
         except Exception:  # noqa: BLE001
             self.errors += 1
 
+    def timers(self) -> None:
+        """The wall-time protocol timers only (between steps, while waiting)."""
+        try:
+            self.missions.tick()
+            self.params.tick()
+        except Exception:  # noqa: BLE001
+            self.errors += 1
+
     def _tick(self, t_us: int) -> None:
         self._relay_acks()
-        self.missions.tick()
-        self.params.tick()
+        self.timers()
         self._failsafe_check(t_us)
         if not self.clients:
             self._sync_events()
@@ -439,11 +448,22 @@ class GcsCore:
         return UNSUPPORTED if mode is None else self._set_mode(int(mode), t_us)
 
     def _c_takeoff(self, c, cmd, t_us):
-        fn = getattr(self.vehicle, "takeoff", None)
-        if fn is None:
-            return UNSUPPORTED
+        v = self.vehicle
+        fn = getattr(v, "takeoff", None)
         if not _finite(cmd.alt) or not -1000.0 < cmd.alt < 50000.0:
-            return DENIED
+            return DENIED if fn is not None or v.mav_type != R.MAV_TYPE_FIXED_WING else UNSUPPORTED
+        if fn is None:
+            # a multirotor without its own: ArduCopter's GUIDED takeoff, straight up to
+            # param7 metres above home
+            nav, h = v.nav_state, self.tm.home()
+            if v.mav_type == R.MAV_TYPE_FIXED_WING or self._mode_by_name("GUIDED") is None \
+                    or getattr(v, "set_guided_target", None) is None:
+                return UNSUPPORTED
+            if v.mode != self._mode_by_name("GUIDED") or not v.armed or nav is None or h is None:
+                self.say(SEV_WARNING, "Takeoff refused: arm in GUIDED first")
+                return FAILED
+            return self._guided(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad), cmd.alt,
+                                R.MAV_FRAME_GLOBAL_RELATIVE_ALT, t_us)
         reason = fn(cmd.alt, t_us)
         if reason is not None:
             self.say(SEV_WARNING, f"Takeoff refused: {reason}")

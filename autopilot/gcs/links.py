@@ -5,7 +5,7 @@ A :class:`GcsLinks` owns every endpoint named by the ``--gcs`` URLs and turns th
 (answering whoever spoke last, as ArduPilot and MAVProxy do). It moves bytes only; the
 codec and the protocol state machines live elsewhere (sans-IO, STYLE.md lesson 10).
 
-* ``tcpin:HOST:PORT``   a server for any number of clients at once (port 0: any free)
+* ``tcpin:HOST:PORT``   a server for any number of clients at once (port 0: any free port)
 * ``udpout:HOST:PORT``  send to HOST:PORT, receive the replies on an ephemeral port
 * ``udpin:HOST:PORT``   bind, answer the last sender
 
@@ -43,7 +43,7 @@ def parse_url(url: str) -> tuple[str, str, int]:
         port = int(port_s)
     except ValueError:
         raise LinkUrlError(f"bad ground-station URL {url!r}: port is not a number") from None
-    if not 0 <= port <= 65535 or (port == 0 and kind != "tcpin"):
+    if not 0 <= port <= 65535 or (port == 0 and kind not in ("tcpin", "udpin")):
         raise LinkUrlError(f"bad ground-station URL {url!r}: port out of range")
     return ("udpout" if kind == "udp" else kind), host or "0.0.0.0", port
 
@@ -103,7 +103,7 @@ class GcsLinks:
         if kind == "udpin":
             s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             s.bind((host, port))
-            self._udp[s] = self._peer(f"udpin {host}:{port}", "udpin", s)
+            self._udp[s] = self._peer(f"udpin {host}:{s.getsockname()[1]}", "udpin", s)
         else:
             s.bind(("127.0.0.1" if host in ("127.0.0.1", "localhost") else "", 0))
             self._udp[s] = self._peer(f"udpout {host}:{port}", "udpout", s, (host, port))

@@ -94,7 +94,7 @@ class ParamServer:
         st = self.store
         decl = st.declaration(name)
         ptype = MAV.MAV_PARAM_TYPE_INT32 if decl.is_int else MAV.MAV_PARAM_TYPE_REAL32
-        return MAV.MAVLink_param_value_message(name, float(st[name]), ptype, len(st), st.index(name))
+        return MAV.MAVLink_param_value_message(name.encode("ascii"), float(st[name]), ptype, len(st), st.index(name))
 
     def handle(self, cid: int, msg, t_us: int) -> bool:
         name = msg.get_type()

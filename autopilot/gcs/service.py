@@ -67,14 +67,22 @@ class GcsService:
         ports = self.links.tcp_ports()
         return ports[0][1] if ports else None
 
+    def stats(self) -> str:
+        c = self.core
+        return (f"{self.received} messages received, {self.decode_errors} undecodable chunks, "
+                f"{c.ignored} ignored, {c.errors} handler errors, "
+                f"{c.missions.uploads_accepted} missions accepted, {c.missions.uploads_refused} refused")
+
     @property
     def clients(self) -> int:
         return sum(1 for p in self.links.peers.values() if p.kind == "tcp" or p.heard)
 
     # ---------------------------------------------------------------- the loop ---
     def after_step(self, frame=None, outputs=None) -> None:
-        if self.core.clients:
-            self.core.observe(frame, outputs)
+        for c in self.core.clients.values():
+            if c.streaming:  # someone is listening to more than heartbeats
+                self.core.observe(frame, outputs)
+                return
 
     def step(self, t_us: int) -> None:
         """Once per lockstep step."""
@@ -91,17 +99,15 @@ class GcsService:
             remaining = deadline - time.perf_counter()
             if remaining <= 0:
                 return
-            got = self.links.poll(remaining)
             if not self.links.fds():
                 time.sleep(remaining)
                 return
+            busy = self.core.params.listings or self.core.missions.upload is not None
+            got = self.links.poll(min(remaining, 0.005) if busy else remaining)
             if got:
                 self._read(got, t_us)
-                self.core.missions.tick()
-                self.core.params.tick()
-                self._write()
-            elif self.core.params.listings:
-                self.core.params.tick()
+            if got or busy:
+                self.core.timers()
                 self._write()
 
     def close(self) -> None:

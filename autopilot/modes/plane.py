@@ -11,7 +11,9 @@ class PlaneMode(IntEnum):
     MANUAL = 0      # on the ground / disarmed: surfaces neutral, throttle off
     AUTO = 10       # fly the mission
     RTL = 11        # return to home and loiter over it
-    LOITER = 12     # reserved for the ground-station issue
+    LOITER = 12     # circle where the mode was entered (LOITER_RAD), at that height
+    GUIDED = 15     # circle the ground station's target (DO_REPOSITION / SET_POSITION_TARGET)
 
 
-IMPLEMENTED_PLANE_MODES = frozenset({PlaneMode.MANUAL, PlaneMode.AUTO, PlaneMode.RTL})
+IMPLEMENTED_PLANE_MODES = frozenset({PlaneMode.MANUAL, PlaneMode.AUTO, PlaneMode.RTL,
+                                     PlaneMode.LOITER, PlaneMode.GUIDED})

@@ -3,9 +3,22 @@ resets, health and the NavState output. The two filters differ only in how they
 propagate and update the error covariance (``_predict``, ``_gate_stats``,
 ``_fuse_rows``).
 
+IMU samples: HIL_SENSOR delivers point samples. The rotation over a step is integrated
+from the mean of the gyro samples at its two ends (trapezoid), the velocity change from
+the specific-force sample at its end: in the closed loop (JSBSim) this timing fits the
+truth best (measured residuals of the rotation: 0.003 rad/s per axis against 0.009 with
+the end sample alone; a step's worth of roll-rate lead had put 0.3-0.5 deg spikes into
+roll at every turn entry). Point samples err by up to half their change over a step;
+where that exceeds the white process noise -- a catapult's 75 m/s^2 switching on and
+off within one step -- it is added to P along the change (``_set_sampling_noise``).
+
 Aiding: all measurements of one step are stacked in one :class:`Batch` (rows of
 ``z``, ``h(x)``, ``H = dh/d(dx)``, ``R``; ``y = z - h(x)``), gated one source at a time
-and fused together (equivalent to sequential updates for independent noises). Sources:
+and fused together (equivalent to sequential updates for independent noises). The aux
+sensors (barometer, magnetometer, airspeed) are fused as the means of their samples
+over 40 ms (25 Hz; 2 samples of the simulator's 50 Hz sensors; R / n for the baro and
+the heading, whose noise is white, as PX4's EKF2 downsamples its aux data): the same
+information for half the updates. Sources:
 
 * ``gps_pos`` z = NED position of a 3D fix (2D fixes are ignored), valid at
   ``t - EK_GPS_DELAY``. The innovation
@@ -16,10 +29,14 @@ and fused together (equivalent to sequential updates for independent noises). So
   H_0 (I - F L)``: for position ``H = [I, -L I, 0 ...]``. This is the delayed-state
   innovation of Larsen et al. 1998 ("Incorporation of time delayed measurements in a
   discrete-time Kalman filter") without the extra covariance bookkeeping; the process
-  noise over 0.15 s is neglected. The slow part of the GPS error is the Gauss-Markov
-  error state (layout.GPSB): ``h = p(t-L) + b_gps``, ``H[:, GPSB] = I``; R holds the white
-  part only (config.py).
-* ``gps_vel`` the same for NED velocity: ``H = [0, I, L [f_n x], L R, 0 ...]``.
+  noise over 0.15 s is neglected (its sampling-error part, large only through a
+  catapult stroke, is added to the velocity R instead). The slow part of the GPS error
+  is the Gauss-Markov error state (layout.GPSB): ``h = p(t-L) + b_gps``,
+  ``H[:, GPSB] = I``; R holds the white part only (config.py): ``eph`` is the radial
+  horizontal accuracy, ``eph / sqrt(2)`` per axis.
+* ``gps_vel`` the same for NED velocity: ``H = [0, I, [dv_f x], L R, 0 ...]`` with
+  ``dv_f`` the integral of ``f_n`` over the latency (``~ L f_n``, but right through a
+  launch); vertical variance 1.5^2 times the horizontal (as PX4's EKF2).
 * ``baro`` pressure altitude, ``h = alt0 - p_D + b_baro``: the barometer offset is an
   error state (layout.BBIAS), initialised from the first GPS altitude with the GPS's
   vertical variance, then estimated against GPS altitude.
@@ -40,10 +57,14 @@ and fused together (equivalent to sequential updates for independent noises). So
   that a heading innovation (the crab angle after an in-flight alignment) would be
   taken mostly for a tilt error, which then hides in the tilt / accelerometer-bias
   combination that straight flight cannot observe.
-* ``airspeed`` (fixed-wing) true airspeed ``h = |v - w|`` with ``w = [w_N, w_E, 0]``;
-  ``sideslip`` (fixed-wing) the synthetic zero body-y air velocity
-  ``h = e_y^T R^T (v - w)``. Together with the heading they make velocity observable
-  without GPS (dead reckoning on air data and the wind estimate).
+* ``airspeed`` (fixed-wing) true airspeed ``h = |v - w|`` with ``w = [w_N, w_E, 0]``.
+  The pitot measures dynamic pressure q; its reported airspeed is the equivalent one,
+  sqrt(2 q / 1.225), 3.5 % below the true airspeed at 700 m: z = sqrt(2 q / rho) with
+  rho = p / (R T) of the barometer. ``sideslip`` (fixed-wing) the synthetic zero body-y
+  air velocity ``h = e_y^T R^T (v - w)``. Together with the heading they make velocity
+  observable without GPS (dead reckoning on air data and the wind estimate). Their
+  error is turbulence, which the wind states follow only as fast as EK_WIND_NSE lets
+  them (config.py), not sensor noise: R is not divided by the samples averaged.
 * ``fake_pos`` position hold (1 m) after a ground alignment until the first GPS fix,
   so the unaided INS cannot run away on the ground (PX4 does the same).
 
@@ -63,7 +84,11 @@ continuously for longer than EK_REJ_TOUT. ``aligned``: attitude initialised.
 
 Alignment: on the ground, from EK_ALIGN_T seconds of stationary samples (|omega| <
 0.05 rad/s, ||f| - g| < 0.5 m/s^2): roll/pitch from the mean specific force, heading
-from the tilt-compensated mean magnetometer, gyro bias from the mean rate. In flight
+from the tilt-compensated mean magnetometer, gyro bias from the mean rate less the
+Earth rate (sigma: the standard error of that mean). The accelerometer bias is in the
+levelled tilt: the tilt covariance is the bias covariance over g, fully correlated with
+it (``_align_on_ground``), so the GPS velocity noise on the ground cannot move the
+tilt along the direction that only a turn observes. In flight
 (or moving), from a 3D GPS fix with ground speed >= EK_ALIGN_GSPD: yaw from the ground
 track, roll and pitch from the low-passed specific force (right in steady flight,
 "level-ish" in a coordinated turn, where it reads wings level), with wide attitude
@@ -83,8 +108,8 @@ from . import config
 from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
-from .strapdown import (Nominal, heading_from_mag, inject_attitude, level_from_accel,
-                        mag_ned, propagate)
+from .strapdown import (Nominal, earth_rate_ned, heading_from_mag, inject_attitude,
+                        level_from_accel, mag_ned, propagate)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -96,7 +121,14 @@ _MIN_HORIZ_FIELD = 0.05       # no heading fusion when B_h^2 / |B|^2 is below (1
 _MAG_TILT_VAR = 0.05 ** 2     # heading fusion starts when roll/pitch variances are below [rad^2]
 _MAG_REF_GAIN = 0.01          # per-sample gain of the smoothed NED field used in the mag H
 _MAX_ROWS = 12                # measurement rows in one step (GPS 6 + baro, mag, airspeed, sideslip)
+_AUX_PERIOD_US = 40_000       # baro, mag and airspeed fused as means over 40 ms (25 Hz) [us]
+_AUX_PERIOD_TOL_US = 5_000    # ... of samples that arrive on a clock a little off ours [us]
 _BARO_INIT_SD = 100.0         # baro offset sigma before the first GPS fix [m]
+_BG_ALIGN_SD_MIN = 1e-4      # gyro bias sigma after a ground alignment, at least [rad/s]
+_BA_INIT_SD = 0.2             # accelerometer bias sigma at alignment [m/s^2] (PX4's EKF2_ABIAS_INIT)
+_TILT_ALIGN_SD = 1e-3         # tilt sigma of the levelling itself (mean of the samples) [rad]
+_GPS_VD_SCALE2 = 1.5 ** 2     # GPS vertical velocity variance / horizontal (as PX4 EKF2)
+_R_AIR = 287.05287            # specific gas constant of dry air [J/(kg K)]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
 
@@ -151,6 +183,21 @@ class Batch:
         self.ratio = None     # y^2 / (gate^2 Sd)
 
 
+class _AuxSums:
+    """Running sums of the aux sensors' samples between two fusions."""
+
+    __slots__ = ("t_us", "baro", "n_baro", "mag", "n_mag", "air", "n_air")
+
+    def __init__(self):
+        self.clear(-(1 << 62))
+
+    def clear(self, t_us: int) -> None:
+        self.t_us = t_us              # time of the last fusion [us]
+        self.baro, self.n_baro = 0.0, 0            # altitude [m]
+        self.mag, self.n_mag = [0.0, 0.0], 0       # field N, E in NED [gauss]
+        self.air, self.n_air = 0.0, 0              # true airspeed [m/s]
+
+
 class NavFilterBase:
     """Shared shell of :class:`InsGpsEkf` and :class:`InsGpsUkf`."""
 
@@ -176,6 +223,7 @@ class NavFilterBase:
         """Forget everything; the filter re-aligns from the next samples."""
         self.origin: LocalFrame | None = None
         self._g = G0
+        self._w_ie = (0.0, 0.0, 0.0)          # Earth rate in NED at the origin [rad/s]
         self._declination: float | None = None
         if self._home is not None:
             self._set_origin(self._home)
@@ -185,6 +233,17 @@ class NavFilterBase:
         self.innovations: list[InnovationRecord] = []
         self._t_us: int | None = None
         self._gyro = np.zeros(3)              # last raw gyro sample [rad/s]
+        self._gyro_prev: list | None = None   # the one before, floats [rad/s]
+        self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
+        self._q_sample: tuple | None = None   # sampling-error covariance of this step (18 entries)
+        self._qs_thr = ((2.0 * self.params["EK_ACC_NSE"]) ** 2, (2.0 * self.params["EK_GYR_NSE"]) ** 2)
+        n = self.n
+        # flat indices of P's velocity and attitude 3x3 blocks (the sampling error's entries)
+        self._qs_idx = [i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
+                        for j in range(blk.start, blk.stop)]
+        self._sf = [0.0, 0.0, 0.0]            # running integral of f_n dt [m/s] (GPS latency)
+        self._qs_sum = [0.0, 0.0, 0.0]        # running sum of the velocity sampling variances [m^2/s^2]
+        self._air: tuple[float, float] | None = None  # last baro (pressure [Pa], temperature [K])
         self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
         self._fake_hold = [0.0, 0.0, 0.0]
         self._baro_ok = False                 # baro offset initialised from GPS
@@ -197,13 +256,16 @@ class NavFilterBase:
         self._al_n = 0
         self._al_f = np.zeros(3)
         self._al_w = np.zeros(3)
+        self._al_w2 = np.zeros(3)
         self._al_m = np.zeros(3)
         self._al_nm = 0
         self._al_t0: int | None = None
         self._f_lp: np.ndarray | None = None  # low-passed specific force for in-flight alignment
         self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
         self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
-        # history ring of (t, p - c_p, v - c_v) for the GPS latency
+        self._aux = _AuxSums()                # aux samples since their last fusion
+        # history ring of (t, p - c_p, v - c_v, running f_n integral, running sampling
+        # variance) for the GPS latency
         self._hist: list = [None] * _HIST
         self._h_i = 0
         self._c_p = [0.0, 0.0, 0.0]   # corrections applied since start (added back on lookup)
@@ -264,6 +326,12 @@ class NavFilterBase:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
 
         self._gyro = imu.omega_b
+        w1 = imu.omega_b.tolist()
+        w0 = self._gyro_prev if self._gyro_prev is not None else w1
+        self._gyro_prev = w1
+        f1 = imu.f_b.tolist()
+        f0 = self._accel_prev if self._accel_prev is not None else f1
+        self._accel_prev = f1
         if not self.aligned:
             self._align_step(frame, gps)
             if not self.aligned:
@@ -274,10 +342,13 @@ class NavFilterBase:
                 return self._output(t)
         else:
             if dt > 0.0:
-                self._predict(dt, imu.f_b, imu.omega_b)
+                # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
+                # (strapdown.py); the specific force: the sample at t
+                self._set_sampling_noise(dt, f0, f1, w0, w1)
+                self._predict(dt, f1, [0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])])
             self._push_history(t)
 
-        batch = self._assemble(frame, gps)
+        batch = self._assemble(frame, gps, self._accumulate_aux(frame))
         if batch is not None:
             self._fuse(batch, t)
         self._update_health(t)
@@ -287,6 +358,7 @@ class NavFilterBase:
     def _set_origin(self, origin: LocalFrame) -> None:
         self.origin = origin
         self._g = gravity_m_s2(origin.lat0_rad, origin.alt0_m)
+        self._w_ie = earth_rate_ned(origin.lat0_rad)
         if self.params["EK_MAG_AUTODEC"]:
             # as ArduPilot's COMPASS_AUTODEC: the declination of the place, from the
             # IGRF main-field model, once the origin (first GPS fix) is known
@@ -316,6 +388,7 @@ class NavFilterBase:
             self._al_n = self._al_nm = 0
             self._al_f[:] = 0.0
             self._al_w[:] = 0.0
+            self._al_w2[:] = 0.0
             self._al_m[:] = 0.0
             self._al_t0 = None
             return
@@ -324,6 +397,7 @@ class NavFilterBase:
         self._al_n += 1
         self._al_f += f
         self._al_w += w
+        self._al_w2 += w * w
         if frame.mag is not None:
             self._al_m += frame.mag.m_b
             self._al_nm += 1
@@ -337,11 +411,32 @@ class NavFilterBase:
         yaw = heading_from_mag(self._al_m / self._al_nm, roll, pitch, self.declination_rad)
         nom = self.nom
         nom.set_attitude(euler_to_quat(roll, pitch, yaw))
-        nom.bg = (self._al_w / self._al_n).tolist()
+        # gyro bias = mean rate - the Earth rate in body axes; known to the standard
+        # error of that mean (floored for the bias drift over the average)
+        n = self._al_n
+        w_mean = self._al_w / n
+        w_ie_b = nom.R_matrix().T @ np.array(self._w_ie)
+        nom.bg = (w_mean - w_ie_b).tolist()
+        bg_sd = np.maximum(np.sqrt(np.maximum(self._al_w2 / n - w_mean * w_mean, 0.0) / n), _BG_ALIGN_SD_MIN)
         nom.omega_b = [0.0, 0.0, 0.0]
         self._init_covariance(self._sd_vector(
-            pos=_FAKE_POS_SD, vel=0.5, att=(0.02, 0.02, 0.1), abias=0.2, gbias=0.003,
+            pos=_FAKE_POS_SD, vel=0.5, att=(0.0, 0.0, 0.1), abias=_BA_INIT_SD, gbias=bg_sd,
             bbias=_BARO_INIT_SD, gpsb=self._gm_sd(), wind=8.0))
+        # Levelling on the mean specific force puts the accelerometer bias into the
+        # tilt: the estimated f_n is vertical, so the velocity drift g x dtheta - R db_a
+        # is zero. The tilt error is the horizontal NED bias over g (dtheta_N = (R b)_E / g,
+        # dtheta_E = -(R b)_N / g), plus the noise of the mean: correlated, not
+        # independent, or GPS velocity noise on the ground would move the tilt along
+        # the direction it cannot observe until the vehicle turns.
+        R = nom.R_matrix()
+        T = np.vstack((R[1], -R[0])) / self._g
+        P = self.P.copy()
+        Pbb = P[ABIAS, ABIAS]
+        tilt = slice(ATT.start, ATT.start + 2)
+        P[tilt, tilt] = T @ Pbb @ T.T + np.eye(2) * _TILT_ALIGN_SD ** 2
+        P[tilt, ABIAS] = T @ Pbb
+        P[ABIAS, tilt] = (T @ Pbb).T
+        self._set_P(P)
         self.aligned = True
         self._pos_src = "fake"
         self._fake_hold = list(nom.p)
@@ -366,7 +461,7 @@ class NavFilterBase:
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._baro_ok = True
         self._init_covariance(self._sd_vector(
-            pos=1.0, vel=1.0, att=(0.3, 0.3, 0.35), abias=0.2, gbias=0.02,
+            pos=1.0, vel=1.0, att=(0.3, 0.3, 0.35), abias=_BA_INIT_SD, gbias=0.02,
             bbias=baro_sd, gpsb=self._gm_sd(), wind=8.0))
         self._position_from_gps_covariance(np.array(white) ** 2)
         self.aligned = True
@@ -389,10 +484,11 @@ class NavFilterBase:
 
     def _gps_white(self, gps) -> tuple[float, float, float]:
         """White-noise sigma (N, E, D) of a fix: the part of eph/epv the Gauss-Markov
-        state does not explain, floored by EK_GPS_P_NSE / EK_GPS_Z_NSE."""
+        state does not explain, floored by EK_GPS_P_NSE / EK_GPS_Z_NSE. ``eph`` is the
+        radial horizontal accuracy, sqrt(s_N^2 + s_E^2): per axis eph / sqrt(2)."""
         prm = self.params
         gh, gv = prm["EK_GPSB_SD"], prm["EK_GPSB_Z_SD"]
-        sh = max(prm["EK_GPS_P_NSE"], math.sqrt(max(gps.eph_m * gps.eph_m - gh * gh, 0.0)))
+        sh = max(prm["EK_GPS_P_NSE"], math.sqrt(max(0.5 * gps.eph_m * gps.eph_m - gh * gh, 0.0)))
         sv = max(prm["EK_GPS_Z_NSE"], math.sqrt(max(gps.epv_m * gps.epv_m - gv * gv, 0.0)))
         return sh, sh, sv
 
@@ -417,13 +513,16 @@ class NavFilterBase:
 
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
-        p, v, cp, cv = self.nom.p, self.nom.v, self._c_p, self._c_v
+        p, v, cp, cv, sf, qs = self.nom.p, self.nom.v, self._c_p, self._c_v, self._sf, self._qs_sum
         self._hist[self._h_i] = (t, p[0] - cp[0], p[1] - cp[1], p[2] - cp[2],
-                                 v[0] - cv[0], v[1] - cv[1], v[2] - cv[2])
+                                 v[0] - cv[0], v[1] - cv[1], v[2] - cv[2], sf[0], sf[1], sf[2],
+                                 qs[0], qs[1], qs[2])
         self._h_i = (self._h_i + 1) % _HIST
 
     def _delayed(self, t_valid: int) -> tuple:
-        """(p, v) of the nominal state nearest to t_valid, with later corrections."""
+        """(p, v, dv_f, q_s) of the nominal state nearest to t_valid, with later
+        corrections; dv_f = integral of f_n dt from then to now, q_s = the velocity
+        sampling variances (N, E, D) added since."""
         hist = self._hist
         i = (self._h_i - 1) % _HIST
         best = hist[i]
@@ -433,14 +532,47 @@ class NavFilterBase:
             if e is None or abs(e[0] - t_valid) > abs(best[0] - t_valid):
                 break
             best, i = e, j
-        cp, cv = self._c_p, self._c_v
+        cp, cv, sf, qs = self._c_p, self._c_v, self._sf, self._qs_sum
         return ((best[1] + cp[0], best[2] + cp[1], best[3] + cp[2]),
-                (best[4] + cv[0], best[5] + cv[1], best[6] + cv[2]))
+                (best[4] + cv[0], best[5] + cv[1], best[6] + cv[2]),
+                (sf[0] - best[7], sf[1] - best[8], sf[2] - best[9]),
+                (qs[0] - best[10], qs[1] - best[11], qs[2] - best[12]))
 
     # ----------------------------------------------------------- measurement models --
-    def _assemble(self, frame: SensorFrame, gps) -> Batch | None:
+    def _accumulate_aux(self, frame: SensorFrame) -> bool:
+        """Add this step's barometer, magnetometer and airspeed samples to the running
+        sums; True when they are due for fusion (module docstring: aux sensors)."""
+        acc = self._aux
+        if frame.baro is not None:
+            acc.baro += frame.baro.alt_m
+            acc.n_baro += 1
+            self._air = (frame.baro.pressure_pa, frame.baro.temperature_k)
+        if frame.mag is not None and self._tilt_aligned():
+            mn, me, md = mag_ned(self.nom.R, frame.mag.m_b)
+            bh2 = mn * mn + me * me
+            if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
+                ref = self._m_ref
+                if ref is None:
+                    self._m_ref = [mn, me, md]
+                else:
+                    ref[0] += (mn - ref[0]) * _MAG_REF_GAIN
+                    ref[1] += (me - ref[1]) * _MAG_REF_GAIN
+                    ref[2] += (md - ref[2]) * _MAG_REF_GAIN
+                m = acc.mag
+                m[0] += mn
+                m[1] += me
+                acc.n_mag += 1
+        if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
+                and frame.airspeed.airspeed_mps >= self.params["EK_ARSP_MIN"]):
+            acc.air += self._true_airspeed(frame.airspeed)
+            acc.n_air += 1
+        return (acc.n_baro + acc.n_mag + acc.n_air > 0
+                and frame.t_us - acc.t_us >= _AUX_PERIOD_US - _AUX_PERIOD_TOL_US)
+
+    def _assemble(self, frame: SensorFrame, gps, aux_due: bool = True) -> Batch | None:
         """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H
-        (as flat indices into the (rows, n) buffer, written with one ``put``)."""
+        (as flat indices into the (rows, n) buffer, written with one ``put``); the aux
+        sensors' means when ``aux_due``."""
         prm = self.params
         nom = self.nom
         n = self.n
@@ -467,7 +599,7 @@ class NavFilterBase:
 
         if gps is not None:
             L = self._gps_delay
-            pd, vd = self._delayed(frame.t_us - self._gps_delay_us)
+            pd, vd, (fx, fy, fz), qs = self._delayed(frame.t_us - self._gps_delay_us)
             sh, _, sv = self._gps_white(gps)
             gb = nom.gb
             forced = self._pos_src != "gps"
@@ -475,61 +607,57 @@ class NavFilterBase:
             add("gps_pos", self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist(),
                 (pd[0] + gb[0], pd[1] + gb[1], pd[2] + gb[2]), (sh * sh, sh * sh, sv * sv),
                 prm["EK_GPS_P_GATE"], (1.0, -L, 1.0) * 3, forced)
-            # gps_vel: h = v(t-L),  H = [0, I, L [f_n x], L R, 0 ...]
-            fx, fy, fz = nom.f_n
+            # gps_vel: h = v(t-L),  H = [0, I, [dv_f x], L R, 0 ...]
+            #   (dv_f = integral of f_n over the latency, ~ L f_n; exact through a launch)
+            #   R += the velocity sampling noise added since t - L (the delayed-state H
+            #   neglects process noise over the latency: right unless a launch is in it)
             s2 = prm["EK_GPS_V_NSE"] ** 2
-            add("gps_vel", gps.v_ned.tolist(), vd, (s2, s2, s2), prm["EK_GPS_V_GATE"],
-                (1.0, 1.0, 1.0, -L * fz, L * fy, L * fz, -L * fx, -L * fy, L * fx)
+            add("gps_vel", gps.v_ned.tolist(), vd, (s2 + qs[0], s2 + qs[1], _GPS_VD_SCALE2 * s2 + qs[2]),
+                prm["EK_GPS_V_GATE"],
+                (1.0, 1.0, 1.0, -fz, fy, fz, -fx, -fy, fx)
                 + tuple(L * c for c in nom.R), forced)
         elif self._pos_src == "fake":
             # fake_pos: h = p,  H = [I, 0 ...]
             s2 = _FAKE_POS_SD ** 2
             add("fake_pos", self._fake_hold, nom.p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
 
-        if frame.baro is not None and self._baro_ok:
-            # baro: h = alt0 - p_D + b_baro
-            add("baro", (frame.baro.alt_m,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
-                (prm["EK_BARO_NSE"] ** 2,), prm["EK_BARO_GATE"], (-1.0, 1.0))
-
-        if frame.mag is not None and self._tilt_aligned():
-            Rm = nom.R
-            mn, me, md = mag_ned(Rm, frame.mag.m_b)
-            bh2 = mn * mn + me * me
-            if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
-                # the tilt terms use the smoothed field, not this sample (module docstring)
-                ref = self._m_ref
-                if ref is None:
-                    ref = self._m_ref = [mn, me, md]
-                else:
-                    ref[0] += (mn - ref[0]) * _MAG_REF_GAIN
-                    ref[1] += (me - ref[1]) * _MAG_REF_GAIN
-                    ref[2] += (md - ref[2]) * _MAG_REF_GAIN
-                rn, re, rd = ref
+        if aux_due:
+            acc = self._aux
+            if acc.n_baro and self._baro_ok:
+                # baro: h = alt0 - p_D + b_baro  (mean of the samples since the last fusion)
+                add("baro", (acc.baro / acc.n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
+                    (prm["EK_BARO_NSE"] ** 2 / acc.n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
+            if acc.n_mag:
+                # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q), m = the mean of the
+                #      samples rotated into NED,  H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
+                #      about the smoothed field, not this sample (module docstring)
+                mn, me = acc.mag[0], acc.mag[1]
+                rn, re, rd = self._m_ref
                 rh2 = rn * rn + re * re
-                # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q),
-                #      H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
+                Rm = nom.R
                 yaw0 = math.atan2(Rm[3], Rm[0])
                 add("mag", (yaw0 + wrap_pi(self.declination_rad - math.atan2(me, mn)),), (yaw0,),
-                    (prm["EK_MAG_NSE"] ** 2,), prm["EK_MAG_GATE"], (-rd * rn / rh2, -rd * re / rh2, 1.0))
-
-        if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
-                and frame.airspeed.airspeed_mps >= prm["EK_ARSP_MIN"]):
-            w = nom.wind
-            v = nom.v
-            ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
-            tas = math.sqrt(ax * ax + ay * ay + az * az)
-            if tas > 1.0:
-                # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|)
-                ux, uy, uz = ax / tas, ay / tas, az / tas
-                add("airspeed", (frame.airspeed.airspeed_mps,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
-                    prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
-                # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
-                #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
-                Rm = nom.R
-                cx, cy, cz = Rm[1], Rm[4], Rm[7]
-                add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
-                    prm["EK_BETA_GATE"],
-                    (cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax, cx, cy, cz, -cx, -cy))
+                    (prm["EK_MAG_NSE"] ** 2 / acc.n_mag,), prm["EK_MAG_GATE"],
+                    (-rd * rn / rh2, -rd * re / rh2, 1.0))
+            if acc.n_air:
+                w = nom.wind
+                v = nom.v
+                ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
+                tas = math.sqrt(ax * ax + ay * ay + az * az)
+                if tas > 1.0:
+                    # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|);
+                    #   R not divided by the samples: turbulence, not the sensor, is its error
+                    ux, uy, uz = ax / tas, ay / tas, az / tas
+                    add("airspeed", (acc.air / acc.n_air,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
+                        prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
+                    # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
+                    #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
+                    Rm = nom.R
+                    cx, cy, cz = Rm[1], Rm[4], Rm[7]
+                    add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
+                        prm["EK_BETA_GATE"],
+                        (cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax, cx, cy, cz, -cx, -cy))
+            acc.clear(frame.t_us)
 
         if not z:
             return None
@@ -538,11 +666,52 @@ class NavFilterBase:
         Hb.put(hi, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
+    def _set_sampling_noise(self, dt: float, f0, f1, w0, w1) -> None:
+        """This step's sampling-error covariance (``self._q_sample``: the 18 entries of
+        its velocity and attitude 3x3 blocks in NED, or None when negligible). The
+        integrals of point samples err by up to half the change between two samples,
+        along that change: ``e e^T``, e = R (x1 - x0) dt / 2. Added where it exceeds the
+        white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error
+        of ordinary flight, turbulence included): a change of more than 2 EK_ACC_NSE or
+        2 EK_GYR_NSE in one step. Through a catapult stroke's onset and end (75 m/s^2 in
+        one step) it is 0.35 m/s along the stroke, where otherwise the GPS velocity would
+        turn the error into an attitude or bias correction."""
+        df0, df1, df2 = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
+        dw0, dw1, dw2 = w1[0] - w0[0], w1[1] - w0[1], w1[2] - w0[2]
+        if (df0 * df0 + df1 * df1 + df2 * df2 <= self._qs_thr[0]
+                and dw0 * dw0 + dw1 * dw1 + dw2 * dw2 <= self._qs_thr[1]):
+            self._q_sample = None
+            return
+        h = 0.5 * dt
+        a0, a1, a2 = h * df0, h * df1, h * df2
+        b0, b1, b2 = h * dw0, h * dw1, h * dw2
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = self.nom.R
+        e0, e1, e2 = (r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
+                      r20 * a0 + r21 * a1 + r22 * a2)
+        c0, c1, c2 = (r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2,
+                      r20 * b0 + r21 * b1 + r22 * b2)
+        q = self._qs_sum
+        self._qs_sum = [q[0] + e0 * e0, q[1] + e1 * e1, q[2] + e2 * e2]
+        self._q_sample = (e0 * e0, e0 * e1, e0 * e2, e1 * e0, e1 * e1, e1 * e2, e2 * e0, e2 * e1, e2 * e2,
+                          c0 * c0, c0 * c1, c0 * c2, c1 * c0, c1 * c1, c1 * c2, c2 * c0, c2 * c1, c2 * c2)
+
+    def _true_airspeed(self, air) -> float:
+        """True airspeed [m/s] from the pitot's dynamic pressure and the air density of
+        the last barometer sample, rho = p / (R T): TAS = sqrt(2 q / rho). The sensor's
+        own airspeed is the equivalent airspeed sqrt(2 q / rho0), 3.5 % below the true
+        one at 700 m; used as such only before the first barometer sample."""
+        if self._air is None or air.diff_pressure_pa <= 0.0:
+            return air.airspeed_mps
+        p, temp = self._air
+        return math.sqrt(2.0 * air.diff_pressure_pa * _R_AIR * temp / p)
+
     def _propagate_nominal(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> float:
         """Strapdown step of the nominal state, and the mean decay of the Gauss-Markov
         GPS error (b' = a b, a = exp(-dt / tau)). Returns a."""
         nom = self.nom
-        propagate(nom, f_m, omega_m, dt, self._g)
+        propagate(nom, f_m, omega_m, dt, self._g, self._w_ie)
+        fn, sf = nom.f_n, self._sf
+        self._sf = [sf[0] + fn[0] * dt, sf[1] + fn[1] * dt, sf[2] + fn[2] * dt]
         a = math.exp(-dt / self.params["EK_GPSB_TAU"])
         gb = nom.gb
         nom.gb = [gb[0] * a, gb[1] * a, gb[2] * a]

@@ -8,20 +8,33 @@ models the filters are designed for. Every random draw comes from the injected
 Truth is generated first as arrays (air-relative heading, bank and flight-path angle
 integrated with rate limits; attitude = wind axes rotated by a constant angle of
 attack, so sideslip is zero; position integrated trapezoidally). The IMU is derived
-from the truth so that a perfect mechanisation reproduces it: the gyro is the body
-rotation increment over each step, the accelerometer the specific force at mid-step.
-Frame k carries truth at t_k and the IMU sample of the interval [t_(k-1), t_k].
+from the truth so that a perfect mechanisation (:mod:`.strapdown`) reproduces it, and
+its samples are timed as the simulator's (JSBSim's) are: frame k carries the truth at
+t_k, the gyro as a point sample at t_k (the mean rate of the two steps around t_k, so
+that the trapezoid of two samples is the rotation of the step between them) and the
+specific force over the step [t_(k-1), t_k] (at its middle). The gyro measures the
+rotation relative to inertial space (plus the Earth rate), the accelerometer the
+specific force in the rotating frame (Coriolis included), gravity falls off with
+height: the same physics as the mechanisation and the flight simulator.
 
-Sensor models (defaults; all in :class:`SimConfig`):
+Sensor models: the defaults of :class:`SimConfig` are those of the flight simulator's
+sensor suite (``sim_bridge/sensors/params.py``), so that the filters' defaults
+(config.py) are tested against the sensors they fly with:
 
-* IMU 100 Hz: white noise 0.05 m/s^2 and 0.003 rad/s per sample, constant biases.
+* IMU 100 Hz: accelerometer 1.5e-3 m/s^2/sqrt(Hz) (0.015 m/s^2 per sample), gyro
+  0.01 deg/s/sqrt(Hz) (1.75e-3 rad/s per sample); constant biases (the flight
+  simulator's also wander: the filters' bias random walks are its values).
 * GPS 5 Hz, 150 ms latency (a fix arriving at t describes t - 0.15 s); horizontal
-  error = first-order Gauss-Markov (1.5 m per axis, tau 60 s) + 0.5 m white per axis;
-  vertical GM 2.5 m + 0.8 m white; velocity white 0.1 m/s per axis.
-  Reported eph/epv = the total 1-sigma per axis.
-* Baro: 0.3 m white, plus a constant datum offset from the GPS altitude.
+  error = first-order Gauss-Markov (1.2 m per axis, tau 60 s) + 0.3 m white per axis;
+  vertical GM 2.5 m + 0.5 m white; velocity white 0.1 m/s per horizontal axis and
+  0.15 m/s vertical. Reported eph = the radial horizontal 1-sigma
+  sqrt(2 (gm^2 + white^2)), epv the vertical one (as the flight simulator's).
+* Baro: 0.3 m white (3 Pa), a datum offset from the GPS altitude and a random-walk
+  drift of 0.026 m/sqrt(s) (0.3 Pa/sqrt(s)).
 * Magnetometer: 0.5 gauss field, inclination -66 deg, declination 12 deg, 0.005 gauss noise.
-* Airspeed: 0.3 m/s white.
+* Airspeed: a pitot's dynamic pressure 1/2 rho V^2 (rho of the ISA atmosphere at the
+  altitude, as the baro's pressure and temperature) with 1.5 Pa white noise; the
+  reported airspeed is the equivalent airspeed sqrt(2 q / 1.225).
 """
 from __future__ import annotations
 
@@ -36,6 +49,7 @@ from autopilot.messages import (AirspeedSample, BaroSample, GpsFix, ImuSample, M
                                 SensorFrame)
 
 from . import qbatch
+from .strapdown import GRAVITY_GRADIENT, earth_rate_ned
 
 
 @dataclass(frozen=True)
@@ -50,33 +64,38 @@ class SimConfig:
     gamma_rate_max: float = 0.05                    # [rad/s]
     wind_ned: tuple[float, float, float] = (3.0, 4.0, 0.0)
     # IMU
-    accel_noise: float = 0.05                       # [m/s^2] per sample
-    gyro_noise: float = 0.003                       # [rad/s] per sample
+    accel_noise: float = 0.015                      # [m/s^2] per sample (1.5e-3 /sqrt(Hz))
+    gyro_noise: float = 1.745e-3                    # [rad/s] per sample (0.01 deg/s /sqrt(Hz))
     accel_bias: tuple[float, float, float] = (0.05, -0.04, 0.06)
     gyro_bias: tuple[float, float, float] = (0.002, -0.003, 0.002)
     # GPS
     gps_rate_hz: float = 5.0
     gps_latency_s: float = 0.15
-    gps_gm_sigma_m: float = 1.5                     # per horizontal axis
+    gps_gm_sigma_m: float = 1.2                     # per horizontal axis
     gps_gm_tau_s: float = 60.0
-    gps_white_m: float = 0.5                        # per horizontal axis
+    gps_white_m: float = 0.3                        # per horizontal axis
     gps_vert_gm_m: float = 2.5
-    gps_vert_white_m: float = 0.8
-    gps_vel_sigma: float = 0.1
+    gps_vert_white_m: float = 0.5
+    gps_vel_sigma: float = 0.1                      # per horizontal axis
+    gps_vel_sigma_v: float = 0.15                   # vertical
     # other sensors
     baro_rate_hz: float = 50.0
     baro_sigma: float = 0.3
     baro_offset_m: float = 4.0
+    baro_drift: float = 0.026                       # random walk [m/sqrt(s)]
     mag_rate_hz: float = 50.0
     mag_gauss: float = 0.5
     mag_inclination_deg: float = -66.0
     mag_declination_deg: float = 12.0
     mag_sigma: float = 0.005
     airspeed_rate_hz: float = 50.0
-    airspeed_sigma: float = 0.3
+    airspeed_sigma_pa: float = 1.5                  # dynamic pressure noise [Pa]
 
     def origin(self) -> LocalFrame:
         return LocalFrame.from_degrees(self.origin_lat_deg, self.origin_lon_deg, self.origin_alt_m)
+
+    def earth_rate_ned(self) -> tuple[float, float, float]:
+        return earth_rate_ned(math.radians(self.origin_lat_deg))
 
     def mag_ned(self) -> np.ndarray:
         inc = math.radians(self.mag_inclination_deg)
@@ -123,6 +142,15 @@ class SimRun:
                 imu=ImuSample(t, self._imu_f[k], self._imu_w[k]),
                 mag=self._mag.get(k), baro=self._baro.get(k),
                 airspeed=self._arsp.get(k), gps=self._gps.get(k))
+
+
+_R_AIR = 287.05287     # specific gas constant of dry air [J/(kg K)]
+_RHO0 = 1.225          # sea-level ISA density [kg/m^3]
+
+
+def _isa(alt_m: float) -> tuple[float, float]:
+    """ISA troposphere: (pressure [Pa], temperature [K]) at a pressure altitude."""
+    return 101325.0 * (1.0 - 2.25577e-5 * alt_m) ** 5.25588, 288.15 - 0.0065 * alt_m
 
 
 def _gauss_markov(rng: np.random.Generator, n: int, sigma: float, tau: float, dt: float) -> np.ndarray:
@@ -216,16 +244,24 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
     omega = np.zeros((n, 3))
     omega[:-1] = qbatch.to_rotvec(qbatch.mul(qbatch.conj(q[:-1]), q[1:])) / dt
     omega[-1] = omega[-2] if n > 1 else 0.0
-    # specific force at mid-step, body axes
+    # specific force at mid-step, body axes, in the rotating Earth frame:
+    # f_n = dv/dt - g_n + 2 w_ie x v  (g_n grows with depth below the origin)
+    w_ie = np.array(cfg.earth_rate_ned())
     a = np.zeros((n, 3))
     a[:-1] = (v[1:] - v[:-1]) / dt
+    v_mid = v.copy()
+    v_mid[:-1] = 0.5 * (v[1:] + v[:-1])
+    pd_mid = p[:, 2].copy()
+    pd_mid[:-1] = 0.5 * (p[1:, 2] + p[:-1, 2])
+    a[:, 2] -= g + GRAVITY_GRADIENT * pd_mid
+    a += 2.0 * qbatch.cross(w_ie, v_mid)
     q_mid = qbatch.mul(q, qbatch.from_rotvec(0.5 * dt * omega))
-    R_mid = qbatch.to_dcm(q_mid)
-    a_minus_g = a - np.array([0.0, 0.0, g])
-    f = np.einsum("nji,nj->ni", R_mid, a_minus_g)
-    # frame k carries the IMU sample of [t_k-1, t_k]
+    f = np.einsum("nji,nj->ni", qbatch.to_dcm(q_mid), a)
+    # frame k carries the specific force of [t_k-1, t_k] and the gyro's point sample at
+    # t_k: the mean rate of the steps before and after it, plus the Earth rate
     f_true = np.vstack((f[:1], f[:-1]))
-    w_true = np.vstack((omega[:1], omega[:-1]))
+    w_true = np.vstack((omega[:1], 0.5 * (omega[:-1] + omega[1:])))
+    w_true += np.einsum("nji,j->ni", qbatch.to_dcm(q), w_ie)
     imu_f = f_true + np.array(cfg.accel_bias) + cfg.accel_noise * rng.standard_normal((n, 3))
     imu_w = w_true + np.array(cfg.gyro_bias) + cfg.gyro_noise * rng.standard_normal((n, 3))
 
@@ -243,8 +279,8 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
                                         (cfg.gps_vert_gm_m, cfg.gps_vert_white_m))):
         err[:, axis] = _gauss_markov(rng, m, gm, cfg.gps_gm_tau_s, gdt)   # draw order matters:
         err[:, axis] += white * rng.standard_normal(m)                     # golden runs use it
-    verr = cfg.gps_vel_sigma * rng.standard_normal((m, 3))
-    eph = math.hypot(cfg.gps_gm_sigma_m, cfg.gps_white_m)
+    verr = rng.standard_normal((m, 3)) * np.array([cfg.gps_vel_sigma, cfg.gps_vel_sigma, cfg.gps_vel_sigma_v])
+    eph = math.sqrt(2.0) * math.hypot(cfg.gps_gm_sigma_m, cfg.gps_white_m)   # radial
     epv = math.hypot(cfg.gps_vert_gm_m, cfg.gps_vert_white_m)
     gps = {}
     gps_err = np.full((n, 3), np.nan)
@@ -269,10 +305,12 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
     baro = {}
     kb = ticks(cfg.baro_rate_hz)
     nb = cfg.baro_sigma * rng.standard_normal(len(kb))
+    drift = np.cumsum(cfg.baro_drift * math.sqrt(dt * (kb[1] - kb[0] if len(kb) > 1 else 1))
+                      * rng.standard_normal(len(kb)))
     for j, k in enumerate(kb):
-        alt = cfg.origin_alt_m - p[k, 2] + cfg.baro_offset_m + nb[j]
-        pres = 101325.0 * (1.0 - 2.25577e-5 * alt) ** 5.25588
-        baro[int(k)] = BaroSample(int(t_us[k]), pres, float(alt), 288.15 - 0.0065 * alt)
+        alt = cfg.origin_alt_m - p[k, 2] + cfg.baro_offset_m + drift[j] + nb[j]
+        pres, temp = _isa(alt)
+        baro[int(k)] = BaroSample(int(t_us[k]), pres, float(alt), temp)
     mag = {}
     km = ticks(cfg.mag_rate_hz)
     R = qbatch.to_dcm(q[km])
@@ -281,11 +319,13 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
         mag[int(k)] = MagSample(int(t_us[k]), m_b[j])
     arsp = {}
     ka = ticks(cfg.airspeed_rate_hz)
-    na = cfg.airspeed_sigma * rng.standard_normal(len(ka))
+    na = cfg.airspeed_sigma_pa * rng.standard_normal(len(ka))
     for j, k in enumerate(ka):
         if airspeed[k] > 0.0:
-            tas = float(airspeed[k] + na[j])
-            arsp[int(k)] = AirspeedSample(int(t_us[k]), 0.5 * 1.225 * tas * tas, tas)
+            pres, temp = _isa(cfg.origin_alt_m - p[k, 2])
+            rho = pres / (_R_AIR * temp)
+            qbar = 0.5 * rho * float(airspeed[k]) ** 2 + na[j]
+            arsp[int(k)] = AirspeedSample(int(t_us[k]), qbar, math.sqrt(2.0 * max(qbar, 0.0) / _RHO0))
     return SimRun(cfg, t_us, p, v, q, omega, wind, gps_err, imu_f, imu_w, gps, baro, mag, arsp)
 
 

@@ -1,20 +1,30 @@
 """Nominal-state strapdown mechanisation and initial alignment.
 
-Mechanisation (Groves 2013 ch. 5, simplified to a flat, non-rotating local NED frame;
-Sola 2017 for the nominal-state kinematics), one IMU sample held over ``dt``:
+Mechanisation (Groves 2013 ch. 5, local-navigation-frame equations, simplified to a
+flat local NED frame; Sola 2017 for the nominal-state kinematics), one step ``dt``:
 
-    omega = omega_m - b_g                      bias-corrected body rate
+    omega = omega_m - b_g - R^T w_ie           body rate relative to the NED frame
     f     = f_m - b_a                          bias-corrected specific force
     f_n   = R(q) (f + 1/2 dt omega x f)        specific force in NED, rotated to mid-step
-    v'    = v + (f_n + g_n) dt                 g_n = [0, 0, g(lat0, alt0)]
+    v'    = v + (f_n + g_n - 2 w_ie x v) dt    g_n = [0, 0, g(lat0, alt0) + 3.086e-6 p_D]
     p'    = p + 1/2 (v + v') dt                trapezoidal position
     q'    = q (x) Exp(omega dt)                body-frame rotation increment, renormalised
 
-Earth rate (7.3e-5 rad/s) and transport rate are neglected: they are below the noise of
-the MEMS gyros this filter is tuned for and the vehicle stays within tens of km of the
-origin. The ``1/2 dt omega x f`` term rotates the specific force to the middle of the
-step (the first-order rotation compensation of Savage 1998), which removes a bias of
+``w_ie = Omega_E [cos(lat0), 0, -sin(lat0)]`` is the Earth rate in NED at the origin.
+A gyro measures rotation relative to inertial space, so the Earth rate (7.3e-5 rad/s,
+0.004 deg/s) is in every sample: fixed in NED, it turns in the body frame as the
+vehicle turns, and a gyro-bias state cannot follow it (measured in the closed loop:
+the gyro residual's mean fell from 4e-5 to 2e-6 rad/s with it removed). ``2 w_ie x v``
+is the Coriolis acceleration (3 mm/s^2 at 25 m/s). The transport rate (v / R_E,
+4e-6 rad/s) is neglected: the vehicle stays within tens of km of the origin.
+The ``1/2 dt omega x f`` term rotates the specific force to the middle of the step
+(the first-order rotation compensation of Savage 1998), which removes a bias of
 ``|omega| dt / 2 * |f|`` in turns.
+
+Time alignment of the IMU samples (the caller's choice, see base.py): the specific
+force ``f_m`` is the sample at the end of the step; ``omega_m`` is the mean of the
+samples at both ends (point samples, integrated by the trapezoidal rule as PX4's
+sensor integrator does).
 
 The nominal state is kept in Python floats: in the 100 Hz loop one numpy call on a
 3-vector costs as much as the whole float mechanisation.
@@ -26,6 +36,16 @@ import math
 import numpy as np
 
 from autopilot.geo import euler_to_quat, wrap_pi
+
+#: Earth rotation rate (WGS-84) [rad/s].
+EARTH_RATE = 7.292115e-5
+#: Free-air gravity gradient: g grows by this per metre of descent [1/s^2].
+GRAVITY_GRADIENT = 3.086e-6
+
+
+def earth_rate_ned(lat_rad: float) -> tuple[float, float, float]:
+    """The Earth's rotation in the local NED frame at latitude ``lat_rad`` [rad/s]."""
+    return (EARTH_RATE * math.cos(lat_rad), 0.0, -EARTH_RATE * math.sin(lat_rad))
 
 
 def dcm9(q) -> tuple:
@@ -72,31 +92,36 @@ class Nominal:
         return n
 
 
-def propagate(nom: Nominal, f_m: np.ndarray, omega_m: np.ndarray, dt: float, g: float) -> None:
-    """Advance the nominal state by one IMU sample (module docstring), in place."""
+def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
+              w_ie: tuple = (0.0, 0.0, 0.0)) -> None:
+    """Advance the nominal state by one IMU step (module docstring), in place.
+    ``f_m``, ``omega_m``: 3 floats each; ``g`` gravity at the origin [m/s^2];
+    ``w_ie``: the Earth rate in NED [rad/s]."""
     bg = nom.bg
     ba = nom.ba
-    wx, wy, wz = omega_m.tolist()
-    wx -= bg[0]
-    wy -= bg[1]
-    wz -= bg[2]
-    fx, fy, fz = f_m.tolist()
-    fx -= ba[0]
-    fy -= ba[1]
-    fz -= ba[2]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = nom.R
+    ex, ey, ez = w_ie
+    # omega = omega_m - b_g - R^T w_ie
+    wx = omega_m[0] - bg[0] - (r00 * ex + r10 * ey + r20 * ez)
+    wy = omega_m[1] - bg[1] - (r01 * ex + r11 * ey + r21 * ez)
+    wz = omega_m[2] - bg[2] - (r02 * ex + r12 * ey + r22 * ez)
+    fx = f_m[0] - ba[0]
+    fy = f_m[1] - ba[1]
+    fz = f_m[2] - ba[2]
     h = 0.5 * dt
     # f + 1/2 dt omega x f  (rotation to mid-step)
     gx = fx + h * (wy * fz - wz * fy)
     gy = fy + h * (wz * fx - wx * fz)
     gz = fz + h * (wx * fy - wy * fx)
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = nom.R
     fnx = r00 * gx + r01 * gy + r02 * gz
     fny = r10 * gx + r11 * gy + r12 * gz
     fnz = r20 * gx + r21 * gy + r22 * gz
-    # v' = v + (f_n + g_n) dt ;  p' = p + 1/2 (v + v') dt
+    # v' = v + (f_n + g_n - 2 w_ie x v) dt ;  p' = p + 1/2 (v + v') dt
     vx, vy, vz = nom.v
-    ux, uy, uz = vx + fnx * dt, vy + fny * dt, vz + (fnz + g) * dt
     px, py, pz = nom.p
+    ux = vx + (fnx - 2.0 * (ey * vz - ez * vy)) * dt
+    uy = vy + (fny - 2.0 * (ez * vx - ex * vz)) * dt
+    uz = vz + (fnz + g + GRAVITY_GRADIENT * pz - 2.0 * (ex * vy - ey * vx)) * dt
     nom.p = [px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h]
     nom.v = [ux, uy, uz]
     # q' = q (x) Exp(omega dt)

@@ -39,6 +39,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from . import qbatch
 from .base import Batch, NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
+from .strapdown import GRAVITY_GRADIENT
 
 UKF_ALPHA = 0.5
 UKF_BETA = 2.0
@@ -115,18 +116,23 @@ class InsGpsUkf(NavFilterBase):
 
     # ------------------------------------------------------------------- predict --
     def _fx(self, sig: np.ndarray, dt: float, nom0, nom1, f_m, omega_m, a_gm) -> np.ndarray:
-        """Propagate error-state sigma points (rows) through the nonlinear mechanisation."""
+        """Propagate error-state sigma points (rows) through the nonlinear mechanisation
+        (strapdown.py's equations, every sigma point with its own attitude and biases)."""
         g = self._g
+        w_ie = np.asarray(self._w_ie)
         p = np.asarray(nom0.p) + sig[:, POS]
         v = np.asarray(nom0.v) + sig[:, VEL]
         q = qbatch.mul(qbatch.from_rotvec(sig[:, ATT]), np.asarray(nom0.q))
-        w = omega_m - (np.asarray(nom0.bg) + sig[:, GBIAS])
-        f = f_m - (np.asarray(nom0.ba) + sig[:, ABIAS])
+        Rs = qbatch.to_dcm(q)
+        # omega = omega_m - b_g - R^T w_ie
+        w = np.asarray(omega_m) - (np.asarray(nom0.bg) + sig[:, GBIAS]) - np.einsum("nji,j->ni", Rs, w_ie)
+        f = np.asarray(f_m) - (np.asarray(nom0.ba) + sig[:, ABIAS])
         # f + 1/2 dt omega x f, rotated to NED
         fg = f + 0.5 * dt * qbatch.cross(w, f)
-        f_n = np.einsum("nij,nj->ni", qbatch.to_dcm(q), fg)
-        v1 = v + f_n * dt
-        v1[:, 2] += g * dt
+        f_n = np.einsum("nij,nj->ni", Rs, fg)
+        # v' = v + (f_n + g_n - 2 w_ie x v) dt
+        v1 = v + (f_n - 2.0 * qbatch.cross(w_ie, v)) * dt
+        v1[:, 2] += (g + GRAVITY_GRADIENT * p[:, 2]) * dt
         p1 = p + 0.5 * (v + v1) * dt
         q1 = qbatch.mul(q, qbatch.from_rotvec(w * dt))
         out = sig.copy()
@@ -143,6 +149,8 @@ class InsGpsUkf(NavFilterBase):
         a = self._propagate_nominal(dt, f_m, omega_m)
         ukf = self._ukf
         ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+        if self._q_sample is not None:            # sampling error of the IMU samples (base.py)
+            ukf.P.flat[self._qs_idx] += self._q_sample
         ukf.P = self._condition(ukf.P)
         # fold the mean error into the nominal state; re-centre the sigma points on it
         x = ukf.x

@@ -66,11 +66,14 @@ torque on the airframe points down, +z) yaws the nose right:
     M = (l (T2 - T4), l (T3 - T1), k_M (T1 + T3 - T2 - T4)).
 
 Ground contact: the terrain is flat at the home altitude; the vehicle rests on its
-skids with the centre of gravity ``gear_height_m`` above it. Resting, it is held level
-and still (the specific force reads -g along body z) until the rotors' upward thrust
-exceeds its weight; a touchdown (the skids reaching the ground) stops it dead and
-levels it -- no sinking, no bouncing. A touchdown faster than ``CRASH_SPEED_MPS`` or
-more tilted than ``CRASH_TILT_RAD`` sets ``crashed``.
+skids with the centre of gravity ``gear_height_m`` above it, still (the accelerometer
+reads the ground's reaction) until the rotors' upward thrust exceeds its weight. A
+touchdown (the skids reaching the ground) stops it within the step -- no sinking, no
+bouncing -- and the accelerometer sees that impulse (a one-step spike integrating to
+the lost velocity, so an inertial navigator stops with it); a tilted vehicle then
+levels on its skids through body rates the gyro sees (``LEVEL_RATE``), never by a jump
+of attitude. A touchdown faster than ``CRASH_SPEED_MPS`` or more tilted than
+``CRASH_TILT_RAD`` sets ``crashed``.
 """
 from __future__ import annotations
 
@@ -86,6 +89,7 @@ from sim_bridge.wind import DrydenGusts
 
 CRASH_SPEED_MPS = 3.0     # touchdown faster than this counts as a crash [m/s]
 CRASH_TILT_RAD = math.radians(35.0)
+LEVEL_RATE = 8.0          # a tilted vehicle on its skids levels at this rate [1/s]
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,9 +171,6 @@ class QuadAirframe:
 F450 = QuadAirframe()
 AIRFRAMES = {"f450": F450}
 
-# rotor j (0-based channel): (x, y) position [in units of arm length] and spin sign
-# (+1: counter-clockwise from above, drag torque on the airframe along +z)
-ROTOR_LAYOUT = ((-1.0, 0.0, 1.0), (0.0, -1.0, -1.0), (1.0, 0.0, 1.0), (0.0, 1.0, -1.0))
 
 
 class QuadrotorPlant:
@@ -322,10 +323,10 @@ class QuadrotorPlant:
         fe = -total * r[5] + de
         fdn = -total * r[8] + dd          # (gravity added below)
         if self.on_ground:
-            if fdn + m * g < 0.0:
+            if fdn + m * g < 0.0 and self._level(r) < 0.02:
                 self.on_ground = False    # thrust exceeds weight: lift off
             else:
-                self._rest(r)
+                self._rest(dt)
                 return
 
         # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
@@ -359,24 +360,51 @@ class QuadrotorPlant:
             self._touchdown(u_d)
 
     def _touchdown(self, v_down: float) -> None:
+        """The skids reach the ground: the vehicle stops within the step (no sinking, no
+        bounce). The accelerometer sees the impulse (a one-step spike that integrates to
+        the lost velocity); the attitude then levels through body rates the gyro sees."""
         qw, qx, qy, qz = self.q
         tilt = math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (qx * qx + qy * qy))))
         self.touchdown_speed_mps = v_down
         if v_down > CRASH_SPEED_MPS or tilt > CRASH_TILT_RAD:
             self.crashed = True
         self.on_ground = True
-        self._rest(_dcm(*self.q))
-
-    def _rest(self, r) -> None:
-        """On the skids: level (heading kept), still, on the ground plane."""
-        qw, qx, qy, qz = self.q
-        if qx != 0.0 or qy != 0.0:
-            yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-            self.q = [math.cos(0.5 * yaw), 0.0, 0.0, math.sin(0.5 * yaw)]
+        dt = self.dt_s
+        vn, ve, vd = self.v
+        # specific force over the step: (dv/dt - g_vec), dv = -v
+        fn, fe, fd = -vn / dt, -ve / dt, -vd / dt - self.g
+        r = _dcm(qw, qx, qy, qz)
+        self._f_b = (r[0] * fn + r[3] * fe + r[6] * fd,
+                     r[1] * fn + r[4] * fe + r[7] * fd,
+                     r[2] * fn + r[5] * fe + r[8] * fd)
         self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
         self.v = [0.0, 0.0, 0.0]
         self.w = [0.0, 0.0, 0.0]
-        self._f_b = (0.0, 0.0, -self.g)
+
+    @staticmethod
+    def _level(r) -> float:
+        """Tilt of the body z axis from the vertical, as 1 - cos(tilt)."""
+        return 1.0 - r[8]
+
+    def _rest(self, dt: float) -> None:
+        """On the skids: still on the ground plane; a tilted vehicle levels at
+        ``LEVEL_RATE`` through body rates (seen by the gyro); the accelerometer reads
+        the reaction of the ground, R^T (0, 0, -g)."""
+        qw, qx, qy, qz = self.q
+        r = _dcm(qw, qx, qy, qz)
+        roll = math.atan2(r[7], r[8])
+        pitch = -math.asin(max(-1.0, min(1.0, r[6])))
+        if abs(roll) + abs(pitch) > 1e-6:
+            p, q = -LEVEL_RATE * roll, -LEVEL_RATE * pitch
+            self.w = [p, q, 0.0]
+            self.q = _quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0)
+            r = _dcm(*self.q)
+        else:
+            self.w = [0.0, 0.0, 0.0]
+        self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
+        self.v = [0.0, 0.0, 0.0]
+        g = self.g
+        self._f_b = (-r[6] * g, -r[7] * g, -r[8] * g)
 
 
 def _dcm(w: float, x: float, y: float, z: float) -> tuple:

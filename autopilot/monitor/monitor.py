@@ -1,0 +1,397 @@
+"""The onboard fault monitor: detection, isolation, R adaptation and reactions.
+
+Seed ch. 8 sec. 2.2-2.3 (Hajiyev & Caliskan 2003, "Fault Diagnosis and
+Reconfiguration in Flight Control Systems"; equations rebuilt in :mod:`.stats` and
+:mod:`.radapt`). Runs once per vehicle step, after navigation, on what the navigation
+filter exposes: its innovation records (``nav.innovations``), its bias estimates
+(``nav.gyro_bias``) and covariance (``nav.P``). It is never told about injected faults.
+
+Channels (names used everywhere: log, STATUSTEXT, summary.json)::
+
+    gyro_x gyro_y gyro_z accel_x accel_y accel_z mag baro airspeed gps_pos gps_vel
+    aileron elevator rudder throttle motor_1 motor_2 motor_3 motor_4
+
+How each is watched:
+
+* Aiding sensors (``gps_pos``, ``gps_vel``, ``baro``, ``mag``, ``airspeed``): their
+  normalised innovations (2.13) go through :class:`~.stats.WindowChi2`: the window
+  statistic beta (2.12, threshold chi2_{alpha, M s}) detects, the per-step statistic
+  chi (2.41-2.43) is logged, the sample-variance statistic gamma (2.16-2.17, threshold
+  chi2_{alpha, M-1}) isolates. The 50 Hz sources enter every FDI_DECIM-th sample, so
+  a window of M samples spans about the same time as the GPS's (and successive samples
+  are less correlated; the chi-square law assumes a white sequence). The airspeed
+  innovation is divided by sqrt(FDI_ARSP_K) first: the filter's airspeed noise does not
+  include turbulence, and its normalised innovation has a lag-1 autocorrelation of
+  0.96 at 50 Hz in light turbulence (measured), which a raw chi-square window reads as
+  a fault. The synthetic sideslip is a modelling assumption, not a sensor: not watched.
+  A sensor that stops delivering (``off``) gives no innovation at all: a channel that
+  has been updating and falls silent for FDI_TOUT is flagged with the statistic
+  ``age / FDI_TOUT``, so ``gps off`` is detected and isolated by the silence.
+* Gyros (``gyro_x|y|z``): a constant gyro fault is a bias step, which the filter's
+  gyro-bias states absorb, so the innovations show it only weakly and briefly. The
+  monitor watches the bias estimate instead: every 0.1 s it forms, per axis, the change
+  of the estimate over the last FDI_BIAS_T seconds, ``d = b(t) - b(t - T)``, and
+  normalises it by what a healthy filter allows over T -- the bias random walk of the
+  filter's model plus the estimate's own variance, ``gamma_b = d^2 / (q_bg T +
+  sigma_b(t)^2)`` -- tested against chi2_{FDI_ALPHA_B, 1}. This is the rate of the bias
+  estimate (d / T) tested against its admissible rate. The bias states keep learning
+  for about a minute after alignment (the statistic reaches 30-50 then), so the gyro
+  channels are armed FDI_BIAS_WU seconds after alignment. FDI_ALPHA_B is smaller than
+  FDI_ALPHA because the filter's bias sigma is optimistic (fault-free maxima of
+  gamma_b after the warm-up: 15-19, measured over three seeds and a GPS outage).
+* Accelerometers, control surfaces, motors: names reserved; no statistic yet (the
+  accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
+  not usable as they are; actuator identification is not implemented).
+
+Decision: a fault is detected at the first step where a channel's detection
+statistic exceeds its threshold (or a channel goes silent); it is isolated to the
+channel with the largest isolation statistic over its own threshold (the seed's max
+rule); it clears when every statistic has stayed under its threshold, and every
+silent channel has refilled its window, for FDI_CLR_T seconds. Each of the three
+produces an event ``(t_s, severity, text)`` (MAV_SEVERITY numbers, STATUSTEXT-ready)
+in ``events``; ``episodes`` keeps the running fault log.
+
+R adaptation (robust KF, :mod:`.radapt`): while a fault is detected and isolated to an
+aiding channel, every aiding source whose per-step statistic (2.41-2.43) goes over its
+threshold in this episode gets noise scale factors (FDI_RADAPT: 0 off, 1 single, 2
+multiple factors, the default); when the episode clears the filter is the optimal one
+again. The statistics keep using the unscaled R, so they measure the fault, not the
+adapted filter.
+
+Failsafe: GPS silent for FDI_DR_TIME seconds (dead reckoning on air data and the wind
+estimate meanwhile) -> ``failsafe`` is set to the action of FDI_GPS_FS (1: "RTL"); the
+vehicle applies it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from autopilot.params import Param
+
+from .radapt import R_MULTIPLE, RAdapter, attach
+from .stats import WindowChi2, chi2_threshold
+
+CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z", "mag", "baro",
+            "airspeed", "gps_pos", "gps_vel", "aileron", "elevator", "rudder", "throttle",
+            "motor_1", "motor_2", "motor_3", "motor_4")
+CHANNEL_INDEX = {name: i for i, name in enumerate(CHANNELS)}
+
+# MAV_SEVERITY
+SEV_CRITICAL, SEV_WARNING, SEV_NOTICE, SEV_INFO = 2, 4, 5, 6
+
+FDI_PARAMS = (
+    Param("FDI_ENABLE", 1.0, 0.0, 1.0, "bool", "run the fault monitor", is_int=True),
+    Param("FDI_ALPHA", 1e-4, 1e-9, 0.1, "", "level of significance of the innovation chi-square tests"),
+    Param("FDI_WIN", 10.0, 3.0, 100.0, "samples", "sliding window width M of the chi-square tests", is_int=True),
+    Param("FDI_DECIM", 10.0, 1.0, 50.0, "", "50 Hz sources (baro, mag, airspeed) enter every N-th sample",
+          is_int=True),
+    Param("FDI_ARSP_K", 4.0, 1.0, 100.0, "", "airspeed innovation variance inflation (turbulence)"),
+    Param("FDI_TOUT", 0.5, 0.1, 10.0, "s", "a channel silent this long is flagged (sensor off)"),
+    Param("FDI_BIAS_T", 4.0, 1.0, 60.0, "s", "window of the gyro bias-estimate change test"),
+    Param("FDI_ALPHA_B", 1e-5, 1e-12, 0.1, "", "level of significance of the gyro bias test"),
+    Param("FDI_BIAS_WU", 60.0, 0.0, 600.0, "s", "gyro bias test armed this long after alignment"),
+    Param("FDI_START_T", 10.0, 0.0, 600.0, "s", "monitor starts this long after navigation is healthy"),
+    Param("FDI_CLR_T", 2.0, 0.0, 60.0, "s", "a fault clears after this long with all statistics low"),
+    Param("FDI_RADAPT", 2.0, 0.0, 2.0, "", "R adaptation: 0 off, 1 single, 2 multiple scale factors",
+          is_int=True),
+    Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
+    Param("FDI_DR_TIME", 10.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
+)
+_DEFAULTS = {p.name: float(p.default) for p in FDI_PARAMS}
+
+# aiding channel -> (innovation dimension, decimated, variance inflation key)
+_AIDING = {"gps_pos": (3, False, None), "gps_vel": (3, False, None), "baro": (1, True, None),
+           "mag": (1, True, None), "airspeed": (1, True, "FDI_ARSP_K")}
+_GYROS = ("gyro_x", "gyro_y", "gyro_z")
+_INERTIAL = frozenset(CHANNELS[:6])
+_BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+
+LOG_COLUMNS = ("fdi_detected", "fdi_isolated", "fdi_step_max", "fdi_gps_pos", "fdi_gps_vel",
+               "fdi_baro", "fdi_mag", "fdi_airspeed", "fdi_iso_max", "fdi_gyro_x", "fdi_gyro_y",
+               "fdi_gyro_z", "fdi_rscale_gps")
+"""Flight-log columns of the monitor: detected (0/1), isolated channel index in CHANNELS
+(-1 none), then statistics divided by their thresholds (> 1: H1): the largest per-step
+statistic of this step (2.41), the window statistic per aiding channel (2.12; a
+silent channel logs age / FDI_TOUT), the largest isolation statistic (2.17), the gyro
+bias-change statistic per axis, and the largest R scale factor applied to gps_pos."""
+
+
+@dataclass
+class Episode:
+    """One detection, from detection to clearance: the running fault log."""
+
+    start_s: float
+    trigger: str                   # channel whose statistic crossed first
+    isolated: str | None = None
+    isolated_s: float | None = None
+    end_s: float | None = None
+
+
+class _Aiding:
+    __slots__ = ("name", "win", "decim", "k", "gain", "last_us", "silent", "refill",
+                 "ratio", "adapted", "rdet", "riso")
+
+    def __init__(self, name: str, s: int, M: int, alpha: float, decim: int, gain: float):
+        self.name = name
+        self.win = WindowChi2(s, M, alpha)
+        self.decim = decim
+        self.k = 0
+        self.gain = gain              # 1 / sqrt(variance inflation)
+        self.last_us: int | None = None
+        self.silent = False
+        self.refill = False           # back from silence, window not yet full
+        self.ratio = 0.0
+        self.adapted = False
+        self.rdet = 0.0               # latest window statistic / threshold (2.12)
+        self.riso = 0.0               # latest isolation statistic / threshold (2.17)
+
+
+class FaultMonitor:
+    """``FaultMonitor(params, nav)``; ``update(t_us, armed)`` once per step after the
+    navigation update. Outputs: ``detected``, ``isolated``, ``events``, ``episodes``,
+    ``failsafe``, ``log_row()``."""
+
+    def __init__(self, params=None, nav=None):
+        p = dict(_DEFAULTS)
+        if params is not None:
+            for name in p:
+                if name in params:
+                    p[name] = float(params[name])
+        self.p = p
+        self.nav = nav
+        M = int(p["FDI_WIN"])
+        alpha = p["FDI_ALPHA"]
+        decim = int(p["FDI_DECIM"])
+        self.aiding: dict[str, _Aiding] = {}
+        for name, (s, fast, kkey) in _AIDING.items():
+            gain = 1.0 / math.sqrt(p[kkey]) if kkey else 1.0
+            self.aiding[name] = _Aiding(name, s, M, alpha, decim if fast else 1, gain)
+        self._aiding_list = tuple(self.aiding.values())
+        self.tout_us = int(p["FDI_TOUT"] * 1e6)
+        self._start_us = p["FDI_START_T"] * 1e6
+        # gyro bias channels
+        self.bias_n = max(1, int(round(p["FDI_BIAS_T"] * 1e6 / _BIAS_PERIOD_US)))
+        self.thr_bias = chi2_threshold(p["FDI_ALPHA_B"], 1)
+        q = 2e-5
+        if params is not None and "EK_GYRB_NSE" in params:
+            q = float(params["EK_GYRB_NSE"])
+        self.q_bias_T = q * q * p["FDI_BIAS_T"]
+        self._bias_ring: list = []
+        self._bias_next_us = 0
+        self.bias_ratio = [0.0, 0.0, 0.0]
+        # R adaptation
+        self.radapt = RAdapter(int(p["FDI_RADAPT"]))
+        self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
+        # decision state
+        self.enabled = bool(p["FDI_ENABLE"])
+        self.detected = False
+        self.isolated: str | None = None
+        self.episodes: list[Episode] = []
+        self.events: list[tuple[float, int, str]] = []
+        self.failsafe: str | None = None
+        self._healthy_us: int | None = None
+        self._aligned_us: int | None = None
+        self._quiet_us: int | None = None
+        self._gps_silent_us: int | None = None
+        self._fs_done = False
+        self._step_max = 0.0
+        self._iso_max = 0.0
+
+    # ------------------------------------------------------------------- step ---
+    def update(self, t_us: int, armed: bool = True) -> None:
+        nav = self.nav
+        if not self.enabled or nav is None:
+            return
+        if self._aligned_us is None:
+            if not getattr(nav, "aligned", False):
+                return
+            self._aligned_us = t_us
+        if self._healthy_us is None:
+            if not getattr(nav, "healthy", False):
+                return
+            self._healthy_us = t_us
+        if t_us - self._healthy_us < self._start_us:
+            return
+        step_max = 0.0
+        okf = self.radapt.okf_sd
+        aiding = self.aiding
+        for r in nav.innovations:
+            ch = aiding.get(r.source)
+            if ch is None:
+                continue
+            ch.last_us = t_us
+            ch.k += 1
+            if ch.k < ch.decim:
+                continue
+            ch.k = 0
+            sd = okf.get(r.source)
+            if sd is None:
+                sd = r.innovation_variance
+            y = r.innovation.tolist()
+            sl = sd.tolist()
+            if min(sl) <= 0.0:
+                continue                      # not a covariance: no statistic
+            g = ch.gain
+            # Delta = diag(S)^-1/2 e   (2.13), with the unscaled R
+            d = [g * yi / math.sqrt(si) for yi, si in zip(y, sl)]
+            w = ch.win
+            w.push(d)
+            ch.rdet = w.ratio_det
+            ch.riso = w.ratio_iso
+            rs = w.chi / w.thr_step
+            if rs > step_max:
+                step_max = rs
+        self._step_max = step_max
+        self._evaluate(t_us, armed)
+
+    # ------------------------------------------------------------- statistics ---
+    def _bias_stats(self, t_us: int) -> None:
+        if t_us < self._bias_next_us:
+            return
+        self._bias_next_us = t_us + _BIAS_PERIOD_US
+        nav = self.nav
+        if not hasattr(nav, "gyro_bias"):
+            return
+        b = nav.gyro_bias.tolist()
+        ring = self._bias_ring
+        ring.append(b)
+        if len(ring) <= self.bias_n:
+            return
+        old = ring.pop(0)
+        if (t_us - self._aligned_us) < self.p["FDI_BIAS_WU"] * 1e6:
+            return
+        P = nav.P
+        q = self.q_bias_T
+        i0 = 12  # layout.GBIAS.start (kept here to read P without importing nav)
+        for i in range(3):
+            d = b[i] - old[i]
+            # gamma_b = d^2 / (q_bg T + sigma_b^2)
+            self.bias_ratio[i] = d * d / (q + float(P[i0 + i, i0 + i])) / self.thr_bias
+
+    def _evaluate(self, t_us: int, armed: bool) -> None:
+        self._bias_stats(t_us)
+        tout = self.tout_us
+        over = None
+        over_ratio = 0.0
+        busy = False
+        iso = None
+        iso_ratio = 1.0
+        iso_max = 0.0
+        for ch in self._aiding_list:
+            last = ch.last_us
+            if armed and last is not None and t_us - last > tout:
+                if not ch.silent:
+                    ch.silent = True
+                    ch.win.reset()
+                    ch.rdet = ch.riso = 0.0
+                ratio = ir = (t_us - last) / tout
+            else:
+                if ch.silent:
+                    ch.silent = False
+                    ch.refill = True
+                if ch.refill and ch.win.n >= ch.win.M:
+                    ch.refill = False
+                ratio = ch.rdet
+                ir = ch.riso
+            ch.ratio = ratio
+            if ch.silent or ch.refill:
+                busy = True
+            if ratio > 1.0 and ratio > over_ratio:
+                over, over_ratio = ch.name, ratio
+            if ir > iso_max:
+                iso_max = ir
+            if ir > iso_ratio:
+                iso, iso_ratio = ch.name, ir
+        for i, name in enumerate(_GYROS):
+            r = self.bias_ratio[i]
+            if r > 1.0 and r > over_ratio:
+                over, over_ratio = name, r
+            if r > iso_max:
+                iso_max = r
+            if r > iso_ratio:
+                iso, iso_ratio = name, r
+        self._iso_max = iso_max
+        t_s = t_us * 1e-6
+        if over is not None and not self.detected:
+            self.detected = True
+            self._quiet_us = None
+            self.episodes.append(Episode(round(t_s, 3), over))
+            self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {over} "
+                                                  f"(statistic {over_ratio:.1f}x threshold)"))
+        if not self.detected:
+            return
+        ep = self.episodes[-1]
+        if iso is not None and (ep.isolated is None
+                                or (iso in _INERTIAL and ep.isolated not in _INERTIAL)):
+            # an inertial fault shows in every aiding innovation, an aiding fault hardly
+            # moves the bias estimates: an inertial channel over its threshold overrides
+            # an earlier isolation to an aiding channel
+            ep.isolated, ep.isolated_s = iso, round(t_s, 3)
+            self.isolated = iso
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {iso} fault isolated"))
+            if iso in _INERTIAL and self.radapt.active:
+                self.radapt.active.clear()
+                for ch in self._aiding_list:
+                    ch.adapted = False
+                self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
+        # R adaptation: the aiding channels over their threshold in this episode
+        if self.radapt_ok and self.isolated is not None and self.isolated not in _INERTIAL:
+            for ch in self._aiding_list:
+                # the RAKF runs where the per-step statistic says H1 (2.41-2.43)
+                if not ch.adapted and not ch.silent and ch.win.chi > ch.win.thr_step:
+                    ch.adapted = True
+                    self.radapt.active.add(ch.name)
+                    self.events.append((t_s, SEV_NOTICE, f"FDI: {ch.name} noise scale adaptation on"))
+        # GPS lost: dead reckoning, then the failsafe
+        gps = self.aiding["gps_pos"]
+        if gps.silent:
+            if self._gps_silent_us is None:
+                self._gps_silent_us = t_us
+            elif (not self._fs_done and self.p["FDI_GPS_FS"] >= 1
+                  and t_us - self._gps_silent_us >= self.p["FDI_DR_TIME"] * 1e6):
+                self._fs_done = True
+                self.failsafe = "RTL"
+                self.events.append((t_s, SEV_CRITICAL, "FDI: GPS lost, dead reckoning: failsafe RTL"))
+        else:
+            self._gps_silent_us = None
+        # clearance
+        if over is None and not busy:
+            if self._quiet_us is None:
+                self._quiet_us = t_us
+            if t_us - self._quiet_us >= self.p["FDI_CLR_T"] * 1e6:
+                self._clear(t_s)
+        else:
+            self._quiet_us = None
+
+    def _clear(self, t_s: float) -> None:
+        ep = self.episodes[-1]
+        ep.end_s = round(t_s, 3)
+        self.detected = False
+        self.isolated = None
+        self._quiet_us = None
+        self._fs_done = False
+        if self.radapt.active:
+            self.radapt.active.clear()
+            for ch in self._aiding_list:
+                ch.adapted = False
+            self.events.append((t_s, SEV_NOTICE, "FDI: back to the optimal filter"))
+        self.events.append((t_s, SEV_INFO, f"FDI: fault cleared ({ep.isolated or ep.trigger})"))
+
+    # -------------------------------------------------------------------- log ---
+    def log_row(self) -> tuple:
+        a = self.aiding
+        iso = CHANNEL_INDEX[self.isolated] if self.isolated is not None else -1
+        s = self.radapt.last.get("gps_pos")
+        return (float(self.detected), float(iso), self._step_max,
+                a["gps_pos"].ratio, a["gps_vel"].ratio, a["baro"].ratio, a["mag"].ratio,
+                a["airspeed"].ratio, self._iso_max, self.bias_ratio[0], self.bias_ratio[1],
+                self.bias_ratio[2], float(s.max()) if s is not None else 1.0)
+
+    def thresholds(self) -> dict:
+        """The chi-square thresholds in use (for the summary and the report)."""
+        out = {name: {"detect": ch.win.thr_det, "step": ch.win.thr_step, "isolate": ch.win.thr_iso}
+               for name, ch in self.aiding.items()}
+        for name in _GYROS:
+            out[name] = {"bias": self.thr_bias}
+        return out

@@ -1,0 +1,140 @@
+"""Chi-square statistics of the normalised innovation (seed ch. 8 sec. 2.2.1-2.2.2, 2.3.3.1).
+
+The seed's equations lost their subscripts in extraction; they are rebuilt here from
+C. Hajiyev and F. Caliskan, "Fault Diagnosis and Reconfiguration in Flight Control
+Systems", Kluwer (2003), ch. 5-6 (and Hajiyev & Caliskan 2000, "Sensor/actuator fault
+diagnosis based on statistical analysis of innovation sequence and robust Kalman
+filtering", Aerosp. Sci. Technol. 4), which the seed's sections 2.2-2.3 summarise.
+
+Normalised innovation (eq 2.13), with ``e_k = z_k - h(x_k|k-1)`` and
+``S_k = H_k P_k|k-1 H_k^T + R_k``::
+
+    Delta_k = S_k^(-1/2) e_k                       ~ N(0, I_s) under H0
+
+The innovation records carry diag(S) only, so ``S^(-1/2)`` is taken as
+``diag(S)^(-1/2)`` (the cross-covariance of a GPS fix's three axes is neglected).
+
+Detection over a sliding window of the last M samples (eqs 2.12, 2.14, 2.15)::
+
+    beta_k = sum_{j=k-M+1..k} Delta_j^T Delta_j     ~ chi2(M s)
+    P(beta_k > chi2_{alpha, M s}) = alpha;   H1 (fault) if beta_k > chi2_{alpha, M s}
+
+Per-step statistic of the RAKF (eqs 2.41-2.43)::
+
+    chi_k = e_k^T (H P H^T + R)^-1 e_k = Delta_k^T Delta_k   ~ chi2(s)
+    H1 if chi_k > chi2_{alpha, s}
+
+Isolation (eqs 2.16-2.17), per one-dimensional component i of the innovation::
+
+    mean_k(i)     = 1/M sum_j Delta_j(i)
+    sigma2_k(i)   = 1/(M-1) sum_j (Delta_j(i) - mean_k(i))^2       (sample variance)
+    gamma_k(i)    = (M - 1) sigma2_k(i) / sigma2(i)                 ~ chi2(M-1)  (2.16)
+                  = (M - 1) sigma2_k(i)   since sigma2(i) = 1 for Delta (2.17)
+
+The channel whose ``gamma / chi2_{alpha, M-1}`` is the largest and above 1 is the faulty
+one (the seed's ``max gamma_k(i) = gamma_k(m)`` rule, with the statistics divided by
+their own thresholds so that channels of different dimension compare).
+
+Cost: every statistic is a running sum over a ring of M samples (one add, one
+subtract per sample; re-summed every 64 windows against round-off). The chi-square
+quantiles are computed once, at construction (scipy.stats.chi2.ppf).
+"""
+from __future__ import annotations
+
+import math
+
+from scipy.stats import chi2 as _chi2
+
+
+def chi2_threshold(alpha: float, dof: int) -> float:
+    """chi2_{alpha, dof}: the (1 - alpha) quantile (eqs 2.14, 2.42)."""
+    return float(_chi2.ppf(1.0 - alpha, dof))
+
+
+class WindowChi2:
+    """Sliding-window statistics of one s-dimensional innovation channel.
+
+    ``push(delta)`` takes one normalised innovation (a list of s floats) and updates
+    beta (2.12), chi (2.41) and the per-component gamma (2.16-2.17). ``ratio_det``,
+    ``ratio_step`` and ``ratio_iso`` are the statistics divided by their thresholds
+    (> 1: hypothesis H1). ``full`` once M samples have been seen.
+    """
+
+    __slots__ = ("s", "M", "thr_det", "thr_step", "thr_iso", "_q", "_x", "_i", "n",
+                 "_sq", "_sx", "_sxx", "beta", "chi", "gamma", "_resum")
+
+    def __init__(self, s: int, M: int, alpha: float):
+        self.s, self.M = s, M
+        self.thr_det = chi2_threshold(alpha, M * s)      # chi2_{alpha, M s}   (2.14)
+        self.thr_step = chi2_threshold(alpha, s)         # chi2_{alpha, s}     (2.42)
+        self.thr_iso = chi2_threshold(alpha, M - 1)      # chi2_{alpha, M-1}   (2.17)
+        self.reset()
+
+    def reset(self) -> None:
+        M, s = self.M, self.s
+        self._q = [0.0] * M                 # Delta_j^T Delta_j of the window
+        self._x = [[0.0] * s for _ in range(M)]
+        self._i = 0
+        self.n = 0
+        self._sq = 0.0
+        self._sx = [0.0] * s
+        self._sxx = [0.0] * s
+        self.beta = 0.0
+        self.chi = 0.0
+        self.gamma = 0.0                    # max over components
+        self._resum = 0
+
+    @property
+    def full(self) -> bool:
+        return self.n >= self.M
+
+    def push(self, d: list[float]) -> None:
+        i = self._i
+        old = self._x[i]
+        # chi_k = Delta_k^T Delta_k   (2.41)
+        q = 0.0
+        sx, sxx = self._sx, self._sxx
+        for c in range(self.s):
+            v = d[c]
+            q += v * v
+            o = old[c]
+            sx[c] += v - o
+            sxx[c] += v * v - o * o
+        self._sq += q - self._q[i]
+        self._q[i] = q
+        self._x[i] = d
+        self._i = (i + 1) % self.M
+        self.n += 1
+        self.chi = q
+        if self._i == 0:
+            self._resum += 1
+            if self._resum >= 64:           # running sums: bound the round-off
+                self._resum = 0
+                self._sq = math.fsum(self._q)
+                for c in range(self.s):
+                    self._sx[c] = math.fsum(x[c] for x in self._x)
+                    self._sxx[c] = math.fsum(x[c] * x[c] for x in self._x)
+        if self.n < self.M:
+            return
+        # beta_k = sum_{j=k-M+1..k} Delta_j^T Delta_j   (2.12)
+        self.beta = self._sq
+        # gamma_k(i) = (M-1) sigma2_k(i) = sum Delta^2 - (sum Delta)^2 / M   (2.16-2.17)
+        M = self.M
+        g = 0.0
+        for c in range(self.s):
+            v = sxx[c] - sx[c] * sx[c] / M
+            if v > g:
+                g = v
+        self.gamma = g
+
+    @property
+    def ratio_det(self) -> float:
+        return self.beta / self.thr_det if self.n >= self.M else 0.0
+
+    @property
+    def ratio_step(self) -> float:
+        return self.chi / self.thr_step
+
+    @property
+    def ratio_iso(self) -> float:
+        return self.gamma / self.thr_iso if self.n >= self.M else 0.0

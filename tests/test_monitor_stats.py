@@ -1,0 +1,78 @@
+"""Unit tests of the fault monitor's statistics (seed eqs 2.12-2.17, 2.29-2.33) and of
+the summary's fault figures."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from autopilot.monitor import WindowChi2, chi2_threshold
+from autopilot.monitor.monitor import Episode
+from autopilot.monitor.radapt import R_MULTIPLE, R_SINGLE, RAdapter
+from tools.summary import fault_figures
+
+
+def test_thresholds_are_chi2_quantiles():
+    w = WindowChi2(3, 10, 1e-3)
+    assert w.thr_det == pytest.approx(chi2.ppf(0.999, 30))
+    assert w.thr_step == pytest.approx(chi2.ppf(0.999, 3))
+    assert w.thr_iso == pytest.approx(chi2.ppf(0.999, 9))
+    assert chi2_threshold(0.05, 1) == pytest.approx(3.841, abs=1e-3)
+
+
+def test_window_statistics_match_their_definitions():
+    rng = np.random.default_rng(0)
+    w = WindowChi2(2, 8, 1e-3)
+    xs = rng.normal(size=(50, 2))
+    for x in xs:
+        w.push(x.tolist())
+    last = xs[-8:]
+    assert w.beta == pytest.approx(np.sum(last ** 2))                    # 2.12
+    assert w.chi == pytest.approx(np.sum(xs[-1] ** 2))                   # 2.41
+    assert w.gamma == pytest.approx(max(7 * np.var(last, axis=0, ddof=1)))  # 2.16-2.17
+
+
+def test_false_alarm_rate_is_alpha_on_white_noise_and_a_shift_is_detected():
+    rng = np.random.default_rng(1)
+    alpha, M = 0.01, 10
+    w = WindowChi2(1, M, alpha)
+    over = 0
+    n = 20000
+    for k, v in enumerate(rng.normal(size=n)):
+        w.push([float(v)])
+        if k >= M and k % M == 0:        # independent windows
+            over += w.beta > w.thr_det
+    rate = over / (n / M)
+    assert 0.3 * alpha < rate < 2.5 * alpha
+    for v in rng.normal(3.0, 1.0, size=M):   # a 3-sigma mean shift fills the window
+        w.push([float(v)])
+    assert w.ratio_det > 1.0
+
+
+def test_noise_scale_factors():
+    y, hph, r = np.array([3.0, 0.5]), np.array([1.0, 1.0]), np.array([2.0, 2.0])
+    a = RAdapter(R_MULTIPLE)
+    assert a.scale("gps_pos", y, hph, r) is None            # not active: the OKF
+    a.active.add("gps_pos")
+    # s_i = max(1, (e_i^2 - HPH_ii) / R_ii)    (2.31-2.33)
+    assert a.scale("gps_pos", y, hph, r).tolist() == [4.0, 1.0]
+    a.mode = R_SINGLE
+    # S = (e^T e - tr HPH) / tr R = (9.25 - 2) / 4    (2.29)
+    assert a.scale("gps_pos", y, hph, r).tolist() == pytest.approx([7.25 / 4] * 2)
+
+
+class _R:
+    def __init__(self, at_s, unit, type, instance=0, accepted=True):
+        self.at_s, self.unit, self.type, self.instance, self.accepted = at_s, unit, type, instance, accepted
+
+
+def test_fault_figures_pair_injections_with_detections():
+    log = [_R(100.0, "gps", "garbage"), _R(130.0, "gps", "ok")]
+    eps = [Episode(20.0, "baro", end_s=25.0), Episode(100.4, "gps_pos", "gps_pos", 100.4, 133.0),
+           Episode(138.0, "gps_vel"), Episode(200.0, "mag")]
+    f = fault_figures(log, eps, 300.0)
+    assert f["faults"][0]["detected_s"] == 100.4
+    assert f["faults"][0]["delay_s"] == pytest.approx(0.4)
+    assert f["faults"][0]["isolated"] == "gps_pos"
+    assert f["faults"][1]["cleared_s"] == 133.0
+    assert f["false_alarms"] == 2          # 20 s and 200 s; 138 s is the fault's aftermath

@@ -1,0 +1,207 @@
+"""The quadrotor plant (sim_bridge/plants/quadrotor.py): the seed's model, eqs 3.23-3.26,
+on the F450 data. GIVEN a plant state and rotor commands, THEN the physics comes out
+as the model says: weight carried at the hover command, free fall, the thrust lag, the
+moments' directions, quiet ground contact."""
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.geo import quat_integrate, quat_to_dcm, quat_to_euler
+from sim_bridge.plants.quadrotor import F450, QuadrotorPlant, _dcm, _quat_step
+
+HOME = (-35.363262, 149.165237, 584.0, 0.0)
+
+
+def plant(**kw):
+    return QuadrotorPlant(home=kw.pop("home", HOME), rng=np.random.default_rng(1), **kw)
+
+
+def test_airframe_data_match_the_f450_sources():
+    assert F450.mass_kg == 1.4 and (F450.ixx, F450.iyy, F450.izz) == (0.019, 0.019, 0.0252)
+    assert F450.arm_m == pytest.approx(0.2335, abs=1e-4)
+    assert F450.k_m == pytest.approx(0.01965, abs=1e-4)          # C_P D / (2 pi C_T)
+    assert F450.thrust_time_constant() == pytest.approx(0.0546, abs=1e-3)
+    assert F450.static_thrust(1.0) == pytest.approx(15.72, abs=0.05)
+    assert F450.static_thrust(0.0) == 0.0
+    u = np.linspace(0.0, 1.0, 21)
+    assert np.all(np.diff([F450.static_thrust(x) for x in u]) >= 0.0)   # monotonic
+
+
+def test_hover_command_holds_the_weight():
+    # GIVEN the vehicle in the air with every rotor at the model's hover command
+    p = plant()
+    p.set_airborne(20.0)
+    u = p.af.hover_command(p.rho, p.g)
+    assert 4.0 * p.af.static_thrust(u, p.rho) == pytest.approx(p.af.mass_kg * p.g, rel=1e-6)
+    # THEN after 5 s it has neither climbed nor sunk, nor tilted
+    for _ in range(1250):
+        st = p.step((u, u, u, u))
+    assert st.alt_m - HOME[2] == pytest.approx(20.0, abs=0.01)
+    assert abs(st.v_ned[2]) < 1e-3
+    assert np.allclose(st.omega_b, 0.0, atol=1e-9)
+    assert st.f_b[2] == pytest.approx(-p.g, abs=1e-3)        # accelerometer: -g, hovering
+
+
+def test_hover_command_scales_with_air_density():
+    # thrust ~ rho: at 584 m (rho 1.157) the hover command is higher than at sea level
+    assert plant().af.hover_command(1.157) > plant().af.hover_command(1.225) + 0.005
+
+
+def test_free_fall_with_motors_off():
+    p = plant()
+    p.set_airborne(100.0)
+    p.thrust = [0.0, 0.0, 0.0, 0.0]
+    t = 1.0
+    for _ in range(int(t / p.dt_s)):
+        st = p.step((0.0, 0.0, 0.0, 0.0))
+    # m v' = m g - c_lin v - 1/2 rho CdA v^2 (still air), integrated finely
+    af = p.af
+    v = h = 0.0
+    dt = 1e-5
+    for _ in range(int(t / dt)):
+        a = p.g - (af.drag_lin * v + 0.5 * p.rho * af.drag_area_m2 * v * v) / af.mass_kg
+        h += (v + 0.5 * a * dt) * dt
+        v += a * dt
+    assert st.v_ned[2] == pytest.approx(v, rel=2e-3)
+    assert 100.0 - (st.alt_m - HOME[2]) == pytest.approx(h, rel=5e-3)
+    assert v > 0.85 * p.g * t                        # mostly gravity
+    # the accelerometer reads the drag only: up along body z, nothing sideways
+    drag = af.drag_lin * v + 0.5 * p.rho * af.drag_area_m2 * v * v
+    assert st.f_b[2] == pytest.approx(-drag / af.mass_kg, rel=5e-3)
+    assert np.linalg.norm(st.f_b[:2]) < 1e-9
+
+
+def test_rotor_thrust_follows_a_first_order_lag():
+    p = plant()
+    p.set_airborne(50.0)
+    p.thrust = [0.0, 0.0, 0.0, 0.0]
+    target = p.static_thrusts((0.6, 0.6, 0.6, 0.6))[0]
+    tau = p.tau_s
+    n = int(round(tau / p.dt_s))
+    for _ in range(n):
+        p.step((0.6, 0.6, 0.6, 0.6))
+    # after one time constant: 1 - 1/e of the step
+    assert p.thrust[0] / target == pytest.approx(1.0 - math.exp(-n * p.dt_s / tau), abs=1e-9)
+    assert p.thrust[0] / target == pytest.approx(0.632, abs=0.03)
+
+
+@pytest.mark.parametrize("channel, axis, sign", [
+    (1, 0, +1), (3, 0, -1),     # rotor 2 (left) rolls right, rotor 4 (right) rolls left
+    (2, 1, +1), (0, 1, -1),     # rotor 3 (front) pitches up, rotor 1 (aft) pitches down
+    (0, 2, +1), (2, 2, +1),     # rotors 1, 3 (counter-clockwise) yaw the nose right
+    (1, 2, -1), (3, 2, -1),     # rotors 2, 4 (clockwise) yaw it left
+])
+def test_each_rotor_turns_the_airframe_the_documented_way(channel, axis, sign):
+    p = plant()
+    p.set_airborne(50.0)
+    u = [p.af.hover_command(p.rho, p.g)] * 4
+    u[channel] += 0.05
+    for _ in range(10):
+        st = p.step(tuple(u))
+    assert math.copysign(1.0, st.omega_b[axis]) == sign
+    if axis < 2:      # no cross-coupling between roll and pitch (yaw follows the spin)
+        assert abs(st.omega_b[1 - axis]) < 1e-3 * abs(st.omega_b[axis])
+
+
+def test_rests_on_the_ground_then_takes_off_and_lands_without_sinking_or_bouncing():
+    p = plant()
+    st = p.state()
+    ground = HOME[2] + p.af.gear_height_m
+    assert st.on_ground and st.alt_m == pytest.approx(ground)
+    # idling below the weight: still on the ground, the accelerometer reads -g
+    for _ in range(250):
+        st = p.step((0.2, 0.2, 0.2, 0.2))
+    assert st.on_ground and st.alt_m == pytest.approx(ground)
+    assert np.allclose(st.f_b, (0.0, 0.0, -p.g), atol=1e-9) and np.allclose(st.v_ned, 0.0)
+    # full power: lifts off
+    for _ in range(250):
+        st = p.step((0.6, 0.6, 0.6, 0.6))
+    assert not st.on_ground and st.alt_m > ground + 1.0
+    # a gentle descent at about 0.5 m/s, then it touches down: stops dead at the ground
+    alts = []
+    hover = p.af.hover_command(p.rho, p.g)
+    for _ in range(10000):
+        u = hover + 0.05 * (st.v_ned[2] - 0.5)
+        st = p.step((u, u, u, u))
+        alts.append(st.alt_m)
+        if st.on_ground:
+            break
+    assert st.on_ground and not p.crashed
+    for _ in range(250):
+        st = p.step((u, u, u, u))
+        alts.append(st.alt_m)
+    assert min(alts) >= ground - 1e-9                         # never below the ground
+    assert st.alt_m == pytest.approx(ground) and np.allclose(st.v_ned, 0.0)
+    assert 0.3 < p.touchdown_speed_mps < 0.7
+
+
+def test_touchdown_impulse_reaches_the_accelerometer_and_a_tilt_levels_through_the_gyro():
+    p = plant()
+    p.set_airborne(0.3)
+    p.v = [0.0, 0.0, 1.0]
+    p.q = list(np.array([math.cos(0.05), math.sin(0.05), 0.0, 0.0]))     # 5.7 deg roll
+    p.thrust = [0.0] * 4
+    st = p.step((0.0, 0.0, 0.0, 0.0))
+    while not st.on_ground:
+        v_before = p.v[2]
+        st = p.step((0.0, 0.0, 0.0, 0.0))
+    # integrating the specific force (plus gravity) over the touchdown step gives -v
+    f_ned = quat_to_dcm(st.q_nb) @ st.f_b
+    assert (f_ned[2] + p.g) * p.dt_s == pytest.approx(-v_before, rel=0.02)
+    # then the roll goes to zero at finite rates, never by a jump
+    rolls, rates = [], []
+    for _ in range(200):
+        st = p.step((0.0, 0.0, 0.0, 0.0))
+        rolls.append(quat_to_euler(st.q_nb)[0])
+        rates.append(st.omega_b[0])
+    assert abs(rolls[-1]) < 1e-3
+    assert max(abs(np.diff(rolls))) < 0.01
+    assert min(rates) < -0.1
+
+
+def test_crash_is_flagged_on_a_hard_touchdown():
+    p = plant()
+    p.set_airborne(5.0)
+    for _ in range(500):
+        st = p.step((0.0, 0.0, 0.0, 0.0))
+        if st.on_ground:
+            break
+    assert p.crashed and p.touchdown_speed_mps > 3.0
+
+
+def test_float_quaternion_and_dcm_agree_with_the_geo_module():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = rng.standard_normal(4)
+        q /= np.linalg.norm(q)
+        w = rng.standard_normal(3)
+        np.testing.assert_allclose(np.array(_dcm(*q)).reshape(3, 3), quat_to_dcm(q), atol=1e-12)
+        a = np.array(_quat_step(*q, *(w * 0.004)))
+        b = quat_integrate(q if q[0] >= 0 else -q, w, 0.004)
+        np.testing.assert_allclose(a, b, atol=1e-12)
+
+
+def test_state_follows_the_plant_state_contract_across_the_dateline():
+    p = plant(home=(-41.0, 179.9999, 10.0, 90.0))
+    p.set_airborne(10.0, yaw_rad=math.pi / 2)
+    p.p = [0.0, 50.0, -10.0]                      # 50 m east: across the 180 deg meridian
+    st = p.state()
+    assert -math.pi < st.lon_rad < -math.pi + 1e-4
+    assert st.q_nb.shape == (4,) and st.v_ned.shape == (3,) and st.wind_ned.shape == (3,)
+    assert quat_to_euler(st.q_nb)[2] == pytest.approx(math.pi / 2)
+
+
+def test_wind_and_turbulence_reach_the_air_data_reproducibly():
+    a = plant(wind_ned=(0.0, 3.0, 0.0), turbulence="light")
+    b = plant(wind_ned=(0.0, 3.0, 0.0), turbulence="light")
+    for pl in (a, b):
+        pl.set_airborne(10.0)
+    u = a.af.hover_command(a.rho, a.g)
+    sa = [a.step((u,) * 4) for _ in range(500)]
+    sb = [b.step((u,) * 4) for _ in range(500)]
+    assert all(np.array_equal(x.wind_ned, y.wind_ned) for x, y in zip(sa, sb))
+    w = np.array([s.wind_ned for s in sa])
+    assert 1.0 < np.mean(w[:, 1]) < 5.0 and np.std(w[:, 2]) > 0.01
+    # the wind pushes the hovering vehicle downwind (east)
+    assert sa[-1].v_ned[1] > 0.1
