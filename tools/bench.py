@@ -34,10 +34,10 @@ def bench_plant(seconds: float) -> float:
     c = plant.trim(25.0, 100.0)
     plant.set_wind((0.0, 5.0, 0.0), "light")
     n = int(seconds * 100)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for _ in range(n):
         plant.step(c, 2)
-    return seconds / (time.perf_counter() - t0)
+    return seconds / (time.perf_counter() - t0), seconds / max(time.process_time() - c0, 1e-9)
 
 
 class _Timers:
@@ -78,14 +78,15 @@ def bench_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tup
         timers.wrap(v.l1, "line", "guidance (L1)")
         timers.wrap(v.l1, "loiter", "guidance (L1)")
         timers.wrap(v.ctrl, "update", "control")
+        if getattr(v, "monitor", None) is not None:
+            timers.wrap(v.monitor, "update", "fault monitor")
         timers.wrap(v, "_log", "flight log")
     t_end = s.t_s + seconds
-    t0 = time.perf_counter()
-    n = 0
+    t0, c0 = time.perf_counter(), time.process_time()
     while s.t_s < t_end:
         s.step()
-        n += 1
     wall = time.perf_counter() - t0
+    s.bench_cpu_rtf = seconds / max(time.process_time() - c0, 1e-9)
     return seconds / wall, s
 
 
@@ -210,8 +211,12 @@ def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
         run_quad_bench(seconds)
         return
     print(f"sitl bench: {seconds:.0f} simulated seconds per measurement, default mission, 100 Hz lockstep")
-    plant_rtf = bench_plant(seconds)
-    print(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time")
+    print("  (wall-clock figures; in brackets the same per CPU second of this process, which a\n"
+          "   shared machine disturbs less)")
+    plant_rtf, plant_cpu = bench_plant(seconds)
+    print(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time"
+          f"   (per CPU second of this process: {plant_cpu:6.1f} x)")
+    cpu_rows = {}
     rows = {}
     for nav in ("truth", "ekf", "ukf"):
         try:
@@ -220,7 +225,9 @@ def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
             print(f"  full loop, memory pipe, nav {nav}: unavailable ({e})")
             continue
         rows[nav] = rtf
-        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time")
+        cpu_rows[nav] = _.bench_cpu_rtf
+        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time"
+              f"   (per CPU second of this process: {_.bench_cpu_rtf:6.1f} x)")
     try:
         tcp = bench_tcp(seconds, "ekf" if "ekf" in rows else "truth")
         print(f"  full loop, TCP, two processes:                 {tcp:8.1f} x real time")
@@ -228,7 +235,9 @@ def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
         print(f"  full loop, TCP, two processes: failed ({e})")
     best = rows.get("ekf", rows.get("truth"))
     if best:
-        print(f"  ratio closed loop (memory, ekf) / plant alone: {best / plant_rtf:8.3f}")
+        cbest = cpu_rows.get("ekf", cpu_rows.get("truth"))
+        print(f"  ratio closed loop (memory, ekf) / plant alone: {best / plant_rtf:8.3f}"
+              f"   (CPU: {cbest / plant_cpu:6.3f})")
     timers = _Timers()
     nav = "ekf" if "ekf" in rows else "truth"
     _, s = bench_memory(min(seconds, 30.0), nav, timers)
