@@ -1,9 +1,15 @@
-"""MAVProxy (headless: no console, no map) drives the fixed-wing as it would ArduPlane:
-its parameter download is not held up by MAVFTP (the vehicle NAKs it), ``wp load`` of a
-.waypoints file, ``wp list``, ``param set`` / ``param show``, ``mode AUTO``, ``arm
-throttle``; the mission is flown (a second client sees MISSION_ITEM_REACHED for every
-item). MAVProxy reads its commands from standard input, as ArduPilot's own autotest
-drives it."""
+"""MAVProxy, headless as the issue asks (``--daemon --non-interactive``: no console, no
+map, no standard input), drives the fixed-wing as it would ArduPlane: its parameter
+download is not held up by MAVFTP (the vehicle NAKs it), ``wp load`` of a .waypoints
+file, ``wp list``, ``param set`` / ``param show``, ``mode AUTO``, ``arm throttle``; the
+mission is flown (a second client sees MISSION_ITEM_REACHED for every item).
+
+A non-interactive MAVProxy reads no input, so its commands are given at start-up with
+``--cmd``; they are staged in time with MAVProxy's own ``repeat add PERIOD script FILE``
+(misc module): stage 1 (once, after the link is up) loads the mission and sets the
+parameter, stage 2 repeats ``wp list``, ``param show``, ``mode AUTO`` and ``arm throttle``
+until the vehicle is flying (an arming request the pre-arm checks refuse is simply asked
+again, as a pilot would)."""
 import queue
 import re
 import subprocess
@@ -21,10 +27,10 @@ pytestmark = pytest.mark.skipif(not MAVPROXY.exists(), reason="MAVProxy not inst
 
 
 class MavProxy:
-    def __init__(self, url, cwd):
+    def __init__(self, url, cwd, *extra):
         self.proc = subprocess.Popen(
             [sys.executable, "-u", str(MAVPROXY), f"--master={url}", "--no-state",
-             "--default-modules=wp,param,mode,arm,cmdlong,misc,ftp"],
+             "--default-modules=wp,param,mode,arm,cmdlong,misc,ftp", *extra],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=cwd)
         self.lines: queue.Queue = queue.Queue()
         self.log: list[str] = []
@@ -57,51 +63,55 @@ class MavProxy:
         except OSError:
             pass
         try:
+            self.proc.wait(2)
+        except subprocess.TimeoutExpired:                            # daemon: no stdin
+            self.proc.terminate()
+        try:
             self.proc.wait(5)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait(5)
 
 
-def test_mavproxy_loads_a_mission_sets_a_parameter_and_flies(tmp_path):
+def test_mavproxy_headless_loads_a_mission_sets_a_parameter_and_flies(tmp_path):
     wp = tmp_path / "mission.waypoints"
     wp.write_text((MISSIONS / "default.waypoints").read_text())
+    stage2 = tmp_path / "stage2.scr"
+    stage2.write_text("wp list\nparam show NAVL1_PERIOD\nmode AUTO\narm throttle\n")
+    stage1 = tmp_path / "stage1.scr"
+    stage1.write_text(f"wp load {wp.name}\nparam set NAVL1_PERIOD 18.5\nrepeat clean\n"
+                      f"repeat add 2 script {stage2.name}\n")
     sitl = Sitl(tmp_path / "run", speedup="max")
     reached = []
+    armed_at = []
     stop = threading.Event()
 
     def monitor():
         m = connect(sitl.url, sysid=250)
         while not stop.is_set():
-            msg = m.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=0.2)
-            if msg is not None:
+            msg = m.recv_match(type=["MISSION_ITEM_REACHED", "HEARTBEAT"], blocking=True, timeout=0.2)
+            if msg is None:
+                continue
+            if msg.get_type() == "MISSION_ITEM_REACHED":
                 reached.append(msg.seq)
+            elif msg.get_srcSystem() == 1 and msg.base_mode & 128 and not armed_at:
+                armed_at.append(time.monotonic())
         m.close()
 
     mon = threading.Thread(target=monitor, daemon=True)
     mon.start()
-    mp = MavProxy(sitl.url, tmp_path)
+    t0 = time.monotonic()
+    mp = MavProxy(sitl.url, tmp_path, "--daemon", "--non-interactive",
+                  "--cmd", f"repeat add 3 script {stage1.name}")
     try:
-        t0 = time.monotonic()
         mp.expect(r"Received (\d+) parameters", 30)
         param_fetch_s = time.monotonic() - t0
-        mp.send(f"wp load {wp.name}")
-        mp.expect(r"MISSION_ACK: TYPE_MISSION: ACCEPTED|Sent all 13 waypoints")
-        mp.send("wp list")
-        mp.expect(r"Requesting 13 waypoints")
-        mp.expect(r"^20 3 0\.0+ 0\.0+")                              # the last item: RTL
-        mp.send("param set NAVL1_PERIOD 18.5")
-        time.sleep(0.5)
-        mp.send("param show NAVL1_PERIOD")
-        mp.expect(r"NAVL1_PERIOD\s+18\.5")
-        mp.send("mode AUTO")
-        mp.expect(r"DO_SET_MODE: ACCEPTED")
-        for _ in range(60):                                          # until PreArm passes
-            mp.send("arm throttle")
-            m = mp.expect(r"COMPONENT_ARM_DISARM: (ACCEPTED|FAILED)")
-            if m.group(1) == "ACCEPTED":
-                break
-            time.sleep(0.5)
+        mp.expect(r"MISSION_ACK: TYPE_MISSION: ACCEPTED|Sent all 13 waypoints", 30)
+        mp.expect(r"Requesting 13 waypoints", 30)
+        mp.expect(r"^20 3 0\.0+ 0\.0+", 30)                         # the last item: RTL
+        mp.expect(r"NAVL1_PERIOD\s+18\.5", 30)
+        mp.expect(r"DO_SET_MODE: ACCEPTED", 30)
+        mp.expect(r"COMPONENT_ARM_DISARM: ACCEPTED", 90)
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and 12 not in reached:
             time.sleep(0.2)
@@ -112,6 +122,7 @@ def test_mavproxy_loads_a_mission_sets_a_parameter_and_flies(tmp_path):
         summary = sitl.stop()
     print(f"MAVProxy parameter download {param_fetch_s:.2f} s; reached {reached}")
     assert param_fetch_s < 8.0                                       # no MAVFTP timeouts
+    assert armed_at                                                  # MAVProxy armed it
     assert set(range(1, 13)) <= set(reached)
     assert summary["mission_items_reached"] >= 12
     assert sitl.stats()["errors"] == 0
