@@ -95,6 +95,8 @@ FDI_PARAMS = (
     Param("FDI_CLR_T", 2.0, 0.0, 60.0, "s", "a fault clears after this long with all statistics low"),
     Param("FDI_RADAPT", 2.0, 0.0, 2.0, "", "R adaptation: 0 off, 1 single, 2 multiple scale factors",
           is_int=True),
+    Param("FDI_RWIN", 10.0, 1.0, 100.0, "samples", "R adaptation: innovations in the covariance estimate "
+          "(1: one sample, as the seed)", is_int=True),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
     Param("FDI_DR_TIME", 10.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
@@ -181,7 +183,7 @@ class FaultMonitor:
         self._bias_next_us = 0
         self.bias_ratio = [0.0, 0.0, 0.0]
         # R adaptation
-        self.radapt = RAdapter(int(p["FDI_RADAPT"]))
+        self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])

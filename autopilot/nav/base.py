@@ -199,9 +199,25 @@ class _AuxSums:
 
 
 class NavFilterBase:
-    """Shared shell of :class:`InsGpsEkf` and :class:`InsGpsUkf`."""
+    """Shared shell of :class:`InsGpsEkf` and :class:`InsGpsUkf`.
+
+    Adaptation hooks (for the fault monitor's robust adaptive filter, autopilot/monitor;
+    None by default, and a filter whose hooks are None or return None runs exactly the
+    optimal filter, bit for bit):
+
+    * ``r_scale_hook(source, y, hph_diag, r_diag) -> factors | None``: called once per
+      source and update, after ``y = z - h(x)`` and ``diag(H P H^T)`` are known and
+      before the gate, with that source's rows. Returned factors (one per row, >= 1)
+      multiply those rows of R, and so of diag(S): the gate, the gain, the Joseph update
+      and the record's innovation variance all use the scaled R (seed eqs 2.25-2.34).
+    * ``q_scale_hook(dt) -> factors | None``: called once per prediction; returned
+      factors (one per error state, >= 1) multiply the diagonal process noise of that
+      step, ``P = F P F^T + Lambda Q`` (the fading matrix of seed eqs 2.35-2.40).
+    """
 
     SOURCE = "ekf"
+    r_scale_hook = None
+    q_scale_hook = None
 
     def __init__(self, params: Mapping[str, float] | None = None, vehicle: str = "plane",
                  origin: LocalFrame | None = None):
@@ -728,6 +744,8 @@ class NavFilterBase:
     def _fuse(self, batch: Batch, t: int) -> None:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        if self.r_scale_hook is not None:
+            self._scale_r(batch, self.r_scale_hook)
         y, Sd = batch.y, batch.Sd
         # test ratio = y^2 / (gate^2 S)
         ratio = y * y / (batch.g2 * Sd)
@@ -768,6 +786,32 @@ class NavFilterBase:
             e = a + size[k]
             rec.append(InnovationRecord(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
                                         rejected[k], forced[k] or not rejected[k]))
+
+    @staticmethod
+    def _scale_r(batch: Batch, hook) -> None:
+        """R adaptation hook (class docstring): S_ii = (H P H^T)_ii + s_i R_ii for the
+        rows whose factors the hook returns (factors all 1 change nothing); the batch's
+        R and Sd are copied first (never written in place)."""
+        R, Sd, y = batch.R, batch.Sd, batch.y
+        copied = False
+        for k, name in enumerate(batch.src):
+            a = batch.start[k]
+            b = a + batch.size[k]
+            r = R[a:b]
+            hph = Sd[a:b] - r
+            s = hook(name, y[a:b], hph, r.copy())
+            if s is None:
+                continue
+            s = np.asarray(s, dtype=float)
+            if (s == 1.0).all():
+                continue                              # the optimal filter, bit for bit
+            if not copied:
+                copied = True
+                R = batch.R = R.copy()
+                Sd = batch.Sd = Sd.copy()
+            rs = r * s
+            R[a:b] = rs
+            Sd[a:b] = hph + rs
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:
         """Reset position or velocity to the (latency-compensated) GPS."""

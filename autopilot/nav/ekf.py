@@ -125,7 +125,12 @@ class InsGpsEkf(NavFilterBase):
         F = self._F
         # P = F P F^T + Q  (+ the sampling error of this step's IMU samples, base.py)
         P = F @ self._P @ F.T
-        P += self._Q
+        lam = self.q_scale_hook(dt) if self.q_scale_hook is not None else None
+        if lam is None:
+            P += self._Q
+        else:
+            # P = F P F^T + Lambda Q   (fading matrix, seed eq 2.40; base.py hooks)
+            P.flat[:: self.n + 1] += self._Q.diagonal() * lam
         if self._q_sample is not None:
             P.flat[self._qs_idx] += self._q_sample
         self._P = P

@@ -148,7 +148,17 @@ class InsGpsUkf(NavFilterBase):
         nom0 = self.nom.copy()
         a = self._propagate_nominal(dt, f_m, omega_m)
         ukf = self._ukf
-        ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+        lam = self.q_scale_hook(dt) if self.q_scale_hook is not None else None
+        if lam is None:
+            ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+        else:
+            # additive Lambda Q (fading matrix, seed eq 2.40; base.py hooks)
+            Q = ukf.Q
+            ukf.Q = Q * np.asarray(lam, dtype=float)[:, None]
+            try:
+                ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+            finally:
+                ukf.Q = Q
         if self._q_sample is not None:            # sampling error of the IMU samples (base.py)
             ukf.P.flat[self._qs_idx] += self._q_sample
         ukf.P = self._condition(ukf.P)
