@@ -69,6 +69,7 @@ class MissionSequencer:
         self.airspeed_mps = self.params["TRIM_ARSPD"]
         self.finished = False          # past the last item
         self.rtl_established = False
+        self._on_circle_since_us = None
         self._leg_start: tuple | None = None
         self._leg_start_alt: float | None = None
         self._prev_wp_ne: tuple | None = None
@@ -90,6 +91,7 @@ class MissionSequencer:
         self.current = seq
         self.finished = False
         self.rtl_established = False
+        self._on_circle_since_us = None
         self.leg_id += 1
         self._arc = None
         self._leg_start = None
@@ -392,8 +394,16 @@ class MissionSequencer:
     def _rtl_loiter(self, t_us, p_ne, alt_m) -> NavTarget:
         radius = self.params["LOITER_RAD"]
         r = math.hypot(p_ne[0], p_ne[1])
+        # established: on the circle (within 20 % of its radius) for the time a quarter
+        # turn takes, so the summary and the end of a run see the loiter actually flown
         if abs(r - radius) < 0.2 * radius:
-            self.rtl_established = True
+            if self._on_circle_since_us is None:
+                self._on_circle_since_us = t_us
+            quarter_s = 0.5 * math.pi * radius / max(self.airspeed_mps, 1.0)
+            if t_us - self._on_circle_since_us >= quarter_s * 1e6:
+                self.rtl_established = True
+        elif not self.rtl_established:
+            self._on_circle_since_us = None
         alt = self.rtl_alt_m() if self._prev_alt is not None else alt_m
         return NavTarget("loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
                          c_ne=(0.0, 0.0), radius_m=radius, direction=1)
