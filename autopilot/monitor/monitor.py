@@ -34,11 +34,15 @@ How each is watched:
   normalises it by what a healthy filter allows over T -- the bias random walk of the
   filter's model plus the estimate's own variance, ``gamma_b = d^2 / (q_bg T +
   sigma_b(t)^2)`` -- tested against chi2_{FDI_ALPHA_B, 1}. This is the rate of the bias
-  estimate (d / T) tested against its admissible rate. The bias states keep learning
-  for about a minute after alignment (the statistic reaches 30-50 then), so the gyro
-  channels are armed FDI_BIAS_WU seconds after alignment. FDI_ALPHA_B is smaller than
-  FDI_ALPHA because the filter's bias sigma is optimistic (fault-free maxima of
-  gamma_b after the warm-up: 15-19, measured over three seeds and a GPS outage).
+  estimate (d / T) tested against its admissible rate. During an episode the reference
+  is fixed instead: the estimate and its variance FDI_BIAS_T before the detection,
+  ``gamma_b = (b(t) - b_a)^2 / (q_bg (t - t_a) + sigma_a^2)``, so the whole change since
+  the fault counts and the Q fading below (which inflates the present sigma) does not
+  hide it. The bias states keep learning for about a minute after alignment (the
+  statistic reaches 30-50 then), so the gyro channels are armed FDI_BIAS_WU seconds
+  after alignment. FDI_ALPHA_B is smaller than FDI_ALPHA because the filter's bias
+  sigma is optimistic (fault-free maxima of gamma_b after the warm-up: 15-19, measured
+  over three seeds and a GPS outage).
 * Accelerometers, control surfaces, motors: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
   not usable as they are; actuator identification is not implemented).
@@ -51,12 +55,41 @@ silent channel has refilled its window, for FDI_CLR_T seconds. Each of the three
 produces an event ``(t_s, severity, text)`` (MAV_SEVERITY numbers, STATUSTEXT-ready)
 in ``events``; ``episodes`` keeps the running fault log.
 
-R adaptation (robust KF, :mod:`.radapt`): while a fault is detected and isolated to an
-aiding channel, every aiding source whose per-step statistic (2.41-2.43) goes over its
-threshold in this episode gets noise scale factors (FDI_RADAPT: 0 off, 1 single, 2
+R adaptation (robust KF, :mod:`.radapt`, through the filter's ``r_scale_hook``): while a
+fault is detected and isolated to an aiding channel, and not taken for an inertial one,
+every aiding source whose per-step statistic (2.41-2.43) goes over its threshold in
+this episode gets noise scale factors (FDI_RADAPT: 0 off, 1 single, 2
 multiple factors, the default); when the episode clears the filter is the optimal one
 again. The statistics keep using the unscaled R, so they measure the fault, not the
 adapted filter.
+
+Sensor vs inertial fault (the RAKF's discrimination, seed sec. 2.3.3): in this
+INS/GPS filter the IMU is the *input* of the process model (the strapdown
+mechanisation), as the control surfaces are the input of the seed's aircraft model, so
+an IMU fault is the process-side fault that the seed meets with Q adaptation, and an
+aiding-sensor fault the measurement-side one that R adaptation answers. They look
+different in the innovations: an aiding-sensor fault (noise, silence, a jump) shows in
+its own channel, white or as a step; an IMU bias is integrated by the mechanisation and
+shows as a *drift* of the velocity innovations (then of the position ones). The test:
+the share of the gps_vel window statistic held by the window means,
+``sum_i M mean_k(i)^2 / beta_k`` (about 1/M for white innovations), above FDI_DRIFT while
+gps_vel is over its detection threshold -> inertial fault: no R adaptation (it would
+make the filter ignore the GPS that reveals the fault), and Q adaptation instead:
+``P = F P F^T + Lambda Q`` (eq 2.40) through the filter's ``q_scale_hook``, with
+``Lambda = diag(1 .. FDI_QFADE on the gyro-bias states .. 1)``. The seed's adaptive
+factor (eqs 2.36-2.39, the excess of the real innovation covariance over the
+theoretical one through ``H G``) is degenerate here: no measurement sees a bias state
+within one step (``H G = 0`` for the bias random walks), so a fixed factor is used
+(a fading-memory filter on those states: 1000 turns the bias random walk of 3e-5 into
+1e-3 rad/s/sqrt(s), learnt in seconds; measured, pitch gyro bias 0.01 rad/s, seeds 1-3:
+isolated to gyro_y 4.5-6.8 s after the onset, against 12.6 s without fading). The
+fading ends when the velocity innovations are back under their threshold after the
+isolation to a gyro (the filter has absorbed the bias: accommodation), or at
+clearance. Only the gyro-bias block is faded: in straight flight a forward
+accelerometer bias and a pitch tilt are the same velocity drift, and fading both let
+the accelerometer-bias states absorb a gyro fault within a second (measured), so an
+accelerometer bias would be taken for a gyro fault here (accelerometer channels are
+not isolated: see below).
 
 Failsafe: GPS silent for FDI_DR_TIME seconds (dead reckoning on air data and the wind
 estimate meanwhile) -> ``failsafe`` is set to the action of FDI_GPS_FS (1: "RTL"); the
@@ -97,6 +130,10 @@ FDI_PARAMS = (
           is_int=True),
     Param("FDI_RWIN", 10.0, 1.0, 100.0, "samples", "R adaptation: innovations in the covariance estimate "
           "(1: one sample, as the seed)", is_int=True),
+    Param("FDI_QFADE", 1000.0, 1.0, 1e6, "", "fading factor of the gyro-bias process noise while an "
+          "inertial fault is suspected (1: off)"),
+    Param("FDI_DRIFT", 0.5, 0.0, 1.0, "", "velocity innovations whose window means hold this share of the "
+          "statistic are a drift (inertial fault)"),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
     Param("FDI_DR_TIME", 10.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
@@ -179,12 +216,23 @@ class FaultMonitor:
         if params is not None and "EK_GYRB_NSE" in params:
             q = float(params["EK_GYRB_NSE"])
         self.q_bias_T = q * q * p["FDI_BIAS_T"]
-        self._bias_ring: list = []
+        self._bias_ring: list = []            # (t_us, bias estimate, its variance) every 0.1 s
+        self._anchor = None                   # the ring's oldest entry at detection
         self._bias_next_us = 0
         self.bias_ratio = [0.0, 0.0, 0.0]
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
+        # Q adaptation (fading of the gyro-bias process noise, seed eqs 2.35-2.40)
+        self.qfade_on = False
+        self._lam = None
+        if nav is not None and p["FDI_QFADE"] > 1.0 and hasattr(nav, "q_scale_hook"):
+            lam = [1.0] * int(getattr(nav, "n", 21))
+            for i in range(12, 15):       # layout.GBIAS
+                lam[i] = p["FDI_QFADE"]
+            import numpy as np
+            self._lam = np.array(lam)
+            nav.q_scale_hook = self._q_hook
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
         self.detected = False
@@ -247,6 +295,10 @@ class FaultMonitor:
         self._step_max = step_max
         self._evaluate(t_us, armed)
 
+    def _q_hook(self, dt: float):
+        """The filter's q_scale_hook: Lambda while an inertial fault is suspected."""
+        return self._lam if self.qfade_on else None
+
     # ------------------------------------------------------------- statistics ---
     def _bias_stats(self, t_us: int) -> None:
         if t_us < self._bias_next_us:
@@ -256,20 +308,32 @@ class FaultMonitor:
         if not hasattr(nav, "gyro_bias"):
             return
         b = nav.gyro_bias.tolist()
+        P = nav.P
+        i0 = 12  # layout.GBIAS.start (kept here to read P without importing nav)
+        var = [float(P[i0 + i, i0 + i]) for i in range(3)]
         ring = self._bias_ring
-        ring.append(b)
+        ring.append((t_us, b, var))
         if len(ring) <= self.bias_n:
             return
         old = ring.pop(0)
         if (t_us - self._aligned_us) < self.p["FDI_BIAS_WU"] * 1e6:
             return
-        P = nav.P
+        anchor = self._anchor
+        if anchor is not None:
+            # during an episode: the change since FDI_BIAS_T before the detection,
+            # against what a healthy filter allows over that time from the sigma it had
+            # then (the fading of Q inflates the present sigma, not this one)
+            t_a, b_a, v_a = anchor
+            qT = self.q_bias_T / self.p["FDI_BIAS_T"] * (t_us - t_a) * 1e-6
+            for i in range(3):
+                d = b[i] - b_a[i]
+                self.bias_ratio[i] = d * d / (qT + v_a[i]) / self.thr_bias
+            return
         q = self.q_bias_T
-        i0 = 12  # layout.GBIAS.start (kept here to read P without importing nav)
         for i in range(3):
-            d = b[i] - old[i]
+            d = b[i] - old[1][i]
             # gamma_b = d^2 / (q_bg T + sigma_b^2)
-            self.bias_ratio[i] = d * d / (q + float(P[i0 + i, i0 + i])) / self.thr_bias
+            self.bias_ratio[i] = d * d / (q + var[i]) / self.thr_bias
 
     def _evaluate(self, t_us: int, armed: bool) -> None:
         self._bias_stats(t_us)
@@ -318,6 +382,8 @@ class FaultMonitor:
         if over is not None and not self.detected:
             self.detected = True
             self._quiet_us = None
+            if self._bias_ring:
+                self._anchor = self._bias_ring[0]
             self.episodes.append(Episode(round(t_s, 3), over))
             self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {over} "
                                                   f"(statistic {over_ratio:.1f}x threshold)"))
@@ -337,8 +403,11 @@ class FaultMonitor:
                 for ch in self._aiding_list:
                     ch.adapted = False
                 self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
+        # sensor or inertial (process) fault: a drift of the velocity innovations
+        self._discriminate(t_s)
         # R adaptation: the aiding channels over their threshold in this episode
-        if self.radapt_ok and self.isolated is not None and self.isolated not in _INERTIAL:
+        if (self.radapt_ok and self.isolated is not None and self.isolated not in _INERTIAL
+                and not self.qfade_on):
             for ch in self._aiding_list:
                 # the RAKF runs where the per-step statistic says H1 (2.41-2.43)
                 if not ch.adapted and not ch.silent and ch.win.chi > ch.win.thr_step:
@@ -366,8 +435,32 @@ class FaultMonitor:
         else:
             self._quiet_us = None
 
+    def _discriminate(self, t_s: float) -> None:
+        """Sensor vs inertial fault (module docstring): Q fading on the gyro-bias
+        states while the velocity innovations drift; off once they are back under
+        their threshold after the fault was isolated to a gyro."""
+        vel = self.aiding["gps_vel"]
+        if not self.qfade_on:
+            if (self._lam is not None and self.isolated not in _INERTIAL and not vel.silent
+                    and vel.rdet > 1.0 and vel.win.mean_share > self.p["FDI_DRIFT"]):
+                self.qfade_on = True
+                self.events.append((t_s, SEV_NOTICE, "FDI: velocity innovations drift: inertial fault "
+                                                     "suspected, gyro bias fading on (Q adaptation)"))
+                if self.radapt.active:
+                    self.radapt.active.clear()
+                    for ch in self._aiding_list:
+                        ch.adapted = False
+                    self.events.append((t_s, SEV_NOTICE, "FDI: R adaptation off"))
+        elif self.isolated in _GYROS and vel.rdet < 1.0:
+            self.qfade_on = False
+            self.events.append((t_s, SEV_NOTICE, "FDI: gyro bias absorbed, fading off"))
+
     def _clear(self, t_s: float) -> None:
         ep = self.episodes[-1]
+        self._anchor = None
+        if self.qfade_on:
+            self.qfade_on = False
+            self.events.append((t_s, SEV_NOTICE, "FDI: fading off"))
         ep.end_s = round(t_s, 3)
         self.detected = False
         self.isolated = None

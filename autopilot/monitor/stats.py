@@ -128,6 +128,18 @@ class WindowChi2:
         self.gamma = g
 
     @property
+    def mean_share(self) -> float:
+        """Share of the window statistic beta held by the window means: sum_i M
+        mean_k(i)^2 / beta (the rest, sum_i gamma_k(i), is the spread about them). About
+        1/M for white innovations; over 1/2 for a drift (a mean that moves slowly)."""
+        if self.n < self.M or self._sq <= 0.0:
+            return 0.0
+        m2 = 0.0
+        for c in range(self.s):
+            m2 += self._sx[c] * self._sx[c]
+        return m2 / self.M / self._sq
+
+    @property
     def ratio_det(self) -> float:
         return self.beta / self.thr_det if self.n >= self.M else 0.0
 
