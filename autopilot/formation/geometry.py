@@ -1,0 +1,178 @@
+"""Sphere geometry of the formation (seed ch. 9 sec. 3.5.1, eqs 3.1-3.12, and the
+nearer-solution choice of eq 3.17).
+
+Our copy of the seed lost the subscripts and fractions of these equations; they are
+rebuilt here from the geometry the text describes (three spheres, the first centred at
+the origin, the second on the x axis, the third in the x-y plane) and from the seed's
+references (Bayezit & Fidan, "Distributed cohesive motion control of flight vehicle
+formations", IEEE Trans. Ind. Electron. 60(12), 2013; the trilateration of Fang,
+"Trilateration and extension to GPS navigation", J. Guidance 9(6), 1986).
+
+Three spheres S(p_1, r_1), S(p_2, r_2), S(p_3, r_3). In the frame {s} with s_1 = 0,
+s_2 = (x_2, 0, 0), s_3 = (x_3, y_3, 0):
+
+    x^2 + y^2 + z^2 = r_1^2                                        (3.1)
+    (x - x_2)^2 + y^2 + z^2 = r_2^2                                (3.2)
+    (x - x_3)^2 + (y - y_3)^2 + z^2 = r_3^2                        (3.3)
+    x = (r_1^2 - r_2^2 + x_2^2) / (2 x_2)                          (3.4)
+    y^2 + z^2 = r_1^2 - x^2                                        (3.5)
+    y = (r_1^2 - r_3^2 + x_3^2 + y_3^2) / (2 y_3) - (x_3 / y_3) x  (3.6)
+    z = +- sqrt(r_1^2 - x^2 - y^2)                                 (3.7)
+
+The frame change (eqs 3.8-3.11): [s_i; 1] = T [p_i; 1] with T = [R, -R p_1; 0, 1] and
+R = [e_x; e_y; e_z] (rows), e_x = (p_2 - p_1)/|p_2 - p_1|, e_y the unit part of
+p_3 - p_1 normal to e_x, e_z = e_x x e_y (the seed writes R as a product of elementary
+rotations; any rotation taking e_x, e_y, e_z to the axes is the same R). The solution
+back in the earth frame (eq 3.12): [P; 1] = T^-1 [x, y, z, 1], i.e. P = p_1 + R^T (x, y, z).
+
+Of the two solutions, eq 3.17 keeps the one nearer a reference point (the follower's
+current position).
+
+Degenerate geometry is handled on purpose and reported in ``status``, never a NaN:
+
+* ``"collinear"``: the three centres (nearly) on one line (|p_2 - p_1| or y_3 below
+  ``EPS_M``); the intersection is then a circle or empty and does not fix a point; we
+  return the point of the circle of the first two spheres nearest the reference.
+* ``"empty"``: r_1^2 - x^2 - y^2 < 0 (the spheres do not meet, e.g. while the leaders
+  are still off their own distances); ``sphere_intersection`` returns the point in the
+  plane of the centres (z = 0) twice, the solution of eqs 3.4 and 3.6; ``intersection_near``
+  keeps the reference's own height above that plane instead (so two followers on the
+  two sides of their leaders' plane are never both pulled into it).
+* ``"tangent"``: the two solutions coincide (|z| below ``EPS_M``).
+"""
+from __future__ import annotations
+
+import math
+
+EPS_M = 1e-6          # lengths below this count as zero [m]
+
+Vec = tuple[float, float, float]
+
+
+def _sub(a, b) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _add(a, b) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _scale(a, k: float) -> Vec:
+    return (a[0] * k, a[1] * k, a[2] * k)
+
+
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b) -> Vec:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def norm(a) -> float:
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+def dist(a, b) -> float:
+    return norm(_sub(a, b))
+
+
+def _any_perpendicular(u: Vec) -> Vec:
+    """A unit vector normal to the unit vector ``u`` (deterministic)."""
+    a = (1.0, 0.0, 0.0) if abs(u[0]) < 0.9 else (0.0, 1.0, 0.0)
+    w = _cross(u, a)
+    return _scale(w, 1.0 / norm(w))
+
+
+def nearest_on_sphere(c, r: float, q) -> tuple[Vec, str]:
+    """The point of S(c, r) nearest ``q`` (the first follower's constraint). ``q`` at
+    the centre: any point (``"degenerate"``)."""
+    d = _sub(q, c)
+    n = norm(d)
+    if n < EPS_M:
+        return _add(c, (r, 0.0, 0.0)), "degenerate"
+    return _add(c, _scale(d, r / n)), "ok"
+
+
+def nearest_on_circle(c1, r1: float, c2, r2: float, q) -> tuple[Vec, str]:
+    """The point of S(c1, r1) n S(c2, r2) (a circle) nearest ``q`` (the second
+    follower's constraints). Coincident centres: ``"collinear"`` (the constraint is a
+    sphere, nearest point of S(c1, r1)); spheres apart or nested: ``"empty"`` (the
+    point of the centre line between them that splits the radii's excess); ``q`` on the
+    axis of the circle: ``"degenerate"`` (a fixed point of the circle)."""
+    axis = _sub(c2, c1)
+    d = norm(axis)
+    if d < EPS_M:
+        p, _ = nearest_on_sphere(c1, r1, q)
+        return p, "collinear"
+    u = _scale(axis, 1.0 / d)
+    a = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)     # eq 3.4 with x_2 = d
+    h2 = r1 * r1 - a * a                             # eq 3.5 with the circle's radius^2
+    centre = _add(c1, _scale(u, a))
+    if h2 <= 0.0:
+        return centre, ("empty" if h2 < -EPS_M * EPS_M else "tangent")
+    h = math.sqrt(h2)
+    w = _sub(q, centre)
+    w = _sub(w, _scale(u, _dot(w, u)))               # q's offset normal to the axis
+    n = norm(w)
+    if n < EPS_M:
+        return _add(centre, _scale(_any_perpendicular(u), h)), "degenerate"
+    return _add(centre, _scale(w, h / n)), "ok"
+
+
+def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Vec, Vec, str]:
+    """Both intersection points of three spheres (eqs 3.1-3.12) and a status
+    (module docstring). In the degenerate cases both points are the same fallback."""
+    ex = _sub(p2, p1)
+    x2 = norm(ex)                                    # s_2 = (x_2, 0, 0)
+    if x2 < EPS_M:
+        return p1, p1, "collinear"
+    ex = _scale(ex, 1.0 / x2)
+    w3 = _sub(p3, p1)
+    x3 = _dot(ex, w3)                                # s_3 = (x_3, y_3, 0)   eq 3.8
+    ey = _sub(w3, _scale(ex, x3))
+    y3 = norm(ey)
+    if y3 < EPS_M:
+        return p1, p1, "collinear"
+    ey = _scale(ey, 1.0 / y3)
+    ez = _cross(ex, ey)                              # R = [e_x; e_y; e_z]   eqs 3.9-3.10
+    x = (r1 * r1 - r2 * r2 + x2 * x2) / (2.0 * x2)                                   # eq 3.4
+    y = (r1 * r1 - r3 * r3 + x3 * x3 + y3 * y3) / (2.0 * y3) - (x3 / y3) * x         # eq 3.6
+    z2 = r1 * r1 - x * x - y * y                                                     # eq 3.5
+    status = "ok"
+    if z2 < 0.0:
+        status = "empty" if z2 < -1e-9 else "tangent"
+        z = 0.0
+    else:
+        z = math.sqrt(z2)                                                            # eq 3.7
+        if z < EPS_M:
+            status = "tangent"
+    base = _add(p1, _add(_scale(ex, x), _scale(ey, y)))   # eq 3.12: P = p_1 + R^T (x, y, z)
+    return _add(base, _scale(ez, z)), _add(base, _scale(ez, -z)), status
+
+
+def nearer(a, b, ref) -> Vec:
+    """Eq 3.17: of two candidate points, the one nearer ``ref`` (ties: ``a``)."""
+    return a if dist(a, ref) <= dist(b, ref) else b
+
+
+def intersection_near(p1, r1, p2, r2, p3, r3, ref) -> tuple[Vec, str]:
+    """The three-sphere intersection nearer ``ref`` (eqs 3.1-3.12, 3.17). Collinear
+    centres: the point of the first two spheres' circle nearest ``ref``. Empty: the
+    solution of eqs 3.4 and 3.6 at ``ref``'s own height above the centres' plane."""
+    a, b, status = sphere_intersection(p1, r1, p2, r2, p3, r3)
+    if status == "collinear":
+        p, _ = nearest_on_circle(p1, r1, p2, r2, ref)
+        return p, status
+    if status == "empty":
+        n = _cross(_sub(p2, p1), _sub(p3, p1))
+        n = _scale(n, 1.0 / norm(n))
+        return _add(a, _scale(n, _dot(n, _sub(ref, a)))), status
+    return nearer(a, b, ref), status
+
+
+def side_of_plane(p1, p2, p3, q) -> float:
+    """Signed volume (p2 - p1) x (p3 - p1) . (q - p1): which side of the plane of the
+    three centres ``q`` lies on (used to carry an ordinary follower's side from its
+    start to its final position)."""
+    return _dot(_cross(_sub(p2, p1), _sub(p3, p1)), _sub(q, p1))

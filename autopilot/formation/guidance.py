@@ -1,0 +1,209 @@
+"""Formation guidance of one vehicle: desired position by role, relative trajectory,
+switching term and velocity command (seed ch. 9 secs. 3.5.2 and 3.6.1, eqs 3.13-3.22).
+
+The seed's equations lost their subscripts and fractions in our copy; they are rebuilt
+from the text and from its source (Bayezit & Fidan, "Distributed cohesive motion control
+of flight vehicle formations", IEEE Trans. Ind. Electron. 60(12), 2013, and the cohesive
+motion laws of Sandeep, Fidan & Yu, "Decentralized cohesive motion control of
+multi-agent formations", Mediterranean Conf. Control and Automation, 2006):
+
+Desired positions (vehicle i, followed vehicles j, k, l; f the desired final positions
+of ``spec.FormationSpec.final_positions``)
+
+    p_bar_i(t) = p_id(t) - p_i(t)                                      (3.13)
+    leader:           p_1d(t) = p_1f                                   (3.14)
+    first follower:   p_2d(t) = p_1(t) + p_12,  p_12 = p_2f - p_1f      (3.15)
+    second follower:  p_3d(t) = p_1(t) + p_13,  p_13 = p_3f - p_1f      (3.16)
+    ordinary:         p_id(t) = the point of S(p_j, d_ij) n S(p_k, d_ik) n S(p_l, d_il)
+                      nearer p_i(t)                                    (3.17)
+
+The first follower's offset has length d_12 (the final positions are made consistent),
+so eq 3.15 is also the point of S(p_1, d_12) nearest p_1 + p_12. The second follower
+keeps *both* its distances: its desired position is the point of the circle
+S(p_1, d_13) n S(p_2, d_23) nearest p_1 + p_13 (eq 3.16 when the first follower is in
+place).
+
+Reshaping. When a formation starts in another orientation than its final one (the
+seed's case turns by about 70 degrees), the straight chord from a follower to
+p_1 + p_12 cuts through the sphere around the leader and crosses the other followers'
+paths. So the reference point is approached along the constraint instead: the first
+and second followers take the point at most ``reshape_step_m`` from their own position
+towards p_1 + p_1i (a carrot) and project *that* on their sphere / circle. They keep
+their distances while they turn, and eqs 3.15 / 3.16 hold once the carrot reaches the
+reference point. Positions of other vehicles are the latest received from the vehicle network
+(``peers.PeerTable``), extrapolated to now.
+
+Switching term (3.21), zero inside the tolerance epsilon, one outside 2 epsilon:
+
+    sigma_i = 0                          |p_bar_i| < eps
+            = (|p_bar_i| - eps) / eps     eps <= |p_bar_i| <= 2 eps
+            = 1                          |p_bar_i| > 2 eps
+
+Velocity law (3.18-3.20, 3.22). The seed's point vehicle is P_i' = V_i (3.18) with the
+leader at the constant speed v_bar (3.19); the law (3.20) steers each vehicle along
+p_bar_i at speed v_bar, switched by sigma_i, and the applied signal (3.22) is the PI
+compensation of the point case (K_P = 1, K_I = 0.05 in the seed, sec. 3.7.2). Rebuilt:
+
+    u_i = K_P p_bar_i + K_I int sigma_i p_bar_i dt      (3.22; integrator frozen while
+                                                         the speed limit holds: anti-windup)
+    V_i = V_ff,i + sigma_i sat_vmax_i(u_i)               (3.20)
+
+with sat_v(u) = u min(1, v / |u|). The leader has V_ff = 0 and vmax = v_bar, so it flies
+at the constant speed v_bar until it is v_bar / K_P from its goal and then settles on it.
+A follower whose desired point moves with the leader needs the leader's velocity to
+keep up, which a bounded law of speed v_bar alone cannot give when the leader flies at
+v_bar: V_ff,i is the mean reported velocity of the vehicles it follows (exact in a rigid
+translation), and its speed limit is ``follower_speed_factor`` v_bar. This feed-forward
+is our addition to the seed's law, stated here.
+
+The same object serves both vehicle models: the point vehicle applies V_i to its
+integrator; the quadrotor integrates it into a virtual target (the seed's "virtual
+target tracking", sec. 3.4) with an acceleration limit and tracks that target with its
+position, altitude and attitude loops (sec. 3.6.2.3: the desired position is the next
+waypoint of the low-level controllers).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .geometry import intersection_near, nearest_on_circle, nearest_on_sphere, norm
+from .spec import FormationSpec
+
+
+def sigma(err_m: float, eps: float) -> float:
+    """Eq 3.21."""
+    if err_m < eps:
+        return 0.0
+    if err_m <= 2.0 * eps:
+        return (err_m - eps) / eps
+    return 1.0
+
+
+@dataclass
+class GuidanceOutput:
+    p_des: tuple          # p_id(t), local NED [m]
+    v_cmd: tuple          # V_i(t) [m/s]
+    err_m: float          # |p_bar_i|
+    sigma: float
+    status: str           # "ok" | geometry status | "waiting" (followed vehicle not heard yet)
+
+
+class FormationGuidance:
+    """Guidance of vehicle ``vid`` of ``spec`` (module docstring).
+    ``update(t_s, dt, p_own, peers) -> GuidanceOutput``; ``peers.get(j, t_s)`` gives
+    ``(p, v, age)`` of vehicle j or None."""
+
+    def __init__(self, spec: FormationSpec, vid: int):
+        self.spec = spec
+        self.vid = vid
+        v = spec.vehicle(vid)
+        self.role = v.role
+        self.follows = v.follows
+        self.leader_id = spec.leader.id
+        finals = spec.final_positions()
+        self.p_final = finals[vid]
+        self.offset = spec.offsets().get(vid)
+        self.d = {j: spec.d(vid, j) for j in v.follows}
+        c = spec.control
+        self.k_p = c.gain_p
+        self.k_i = c.gain_i
+        self.v_max = spec.speed_mps if v.role == "leader" else c.follower_speed_factor * spec.speed_mps
+        self.eps = spec.epsilon
+        self.step_m = c.reshape_step_m
+        self.integ = [0.0, 0.0, 0.0]
+        self.degenerate_events = 0
+        self.last_status = "ok"
+        self._p_des = tuple(v.start_ned)
+
+    def desired(self, t_s: float, p_own, peers):
+        """(p_id, v_ff, status) from eqs 3.14-3.17."""
+        if self.role == "leader":
+            return self.p_final, (0.0, 0.0, 0.0), "ok"
+        got = []
+        for j in self.follows:
+            g = peers.get(j, t_s)
+            if g is None:
+                return self._p_des, (0.0, 0.0, 0.0), "waiting"
+            got.append(g)
+        n = len(got)
+        v_ff = tuple(sum(g[1][k] for g in got) / n for k in range(3))
+        if self.role == "first":
+            p1 = got[0][0]
+            ref = self._carrot(p1, p_own)
+            p, status = nearest_on_sphere(p1, self.d[self.follows[0]], ref)
+        elif self.role == "second":
+            lead_k = self.follows.index(self.leader_id)
+            p1, p2 = got[lead_k][0], got[1 - lead_k][0]
+            j2 = self.follows[1 - lead_k]
+            ref = self._carrot(p1, p_own)
+            p, status = nearest_on_circle(p1, self.d[self.leader_id], p2, self.d[j2], ref)
+        else:
+            j, k, l = self.follows
+            p, status = intersection_near(got[0][0], self.d[j], got[1][0], self.d[k],
+                                          got[2][0], self.d[l], p_own)
+        return p, v_ff, status
+
+    def _carrot(self, p1, p_own):
+        """p_1 + p_1i (eqs 3.15, 3.16), approached at most ``reshape_step_m`` at a time."""
+        o = self.offset
+        w = (p1[0] + o[0] - p_own[0], p1[1] + o[1] - p_own[1], p1[2] + o[2] - p_own[2])
+        n = norm(w)
+        if n > self.step_m:
+            w = (w[0] * self.step_m / n, w[1] * self.step_m / n, w[2] * self.step_m / n)
+        return (p_own[0] + w[0], p_own[1] + w[1], p_own[2] + w[2])
+
+    def update(self, t_s: float, dt: float, p_own, peers) -> GuidanceOutput:
+        p_des, v_ff, status = self.desired(t_s, p_own, peers)
+        if status not in ("ok", "waiting", "tangent"):
+            self.degenerate_events += 1
+        self.last_status = status
+        self._p_des = p_des
+        pb = (p_des[0] - p_own[0], p_des[1] - p_own[1], p_des[2] - p_own[2])   # eq 3.13
+        e = norm(pb)
+        s = sigma(e, self.eps)                                                   # eq 3.21
+        ig = self.integ
+        u = [self.k_p * pb[k] + self.k_i * ig[k] for k in range(3)]             # eq 3.22
+        un = norm(u)
+        if un > self.v_max:
+            u = [x * self.v_max / un for x in u]                                 # sat, no integration
+        elif dt > 0.0:
+            for k in range(3):
+                ig[k] += s * pb[k] * dt
+        v_cmd = tuple(v_ff[k] + s * u[k] for k in range(3))                      # eq 3.20
+        return GuidanceOutput(tuple(p_des), v_cmd, e, s, status)
+
+
+class VirtualTarget:
+    """The quadrotor's reference (the virtual target of the module docstring): its
+    velocity follows V_i of eq 3.20 through a first-order lag ``tau_s`` whose
+    acceleration is limited to ``a_max`` and whose jerk to ``j_max``, so the reference
+    asks nothing of the attitude loop that a quadrotor cannot give (a step of the
+    commanded velocity would ask for an instant tilt). ``step(v_cmd, dt) -> (r, v, a)``."""
+
+    def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2):
+        self.r = [float(c) for c in p0]
+        self.v = [0.0, 0.0, 0.0]
+        self.a = [0.0, 0.0, 0.0]
+        self.a_max = a_max
+        self.j_max = j_max
+        self.tau = tau_s
+
+    def step(self, v_cmd, dt: float):
+        if dt <= 0.0:
+            return tuple(self.r), tuple(self.v), tuple(self.a)
+        a_des = [(v_cmd[k] - self.v[k]) / self.tau for k in range(3)]
+        n = norm(a_des)
+        if n > self.a_max:
+            a_des = [x * self.a_max / n for x in a_des]
+        da = [a_des[k] - self.a[k] for k in range(3)]
+        n = norm(da)
+        lim = self.j_max * dt
+        if n > lim:
+            da = [x * lim / n for x in da]
+        a = [self.a[k] + da[k] for k in range(3)]
+        v0 = self.v
+        self.a = a
+        self.v = [v0[k] + a[k] * dt for k in range(3)]
+        self.r = [self.r[k] + 0.5 * (v0[k] + self.v[k]) * dt for k in range(3)]
+        return tuple(self.r), tuple(self.v), tuple(self.a)

@@ -1,0 +1,125 @@
+"""The vehicle-to-vehicle MAVLink link of a formation (sans-IO: bytes in, bytes out).
+
+Each vehicle publishes its own navigation solution as GLOBAL_POSITION_INT (the standard
+message ArduPilot streams and MAVProxy / QGroundControl show for every vehicle on a
+link) and keeps, from the messages it receives, the latest position and velocity of
+every other system id: its ``PeerTable``. Nothing else passes between vehicles.
+
+A quadrotor also publishes its current setpoint (its virtual target: position, velocity,
+acceleration) as POSITION_TARGET_GLOBAL_INT, which ArduPilot streams in GUIDED; its
+followers then keep their distances to the leaders' targets, each vehicle tracking its
+own (``PeerTable(use_targets=True)``; module ``autopilot.formation.quad``).
+
+Time: all vehicles of one SITL boot at simulation time 0, so ``time_boot_ms`` is a
+common clock; a receiver extrapolates a peer's position to its own time with the
+reported velocity, ``p(t) = p_msg + v_msg (t - t_msg)`` (the age is capped at
+``MAX_EXTRAPOLATION_S``). Units at this boundary: lat/lon in 1e-7 deg, altitudes in
+mm, velocities in cm/s (the message's); inside, metres in the formation's local NED
+frame.
+"""
+from __future__ import annotations
+
+import math
+
+from ..geo import LocalFrame
+from ..link.codec import MAV, Codec
+
+MSG_ID = MAV.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+TARGET_ID = MAV.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT
+_RAW = frozenset((MSG_ID, TARGET_ID))
+# POSITION_TARGET_GLOBAL_INT: position, velocity and acceleration set, yaw ignored
+_TARGET_MASK = (MAV.POSITION_TARGET_TYPEMASK_YAW_IGNORE | MAV.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
+MAX_EXTRAPOLATION_S = 1.0
+_DEG_E7 = 1e7 * 180.0 / math.pi
+
+
+class PositionPublisher:
+    """Encodes this vehicle's position for the vehicle network (own codec: own
+    system id and sequence numbers)."""
+
+    def __init__(self, system_id: int, ground_alt_m: float = 0.0):
+        self.codec = Codec(system_id, MAV.MAV_COMP_ID_AUTOPILOT1)
+        self.ground_alt_m = ground_alt_m
+
+    def encode_target(self, t_us: int, lat_rad: float, lon_rad: float, alt_m: float,
+                      v_ned, a_ned) -> bytes:
+        """POSITION_TARGET_GLOBAL_INT: the vehicle's current position / velocity /
+        acceleration setpoint (its virtual target), as ArduPilot streams in GUIDED."""
+        return self.codec.encode_values(TARGET_ID, (
+            int(t_us // 1000) & 0xFFFFFFFF, MAV.MAV_FRAME_GLOBAL_INT, _TARGET_MASK,
+            int(round(lat_rad * _DEG_E7)), int(round(lon_rad * _DEG_E7)), float(alt_m),
+            float(v_ned[0]), float(v_ned[1]), float(v_ned[2]),
+            float(a_ned[0]), float(a_ned[1]), float(a_ned[2]), 0.0, 0.0))
+
+    def encode(self, t_us: int, lat_rad: float, lon_rad: float, alt_m: float,
+               v_ned, yaw_rad: float = 0.0) -> bytes:
+        hdg_cdeg = int(round(math.degrees(yaw_rad) % 360.0 * 100.0)) % 36000
+        return self.codec.encode_values(MSG_ID, (
+            int(t_us // 1000) & 0xFFFFFFFF,
+            int(round(lat_rad * _DEG_E7)), int(round(lon_rad * _DEG_E7)),
+            int(round(alt_m * 1000.0)), int(round((alt_m - self.ground_alt_m) * 1000.0)),
+            _cm(v_ned[0]), _cm(v_ned[1]), _cm(v_ned[2]), hdg_cdeg))
+
+
+def _cm(v: float) -> int:
+    return max(-32767, min(32767, int(round(v * 100.0))))
+
+
+class PeerTable:
+    """Latest position of every other vehicle, from received bytes."""
+
+    def __init__(self, own_id: int, frame: LocalFrame, use_targets: bool = False):
+        self.own_id = own_id
+        self.frame = frame
+        self.use_targets = use_targets
+        self.codec = Codec(own_id, MAV.MAV_COMP_ID_AUTOPILOT1)
+        self.latest: dict[int, tuple[float, tuple, tuple]] = {}   # id -> (t_s, p_ned, v_ned)
+        self.targets: dict[int, tuple[float, tuple, tuple, tuple]] = {}  # + a_ned
+        self.received = 0
+
+    def receive(self, data: bytes) -> None:
+        for m in self.codec.decode(data, _RAW):
+            if m.src_system == self.own_id:
+                continue
+            if m.msg_id == TARGET_ID:
+                t_ms, _, _, lat, lon, alt, vx, vy, vz, ax, ay, az, _, _ = m.values
+                t_s = t_ms * 1e-3
+                prev = self.targets.get(m.src_system)
+                if prev is not None and prev[0] > t_s:
+                    continue
+                p = self.frame.to_ned_fast(lat / _DEG_E7, lon / _DEG_E7, alt).tolist()
+                self.targets[m.src_system] = (t_s, tuple(p), (vx, vy, vz), (ax, ay, az))
+                self.received += 1
+                continue
+            if m.msg_id != MSG_ID:
+                continue
+            t_ms, lat, lon, alt, _, vx, vy, vz, _ = m.values
+            t_s = t_ms * 1e-3
+            prev = self.latest.get(m.src_system)
+            if prev is not None and prev[0] > t_s:
+                continue                       # an older message overtaken by a newer one
+            p = self.frame.to_ned_fast(lat / _DEG_E7, lon / _DEG_E7, alt * 1e-3).tolist()
+            self.latest[m.src_system] = (t_s, tuple(p), (vx * 0.01, vy * 0.01, vz * 0.01))
+            self.received += 1
+
+    def get(self, vid: int, t_s: float):
+        """(p_ned extrapolated to ``t_s``, v_ned, age_s) or None if never heard. With
+        ``use_targets``, the peer's setpoint (POSITION_TARGET_GLOBAL_INT) where one was
+        received, extrapolated with its velocity and acceleration."""
+        if self.use_targets:
+            e = self.targets.get(vid)
+            if e is not None:
+                t, p, v, a = e
+                age = t_s - t
+                h = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+                hh = 0.5 * h * h
+                return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh,
+                         p[2] + v[2] * h + a[2] * hh),
+                        (v[0] + a[0] * h, v[1] + a[1] * h, v[2] + a[2] * h), age)
+        e = self.latest.get(vid)
+        if e is None:
+            return None
+        t, p, v = e
+        age = t_s - t
+        a = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+        return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age

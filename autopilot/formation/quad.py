@@ -1,0 +1,131 @@
+"""A quadrotor that flies in a formation: the project's quadrotor autopilot
+(``autopilot.vehicle_quad.QuadVehicle``: navigation, PID reference angles, PID altitude,
+PDD attitude, mixer) with the formation guidance feeding its position / velocity /
+acceleration references in GUIDED mode (seed sec. 3.6.2.3: the desired position of
+eqs 3.14-3.17 is the next waypoint of the low-level controllers).
+
+Sequence of one vehicle:
+
+1. Held in hover at its start position by the simulator (a hand launch) while its
+   navigation aligns; it publishes nothing yet.
+2. Navigation healthy for ARM_SETTLE_S: it arms in GUIDED, airborne, and holds its start
+   position (the simulator releases it when the HIL answer says armed). From then on it
+   publishes its position on the vehicle network at ``network.rate_hz``.
+3. It also publishes its setpoint (the virtual target) as POSITION_TARGET_GLOBAL_INT,
+   and its guidance keeps its distances to the *setpoints* of the vehicles it follows
+   (the seed's virtual target tracking, sec. 3.4): the formation is shaped on smooth
+   references, and each vehicle's tracking and navigation errors stay its own instead
+   of adding up down the follower chain (measured: following the leaders' estimated
+   positions instead roughly doubled the distance errors).
+4. At the formation's common start time ``start_s`` (known to every vehicle from the
+   formation file, as a synchronised launch time) its guidance starts: the virtual
+   target integrates V_i of eq 3.20 and the quadrotor tracks it.
+
+The vehicle reads the other vehicles only through its ``PeerTable`` (bytes received
+from the network) and writes only bytes to its ``outbox``: no shared memory.
+
+Frames: the formation's local NED frame (origin from the file) for guidance; the
+vehicle's home frame (its arming position) for its loops; they differ by a translation
+``home_in_form`` fixed at arming (tangent frames metres apart).
+
+Hook wanted in ``QuadVehicle`` (not ours to change): a setpoint-source interface for
+GUIDED (position, velocity, acceleration, yaw per step); until then ``_fly`` is
+overridden here and calls the same controller objects in the same order.
+"""
+from __future__ import annotations
+
+import math
+
+from ..geo import LocalFrame
+from ..guidance.multirotor import CopterTarget
+from ..modes.copter import CopterMode
+from ..vehicle_quad import QuadVehicle
+from .guidance import FormationGuidance, VirtualTarget
+from .peers import PeerTable, PositionPublisher
+from .spec import FormationSpec
+
+
+class FormationQuad(QuadVehicle):
+    def __init__(self, params, spec: FormationSpec, vid: int, nav_source: str = "ekf",
+                 log=None, dt_s: float = 0.008, start_s: float = 8.0, a_max: float = 4.0):
+        super().__init__(params, None, nav_source, autostart=False, log=log, dt_s=dt_s)
+        self.spec = spec
+        self.vid = vid
+        self.start_s = start_s
+        self.origin = LocalFrame.from_degrees(*spec.origin)
+        self.start_ned = spec.vehicle(vid).start_ned
+        self.guidance = FormationGuidance(spec, vid)
+        self.peers = PeerTable(vid, self.origin, use_targets=True)
+        self.publisher = PositionPublisher(vid, spec.ground_alt_m)
+        self.period_us = int(round(1e6 / spec.network.rate_hz))
+        self._next_pub_us = 0
+        self.outbox: list[bytes] = []
+        self.vt = VirtualTarget(self.start_ned, a_max)
+        self.home_in_form = (0.0, 0.0, 0.0)
+        self.last_guidance = None
+        self._healthy_since: int | None = None
+
+    # -------------------------------------------------------------- arming ---
+    def _try_arm(self, t_us: int, truth) -> None:
+        nav = self.nav_state
+        if nav is None or not (nav.aligned and nav.healthy and self.gps_fix_type >= 3):
+            self._healthy_since = None
+            return
+        if self._healthy_since is None:
+            self._healthy_since = t_us
+        if (t_us - self._healthy_since) * 1e-6 < self.params["ARM_SETTLE_S"]:
+            return
+        self.mode = CopterMode.GUIDED
+        if self.arm(t_us, truth) is not None:
+            return
+        # armed in the air: loops live at once
+        self.on_ground = False
+        self.flying = True
+        hf = self.home_frame
+        self.home_in_form = tuple(self.origin.to_ned_fast(hf.lat0_rad, hf.lon0_rad, hf.alt0_m).tolist())
+        self.vt = VirtualTarget(self.start_ned, self.vt.a_max)
+        self.log.event(t_us * 1e-6, f"formation vehicle {self.vid} armed (GUIDED, airborne)")
+
+    @property
+    def p_form(self) -> tuple:
+        """Own position estimate in the formation frame."""
+        p, h = self.p_home, self.home_in_form
+        return (p[0] + h[0], p[1] + h[1], p[2] + h[2])
+
+    # ---------------------------------------------------------------- loop ---
+    def step(self, frame, truth=None):
+        out = super().step(frame, truth)
+        t_us = frame.t_us
+        if not self.armed:
+            self._try_arm(t_us, truth)
+        elif t_us >= self._next_pub_us:
+            self._next_pub_us = t_us + self.period_us
+            hf = self.home_frame
+            lat, lon, alt = hf.to_geodetic_fast(self.p_home)
+            self.outbox.append(self.publisher.encode(t_us, lat, lon, alt, self.v_ned, self.euler[2]))
+            r, h = self.vt.r, self.home_in_form
+            lat, lon, alt = hf.to_geodetic_fast((r[0] - h[0], r[1] - h[1], r[2] - h[2]))
+            self.outbox.append(self.publisher.encode_target(t_us, lat, lon, alt, self.vt.v, self.vt.a))
+        return out
+
+    def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
+        if self.mode != CopterMode.GUIDED:
+            return super()._fly(dt, t_us, q, omega)
+        ctrl = self.ctrl
+        roll, pitch, yaw = self.euler
+        pos, v = self.p_home, self.v_ned
+        t_s = t_us * 1e-6
+        if t_s < self.start_s:
+            r, tv, ta = tuple(self.start_ned), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        else:
+            g = self.guidance.update(t_s, dt, tuple(self.vt.r), self.peers)
+            self.last_guidance = g
+            r, tv, ta = self.vt.step(g.v_cmd, dt)
+        h = self.home_in_form
+        tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
+        self.target = CopterTarget("move", 0, self.vid, tp, tv, ta, 0.0, goal_ne=(tp[0], tp[1]),
+                                   leg_a=(tp[0], tp[1]))
+        r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
+                                   ta[0], ta[1], yaw, dt, False)
+        u_z = self._altitude(-tp[2], -tv[2], -ta[2], -pos[2], v, roll, pitch, dt)
+        return ctrl.attitude(q, omega, r_d, p_d, 0.0, u_z)
