@@ -322,6 +322,8 @@ class PlaneVehicle:
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
+        if mon is not None:
+            mon.observe_controls(t_us, nav, controls, self.armed and not self.landed)
         self._log(t_us, nav, truth, controls)
         return ActuatorOutputs(t_us, controls, self.armed)
 

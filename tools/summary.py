@@ -169,7 +169,10 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
     ``instance``, ``detected_s`` (start of the first monitor detection at or after the
     injection and before the fault ended, or one already running; null if none),
     ``delay_s``, ``isolated`` (channel named by that detection's episode) and
-    ``isolated_s``, ``identified`` (null: actuator identification not implemented).
+    ``isolated_s``, ``kind`` (the monitor's classification: sensor, inertial or
+    actuator), ``identified`` (actuator fault parameters, latest estimate, e.g.
+    ``{"effectiveness": 0.52}`` or ``{"stuck_rad": 0.049}``; null if none) and
+    ``identified_10s`` (the estimate 10 s after the injection).
     ``ok`` events get ``cleared_s`` (end of the episode running at the ok, if any).
     ``false_alarms``: detections that start while no fault is active and not within
     FAULT_GRACE_S after one ended. With ``t_s``/``eh`` (horizontal estimate error per
@@ -179,7 +182,7 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
     for r in fault_log:
         e = {"at_s": round(r.at_s, 3), "unit": r.unit, "type": r.type, "instance": r.instance,
              "detected_s": None, "delay_s": None, "isolated": None, "isolated_s": None,
-             "identified": None}
+             "identified": None, "kind": None, "identified_10s": None}
         if r.type == "ok":
             e.pop("detected_s"), e.pop("delay_s")
             e["cleared_s"] = None
@@ -195,6 +198,11 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
                     e["delay_s"] = round(max(ep.start_s - r.at_s, 0.0), 3)
                     e["isolated"] = ep.isolated
                     e["isolated_s"] = ep.isolated_s
+                    e["kind"] = getattr(ep, "kind", None)
+                    e["identified"] = getattr(ep, "identified", None)
+                    for t_id, ident in getattr(ep, "ident_log", None) or ():
+                        if t_id <= r.at_s + 10.0 + 1e-9:
+                            e["identified_10s"] = ident
                     break
         out.append(e)
     false_alarms = 0

@@ -134,6 +134,10 @@ FDI_PARAMS = (
           "inertial fault is suspected (1: off)"),
     Param("FDI_DRIFT", 0.5, 0.0, 1.0, "", "velocity innovations whose window means hold this share of the "
           "statistic are a drift (inertial fault)"),
+    Param("FDI_ACT_ID", 0.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
+          "(two-stage KF, experimental: off by default)", is_int=True),
+    Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
+          "threshold by this factor detects"),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
     Param("FDI_DR_TIME", 10.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
@@ -165,6 +169,9 @@ class Episode:
     isolated: str | None = None
     isolated_s: float | None = None
     end_s: float | None = None
+    kind: str | None = None        # "sensor", "inertial" or "actuator"
+    identified: dict | None = None  # actuator fault parameters, latest estimate
+    ident_log: list | None = None   # (t_s, identified) once a second
 
 
 class _Aiding:
@@ -233,6 +240,12 @@ class FaultMonitor:
             import numpy as np
             self._lam = np.array(lam)
             nav.q_scale_hook = self._q_hook
+        # actuator (elevator) identification, autopilot/monitor/actuator.py
+        self.elevator = None
+        if p["FDI_ACT_ID"] >= 1:
+            from .actuator import ElevatorIdentifier
+            self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], lp_tau_s=0.2, forget=0.9999)
+        self._ident_next_s = 0.0
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
         self.detected = False
@@ -294,6 +307,39 @@ class FaultMonitor:
                 step_max = rs
         self._step_max = step_max
         self._evaluate(t_us, armed)
+
+    def observe_controls(self, t_us: int, nav_state, controls: tuple, flying: bool) -> None:
+        """Once per step after control: the commands sent (aileron, elevator, rudder,
+        throttle; normalised). Feeds the elevator identifier when FDI_ACT_ID is set."""
+        el = self.elevator
+        if el is None or nav_state is None or len(controls) < 2:
+            return
+        el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy))
+        t_s = t_us * 1e-6
+        if not el.ready or not self.enabled or self._healthy_us is None:
+            return
+        if not self.detected:
+            quiet = all(ch.ratio < 1.0 for ch in self._aiding_list) and max(self.bias_ratio) < 1.0
+            if quiet and el.ratio > self.p["FDI_ACT_THR"]:
+                # residual of the pitch model high, navigation innovations white: an
+                # actuator fault (the INS/GPS filter is insensitive to actuator faults)
+                self.detected = True
+                self._quiet_us = None
+                ep = Episode(round(t_s, 3), "elevator", "elevator", round(t_s, 3), kind="actuator")
+                ep.ident_log = []
+                self.episodes.append(ep)
+                self.isolated = "elevator"
+                el.frozen = el.adapt = True
+                self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on elevator "
+                                                      f"(statistic {el.ratio / self.p['FDI_ACT_THR']:.1f}x threshold)"))
+                self.events.append((t_s, SEV_CRITICAL, "FDI: elevator actuator fault isolated, "
+                                                       "Q adaptation on"))
+            return
+        ep = self.episodes[-1]
+        if ep.kind == "actuator" and t_s >= self._ident_next_s:
+            self._ident_next_s = t_s + 1.0
+            ep.identified = el.identified()
+            ep.ident_log.append((round(t_s, 3), ep.identified))
 
     def _q_hook(self, dt: float):
         """The filter's q_scale_hook: Lambda while an inertial fault is suspected."""
@@ -396,6 +442,7 @@ class FaultMonitor:
             # moves the bias estimates: an inertial channel over its threshold overrides
             # an earlier isolation to an aiding channel
             ep.isolated, ep.isolated_s = iso, round(t_s, 3)
+            ep.kind = "inertial" if (iso in _INERTIAL or self.qfade_on) else "sensor"
             self.isolated = iso
             self.events.append((t_s, SEV_CRITICAL, f"FDI: {iso} fault isolated"))
             if iso in _INERTIAL and self.radapt.active:
@@ -426,7 +473,9 @@ class FaultMonitor:
                 self.events.append((t_s, SEV_CRITICAL, "FDI: GPS lost, dead reckoning: failsafe RTL"))
         else:
             self._gps_silent_us = None
-        # clearance
+        # clearance (an actuator episode stays open: the surface does not heal itself)
+        if self.episodes[-1].kind == "actuator":
+            return
         if over is None and not busy:
             if self._quiet_us is None:
                 self._quiet_us = t_us
@@ -444,6 +493,7 @@ class FaultMonitor:
             if (self._lam is not None and self.isolated not in _INERTIAL and not vel.silent
                     and vel.rdet > 1.0 and vel.win.mean_share > self.p["FDI_DRIFT"]):
                 self.qfade_on = True
+                self.episodes[-1].kind = "inertial"
                 self.events.append((t_s, SEV_NOTICE, "FDI: velocity innovations drift: inertial fault "
                                                      "suspected, gyro bias fading on (Q adaptation)"))
                 if self.radapt.active:
