@@ -31,6 +31,8 @@ def make_report(run_dir: Path) -> list[Path]:
 
     from .summary import leg_xtrack
 
+    if (run_dir / "formation.npz").exists() and not (run_dir / "flight.npz").exists():
+        return formation_pictures(plt, run_dir)
     a = _load(run_dir)
     summary = {}
     if (run_dir / "summary.json").exists():
@@ -208,3 +210,44 @@ def _nav_error(plt, run_dir: Path, a: dict, armed: np.ndarray) -> Path:
 
 def _wrap(x):
     return (x + np.pi) % (2 * np.pi) - np.pi
+
+
+def formation_pictures(plt, run_dir: Path) -> list[Path]:
+    """``sitl formation`` run folders: the 3-D paths (seed figs 3.7, 3.9) and the
+    constrained distances over time (figs 3.8, 3.10)."""
+    with np.load(run_dir / "formation.npz", allow_pickle=False) as z:
+        t, P, pairs, final = z["t_s"], z["p_ned"], z["pairs"], z["final_ned"]
+        roles = [str(r) for r in z["roles"]]
+        t0 = float(z["formation_start_s"])
+    colours = {"leader": "red", "first": "blue", "second": "green"}
+    fig = plt.figure(figsize=(8, 7))
+    ax = fig.add_subplot(projection="3d")
+    for k in range(P.shape[1]):
+        c = colours.get(roles[k], "grey")
+        # x north, y east, up = -down (the seed's axes, with altitude up)
+        ax.plot(P[:, k, 0], P[:, k, 1], -P[:, k, 2], color=c, lw=1.2)
+        ax.scatter(P[0, k, 0], P[0, k, 1], -P[0, k, 2], color=c, marker="o", s=14)
+        ax.scatter(final[k, 0], final[k, 1], -final[k, 2], color=c, marker="x", s=30)
+        ax.text(P[-1, k, 0], P[-1, k, 1], -P[-1, k, 2], str(k + 1), fontsize=8)
+    ax.set_xlabel("north [m]")
+    ax.set_ylabel("east [m]")
+    ax.set_zlabel("up [m]")
+    ax.set_title("formation paths (o start, x desired final; red leader, blue first, green second)")
+    p1 = run_dir / "formation_paths.png"
+    fig.savefig(p1, dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(9, 5))
+    for a, b, d in pairs:
+        dd = np.linalg.norm(P[:, int(a) - 1] - P[:, int(b) - 1], axis=1)
+        ax.plot(t, dd, lw=1.0, label=f"|p{int(a)} - p{int(b)}| (d = {d:g} m)")
+    ax.axvline(t0, color="k", ls=":", lw=0.8)
+    ax.axvline(t0 + 5.0, color="k", ls="--", lw=0.8)
+    ax.set_xlabel("time [s] (dotted: formation start; dashed: figures from here)")
+    ax.set_ylabel("distance [m]")
+    ax.set_title("constrained distances")
+    if len(pairs) <= 12:
+        ax.legend(fontsize=7, ncol=3)
+    p2 = run_dir / "formation_distances.png"
+    fig.savefig(p2, dpi=110)
+    plt.close(fig)
+    return [p1, p2]

@@ -8,6 +8,8 @@
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
+    sitl formation FILE [--seed N] [--duration S] [--loss P] [--latency S] [--rate HZ]
+                [--udp] [--gcs] [--log-dir DIR] [--json]
 """
 from __future__ import annotations
 
@@ -152,7 +154,7 @@ def cmd_params(args) -> int:
 def cmd_report(args) -> int:
     from .report import make_report
     run_dir = Path(args.run_dir)
-    if not (run_dir / "flight.npz").exists():
+    if not (run_dir / "flight.npz").exists() and not (run_dir / "formation.npz").exists():
         raise CliError(f"{run_dir}: no flight.npz (not a run folder)")
     for p in make_report(run_dir):
         print(p)
@@ -162,6 +164,26 @@ def cmd_report(args) -> int:
 def cmd_bench(args) -> int:
     from .bench import run_bench
     run_bench(args.seconds, vehicle=args.vehicle)
+    return 0
+
+
+def cmd_formation(args) -> int:
+    from autopilot.formation import FormationError
+    from .formation import run_formation
+    log_dir = Path(args.log_dir) if args.log_dir else \
+        Path("runs") / time.strftime(f"%Y%m%d-%H%M%S-formation-seed{args.seed}")
+    try:
+        summary = run_formation(args.file, seed=args.seed, duration_s=args.duration, loss=args.loss,
+                                latency_s=args.latency, rate_hz=args.rate, udp=args.udp,
+                                gcs=args.gcs, log_dir=log_dir)
+    except (FormationError, FileNotFoundError) as e:
+        raise CliError(str(e)) from None
+    if args.json:
+        print(json.dumps(summary, indent=2, sort_keys=True))
+    else:
+        for k in sorted(summary):
+            print(f"{k:>28}: {summary[k]}")
+        print(f"{'run folder':>28}: {log_dir}")
     return 0
 
 
@@ -211,6 +233,19 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per measurement")
     b.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     b.set_defaults(func=cmd_bench)
+    fm = sub.add_parser("formation", help="fly N vehicles in formation (decentralised over MAVLink)")
+    fm.add_argument("file", help="formation TOML (missions/formation_*.toml)")
+    fm.add_argument("--seed", type=int, default=1)
+    fm.add_argument("--duration", type=float, default=None, help="simulated seconds of formation flight at most")
+    fm.add_argument("--loss", type=float, default=None, help="vehicle network: datagram loss probability")
+    fm.add_argument("--latency", type=float, default=None, help="vehicle network: delay [s]")
+    fm.add_argument("--rate", type=float, default=None, help="position publication rate [Hz]")
+    fm.add_argument("--udp", action="store_true", help="vehicle network over loopback UDP sockets")
+    fm.add_argument("--gcs", action="store_true",
+                    help="quad: a ground-station TCP port per vehicle, 5760 + 10 (id - 1)")
+    fm.add_argument("--log-dir", help="run folder (default runs/DATE-TIME-formation-seedN)")
+    fm.add_argument("--json", action="store_true", help="print only the summary JSON on stdout")
+    fm.set_defaults(func=cmd_formation)
     return ap
 
 

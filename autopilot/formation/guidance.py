@@ -84,6 +84,7 @@ def sigma(err_m: float, eps: float) -> float:
 class GuidanceOutput:
     p_des: tuple          # p_id(t), local NED [m]
     v_cmd: tuple          # V_i(t) [m/s]
+    a_ff: tuple           # mean reported acceleration of the followed vehicles [m/s^2]
     err_m: float          # |p_bar_i|
     sigma: float
     status: str           # "ok" | geometry status | "waiting" (followed vehicle not heard yet)
@@ -117,17 +118,19 @@ class FormationGuidance:
         self._p_des = tuple(v.start_ned)
 
     def desired(self, t_s: float, p_own, peers):
-        """(p_id, v_ff, status) from eqs 3.14-3.17."""
+        """(p_id, v_ff, a_ff, status) from eqs 3.14-3.17."""
+        zero = (0.0, 0.0, 0.0)
         if self.role == "leader":
-            return self.p_final, (0.0, 0.0, 0.0), "ok"
+            return self.p_final, zero, zero, "ok"
         got = []
         for j in self.follows:
             g = peers.get(j, t_s)
             if g is None:
-                return self._p_des, (0.0, 0.0, 0.0), "waiting"
+                return self._p_des, zero, zero, "waiting"
             got.append(g)
         n = len(got)
         v_ff = tuple(sum(g[1][k] for g in got) / n for k in range(3))
+        a_ff = tuple(sum(g[3][k] for g in got) / n for k in range(3))
         if self.role == "first":
             p1 = got[0][0]
             ref = self._carrot(p1, p_own)
@@ -142,7 +145,7 @@ class FormationGuidance:
             j, k, l = self.follows
             p, status = intersection_near(got[0][0], self.d[j], got[1][0], self.d[k],
                                           got[2][0], self.d[l], p_own)
-        return p, v_ff, status
+        return p, v_ff, a_ff, status
 
     def _carrot(self, p1, p_own):
         """p_1 + p_1i (eqs 3.15, 3.16), approached at most ``reshape_step_m`` at a time."""
@@ -154,7 +157,7 @@ class FormationGuidance:
         return (p_own[0] + w[0], p_own[1] + w[1], p_own[2] + w[2])
 
     def update(self, t_s: float, dt: float, p_own, peers) -> GuidanceOutput:
-        p_des, v_ff, status = self.desired(t_s, p_own, peers)
+        p_des, v_ff, a_ff, status = self.desired(t_s, p_own, peers)
         if status not in ("ok", "waiting", "tangent"):
             self.degenerate_events += 1
         self.last_status = status
@@ -171,7 +174,7 @@ class FormationGuidance:
             for k in range(3):
                 ig[k] += s * pb[k] * dt
         v_cmd = tuple(v_ff[k] + s * u[k] for k in range(3))                      # eq 3.20
-        return GuidanceOutput(tuple(p_des), v_cmd, e, s, status)
+        return GuidanceOutput(tuple(p_des), v_cmd, a_ff, e, s, status)
 
 
 class VirtualTarget:
@@ -179,7 +182,10 @@ class VirtualTarget:
     velocity follows V_i of eq 3.20 through a first-order lag ``tau_s`` whose
     acceleration is limited to ``a_max`` and whose jerk to ``j_max``, so the reference
     asks nothing of the attitude loop that a quadrotor cannot give (a step of the
-    commanded velocity would ask for an instant tilt). ``step(v_cmd, dt) -> (r, v, a)``."""
+    commanded velocity would ask for an instant tilt). ``a_ff``, the followed
+    vehicles' reported setpoint acceleration, passes the lag by, so that in a rigid
+    translation each follower's reference reproduces its leaders' and the lag does not
+    grow down the follower chain. ``step(v_cmd, dt, a_ff) -> (r, v, a)``."""
 
     def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2):
         self.r = [float(c) for c in p0]
@@ -189,10 +195,10 @@ class VirtualTarget:
         self.j_max = j_max
         self.tau = tau_s
 
-    def step(self, v_cmd, dt: float):
+    def step(self, v_cmd, dt: float, a_ff=(0.0, 0.0, 0.0)):
         if dt <= 0.0:
             return tuple(self.r), tuple(self.v), tuple(self.a)
-        a_des = [(v_cmd[k] - self.v[k]) / self.tau for k in range(3)]
+        a_des = [a_ff[k] + (v_cmd[k] - self.v[k]) / self.tau for k in range(3)]
         n = norm(a_des)
         if n > self.a_max:
             a_des = [x * self.a_max / n for x in a_des]

@@ -103,7 +103,8 @@ class PeerTable:
             self.received += 1
 
     def get(self, vid: int, t_s: float):
-        """(p_ned extrapolated to ``t_s``, v_ned, age_s) or None if never heard. With
+        """(p_ned extrapolated to ``t_s``, v_ned, age_s, a_ned) or None if never heard
+        (a_ned is zero from GLOBAL_POSITION_INT). With
         ``use_targets``, the peer's setpoint (POSITION_TARGET_GLOBAL_INT) where one was
         received, extrapolated with its velocity and acceleration."""
         if self.use_targets:
@@ -115,11 +116,11 @@ class PeerTable:
                 hh = 0.5 * h * h
                 return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh,
                          p[2] + v[2] * h + a[2] * hh),
-                        (v[0] + a[0] * h, v[1] + a[1] * h, v[2] + a[2] * h), age)
+                        (v[0] + a[0] * h, v[1] + a[1] * h, v[2] + a[2] * h), age, a)
         e = self.latest.get(vid)
         if e is None:
             return None
         t, p, v = e
         age = t_s - t
         a = max(0.0, min(age, MAX_EXTRAPOLATION_S))
-        return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age
+        return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age, (0.0, 0.0, 0.0)

@@ -120,7 +120,7 @@ class FormationQuad(QuadVehicle):
         else:
             g = self.guidance.update(t_s, dt, tuple(self.vt.r), self.peers)
             self.last_guidance = g
-            r, tv, ta = self.vt.step(g.v_cmd, dt)
+            r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
         h = self.home_in_form
         tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
         self.target = CopterTarget("move", 0, self.vid, tp, tv, ta, 0.0, goal_ne=(tp[0], tp[1]),
