@@ -29,8 +29,8 @@ trade, measured in the README of this command (``--json`` prints ``realtime_fact
 GPS: formation flight at 1 m spacing needs relative positions good to centimetres, which
 a standard GNSS receiver (metres of slowly wandering error per vehicle) cannot give. The
 default ``[quad] gps = "rtk"`` gives each vehicle an RTK-class receiver (u-blox ZED-F9P
-class: 1 cm + 1 cm Gauss-Markov per horizontal axis, 10 Hz, 50 ms latency) and sets its
-filter's GPS noise to match; ``gps = "standard"`` keeps the default receiver (the
+class: 1 cm white + 1 cm Gauss-Markov per horizontal axis, 20 Hz, 50 ms latency) and sets its
+filter's GPS noise to match (and trusts the barometer less, 1 m); ``gps = "standard"`` keeps the default receiver (the
 formation then holds to the receivers' relative error, metres).
 
 Figures (truth, the formation's local NED frame): ``distance_error_max_m`` /
