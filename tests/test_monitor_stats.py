@@ -76,3 +76,35 @@ def test_fault_figures_pair_injections_with_detections():
     assert f["faults"][0]["isolated"] == "gps_pos"
     assert f["faults"][1]["cleared_s"] == 133.0
     assert f["false_alarms"] == 2          # 20 s and 200 s; 138 s is the fault's aftermath
+
+
+def test_family_alpha_bounds_the_false_alarms_of_repeated_overlapping_window_tests():
+    # GIVEN white normalised innovations and a window test repeated at every sample,
+    # WHEN its alpha is set for a family-wise false-alarm probability p over n tests,
+    # THEN the probability that any of the n overlapping tests alarms is at most p
+    # (Bonferroni), and not far under it (the overlap makes the bound ~2x conservative)
+    from autopilot.monitor.stats import family_alpha
+    rng = np.random.default_rng(3)
+    M, s, n, p, runs = 10, 3, 2000, 0.2, 400
+    alpha = family_alpha(p, n)
+    assert alpha == pytest.approx(1e-4)
+    thr = chi2.ppf(1.0 - alpha, M * s)
+    hits = 0
+    for _ in range(runs):
+        q = (rng.standard_normal((n + M - 1, s)) ** 2).sum(axis=1)
+        c = np.concatenate(([0.0], np.cumsum(q)))
+        hits += (c[M:] - c[:-M]).max() > thr
+    rate = hits / runs
+    assert 0.05 < rate <= p
+
+
+def test_monitor_detection_threshold_is_set_per_flight_hour():
+    from autopilot.monitor.monitor import FaultMonitor, window_tests_per_hour
+    m = FaultMonitor({"FDI_PFA": 0.01, "FDI_DECIM": 10, "FDI_ALPHA": 1e-4})
+    n = window_tests_per_hour(10)
+    assert n == pytest.approx(3600 * (5 + 5 + 3 * 2.5))
+    w = m.aiding["gps_pos"].win
+    assert w.thr_det == pytest.approx(chi2.ppf(1.0 - 0.01 / n, 30))
+    # the per-step and isolation tests keep the per-test level FDI_ALPHA
+    assert w.thr_step == pytest.approx(chi2.ppf(1.0 - 1e-4, 3))
+    assert w.thr_iso == pytest.approx(chi2.ppf(1.0 - 1e-4, 9))

@@ -254,3 +254,68 @@ def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
         r = nav_bench(cls, aux_hz=50.0, seconds=secs, repeats=3)
         print(f"    {name}: predict {r['predict_us']:7.1f}   update {r['update_us']:7.1f}   "
               f"step {r['step_us']:7.1f}")
+
+
+# --- fault monitor: false alarms over fault-free flights (issue 6) -------------------
+def _looping_mission(path, repeats: int):
+    """The default mission with its DO_JUMP (177) repeat count raised, written to
+    ``path``: the circuit is flown over and over, so a long flight stays a mission flight
+    (turns, climbs, descents) instead of an RTL loiter after 260 s."""
+    lines = []
+    for line in DEFAULT_MISSION.read_text().splitlines():
+        f = line.split("\t")
+        if len(f) >= 12 and f[3] == "177":
+            f[5] = str(repeats)
+        lines.append("\t".join(f))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def false_alarm_flight(seed: int, seconds: float, mission=None, params=None) -> dict:
+    """One fault-free flight of ``seconds`` (default scenario: 5 m/s wind, light
+    turbulence): its false alarms, the episodes (start, trigger) and the largest
+    detection statistic / threshold per channel while no fault was detected."""
+    from .summary import run_summary
+    cfg = RunConfig(scenario=DEFAULT_SCENARIO, duration_s=seconds, seed=seed,
+                    mission=mission or DEFAULT_MISSION, param_overrides=dict(params or {}))
+    s = Session(cfg)
+    while s.t_s < seconds and not s.crashed:
+        s.step()
+        s.done()                         # sets crashed if back on the ground
+    summ = run_summary(s)
+    mon = s.vehicle.monitor
+    return {"seed": seed, "sim_time_s": round(s.t_s, 1), "crashed": s.crashed,
+            "false_alarms": summ.get("false_alarms", 0),
+            "episodes": [(ep["start_s"], ep["trigger"]) for ep in summ.get("fdi_episodes", [])],
+            "peaks": {k: round(v, 3) for k, v in sorted(mon.peaks.items())} if mon else {}}
+
+
+def run_false_alarms(flights: int = 10, seconds: float = 600.0, seed0: int = 1,
+                     params=None, out=print) -> dict:
+    """``sitl bench --false-alarms``: ``flights`` fault-free flights of ``seconds``, seeds
+    seed0 .. seed0 + flights - 1, the default mission looped. Prints one line per flight
+    and the total ``false_alarms`` (issue 6: 0 over ten 10-minute flights)."""
+    import tempfile
+    from pathlib import Path
+    out(f"sitl bench --false-alarms: {flights} fault-free flights x {seconds:.0f} s, seeds "
+        f"{seed0}..{seed0 + flights - 1}, default scenario, default mission looped")
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        mission = _looping_mission(Path(d) / "looped.waypoints", max(1, int(seconds / 40.0)))
+        for seed in range(seed0, seed0 + flights):
+            r = false_alarm_flight(seed, seconds, mission, params)
+            rows.append(r)
+            peaks = " ".join(f"{k}={v:.2f}" for k, v in r["peaks"].items())
+            out(f"  seed {seed:3d}: {r['sim_time_s']:6.1f} s  false_alarms {r['false_alarms']}"
+                f"{'  CRASHED' if r['crashed'] else ''}  {r['episodes'] or ''}")
+            out(f"            peak statistic / threshold: {peaks}")
+    total = sum(r["false_alarms"] for r in rows)
+    hours = sum(r["sim_time_s"] for r in rows) / 3600.0
+    worst = {}
+    for r in rows:
+        for k, v in r["peaks"].items():
+            worst[k] = max(worst.get(k, 0.0), v)
+    out(f"  largest statistic / threshold over all flights: "
+        + " ".join(f"{k}={v:.2f}" for k, v in sorted(worst.items())))
+    out(f"false_alarms: {total}  ({len(rows)} flights, {hours:.2f} flight hours)")
+    return {"false_alarms": total, "flights": rows, "hours": hours, "worst_peaks": worst}

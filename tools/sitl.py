@@ -8,6 +8,7 @@
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
+    sitl bench  --false-alarms [--flights N] [--seconds S] [--seed N]
     sitl formation FILE [--seed N] [--duration S] [--loss P] [--latency S] [--rate HZ]
                 [--udp] [--gcs] [--log-dir DIR] [--json]
 """
@@ -162,7 +163,14 @@ def cmd_report(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.false_alarms:
+        from .bench import run_false_alarms
+        res = run_false_alarms(args.flights, args.seconds if args.seconds is not None else 600.0,
+                               seed0=args.seed)
+        return 1 if res["false_alarms"] else 0
     from .bench import run_bench
+    if args.seconds is None:
+        args.seconds = 60.0
     run_bench(args.seconds, vehicle=args.vehicle)
     return 0
 
@@ -230,8 +238,13 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("run_dir")
     rp.set_defaults(func=cmd_report)
     b = sub.add_parser("bench", help="real-time factors and time per block")
-    b.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per measurement")
+    b.add_argument("--seconds", type=float, default=None,
+                   help="simulated seconds per measurement (default 60; --false-alarms: per flight, 600)")
     b.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    b.add_argument("--false-alarms", action="store_true",
+                   help="fault monitor: false alarms over fault-free flights of different seeds")
+    b.add_argument("--flights", type=int, default=10, help="--false-alarms: number of flights")
+    b.add_argument("--seed", type=int, default=1, help="--false-alarms: seed of the first flight")
     b.set_defaults(func=cmd_bench)
     fm = sub.add_parser("formation", help="fly N vehicles in formation (decentralised over MAVLink)")
     fm.add_argument("file", help="formation TOML (missions/formation_*.toml)")

@@ -15,11 +15,12 @@ How each is watched:
 
 * Aiding sensors (``gps_pos``, ``gps_vel``, ``baro``, ``mag``, ``airspeed``): their
   normalised innovations (2.13) go through :class:`~.stats.WindowChi2`: the window
-  statistic beta (2.12, threshold chi2_{alpha, M s}) detects, the per-step statistic
-  chi (2.41-2.43) is logged, the sample-variance statistic gamma (2.16-2.17, threshold
-  chi2_{alpha, M-1}) isolates. The 50 Hz sources enter every FDI_DECIM-th sample, so
-  a window of M samples spans about the same time as the GPS's (and successive samples
-  are less correlated; the chi-square law assumes a white sequence). The airspeed
+  statistic beta (2.12, threshold chi2_{alpha_det, M s}, see Thresholds below)
+  detects, the per-step statistic chi (2.41-2.43) is logged, the sample-variance
+  statistic gamma (2.16-2.17, threshold chi2_{alpha, M-1}) isolates. The 25 Hz fusions
+  of baro, mag and airspeed enter every FDI_DECIM-th sample, so a window of M samples
+  spans seconds, as the GPS's does (and successive samples are less correlated; the
+  chi-square law assumes a white sequence). The airspeed
   innovation is divided by sqrt(FDI_ARSP_K) first: the filter's airspeed noise does not
   include turbulence, and its normalised innovation has a lag-1 autocorrelation of
   0.96 at 50 Hz in light turbulence (measured), which a raw chi-square window reads as
@@ -42,7 +43,9 @@ How each is watched:
   statistic reaches 30-50 then), so the gyro channels are armed FDI_BIAS_WU seconds
   after alignment. FDI_ALPHA_B is smaller than FDI_ALPHA because the filter's bias
   sigma is optimistic (fault-free maxima of gamma_b after the warm-up: 15-19, measured
-  over three seeds and a GPS outage).
+  over three seeds and a GPS outage, at an earlier state of the filter; 1-3.5, i.e.
+  0.05-0.18 of the threshold, over ten 10-minute flights with the present filter,
+  ``sitl bench --false-alarms``).
 * ``elevator`` (experimental, FDI_ACT_ID = 1; off by default): the two-stage pitch-model
   identifier of :mod:`.actuator` gets the commands through ``observe_controls``; its
   residual statistic over FDI_ACT_THR times its threshold while every navigation
@@ -54,6 +57,25 @@ How each is watched:
 * Accelerometers, other surfaces, motors: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
   not usable as they are).
+
+Thresholds: the window detection test (2.12-2.15) is repeated at every sample of every
+aiding channel, about 63 000 tests per flight hour (``window_tests_per_hour``: GPS
+position and velocity at 5 Hz, baro, mag and airspeed at 25 Hz / FDI_DECIM). The
+seed's alpha is the false-alarm probability of *one* test, so with alpha = 1e-4 a
+healthy flight alarms every hour or so however well R is modelled -- measured: the
+normalised GPS innovations of fault-free flights are white (lag-1 autocorrelation
+< 0.03) with variances 0.93-1.03, and the alarms (seed 4 at 176 s, seed 7 at 380 s,
+gps_vel) were windows of ordinary 2-3.7 sigma samples, the chi-square tail itself;
+the largest window statistics of ten 10-minute flights were 0.85-1.01 of the 1e-4
+threshold. So the detection level is set per flight, not per test: FDI_PFA is the
+probability of a false alarm in a flight hour from all window tests together, and
+``alpha_det = FDI_PFA / tests per hour`` (Bonferroni, :func:`~.stats.family_alpha`;
+conservative by about 2 since the windows overlap): 1.6e-7 for FDI_PFA = 0.01, a
+threshold of 87.5 instead of 67.6 for the 30 degrees of freedom of GPS (1.3x).
+FDI_ALPHA stays the level of the per-step (2.41-2.43) and isolation (2.16-2.17) tests,
+which decide only within an episode. The gyro bias test has its own FDI_ALPHA_B (its
+fault-free maxima are 0.05-0.18 of the threshold after the warm-up: it is not the one
+that raises false alarms).
 
 Decision: a fault is detected at the first step where a channel's detection
 statistic exceeds its threshold (or a channel goes silent); it is isolated to the
@@ -111,7 +133,7 @@ from dataclasses import dataclass
 from autopilot.params import Param
 
 from .radapt import R_MULTIPLE, RAdapter, attach
-from .stats import WindowChi2, chi2_threshold
+from .stats import WindowChi2, chi2_threshold, family_alpha
 
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z", "mag", "baro",
             "airspeed", "gps_pos", "gps_vel", "aileron", "elevator", "rudder", "throttle",
@@ -123,9 +145,12 @@ SEV_CRITICAL, SEV_WARNING, SEV_NOTICE, SEV_INFO = 2, 4, 5, 6
 
 FDI_PARAMS = (
     Param("FDI_ENABLE", 1.0, 0.0, 1.0, "bool", "run the fault monitor", is_int=True),
-    Param("FDI_ALPHA", 1e-4, 1e-9, 0.1, "", "level of significance of the innovation chi-square tests"),
+    Param("FDI_ALPHA", 1e-4, 1e-9, 0.1, "", "level of significance of the per-step and isolation "
+          "chi-square tests (run during an episode)"),
+    Param("FDI_PFA", 0.01, 1e-9, 1.0, "1/h", "false-alarm probability per flight hour of all window "
+          "detection tests together (sets their alpha)"),
     Param("FDI_WIN", 10.0, 3.0, 100.0, "samples", "sliding window width M of the chi-square tests", is_int=True),
-    Param("FDI_DECIM", 10.0, 1.0, 50.0, "", "50 Hz sources (baro, mag, airspeed) enter every N-th sample",
+    Param("FDI_DECIM", 10.0, 1.0, 50.0, "", "baro, mag, airspeed (fused at 25 Hz) enter every N-th sample",
           is_int=True),
     Param("FDI_ARSP_K", 4.0, 1.0, 100.0, "", "airspeed innovation variance inflation (turbulence)"),
     Param("FDI_TOUT", 0.5, 0.1, 10.0, "s", "a channel silent this long is flagged (sensor off)"),
@@ -157,6 +182,14 @@ _AIDING = {"gps_pos": (3, False, None), "gps_vel": (3, False, None), "baro": (1,
 _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+_GPS_HZ = 5.0                   # GPS fix rate (SensorParams.gps_rate_hz, u-blox M8N) [Hz]
+_AUX_HZ = 25.0                  # baro, mag, airspeed fusion rate of the filter (nav/base.py) [Hz]
+
+
+def window_tests_per_hour(decim: int) -> float:
+    """Window detection tests per flight hour, all aiding channels: one per sample of
+    gps_pos and gps_vel, one per FDI_DECIM-th fusion of baro, mag and airspeed."""
+    return 3600.0 * (2 * _GPS_HZ + 3 * _AUX_HZ / max(decim, 1))
 
 LOG_COLUMNS = ("fdi_detected", "fdi_isolated", "fdi_step_max", "fdi_gps_pos", "fdi_gps_vel",
                "fdi_baro", "fdi_mag", "fdi_airspeed", "fdi_iso_max", "fdi_gyro_x", "fdi_gyro_y",
@@ -186,9 +219,10 @@ class _Aiding:
     __slots__ = ("name", "win", "decim", "k", "gain", "last_us", "silent", "refill",
                  "ratio", "adapted", "rdet", "riso")
 
-    def __init__(self, name: str, s: int, M: int, alpha: float, decim: int, gain: float):
+    def __init__(self, name: str, s: int, M: int, alpha: float, decim: int, gain: float,
+                 alpha_det: float):
         self.name = name
-        self.win = WindowChi2(s, M, alpha)
+        self.win = WindowChi2(s, M, alpha, alpha_det)
         self.decim = decim
         self.k = 0
         self.gain = gain              # 1 / sqrt(variance inflation)
@@ -217,10 +251,13 @@ class FaultMonitor:
         M = int(p["FDI_WIN"])
         alpha = p["FDI_ALPHA"]
         decim = int(p["FDI_DECIM"])
+        # the window test runs at every sample of the flight: its level from the
+        # family-wise false-alarm probability per hour (module docstring)
+        self.alpha_det = family_alpha(p["FDI_PFA"], window_tests_per_hour(decim))
         self.aiding: dict[str, _Aiding] = {}
         for name, (s, fast, kkey) in _AIDING.items():
             gain = 1.0 / math.sqrt(p[kkey]) if kkey else 1.0
-            self.aiding[name] = _Aiding(name, s, M, alpha, decim if fast else 1, gain)
+            self.aiding[name] = _Aiding(name, s, M, alpha, decim if fast else 1, gain, self.alpha_det)
         self._aiding_list = tuple(self.aiding.values())
         self.tout_us = int(p["FDI_TOUT"] * 1e6)
         self._start_us = p["FDI_START_T"] * 1e6
@@ -268,6 +305,9 @@ class FaultMonitor:
         self._fs_done = False
         self._step_max = 0.0
         self._iso_max = 0.0
+        # largest detection statistic / threshold per channel while no fault is detected:
+        # the margin of the healthy flight (sitl bench --false-alarms)
+        self.peaks: dict[str, float] = {}
 
     # ------------------------------------------------------------------- step ---
     def update(self, t_us: int, armed: bool = True) -> None:
@@ -432,6 +472,14 @@ class FaultMonitor:
             if r > iso_ratio:
                 iso, iso_ratio = name, r
         self._iso_max = iso_max
+        if not self.detected:
+            peaks = self.peaks
+            for ch in self._aiding_list:
+                if ch.ratio > peaks.get(ch.name, 0.0):
+                    peaks[ch.name] = ch.ratio
+            for i, name in enumerate(_GYROS):
+                if self.bias_ratio[i] > peaks.get(name, 0.0):
+                    peaks[name] = self.bias_ratio[i]
         t_s = t_us * 1e-6
         if over is not None and not self.detected:
             self.detected = True
