@@ -139,6 +139,7 @@ class GcsCore:
         self._armed = vehicle.armed
         self._mode = vehicle.mode
         self._reached_n = len(vehicle.reached_events())
+        self._fdi_n = self._fdi_count()
         self._home_key = None
 
     # ------------------------------------------------------------------- output ---
@@ -318,6 +319,11 @@ class GcsCore:
         v = self.vehicle
         self._armed, self._mode = v.armed, v.mode
         self._reached_n = len(v.reached_events())
+        self._fdi_n = self._fdi_count()
+
+    def _fdi_count(self) -> int:
+        mon = getattr(self.vehicle, "monitor", None)
+        return len(mon.events) if mon is not None else 0
 
     def _events(self, t_us: int) -> None:
         v = self.vehicle
@@ -334,6 +340,12 @@ class GcsCore:
             self._broadcast(R.MAVLink_mission_item_reached_message(seq))
             self.say(SEV_INFO, f"Reached waypoint #{seq}")
         self._reached_n = len(reached)
+        mon = getattr(v, "monitor", None)
+        if mon is not None and len(mon.events) > self._fdi_n:
+            # fault monitor: detection, isolation, adaptation, failsafe, clearance
+            for _t_s, severity, text in mon.events[self._fdi_n:]:
+                self.say(severity, text)
+            self._fdi_n = len(mon.events)
         h = v.home_frame
         key = None if h is None else (h.lat0_rad, h.lon0_rad, h.alt0_m)
         if key != self._home_key:
