@@ -5,6 +5,10 @@
 * ``xtrack.png``    cross-track error on the straight legs (counted part highlighted)
 * ``nav_error.png`` estimate error of each state with its +-3 sigma bound (when the
                     log carries the filter's sigmas)
+* ``fdi.png``       the fault monitor (autopilot/monitor, LOG_COLUMNS there): each
+                    statistic divided by its chi-square threshold (1 = threshold) and
+                    the noise scale factor over time, injected faults, detected
+                    episodes and Q-fading spans marked (seed figs 2.3-2.5, 2.12-2.17)
 
 Quadrotor runs: ``track.png``, ``alt.png`` (height, distance from the reference and the
 hold points), ``attitude.png`` (roll, pitch, yaw against the attitude loops'
@@ -101,7 +105,104 @@ def make_report(run_dir: Path) -> list[Path]:
 
     if "sig_pn_m" in a:
         out.append(_nav_error(plt, run_dir, a, armed))
+    if "fdi_gps_pos" in a:
+        out.append(fault_monitor_picture(plt, run_dir, a, summary))
     return out
+
+
+def _spans(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
+    """(start, end) times of the runs of True in ``on``."""
+    spans, start = [], None
+    for ti, x in zip(t, on):
+        if x and start is None:
+            start = ti
+        elif not x and start is not None:
+            spans.append((start, ti))
+            start = None
+    if start is not None:
+        spans.append((start, t[-1]))
+    return spans
+
+
+def _event_spans(a: dict, on_text: str, off_texts: tuple, end_s: float) -> list[tuple[float, float]]:
+    """Spans between an event whose text contains ``on_text`` and the next one
+    containing any of ``off_texts`` (the monitor's STATUSTEXT-ready events)."""
+    if "event_t_s" not in a:
+        return []
+    spans, start = [], None
+    for ti, text in zip(a["event_t_s"], a["event_text"]):
+        text = str(text)
+        if start is None and on_text in text:
+            start = float(ti)
+        elif start is not None and any(o in text for o in off_texts):
+            spans.append((start, float(ti)))
+            start = None
+    if start is not None:
+        spans.append((start, end_s))
+    return spans
+
+
+def fault_monitor_picture(plt, run_dir: Path, a: dict, summary: dict) -> Path:
+    """``fdi.png``: the monitor's statistics against their thresholds, as logged
+    (LOG_COLUMNS of autopilot/monitor/monitor.py: every statistic is already divided by
+    its threshold, so the threshold is the line at 1):
+
+    1. the window detection statistic beta (2.12) of each aiding channel (a silent
+       channel logs age / FDI_TOUT);
+    2. the gyro bias-change statistics (gyro_x|y|z);
+    3. the largest per-step statistic chi (2.41-2.43) and the largest isolation
+       statistic gamma (2.16-2.17);
+    4. the largest R noise scale factor applied to gps_pos (MMNSF, 2.30-2.34) and the
+       spans where the gyro-bias Q fading (2.35-2.40) was on.
+
+    Injected faults are dashed vertical lines (red: a fault, green: its ``ok``);
+    detected episodes are shaded."""
+    t = a["t_s"]
+    end_s = float(t[-1]) if len(t) else 0.0
+    fig, axes = plt.subplots(4, 1, figsize=(12, 12), sharex=True)
+    floor = 1e-3
+
+    def show(ax, col, label, **kw):
+        ax.plot(t, np.maximum(a[col], floor), lw=0.8, label=label, **kw)
+
+    for col, lab in (("fdi_gps_pos", "gps_pos"), ("fdi_gps_vel", "gps_vel"), ("fdi_baro", "baro"),
+                     ("fdi_mag", "mag"), ("fdi_airspeed", "airspeed")):
+        show(axes[0], col, lab)
+    axes[0].set_ylabel("beta / chi2_{a,Ms}")
+    axes[0].set_title("window detection statistic (2.12) / threshold, per aiding channel")
+    for col, lab in (("fdi_gyro_x", "gyro_x"), ("fdi_gyro_y", "gyro_y"), ("fdi_gyro_z", "gyro_z")):
+        show(axes[1], col, lab)
+    axes[1].set_ylabel("gamma_b / chi2_{a_B,1}")
+    axes[1].set_title("gyro bias-change statistic / threshold")
+    show(axes[2], "fdi_step_max", "largest per-step statistic chi (2.41) / chi2_{a,s}", alpha=0.5)
+    show(axes[2], "fdi_iso_max", "largest isolation statistic (2.17) / its threshold")
+    axes[2].set_ylabel("statistic / threshold")
+    for ax in axes[:3]:
+        ax.set_yscale("log")
+        ax.axhline(1.0, color="k", lw=1.0, ls="-", label="threshold")
+        ax.legend(loc="upper right", fontsize=7, ncol=3)
+    axes[3].plot(t, a["fdi_rscale_gps"], lw=0.9, label="largest R scale factor, gps_pos (MMNSF)")
+    for k, (s0, s1) in enumerate(_event_spans(a, "fading on", ("fading off", "absorbed", "cleared"), end_s)):
+        axes[3].axvspan(s0, s1, color="tab:orange", alpha=0.25, lw=0,
+                        label="gyro-bias Q fading on" if k == 0 else None)
+    axes[3].set_ylabel("scale factor")
+    axes[3].set_yscale("log")
+    axes[3].legend(loc="upper right", fontsize=7)
+    axes[3].set_xlabel("time [s]")
+    for ax in axes:
+        for s0, s1 in _spans(t, a["fdi_detected"] > 0):
+            ax.axvspan(s0, s1, color="0.85", lw=0, zorder=0)
+        for f in summary.get("faults_injected", ()):
+            ax.axvline(f["at_s"], color="green" if f["type"] == "ok" else "red", ls="--", lw=0.8)
+        ax.grid(True, alpha=0.3)
+    faults = [f"{f['unit']} {f['type']} at {f['at_s']:g} s" for f in summary.get("faults_injected", ())]
+    fig.suptitle("Fault monitor (grey: fault detected; dashed: injections)"
+                 + (": " + ", ".join(faults) if faults else "")
+                 + f"; false_alarms {summary.get('false_alarms', '?')}", fontsize=10)
+    p = run_dir / "fdi.png"
+    fig.savefig(p, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return p
 
 
 def _quad_pictures(plt, run_dir: Path, a: dict, armed: np.ndarray, summary: dict) -> list[Path]:

@@ -1,0 +1,35 @@
+"""``sitl report``'s fault-monitor picture (tools/report.py ``fault_monitor_picture``):
+GIVEN a flight log with the monitor's columns, THEN fdi.png is drawn with the statistics
+against their thresholds, the detected span, the injections and the Q-fading span."""
+from __future__ import annotations
+
+import numpy as np
+
+from autopilot.monitor import LOG_COLUMNS
+
+
+def test_fdi_picture_from_the_monitor_columns(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tools.report import _event_spans, _spans, fault_monitor_picture
+    t = np.arange(0.0, 60.0, 0.1)
+    a = {"t_s": t}
+    for c in LOG_COLUMNS:
+        a[c] = np.full_like(t, 0.3)
+    on = (t >= 20.0) & (t < 35.0)
+    a["fdi_detected"] = on.astype(float)
+    a["fdi_gps_pos"] = np.where(on, 12.0, 0.3)
+    a["fdi_rscale_gps"] = np.where(on, 40.0, 1.0)
+    a["event_t_s"] = np.array([20.0, 21.0, 30.0, 35.0])
+    a["event_text"] = np.array(["FDI: fault detected on gps_vel", "FDI: velocity innovations drift: "
+                                "inertial fault suspected, gyro bias fading on (Q adaptation)",
+                                "FDI: gyro bias absorbed, fading off", "FDI: fault cleared (gyro_y)"])
+    assert _spans(t, on) == [(t[200], t[350])]
+    assert _event_spans(a, "fading on", ("fading off",), 60.0) == [(21.0, 30.0)]
+    summary = {"faults_injected": [{"at_s": 20.0, "unit": "gps", "type": "garbage", "instance": 0},
+                                   {"at_s": 30.0, "unit": "gps", "type": "ok", "instance": 0}],
+               "false_alarms": 0}
+    p = fault_monitor_picture(plt, tmp_path, a, summary)
+    assert p == tmp_path / "fdi.png" and p.stat().st_size > 20_000
