@@ -68,6 +68,9 @@ def test_fault_free_flight_has_no_false_alarm(seed):
     _s, summ = _fly("default_scenario.toml", 150.0, seed)
     assert summ["faults"] == []
     assert summ["false_alarms"] == 0
+    # the margin is in summary.json: every watched channel, all under their thresholds
+    assert {"gps_pos", "gps_vel", "baro", "mag", "airspeed"} <= set(summ["fdi_peak_ratio"])
+    assert max(summ["fdi_peak_ratio"].values()) < 1.0
 
 
 def test_false_alarm_bench_seed_4_is_quiet():

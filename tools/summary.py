@@ -371,6 +371,9 @@ def run_summary(session) -> dict:
     if mon is not None and len(a["t_s"]):
         eh = np.hypot(a["est_n_m"] - a["truth_n_m"], a["est_e_m"] - a["truth_e_m"])
         s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh))
+        # the healthy margin: largest detection statistic / threshold per channel while
+        # no fault was detected (> 1 would have been a detection)
+        s["fdi_peak_ratio"] = {k: round(v, 3) for k, v in sorted(getattr(mon, "peaks", {}).items())}
     return s
 
 
