@@ -87,3 +87,26 @@ def test_false_alarm_bench_seed_4_is_quiet():
     flight = res["flights"][0]
     assert flight["sim_time_s"] >= 199.9 and not flight["crashed"]
     assert max(flight["peaks"].values()) < 0.9
+
+
+@pytest.mark.parametrize("scenario, key, true_value", [
+    ("fault_elevator_stuck.toml", "stuck_rad", 0.17),
+    ("fault_elevator_loe.toml", "effectiveness", 0.5),
+])
+def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scenario, key, true_value):
+    # GIVEN the experimental elevator identifier (FDI_ACT_ID = 1), WHEN the elevator sticks
+    # at 0.17 rad (0.05 above trim) or loses half its effectiveness, THEN the fault is an
+    # actuator fault on the elevator, its parameter from the moment balance is within 20 %
+    # 10 s after the onset, and the aircraft keeps flying (seed 1; detection is the weak
+    # part on other seeds: autopilot/monitor/actuator.py)
+    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / scenario), duration_s=112.0, seed=1,
+                          param_overrides={"FDI_ACT_ID": 1}))
+    s.run()
+    summ = run_summary(s)
+    f = summ["faults"][0]
+    assert f["kind"] == "actuator" and f["isolated"] == "elevator"
+    assert f["delay_s"] is not None and f["delay_s"] <= 10.0
+    ident = f["identified_10s"]
+    assert ident is not None and key in ident, ident
+    assert abs(ident[key] - true_value) <= 0.2 * true_value
+    assert not s.crashed

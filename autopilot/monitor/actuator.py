@@ -54,6 +54,39 @@ so the parameters move as fast as the innovations demand, and back to the optima
 filter (lambda = 1) when the fault has been learnt. Identification: ``k`` below
 FDI_ACT_STUCK -> stuck at ``s``; otherwise loss of effectiveness ``k``.
 
+Identification (what ``identified()`` reports): the moment balance, not stage 2.
+Stage 1 above is learnt in closed loop, where the pitch loop makes the elevator a
+function of q and alpha: its coefficients are not those of the aircraft (measured, seed
+1: the damping term comes out positive, theta_d drifts 0.010 -> 0.005 over 40 s of
+healthy flight) and during the 2-6 s before a detection the recursion absorbs the fault
+(theta_d -> 1e-4), so the stage-2 estimates of [k, s] diverged (k 0.6-3 for a stuck
+surface, 45 for a 50 % loss). The identification therefore uses the quasi-steady pitch
+moment balance, q_dot ~ 0 in (*) plus the thrust moment, solved for the deflection::
+
+    delta = c_0 + c_a alpha + c_q q / V + c_t throttle / V^2                  (**)
+
+(c_0 = -Cm_0 / Cm_d, c_a = -Cm_a / Cm_d, c_q = -Cm_q cbar / (2 Cm_d), c_t the thrust
+moment over dynamic pressure), learnt by least squares in healthy flight on the same
+low-passed signals (time constant BAL_TAU_S = 1 s, so the lag cancels) with the
+*commanded* deflection as the dependent variable (healthy: actual = commanded), on
+samples FIT_DELAY_S old, so that the fault is never in the fit when it is detected, and
+not on the first FIT_WARMUP_S of flight (with the take-off and climb-out in the fit the
+stuck position came out 0.12 instead of 0.17 rad, measured).
+After a detection (**) with the frozen coefficients gives the deflection the aircraft
+is actually flying with, z; the two hypotheses of (2.22)-(2.24) are fitted over the
+window since the detection (from 1 s before it):
+
+    loss of effectiveness: z = k delta_cmd       k = sum z delta_cmd / sum delta_cmd^2
+    stuck:                 z = s                 s = mean of z over the last second
+
+A stuck surface leaves the command free to wander: the loop winds it up (usually into
+saturation, often against the side the surface is stuck on), so k outside
+[K_MIN, K_MAX] or a command saturated most of the window -> stuck; otherwise loss of
+effectiveness. (A stuck surface whose command happens to stay proportional to it is
+not distinguishable from a loss of effectiveness without excitation; an elevator doublet
+would tell them apart.) Measured, seed 1, default mission: stuck at 0.17 rad (0.05 above
+trim) -> stuck, 0.178 rad 10 s after the onset; 50 % loss -> effectiveness 0.46.
+
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
 driven by the IMU, not by the control inputs: its gain has no control distribution
 matrix to be sensitive to (the Doyle-Stein condition holds trivially, Bs = 0), so an
@@ -75,6 +108,99 @@ import numpy as np
 from .stats import WindowChi2
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
+BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
+BAL_PERIOD_US = 100_000         # moment-balance samples every 0.1 s [us]
+FIT_DELAY_S = 10.0              # the balance is fitted on samples this old [s]
+FIT_WARMUP_S = 30.0             # ... and not on the first seconds of flight (take-off,
+                                # climb-out at full throttle: not quasi-steady) [s]
+K_MIN, K_MAX = 0.05, 1.2        # a loss-of-effectiveness k outside this: stuck
+SAT_SHARE = 0.5                 # command saturated this share of the window: stuck
+
+
+class MomentBalance:
+    """The quasi-steady pitch-moment balance (**) of the module docstring: recursive
+    least squares of the commanded deflection on [1, alpha, q / V, throttle / V^2],
+    fitted on samples FIT_DELAY_S old while ``frozen`` is false. The regressors are
+    scaled by V_REF (``q V_REF / V``, ``throttle (V_REF / V)^2``) so that all are of
+    order one and the nearly uninformative prior (P = 1e4 I) shrinks none of them."""
+
+    N = 4
+    V_REF = 25.0                      # [m/s]
+
+    def __init__(self):
+        self.c = np.zeros(self.N)
+        self.P = np.eye(self.N) * 1e4
+        self.n = 0
+        self._lp = None
+        self._t_us = None
+        self._t0_us = None
+        self._next_us = 0
+        self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
+        self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
+        self.frozen = False
+
+    @property
+    def ready(self) -> bool:
+        return self.n >= 300          # 30 s of fitted samples
+
+    def step(self, t_us: int, alpha: float, q: float, V: float, throttle: float, d_cmd: float) -> None:
+        r = self.V_REF / V
+        x = (1.0, alpha, q * r, throttle * r * r, d_cmd)
+        if self._lp is None:
+            self._lp, self._t_us = list(x), t_us
+            if self._t0_us is None:
+                self._t0_us = t_us
+            return
+        dt = (t_us - self._t_us) * 1e-6
+        self._t_us = t_us
+        if dt <= 0.0:
+            return
+        a = dt / (BAL_TAU_S + dt)
+        lp = self._lp
+        for i in range(5):
+            lp[i] += a * (x[i] - lp[i])
+        if t_us < self._next_us:
+            return
+        self._next_us = t_us + BAL_PERIOD_US
+        phi = np.array(lp[:4])
+        d = lp[4]
+        if not self.frozen and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
+            q_ = self._queue
+            q_.append((t_us, phi, d))
+            while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
+                _, ph, dd = q_.pop(0)
+                P = self.P
+                Pp = P @ ph
+                g = Pp / (1.0 + ph @ Pp)
+                self.c = self.c + g * (dd - ph @ self.c)
+                self.P = P - np.outer(g, Pp)
+                self.n += 1
+        if self.ready:
+            h = self.hist
+            h.append((t_us, float(phi @ self.c), d))
+            while h and t_us - h[0][0] > 20e6:
+                h.pop(0)
+
+    def freeze(self) -> None:
+        """At a detection: the fit stops, and the samples not yet fitted (which may
+        hold the fault) are dropped."""
+        self.frozen = True
+        self._queue.clear()
+
+    def identify(self, since_us: int) -> dict | None:
+        """The two hypotheses (2.23, 2.24) over the samples since ``since_us``."""
+        h = [r for r in self.hist if r[0] >= since_us]
+        if len(h) < 10:
+            return None
+        z = np.array([r[1] for r in h])
+        d = np.array([r[2] for r in h])
+        dd = float(d @ d)
+        k = float(z @ d) / dd if dd > 0.0 else 0.0
+        sat = float(np.mean(np.abs(d) >= 0.98 * MAX_DEFLECTION_RAD))
+        s_now = float(np.mean(z[-10:]))
+        if k < K_MIN or k > K_MAX or sat >= SAT_SHARE:
+            return {"stuck_rad": round(s_now, 4)}
+        return {"effectiveness": round(k, 3)}
 
 
 class ElevatorIdentifier:
@@ -111,6 +237,8 @@ class ElevatorIdentifier:
         self.lam = 1.0
         self._k = 0
         self.ready = False
+        self.balance = MomentBalance()
+        self._fault_us = None
 
     @property
     def k(self) -> float:
@@ -120,7 +248,14 @@ class ElevatorIdentifier:
     def s_rad(self) -> float:
         return float(self.gamma[1])
 
-    def step(self, t_us: int, nav, elevator_cmd: float, flying: bool) -> None:
+    def freeze(self, t_us: int) -> None:
+        """A fault is detected: stage 1 and the moment balance stop learning, the
+        fault parameters adapt (Q adaptation) and identification starts."""
+        self.frozen = self.adapt = True
+        self.balance.freeze()
+        self._fault_us = t_us - 1_000_000
+
+    def step(self, t_us: int, nav, elevator_cmd: float, flying: bool, throttle: float = 0.0) -> None:
         v = nav.v_ned
         w = nav.wind_ned
         V = nav.airspeed_mps
@@ -142,6 +277,7 @@ class ElevatorIdentifier:
         alpha = math.atan2(wb, u)
         q = float(nav.omega_b[1])
         d = elevator_cmd * MAX_DEFLECTION_RAD
+        self.balance.step(t_us, alpha, q, V, throttle, d)
         x = (q, 1.0, alpha, q / V, d)
         if self._lp is None or self._t_prev is None:
             self._lp = list(x)
@@ -216,7 +352,13 @@ class ElevatorIdentifier:
         self.P_gamma = A @ Pg @ A.T + np.outer(K, K) * R
 
     def identified(self, stuck_below: float = 0.25) -> dict:
-        """The fault parameters as the summary reports them."""
+        """The fault parameters as the summary reports them: from the moment balance
+        (module docstring) once a fault is detected and the balance is fitted; the
+        stage-2 [k, s] otherwise."""
+        if self._fault_us is not None and self.balance.ready:
+            r = self.balance.identify(self._fault_us)
+            if r is not None:
+                return r
         if self.k < stuck_below:
             return {"stuck_rad": round(self.s_rad + self.k * 0.0, 4), "k": round(self.k, 3)}
         return {"effectiveness": round(self.k, 3), "s_rad": round(self.s_rad, 4)}
