@@ -4,14 +4,14 @@ crosswind, light turbulence) and the GPS-outage scenario, scored from truth by
 tools/summary.py -- what ``sitl run --json`` and ``sitl run --scenario
 missions/gps_outage.toml --json`` print.
 
-Position: the issue asks nav_pos_h_rms <= 0.7 gps_pos_h_rms. The receiver's error is
-mostly a Gauss-Markov process (1.2 m per axis, tau 60 s), which a filter can only
-average out over windows longer than tau, through its velocity. Even a filter that knew
-the trajectory's shape exactly (a Kalman filter over [position, Gauss-Markov error] on
-the receiver's actual errors) scores 0.96, 1.04, 0.70, 0.52 and 0.59 on seeds 1-5 of
-this four-minute mission, 0.68 on average over 300 draws (<= 0.7 in 57 % of them); the
-EKF scores 0.84, 1.12, 0.85, 0.59, 0.73. So the bound here is the one every draw
-allows: the filter is no worse than its GPS, and within 25 % of that floor.
+Position: the issue asks nav_pos_h_rms <= 0.7 gps_pos_h_rms. The receiver's error
+(sim_bridge/sensors/params.py) is a white part (0.3 m per axis), which the filter
+averages out, and a minute-scale Gauss-Markov wander (0.2 m per axis, tau 60 s), which
+a filter can only average out over windows longer than tau, through its velocity. The
+EKF scores 0.50, 0.65 and 0.65 on seeds 1-3 of this four-minute mission (the UKF the
+same to 0.01). Beside the issue's bound the filter is held within 25 % of what an
+ideal filter that knew the trajectory's shape exactly could do with this draw of the
+receiver's error.
 """
 from __future__ import annotations
 
@@ -82,13 +82,26 @@ def test_default_mission_navigation_figures(default_mission):
     # every position, velocity and attitude component inside its own 3 sigma together
     # in >= 95 % of the samples,
     assert summary["nav_consistency_3sigma"] >= 0.95
-    # and the position no worse than the GPS, within 25 % of what any filter could do
-    # with this draw of the GPS error (module docstring)
+    # and the position within 0.7 of the GPS's own, and within 25 % of what any filter
+    # could do with this draw of the GPS error (module docstring)
     p = s.params
     floor = position_floor_rms(s.log.arrays(), p["EK_GPS_DELAY"], p["EK_GPSB_SD"], p["EK_GPSB_TAU"],
                                p["EK_GPS_P_NSE"])
-    assert summary["nav_pos_h_rms_m"] <= summary["gps_pos_h_rms_m"], summary
+    assert summary["nav_pos_h_rms_m"] <= 0.7 * summary["gps_pos_h_rms_m"], summary
     assert summary["nav_pos_h_rms_m"] <= 1.25 * floor, (summary["nav_pos_h_rms_m"], floor)
+
+
+def test_ukf_flies_the_default_mission_with_the_same_bounds():
+    # GIVEN the default mission, seed 1, WHEN the UKF navigates it (--nav ukf)
+    s, summary = fly(nav="ukf", scenario=DEFAULT_SCENARIO, seed=1)
+    # THEN the mission and navigation figures are the EKF's bounds (issue 3)
+    assert summary["nav_source"] == "ukf"
+    assert summary["completed"] is True and summary["lockstep_missed"] == 0
+    assert summary["mission_items_reached"] == summary["mission_items_total"]
+    assert summary["xtrack_rms_m"] <= 2.0
+    assert summary["nav_roll_pitch_rms_deg"] <= 0.5 and summary["nav_yaw_rms_deg"] <= 2.0
+    assert summary["nav_consistency_3sigma"] >= 0.95
+    assert summary["nav_pos_h_rms_m"] <= 0.7 * summary["gps_pos_h_rms_m"], summary
 
 
 def test_gps_outage_in_flight():

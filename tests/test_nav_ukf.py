@@ -74,13 +74,13 @@ def test_biases_converge(manoeuvre_run):
 def test_accuracy_and_consistency(manoeuvre_run):
     _, sim, _, _, trace, _ = manoeuvre_run
     # THEN after 30 s: roll/pitch RMS <= 0.5 deg, yaw RMS <= 2 deg, >= 95 % of samples
-    #      inside 3 sigma, and the position as good as the GPS's own (within 5 %: in 80 s
-    #      the Gauss-Markov part, 1.2 of the 1.24 m per axis, cannot be averaged out; a
-    #      filter knowing the trajectory exactly scores 1.10 on this draw, the EKF 1.01)
+    #      inside 3 sigma, and the position within issue 3's 0.7 of the GPS's own (the
+    #      receiver's white 0.3 m is averaged out, its 0.2 m minute-scale wander is not;
+    #      0.38 on this draw)
     a = accuracy(trace, sim, 30.0)
     assert a["roll_rms_deg"] <= 0.5 and a["pitch_rms_deg"] <= 0.5 and a["yaw_rms_deg"] <= 2.0, a
     assert a["inside_3sigma_min"] >= 0.95, a
-    assert a["nav_pos_h_rms"] <= 1.05 * a["gps_pos_h_rms"], a
+    assert a["nav_pos_h_rms"] <= 0.7 * a["gps_pos_h_rms"], a
 
 
 def test_covariance_stays_symmetric_positive_definite(manoeuvre_run):

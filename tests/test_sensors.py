@@ -162,7 +162,8 @@ def test_gps_error_with_default_noise_is_within_reported_accuracy():
     verr = np.array([f.v_ned - v for f in fixes])
     # THEN position errors stay inside 4x the reported 1-sigma eph / epv
     eph, epv = fixes[0].eph_m, fixes[0].epv_m
-    assert eph == pytest.approx(math.sqrt(2 * (1.2 ** 2 + 0.3 ** 2)))
+    assert eph == pytest.approx(math.sqrt(2 * (0.2 ** 2 + 0.3 ** 2)))
+    assert epv == pytest.approx(math.hypot(0.4, 0.6))
     assert np.all(np.hypot(err[:, 0], err[:, 1]) < 4 * eph)
     assert np.all(np.abs(err[:, 2]) < 4 * epv)
     # AND the velocity noise is ~0.1 m/s horizontally (300 fixes: within 15 %)
@@ -191,6 +192,42 @@ def test_gps_gauss_markov_error_has_exponential_autocorrelation():
     for lag, expected in ((1, math.exp(-0.1)), (5, math.exp(-0.5))):
         r = np.mean([autocorr(e[:, i], lag) for i in range(3)])
         assert r == pytest.approx(expected, abs=0.04)
+
+
+def test_gps_default_error_is_fix_noise_plus_a_minute_scale_wander():
+    # GIVEN the default receiver (white 0.3 m + Gauss-Markov 0.2 m per horizontal axis,
+    #       tau 60 s; params.py) at rest
+    suite = SensorSuite(SensorParams(), np.random.default_rng(21), 0.05)
+    frame = LocalFrame(*HOME)
+    # WHEN 40 minutes are sampled (12000 fixes)
+    fixes = [x.gps for x in run(suite, 48000, dt=0.05) if x.gps is not None]
+    e = np.array([frame.to_ned(f.lat_rad, f.lon_rad, f.alt_m) for f in fixes])[:, :2]
+    # THEN from fix to fix it is the white part: differences of sqrt(2) x 0.3 m (+ the
+    #      Gauss-Markov's 0.2 sqrt(2 (1 - exp(-0.2 / 60))) = 0.016 m) -- within 5 %
+    assert np.diff(e, axis=0).std() == pytest.approx(math.sqrt(2.0) * 0.3, rel=0.05)
+    # AND the 10 s means (white part averaged down to 0.04 m) wander by the Gauss-Markov
+    #     part, 0.2 m (40 independent minutes per axis: within 25 %)
+    means = e[: len(e) // 50 * 50].reshape(-1, 50, 2).mean(axis=1)
+    assert means.std() == pytest.approx(math.hypot(0.2, 0.3 / math.sqrt(50)), rel=0.25)
+    # AND the total is far inside the data sheet's 24-hour figure (2.5 m CEP): the
+    #     hours-scale part is left out of the defaults
+    assert 1.1774 * e.std() < 0.6
+
+
+def test_gps_long_horizon_parameter_set():
+    from sim_bridge.sensors.params import GPS_LONG_HORIZON
+    from autopilot.nav.config import NAV_GPS_LONG_HORIZON, resolve
+    # GIVEN the pessimistic long-horizon model
+    p = SensorParams(**GPS_LONG_HORIZON)
+    suite = SensorSuite(p, np.random.default_rng(22), DT)
+    # THEN it reports the 24-hour-class accuracy (CEP 1.46 m per the data sheet's scale)
+    assert suite.eph_m == pytest.approx(math.sqrt(2 * (1.2 ** 2 + 0.3 ** 2)))
+    assert 1.1774 * suite.eph_m / math.sqrt(2) == pytest.approx(1.46, abs=0.01)
+    # AND the navigation filter's matching values are valid parameters
+    nav = resolve(NAV_GPS_LONG_HORIZON)
+    assert (nav["EK_GPSB_SD"], nav["EK_GPSB_Z_SD"], nav["EK_GPSB_TAU"]) == (
+        p.gps_pos_gm_sigma_h, p.gps_pos_gm_sigma_v, p.gps_pos_gm_tau_s)
+    assert (nav["EK_GPS_P_NSE"], nav["EK_GPS_Z_NSE"]) == (p.gps_pos_white_sigma_h, p.gps_pos_white_sigma_v)
 
 
 def test_gps_satellite_count_varies_slowly():
@@ -483,8 +520,8 @@ def test_gps_garbage_and_wrong_offsets():
     inj.inject("gps", "garbage", noise_scale=10.0)
     f = [x.gps for x in step_all(suite, inj, 0.0, 100.0) if x.gps]
     e = np.array([frame.to_ned(x.lat_rad, x.lon_rad, x.alt_m) for x in f])
-    # THEN the horizontal scatter is ~10 x 1.24 m (500 fixes: within 15 %)
-    assert e[:, :2].std() == pytest.approx(10 * math.hypot(1.2, 0.3), rel=0.15)
+    # THEN the horizontal scatter is ~10 x 0.36 m (500 fixes: within 15 %)
+    assert e[:, :2].std() == pytest.approx(10 * math.hypot(0.2, 0.3), rel=0.15)
 
 
 def test_slow_intermittent_and_off_on_flagged_sensors():

@@ -28,8 +28,12 @@ where the simulation adds to them (default mission, light turbulence, seeds 1-5)
   increments of the true wind): 0.5 m/s^2/sqrt(Hz). With less the wind states lag the
   gusts, the airspeed and sideslip residuals go into velocity and attitude instead
   (0.2-0.35 m/s velocity errors against a 0.06 m/s sigma in turns).
-* GPS: white 0.3 m / 0.5 m, Gauss-Markov 1.2 m / 2.5 m with tau 60 s (PX4 SITL's),
-  velocity 0.1 m/s horizontal (0.15 m/s vertical: 1.5 times, base.py).
+* GPS: white 0.3 m / 0.6 m (receiver noise, airborne multipath), Gauss-Markov 0.2 m /
+  0.4 m with tau 60 s (the minute-scale wander; the hours-scale error, a constant
+  offset over a flight, is left out as the sensor model leaves it out), velocity
+  0.1 m/s horizontal (0.15 m/s vertical: 1.5 times, base.py). The pessimistic
+  long-horizon sensor model (``sim_bridge.sensors.params.GPS_LONG_HORIZON``) has its
+  matching values in :data:`NAV_GPS_LONG_HORIZON` (``--param`` each of them).
 * Barometer: 3 Pa white is 0.26 m at 700 m (0.3 m); a 0.3 Pa/sqrt(s) drift is
   0.026 m/sqrt(s) (0.03). Magnetometer: 5 mG per axis over the 0.24 G horizontal field
   at home is 0.021 rad of heading (0.03).
@@ -54,9 +58,9 @@ NAV_PARAMS: tuple[Param, ...] = (
     Param("EK_BAROB_NSE", 0.03, 0.0, 1.0, "m/s", "barometer offset random walk rate"),
     # --- GPS ----------------------------------------------------------------------
     Param("EK_GPS_P_NSE", 0.3, 0.01, 50.0, "m", "GPS horizontal position white noise, 1 sigma (floor)"),
-    Param("EK_GPS_Z_NSE", 0.5, 0.01, 50.0, "m", "GPS vertical position white noise, 1 sigma (floor)"),
-    Param("EK_GPSB_SD", 1.2, 0.0, 50.0, "m", "GPS horizontal Gauss-Markov position error, 1 sigma"),
-    Param("EK_GPSB_Z_SD", 2.5, 0.0, 50.0, "m", "GPS vertical Gauss-Markov position error, 1 sigma"),
+    Param("EK_GPS_Z_NSE", 0.6, 0.01, 50.0, "m", "GPS vertical position white noise, 1 sigma (floor)"),
+    Param("EK_GPSB_SD", 0.2, 0.0, 50.0, "m", "GPS horizontal Gauss-Markov position error, 1 sigma"),
+    Param("EK_GPSB_Z_SD", 0.4, 0.0, 50.0, "m", "GPS vertical Gauss-Markov position error, 1 sigma"),
     Param("EK_GPSB_TAU", 60.0, 1.0, 3600.0, "s", "GPS position error correlation time"),
     Param("EK_GPS_V_NSE", 0.1, 0.01, 10.0, "m/s", "GPS velocity noise, 1 sigma"),
     Param("EK_GPS_P_GATE", 5.0, 1.0, 100.0, "SD", "GPS position innovation gate"),
@@ -84,6 +88,11 @@ NAV_PARAMS: tuple[Param, ...] = (
 )
 
 _DEFAULTS = {p.name: float(p.default) for p in NAV_PARAMS}
+
+# The filters' GPS parameters for the pessimistic long-horizon receiver model
+# (sim_bridge.sensors.params.GPS_LONG_HORIZON: 1.2 m / 2.5 m Gauss-Markov, tau 60 s).
+NAV_GPS_LONG_HORIZON = {"EK_GPS_P_NSE": 0.3, "EK_GPS_Z_NSE": 0.5, "EK_GPSB_SD": 1.2,
+                        "EK_GPSB_Z_SD": 2.5, "EK_GPSB_TAU": 60.0}
 
 
 def resolve(params: Mapping[str, float] | None) -> dict[str, float]:

@@ -25,8 +25,8 @@ sensor suite (``sim_bridge/sensors/params.py``), so that the filters' defaults
   0.01 deg/s/sqrt(Hz) (1.75e-3 rad/s per sample); constant biases (the flight
   simulator's also wander: the filters' bias random walks are its values).
 * GPS 5 Hz, 150 ms latency (a fix arriving at t describes t - 0.15 s); horizontal
-  error = first-order Gauss-Markov (1.2 m per axis, tau 60 s) + 0.3 m white per axis;
-  vertical GM 2.5 m + 0.5 m white; velocity white 0.1 m/s per horizontal axis and
+  error = first-order Gauss-Markov (0.2 m per axis, tau 60 s) + 0.3 m white per axis;
+  vertical GM 0.4 m + 0.6 m white; velocity white 0.1 m/s per horizontal axis and
   0.15 m/s vertical. Reported eph = the radial horizontal 1-sigma
   sqrt(2 (gm^2 + white^2)), epv the vertical one (as the flight simulator's).
 * Baro: 0.3 m white (3 Pa), a datum offset from the GPS altitude and a random-walk
@@ -71,11 +71,11 @@ class SimConfig:
     # GPS
     gps_rate_hz: float = 5.0
     gps_latency_s: float = 0.15
-    gps_gm_sigma_m: float = 1.2                     # per horizontal axis
+    gps_gm_sigma_m: float = 0.2                     # per horizontal axis
     gps_gm_tau_s: float = 60.0
     gps_white_m: float = 0.3                        # per horizontal axis
-    gps_vert_gm_m: float = 2.5
-    gps_vert_white_m: float = 0.5
+    gps_vert_gm_m: float = 0.4
+    gps_vert_white_m: float = 0.6
     gps_vel_sigma: float = 0.1                      # per horizontal axis
     gps_vel_sigma_v: float = 0.15                   # vertical
     # other sensors

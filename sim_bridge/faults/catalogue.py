@@ -13,7 +13,10 @@ arrives over MAVLink, which carries none):
 key           meaning                                     default
 ============  ==========================================  ===========================
 noise_scale   garbage: noise std becomes noise_scale x    10
-              the sensor's nominal std (>= 1)
+              the sensor's nominal std (>= 1); for the
+              GPS its position noise
+vel_noise_    gps garbage: the same for the velocity      noise_scale
+scale         noise (1: position noise only)
 bias          wrong: constant offset; gyro rad/s, accel   gyro 0.1, accel 1.0,
               m/s^2, mag gauss, baro metres of altitude,  mag 0.2, baro 20,
               airspeed Pa of differential pressure        airspeed 50
@@ -82,16 +85,17 @@ SUPPORTED: dict[str, dict[str, tuple[str, ...]]] = {
     "mag": _SENSOR_TYPES,
     "baro": _SCALAR_SENSOR_TYPES,
     "airspeed": _SCALAR_SENSOR_TYPES,
-    "gps": dict(_SENSOR_TYPES, wrong=("offset_m", "north_m", "east_m")),
+    "gps": dict(_SENSOR_TYPES, garbage=("noise_scale", "vel_noise_scale"),
+                wrong=("offset_m", "north_m", "east_m")),
     "servo": {"ok": (), "off": (), "stuck": ("value_rad",), "wrong": ("effectiveness",)},
     "motor": {"ok": (), "off": (), "stuck": (), "wrong": ("effectiveness",)},
 }
 
-ALL_MAGNITUDES = ("bias", "noise_scale", "value_rad", "axis", "effectiveness", "delay_s",
+ALL_MAGNITUDES = ("bias", "noise_scale", "vel_noise_scale", "value_rad", "axis", "effectiveness", "delay_s",
                   "offset_m", "north_m", "east_m", "rate_div", "drop_prob")
 
 DEFAULT_BIAS = {"gyro": 0.1, "accel": 1.0, "mag": 0.2, "baro": 20.0, "airspeed": 50.0}
-DEFAULTS = {"noise_scale": 10.0, "axis": None, "rate_div": 5, "delay_s": 0.5,
+DEFAULTS = {"noise_scale": 10.0, "vel_noise_scale": None, "axis": None, "rate_div": 5, "delay_s": 0.5,
             "drop_prob": 0.5, "effectiveness": 0.5, "value_rad": None,
             "offset_m": 0.0, "north_m": 0.0, "east_m": 0.0}
 DEFAULT_GPS_OFFSET_NORTH_M = 20.0
@@ -168,8 +172,8 @@ def check_magnitudes(unit: str, ftype: str, magnitudes: dict) -> dict:
                 raise FaultSpecError(f"rate_div must be >= 1, not {v}", key)
         else:
             v = _number(key, v)
-            if key == "noise_scale" and v < 1.0:
-                raise FaultSpecError(f"noise_scale must be >= 1, not {v}", key)
+            if key in ("noise_scale", "vel_noise_scale") and v < 1.0:
+                raise FaultSpecError(f"{key} must be >= 1, not {v}", key)
             if key == "delay_s" and not 0.0 <= v <= 60.0:
                 raise FaultSpecError(f"delay_s must be in [0, 60], not {v}", key)
             if key in ("drop_prob", "effectiveness") and not 0.0 <= v <= 1.0:
@@ -178,4 +182,6 @@ def check_magnitudes(unit: str, ftype: str, magnitudes: dict) -> dict:
     if unit == "gps" and ftype == "wrong" and not any(
             k in magnitudes for k in ("offset_m", "north_m", "east_m")):
         out["north_m"] = DEFAULT_GPS_OFFSET_NORTH_M
+    if out.get("vel_noise_scale", 0.0) is None:
+        out["vel_noise_scale"] = out["noise_scale"]
     return out

@@ -16,8 +16,9 @@ Behaviour per failure type (an "update" is every step for the IMU, and a step wh
 * ``stuck``: updates keep coming at the normal rate, with the value held from the last
   output before the fault.
 * ``garbage``: extra white noise on each update so the total std is ``noise_scale``
-  times the sensor's nominal std (position and velocity for the GPS, whose reported
-  eph/epv stay nominal: the receiver does not know).
+  times the sensor's nominal std (for the GPS: position ``noise_scale``, velocity
+  ``vel_noise_scale``, by default the same; the reported eph/epv stay nominal: the
+  receiver does not know).
 * ``wrong``: a constant ``bias`` (see catalogue for units; ``axis`` selects one body axis
   of gyro / accel / mag, default all); GPS position offset ``north_m`` / ``east_m``
   (``offset_m`` adds to north).
@@ -309,10 +310,11 @@ class FaultInjector:
         if t == "garbage":
             p = self.params
             k = math.sqrt(m["noise_scale"] ** 2 - 1.0)
+            kv = math.sqrt(m["vel_noise_scale"] ** 2 - 1.0)
             n = self._rng.standard_normal(6)
             sh = k * math.hypot(p.gps_pos_gm_sigma_h, p.gps_pos_white_sigma_h)
             sv = k * math.hypot(p.gps_pos_gm_sigma_v, p.gps_pos_white_sigma_v)
-            v_ned = fix.v_ned + k * np.array(
+            v_ned = fix.v_ned + kv * np.array(
                 (p.gps_vel_sigma_h * n[3], p.gps_vel_sigma_h * n[4], p.gps_vel_sigma_v * n[5]))
             return self._shift(fix, sh * n[0], sh * n[1], sv * n[2], _frozen(v_ned))
         # wrong

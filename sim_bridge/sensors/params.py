@@ -13,14 +13,50 @@ Sources of the defaults (datasheet figures, then the margin we add for an airfra
   between the two. Turn-on biases are the residuals left after the usual level/gyro
   calibration at boot, not the raw datasheet offsets. Bias random walk densities
   correspond to a few deg/h of in-run instability, typical of these parts.
-* GPS: u-blox M8N / M9N (horizontal accuracy 2.0 m CEP for M8N GPS+GLONASS, 1.5 m CEP
-  for M9N; velocity 0.05 m/s at 50 %; navigation rate 5-10 Hz; latency ~100-200 ms).
-  Per-axis horizontal sigma sqrt(1.2^2 + 0.3^2) = 1.24 m, i.e. CEP = 1.1774 sigma =
-  1.46 m; vertical about twice the horizontal, as GNSS geometry gives. The slow part
-  of the error is a first-order Gauss-Markov process, the fast part white. Its
-  correlation time is 60 s, the value PX4's Gazebo SITL GPS model uses
-  (gazebo_gps_plugin, gps_corellation_time = 60 s); slower drifts (ionosphere over
-  tens of minutes) are left out.
+* GPS: u-blox M8N / M9N class receiver, open sky, on an airframe. Its position error
+  has three parts, told apart by their time scales:
+
+  - hours (satellite clock and ephemeris, ionosphere, troposphere): metres. This is
+    what the data sheet's accuracy measures: NEO-M8 data sheet (UBX-15031086), 2.5 m
+    CEP GPS+GLONASS, 2.0 m with SBAS, footnote "CEP, 50 %, 24 hours static, -130 dBm,
+    > 6 SVs". Over a flight of minutes it is an almost constant offset of the whole
+    frame: no GPS/IMU filter can observe it, and waypoints surveyed with the same kind
+    of receiver share it. The defaults leave it out; :data:`GPS_LONG_HORIZON` puts it
+    back (pessimistically: at the minute time scale).
+  - minutes (multipath and satellite-geometry changes): a first-order Gauss-Markov
+    process with tau 60 s -- multi-day static tests of consumer receivers with SA off
+    (D. L. Wilson, "Correlation of errors" and "GPS error when averaging position",
+    users.erols.com/dlwilson/gpscorr.htm and gpsavg.htm) show the error's
+    autocorrelation bending at about 1 min before the long-term part takes over;
+    stationary L1 receivers are fitted better by an Ornstein-Uhlenbeck process than by
+    white noise (Soundy et al., Sensors 20(21) 6050, 2020). Size: a few decimetres,
+    0.2 m per horizontal axis (0.28 m radial RMS, 0.5 m at 95 %), twice that
+    vertically (VDOP about 1.4 HDOP: per axis a factor of about 2).
+  - fix to fix (receiver noise; multipath of a moving antenna, which decorrelates
+    within about a second): white, 0.3 m per horizontal axis and 0.6 m vertically --
+    receiver noise of 0.6 m (1 sigma) per pseudorange (NRC, "The Global Positioning
+    System: A Shared National Asset", 1995, table C-1) times HDOP 0.7 / sqrt(2) per
+    horizontal axis and VDOP 1.0.
+
+  Together 0.36 m per horizontal axis (CEP 0.42 m) over a flight, the size of what the
+  reference autopilots' filters assume of such a receiver on their time scale of
+  seconds to a minute: ArduPilot EK3_POSNE_M_NSE = 0.5 m (AP_NavEKF3.cpp,
+  POSNE_M_NSE_DEFAULT), PX4 EKF2_GPS_P_NOISE = 0.5 m (params_gnss.yaml), both white
+  noise (floors under the receiver's reported accuracy). Velocity:
+  0.05 m/s speed accuracy (50 %) in the data sheet; 0.1 m/s white per horizontal axis
+  with a margin for the airframe. Navigation rate 5-10 Hz, latency ~100-200 ms.
+
+  The reference SITLs simulate less. ArduPilot's (libraries/SITL/SIM_GPS.cpp) adds no
+  horizontal position error by default: SIM_GPS1_NOISE (an altitude sine of that
+  amplitude), _DRFTALT, _GLTCH and _VERR all default to 0. PX4's Gazebo Classic plugin
+  (PX4-SITL_gazebo-classic, src/gazebo_gps_plugin.cpp) runs
+  ``bias += random_walk * dt - bias / gps_corellation_time`` once per 4 ms physics
+  step: the decay is per step, not per second (PX4-SITL_gazebo-classic issue #816), so
+  its "60 s" correlation time is 60 steps = 0.24 s, and with gpsXYRandomWalk = 2
+  (m/s)/sqrt(Hz) the bias settles at 2 * 0.004^1.5 * sqrt(60 / 2) = 3 mm per axis, plus
+  2e-4 m/sqrt(Hz) * sqrt(0.004 s) = 13 um white. Our earlier default took that "60 s"
+  as PX4's value and paired it with the data sheet's 24-hour error (1.2 m per axis
+  wandering at minute rate): the model of neither the receiver nor PX4.
 * Barometer: TE MS5611 (RMS resolution 0.012 mbar = 1.2 Pa at OSR 4096, ~1 cm of
   altitude per 0.12 Pa); we use 3 Pa (about 0.25 m) to include airframe and propwash
   pressure noise, plus a slow random-walk drift (thermal) of 0.3 Pa/sqrt(s), about
@@ -39,6 +75,19 @@ from dataclasses import dataclass, fields
 
 _DEG = math.pi / 180.0
 
+# The pessimistic long-horizon GPS model (the defaults before the time scales were told
+# apart): the data sheet's 24-hour error -- per horizontal axis sqrt(1.2^2 + 0.3^2) =
+# 1.24 m, CEP 1.46 m; vertical about twice -- but wandering with the minute-scale
+# correlation time, so that a flight of minutes sees all of it move. No filter can
+# average it out: with it the EKF's horizontal error is about 0.85 of the receiver's
+# (default fixed-wing mission) and a hovering quadrotor wanders by about a metre.
+# ``SensorParams(**GPS_LONG_HORIZON)``; the navigation filter's matching parameters
+# are ``autopilot.nav.config.NAV_GPS_LONG_HORIZON``.
+GPS_LONG_HORIZON = {
+    "gps_pos_white_sigma_h": 0.3, "gps_pos_white_sigma_v": 0.5,
+    "gps_pos_gm_sigma_h": 1.2, "gps_pos_gm_sigma_v": 2.5, "gps_pos_gm_tau_s": 60.0,
+}
+
 
 @dataclass(frozen=True, slots=True)
 class SensorParams:
@@ -56,10 +105,10 @@ class SensorParams:
     gps_rate_hz: float = 5.0                 # fix rate [Hz]
     gps_latency_s: float = 0.15              # fix delivered at t is valid at t - latency [s]
     gps_pos_white_sigma_h: float = 0.3       # white position error, per horizontal axis [m]
-    gps_pos_white_sigma_v: float = 0.5       # white position error, vertical [m]
-    gps_pos_gm_sigma_h: float = 1.2          # Gauss-Markov steady-state sigma, per horiz. axis [m]
-    gps_pos_gm_sigma_v: float = 2.5          # Gauss-Markov steady-state sigma, vertical [m]
-    gps_pos_gm_tau_s: float = 60.0           # Gauss-Markov correlation time [s] (PX4 SITL's)
+    gps_pos_white_sigma_v: float = 0.6       # white position error, vertical [m]
+    gps_pos_gm_sigma_h: float = 0.2          # Gauss-Markov (minutes) sigma, per horiz. axis [m]
+    gps_pos_gm_sigma_v: float = 0.4          # Gauss-Markov (minutes) sigma, vertical [m]
+    gps_pos_gm_tau_s: float = 60.0           # Gauss-Markov correlation time [s]
     gps_vel_sigma_h: float = 0.1             # white velocity error, per horizontal axis [m/s]
     gps_vel_sigma_v: float = 0.15            # white velocity error, vertical [m/s]
     gps_fix_type: int = 3                    # GPS_FIX_TYPE_3D_FIX
