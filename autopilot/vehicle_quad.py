@@ -41,6 +41,8 @@ from .log.flightlog import FlightLog
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
 from .mission.items import Mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
+from .monitor import FDI_PARAMS
+from .monitor.motors import MOTOR_PARAMS, MotorMonitor
 from .params import Param, ParamStore
 
 RHO0 = 1.225
@@ -73,13 +75,21 @@ LOG_COLUMNS = (
     "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
     "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
     "gps_n_m", "gps_e_m", "gps_alt_m",
+    # motor fault monitor (autopilot/monitor/motors.py): detection and isolation
+    # statistics over their thresholds, rotor effectiveness estimates, fading factor
+    "fdi_motor_det", "fdi_motor_iso", "fdi_gamma_1", "fdi_gamma_2", "fdi_gamma_3",
+    "fdi_gamma_4", "fdi_motor_lam",
 )
 KIND_CODES = {"ground": 0, "takeoff": 1, "move": 2, "hold": 3, "land": 4, "idle": 5, "manual": 6}
 _NAN9 = (math.nan,) * 9
 
 
+_QUAD_FDI = ("FDI_ENABLE", "FDI_ALPHA", "FDI_PFA", "FDI_WIN", "FDI_CLR_T")
+
+
 def quad_param_declarations() -> list[Param]:
     decls = list(MULTIROTOR_PARAMS) + list(COPTER_GUIDANCE_PARAMS) + list(QUAD_VEHICLE_PARAMS)
+    decls += [p for p in FDI_PARAMS if p.name in _QUAD_FDI] + list(MOTOR_PARAMS)
     try:
         from .nav.config import NAV_PARAMS
         decls += list(NAV_PARAMS)
@@ -297,6 +307,11 @@ class QuadVehicle:
         self.euler = (0.0, 0.0, 0.0)
         self.p_home = (0.0, 0.0, 0.0)
         self.v_ned = (0.0, 0.0, 0.0)
+        # motor fault monitor on the rotor force / moment balance (none on truth nav)
+        self.monitor = (MotorMonitor(params, dt_s) if params["FDI_ENABLE"] >= 1
+                        and params["FDI_MOT_ENABLE"] >= 1 else None)
+        self._fdi_events = 0
+        self._motors = (0.0, 0.0, 0.0, 0.0)     # the commands flown since the last step
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -504,9 +519,15 @@ class QuadVehicle:
             else:
                 self.healthy_since_us = None
 
+        # navigation -> motor fault monitor
+        mon = self.monitor
+        if mon is not None:
+            self._monitor(mon, frame, omega, t_us)
+
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)
+        self._motors = motors
         if self.steps % self._log_div == 0 or self._gps_this_step is not None or not self.log.rows:
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs(t_us, motors, self.armed)
@@ -575,6 +596,29 @@ class QuadVehicle:
         return ctrl.attitude(q, omega, r_d, p_d, tgt.yaw_rad, u_z)
 
     _touchdown_pending = False
+
+    def _monitor(self, mon: MotorMonitor, frame: SensorFrame, omega, t_us: int) -> None:
+        """The motor fault monitor on this step's IMU sample (less the filter's bias
+        estimates) and the commands of the last step; its events to the log, its
+        failsafe to the modes."""
+        ba = getattr(self.nav, "_ba", (0.0, 0.0, 0.0))
+        f = frame.imu.f_b.tolist()
+        # free flight only: not on the ground nor within FDI_MOT_HAGL of home's height
+        # (ground contact and ground effect; the estimated height drifts by decimetres)
+        flying = (self.armed and self.flying and not self.on_ground
+                  and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
+        mon.update(t_us, flying, self._motors,
+                   (f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]), omega, self.ctrl.mixer.thrust_of)
+        if len(mon.events) > self._fdi_events:
+            for t_s, _sev, text in mon.events[self._fdi_events:]:
+                self.log.event(t_s, text)
+            self._fdi_events = len(mon.events)
+        if mon.accommodation != self.ctrl.mixer.eff:
+            self.ctrl.mixer.set_effectiveness(mon.accommodation)
+        if mon.failsafe == "LAND":
+            mon.failsafe = None
+            if self.armed and self.mode != CopterMode.LAND:
+                self.set_mode(CopterMode.LAND, t_us)
 
     def _altitude(self, h_d, hdot_d, hddot_d, h, v, roll, pitch, dt) -> float:
         ctrl = self.ctrl
@@ -666,7 +710,15 @@ class QuadVehicle:
         ) + tgt_row + (
             c.roll_d, c.pitch_d, c.yaw_d, u[0], u[1], u[2], u[3],
             motors[0], motors[1], motors[2], motors[3],
-        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row)
+        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row + self._fdi_row())
+
+    def _fdi_row(self) -> tuple:
+        mon = self.monitor
+        if mon is None:
+            return (0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+        g = mon.gamma
+        return (mon.ratio, mon.iso_ratio, float(g[0]), float(g[1]), float(g[2]), float(g[3]),
+                mon.lam)
 
 
 def _dcm(w: float, x: float, y: float, z: float) -> tuple:

@@ -106,6 +106,8 @@ class SimBridge:
         c = self.controls
         if self.faults is not None:
             c = tuple(self.faults.apply_controls(c))
+            if hasattr(self.plant, "rotor_scale"):
+                self.plant.rotor_scale = self.faults.motor_thrust_scales(len(self.plant.rotor_scale))
         if self.vehicle == "plane":
             cmd = PlaneControls(c[0], c[1], c[2], c[3])
             u = c[3]

@@ -68,7 +68,8 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
         sensors = SensorSuite(sp, rng_sensors, dt_s=QUAD_DT_S)
         sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
         return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=QUAD_DT_S,
-                                                   motor_channels=(0, 1, 2, 3)), events, w)
+                                                   motor_channels=(0, 1, 2, 3), thrust_motors=True),
+                     events, w)
     if vehicle != "plane":
         raise ValueError(f"vehicle {vehicle!r} is not implemented (plane, quad)")
     from .plants.jsbsim_plane import JSBSimPlane

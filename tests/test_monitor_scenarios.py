@@ -114,3 +114,30 @@ def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scena
     assert ident is not None and key in ident, ident
     assert abs(ident[key] - true_value) <= 0.2 * true_value
     assert not s.crashed
+
+
+def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
+    # GIVEN the default quad mission in 3 m/s wind, light turbulence, WHEN rotor 1's
+    # thrust drops to 70 % at 40 s (missions/fault_quad_motor.toml)
+    from tools.runner import QUAD_DEFAULT_MISSION
+    s = Session(RunConfig(vehicle="quad", airframe="f450", mission=QUAD_DEFAULT_MISSION,
+                          scenario=Path(MISSIONS_DIR / "fault_quad_motor.toml"), seed=1,
+                          duration_s=120.0))
+    s.run()
+    summ = run_summary(s)
+    f = summ["faults"][0]
+    # THEN it is an actuator fault on motor_1, detected and isolated within a second,
+    assert (f["unit"], f["type"], f["instance"]) == ("motor", "wrong", 0)
+    assert f["kind"] == "actuator" and f["isolated"] == "motor_1"
+    assert f["delay_s"] is not None and f["delay_s"] <= 1.0
+    assert f["isolated_s"] - f["at_s"] <= 1.0
+    # identified within 20 % 10 s after the onset (and within 5 % at the end),
+    assert abs(f["identified_10s"]["effectiveness"] - 0.7) <= 0.2 * 0.7
+    assert abs(f["identified"]["effectiveness"] - 0.7) <= 0.05 * 0.7
+    assert summ["false_alarms"] == 0
+    # AND the failsafe lands it where it was: a touchdown slower than 1 m/s, disarmed
+    texts = [e[1] for e in s.log.events]
+    assert any("failsafe LAND" in t for t in texts) and "touchdown" in texts
+    assert not s.crashed and not s.vehicle.armed
+    assert s.plant.touchdown_speed_mps is not None and s.plant.touchdown_speed_mps < 1.0
+    assert summ["max_tilt_deg"] <= 30.0      # measured 21.6 deg (rotors 1-4: 17.8-21.6)

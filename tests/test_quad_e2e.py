@@ -64,6 +64,8 @@ def test_default_quad_mission_completes_every_item_and_lands_on_home():
     assert m["land_error_ctl_m"] <= 1.0
     assert m["land_error_m"] <= 1.0 + m["nav_pos_h_err_max_m"]
     assert m["hold_pos_ctl_rms_m"] <= 0.5
+    # the motor fault monitor stays quiet, with margin (seeds 1-5: 0.25-0.37 of threshold)
+    assert m["false_alarms"] == 0 and m["fdi_peak_ratio"]["motors"] < 1.0
     assert m["max_tilt_deg"] <= 30.0 + 1.0
     assert m["xtrack_rms_m"] <= 1.5
     # DO_JUMP (item 7 -> 4, once): items 4 .. 6 flown twice

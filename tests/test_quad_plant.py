@@ -205,3 +205,40 @@ def test_wind_and_turbulence_reach_the_air_data_reproducibly():
     assert 1.0 < np.mean(w[:, 1]) < 5.0 and np.std(w[:, 2]) > 0.01
     # the wind pushes the hovering vehicle downwind (east)
     assert sa[-1].v_ned[1] > 0.1
+
+
+def test_motor_thrust_fault_scales_the_rotor_thrust_not_its_command():
+    # GIVEN the quadrotor's fault injector (thrust-scaled motors) and a plant in hover
+    from sim_bridge.bridge import SimBridge
+    from sim_bridge.faults import FaultInjector
+
+    class _Link:                      # the HIL end is not used by advance() here
+        commands: list = []
+        armed = True
+
+        def send_battery(self, _b):
+            pass
+
+    p = plant()
+    p.set_airborne(20.0)
+    inj = FaultInjector(np.random.default_rng(3), dt_s=0.004, motor_channels=(0, 1, 2, 3),
+                        thrust_motors=True)
+    br = SimBridge(p, None, _Link(), inj, hil_rate_hz=250.0, vehicle="quad")
+    u = p.af.hover_command(p.rho, p.g)
+    # WHEN motor instance 1 (rotor 2, left) is set to 70 % ("motor wrong", effectiveness)
+    assert inj.inject("motor", "wrong", 1, effectiveness=0.7)
+    br.advance((u, u, u, u))
+    # THEN the command reaches the rotor unchanged and its thrust settles at 70 %
+    assert inj.apply_controls((u, u, u, u)) == (u, u, u, u)
+    assert p.rotor_scale == (1.0, 0.7, 1.0, 1.0)
+    for _ in range(100):                               # 0.4 s, 7 rotor time constants
+        br.advance(None)
+    t_h = p.af.static_thrust(u, p.rho)
+    assert p.thrust[1] == pytest.approx(0.7 * t_h, rel=0.01)
+    assert p.thrust[0] == pytest.approx(t_h, rel=1e-3)
+    # AND the airframe rolls left (positive roll = right: rotor 2 left lifts less)
+    assert quat_to_euler(p.state().q_nb)[0] < -0.05
+    # AND "ok" restores the rotor
+    assert inj.inject("motor", "ok", 1)
+    br.advance(None)
+    assert p.rotor_scale == (1.0, 1.0, 1.0, 1.0)

@@ -24,6 +24,13 @@ does not fit it is scaled down; yaw is then scaled to what is left; only then is
 collective moved (up or down) so that the differential fits, i.e. height is given up
 before attitude. ``saturated`` reports which of these happened (for anti-windup).
 
+Fault accommodation: ``set_effectiveness(k)`` tells the mixer that rotor j gives only
+k_j of its modelled thrust (the motor fault monitor's identification,
+autopilot/monitor/motors.py). Each rotor's thrust limits become k_j [T_lo, T_hi], the
+saturation logic above works within them, and the command of rotor j is that of the
+thrust T_j / k_j. With every k_j = 1 (the default) the mixer is the plain one, bit for
+bit.
+
 Thrust to command: the motors' static thrust is modelled as ArduCopter's
 MOT_THST_EXPO curve, T / (T_max rho/rho0) = (1 - e) u + e u^2, inverted per rotor.
 Density scaling (rho/rho0) comes from the barometer (thrust at full command scales
@@ -41,7 +48,7 @@ class QuadPlusMixer:
     """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective")
+                 "thrusts", "collective", "eff")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float):
         self.t_max = t_max_n
@@ -51,11 +58,19 @@ class QuadPlusMixer:
         self.saturated = (False, False, False)    # (roll/pitch, yaw, collective)
         self.thrusts = (0.0, 0.0, 0.0, 0.0)
         self.collective = 0.0
+        self.eff: tuple[float, float, float, float] | None = None   # None: all healthy
         self._limits()
 
     def configure(self, t_max_n: float, expo: float, spin_min: float) -> None:
         self.t_max, self.expo, self.spin_min = t_max_n, expo, spin_min
         self._limits()
+
+    def set_effectiveness(self, eff) -> None:
+        """Rotor effectiveness k_1..k_4 (0.2..1); all 1 (or None) restores the plain mixer."""
+        if eff is None or all(k >= 1.0 for k in eff):
+            self.eff = None
+        else:
+            self.eff = tuple(min(max(float(k), 0.2), 1.0) for k in eff)
 
     def set_density_ratio(self, rho_ratio: float) -> None:
         r = min(max(rho_ratio, 0.5), 1.3)
@@ -90,6 +105,12 @@ class QuadPlusMixer:
                     u_psi: float) -> tuple[float, float, float, float]:
         """Rotor thrusts [N] of eq 3.30 after the attitude-first saturation."""
         lo, hi = self.t_lo, self.t_hi
+        eff = self.eff
+        if eff is not None:
+            # a weak rotor's limits shrink to k_j [T_lo, T_hi]: the differential has to
+            # fit the narrowest span, the collective the tightest rotor (below)
+            hi = min(eff) * self.t_hi
+            lo = max(eff) * self.t_lo
         span = hi - lo
         sat_rp = sat_y = sat_c = False
         # roll / pitch differential: rotor pairs (2, 4) and (3, 1)
@@ -109,14 +130,25 @@ class QuadPlusMixer:
         d3 = u_theta + u_psi
         d4 = -u_phi - u_psi
         c = 0.25 * u_z
-        dmin = min(d1, d2, d3, d4)
-        dmax = max(d1, d2, d3, d4)
-        if c + dmax > hi:
-            c = hi - dmax
-            sat_c = True
-        if c + dmin < lo:
-            c = lo - dmin
-            sat_c = True
+        if eff is None:
+            dmin = min(d1, d2, d3, d4)
+            dmax = max(d1, d2, d3, d4)
+            if c + dmax > hi:
+                c = hi - dmax
+                sat_c = True
+            if c + dmin < lo:
+                c = lo - dmin
+                sat_c = True
+        else:
+            th, tl = self.t_hi, self.t_lo
+            c_hi = min(k * th - d for k, d in zip(eff, (d1, d2, d3, d4)))
+            c_lo = max(k * tl - d for k, d in zip(eff, (d1, d2, d3, d4)))
+            if c > c_hi:
+                c = c_hi
+                sat_c = True
+            if c < c_lo:
+                c = c_lo
+                sat_c = True
         self.saturated = (sat_rp, sat_y, sat_c)
         self.collective = 4.0 * c
         t = (c + d1, c + d2, c + d3, c + d4)
@@ -126,4 +158,7 @@ class QuadPlusMixer:
     def mix(self, u_z: float, u_phi: float, u_theta: float, u_psi: float) -> tuple:
         t1, t2, t3, t4 = self.mix_thrusts(u_z, u_phi, u_theta, u_psi)
         cmd = self.command_of
+        eff = self.eff
+        if eff is not None:
+            return (cmd(t1 / eff[0]), cmd(t2 / eff[1]), cmd(t3 / eff[2]), cmd(t4 / eff[3]))
         return (cmd(t1), cmd(t2), cmd(t3), cmd(t4))

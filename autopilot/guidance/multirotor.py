@@ -300,9 +300,12 @@ class CopterNavigator:
         self.phase = "hold"
 
     def land(self, ne=None) -> None:
-        """Land at (north, east) (default: below the reference)."""
+        """Land at (north, east) (default: where the reference can stop, braking at its
+        acceleration limit, as ``hold``; stopping the raw reference where it is would
+        brake at the reference model's rate instead, 30 deg of tilt from 5 m/s)."""
         p = self.traj.raw
-        ne = (p[0], p[1]) if ne is None else ne
+        if ne is None:
+            ne = self.traj.stopping_point()
         self.land_ne = (float(ne[0]), float(ne[1]))
         self._line((ne[0], ne[1], p[2]))
         self.phase = "land_approach"

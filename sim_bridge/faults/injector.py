@@ -30,7 +30,8 @@ Behaviour per failure type (an "update" is every step for the IMU, and a step wh
 * actuators: servo (instance = control channel) ``off`` = surface at neutral (0),
   ``stuck`` = held at ``value_rad`` / 0.35 rad (clipped to +-1) or, without value_rad,
   at the command of the step before the fault, ``wrong`` = loss of effectiveness
-  (command x ``effectiveness``); motor (instance = index into ``motor_channels``)
+  (command x ``effectiveness``; for a thrust-scaled motor, see ``thrust_motors``, the
+  thrust x ``effectiveness``); motor (instance = index into ``motor_channels``)
   ``off`` = 0, ``stuck`` = held, ``wrong`` = thrust command x ``effectiveness``.
 * ``ok`` clears the fault of that unit (for servo / motor: of that instance).
 
@@ -90,10 +91,14 @@ class FaultInjector:
     """Applies the active sensor and actuator faults (see the module doc)."""
 
     def __init__(self, rng: np.random.Generator, params: SensorParams | None = None,
-                 dt_s: float = 0.01, motor_channels: tuple[int, ...] = (3,)):
+                 dt_s: float = 0.01, motor_channels: tuple[int, ...] = (3,),
+                 thrust_motors: bool = False):
         """``params`` / ``dt_s`` must be those of the SensorSuite (garbage noise is
         scaled from its nominal noise); ``motor_channels`` are the control-vector
-        indices of motor instances 0, 1, ... (plane: throttle, channel 3)."""
+        indices of motor instances 0, 1, ... (plane: throttle, channel 3).
+        ``thrust_motors``: a motor ``wrong`` fault scales the rotor's thrust
+        (:meth:`motor_thrust_scales`, applied by the plant) instead of its command
+        (the quadrotor: "thrust reduced to 70 %" is 70 % of the thrust at any command)."""
         if params is None:
             params = SensorParams()
         if dt_s <= 0.0:
@@ -102,6 +107,7 @@ class FaultInjector:
         self._rng = rng
         self.dt_s = float(dt_s)
         self.motor_channels = tuple(motor_channels)
+        self.thrust_motors = bool(thrust_motors)
         sq = math.sqrt(self.dt_s)
         self._nominal_sigma = {
             "accel": params.accel_noise_density / sq,
@@ -331,6 +337,15 @@ class FaultInjector:
 
     # --- actuators -----------------------------------------------------------------
 
+    def motor_thrust_scales(self, n: int) -> tuple[float, ...]:
+        """Thrust multiplier of control channels 0..n-1: the ``effectiveness`` of a motor
+        ``wrong`` fault when ``thrust_motors``, else 1."""
+        if not self.thrust_motors or not self._actuator_faults:
+            return (1.0,) * n
+        return tuple(f.magnitudes["effectiveness"]
+                     if (f := self._actuator_faults.get(ch)) is not None and f.unit == "motor"
+                     and f.type == "wrong" else 1.0 for ch in range(n))
+
     def apply_controls(self, controls: tuple) -> tuple:
         """The actuator commands as the faulty actuators execute them."""
         if not self._actuator_faults:
@@ -343,7 +358,8 @@ class FaultInjector:
             if f.type == "off":
                 out[ch] = 0.0
             elif f.type == "wrong":
-                out[ch] = out[ch] * f.magnitudes["effectiveness"]
+                if not (self.thrust_motors and f.unit == "motor"):
+                    out[ch] = out[ch] * f.magnitudes["effectiveness"]
             elif f.type == "stuck":
                 if f.held is None:
                     f.held = (float(self._last_controls[ch])

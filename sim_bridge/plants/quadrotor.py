@@ -214,6 +214,8 @@ class QuadrotorPlant:
                     4.0 * a * kt * af.motor_i0_a, b, 0.5 / a, self._ct)
         self.crashed = False
         self.touchdown_speed_mps: float | None = None
+        # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
+        self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
         self.reset()
 
     # ------------------------------------------------------------------- state ---
@@ -286,6 +288,9 @@ class QuadrotorPlant:
     def step(self, controls, n_steps: int = 1) -> PlantState:
         """Hold the rotor commands for ``n_steps`` integration steps."""
         t_ss = self.static_thrusts(controls)
+        sc = self.rotor_scale
+        if sc != (1.0, 1.0, 1.0, 1.0):
+            t_ss = [t * k for t, k in zip(t_ss, sc)]
         for _ in range(n_steps):
             self._integrate(t_ss)
             self._t_us += self._dt_us

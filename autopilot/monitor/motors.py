@@ -1,0 +1,347 @@
+"""Quadrotor motor fault detection, isolation and identification (seed ch. 8 sec. 2.2.3,
+the two-stage filter of eqs 2.18-2.24, with the Q adaptation of sec. 2.3.2, eqs
+2.35-2.40).
+
+The seed's equations lost their subscripts in extraction; they are rebuilt here from
+Hajiyev & Caliskan (2003), "Fault Diagnosis and Reconfiguration in Flight Control
+Systems", ch. 7, and the two-stage Kalman filter of Friedland (1969) / Keller & Darouach
+(1997): a bias-free (no-fault) filter, and a second stage that estimates the fault
+vector gamma from the first one's residual. Here the fault vector is the effectiveness
+of the four rotors, gamma = [k_1 .. k_4] (k = 1 healthy, 0.7 = thrust reduced to 70 %,
+as eq 2.23's loss of effectiveness).
+
+Design model. The rotor forces and moments of the seed's quadrotor (eqs 3.23-3.26,
+"+" layout of autopilot/control/mixer.py: rotor 1 aft, 2 left, 3 front, 4 right, 1 and
+3 counter-clockwise) are linear in gamma. With T_j the modelled thrust of rotor j (its
+command through the thrust curve of the mixer and the first-order rotor lag QD_TAU),
+f_z the accelerometer's specific force along body z and omega = (p, q, r) the gyro
+(both less the navigation filter's bias estimates)::
+
+    -m f_z                                    = k1 T1 + k2 T2 + k3 T3 + k4 T4
+    (I_xx p' + (I_zz - I_yy) q r) / l         =         k2 T2         - k4 T4
+    (I_yy q' + (I_xx - I_zz) p r) / l         = -k1 T1         + k3 T3
+    (I_zz r' + (I_yy - I_xx) p q) / k_M       =  k1 T1 - k2 T2 + k3 T3 - k4 T4
+
+i.e. ``y = H(T) gamma + v``, four equations in four unknowns: H is regular whenever
+the rotors turn (at hover det H = 8 T^4). Body drag along z and the rotors' spin-up
+torques are left in v. Every signal goes through the same first-order low-pass (tau
+LP_TAU_S; the angular accelerations are the derivatives of the low-passed rates,
+(omega - omega_f) / tau, exact for that filter), so the filter's lag cancels between
+the two sides.
+
+Stage 1 (no fault): gamma = c (1, 1, 1, 1), with c a common scale learnt in healthy
+flight (the error of the modelled thrust curve, air density, battery sag: they move all
+four rotors together). Its residual ``r = y - c H 1``. The modelled thrust curve is
+not the rotors' (it is the mixer's MOT_THST_EXPO-style curve; on the F450 its slope
+near hover is about 10 % under the plant's, measured), so a moment residual grows with
+the modelled moment itself in every manoeuvre: each row's variance is the residual's
+variance learnt in healthy flight (exponentially weighted, time constant VAR_TAU_S)
+plus a relative model error, ``sigma_i^2 = var_i + (MODEL_REL (c H 1)_i)^2``. The three
+moment rows, normalised so, enter the window chi-square test of :mod:`.stats` (eqs
+2.12-2.15; 3 degrees of freedom per sample, a sample every 0.2 s, which leaves the
+low-passed samples nearly uncorrelated), threshold from the family-wise false-alarm
+probability per flight hour FDI_PFA as the sensor channels' (:func:`~.stats.family_alpha`).
+The thrust row is left out of the test: its residual is the thrust curve's error
+along the whole flight envelope, slowly varying (lag-1 autocorrelation 0.95 at 0.2 s,
+measured) and common to all rotors, so it tells nothing about one rotor; a rotor
+fault, which the attitude loop compensates with a differential command, shows in the
+moments at once.
+
+Stage 2 (the fault vector): a Kalman filter over gamma (random walk, process noise
+Q = q^2 dt I) with the measurement ``y / c = H gamma + v``, R the learnt residual
+variances, run all the time (healthy: gamma stays near 1). On a detection the
+prediction uses the fading factor of eqs 2.35-2.40::
+
+    C_k   = 1/M sum_{j=k-M+1..k} e_j e_j^T                                   (2.35)
+    lambda = max(1, (tr C_k - tr(H P H^T) - tr R) / tr(H Q H^T))              (2.36-2.39)
+    P_k/k-1 = P_k-1 + lambda Q                                                (2.40)
+
+so gamma follows the fault within seconds and the filter is the optimal one again
+(lambda = 1) once it has been learnt.
+
+Isolation: the rotor whose effectiveness is farthest from 1 in its own standard
+deviations, ``(1 - k_j)^2 / P_jj`` over chi2_{alpha, 1}, named ``motor_1`` .. ``motor_4``.
+Identification: ``{"effectiveness": k_j / mean(k_others)}`` (relative to the healthy
+rotors: the common scale c is frozen at the detection, and what the other rotors drift
+by since is common-mode model error, not the fault).
+
+The balance holds only in free flight: on the ground the ground's reaction carries part
+of the weight. The filter and the tests run only while the vehicle is flying and the
+modelled thrust is at least MIN_THRUST_SHARE of the weight (a touchdown, or the
+idle-thrust end of the curve where the model is farthest from the rotors, is not
+used). Sensor versus actuator: the navigation
+filter does not use the rotor commands (its inputs are the IMU), so a motor fault
+leaves its innovations white (the Doyle-Stein condition of eqs 2.44-2.45 holds
+trivially): a residual here with the navigation quiet is an actuator fault.
+
+Reactions. Accommodation (FDI_MOT_COMP = 1): from IDENT_MIN_S after the isolation the
+identified effectiveness goes to the mixer (``accommodation``, applied by the vehicle
+through :meth:`~autopilot.control.mixer.QuadPlusMixer.set_effectiveness`), which then
+asks the weak rotor for T / k: the PDD attitude loops have no integral action, so
+without it the missing moment stands as an attitude offset (measured, rotor 1 at 70 %:
+the true pitch 8 deg short of its reference, 44 deg of tilt in the braking that the
+landing starts with; with it 20 deg). The monitor's own model is unaffected: it
+compares the thrust the commands should give with what the airframe shows. Failsafe
+(FDI_MOT_FS): a rotor identified below FDI_MOT_MIN of its thrust makes the vehicle land
+where it is (1, LAND; 0: only report).
+
+Cost: the low-passes run every step (pure Python floats); the Kalman filter and the
+tests every 0.1 s (numpy, 4 x 4).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from autopilot.params import Param
+
+from .stats import WindowChi2, chi2_threshold, family_alpha
+
+LP_TAU_S = 0.1            # low-pass of every balance signal [s]
+KF_PERIOD_S = 0.1         # stage 2 (Kalman filter) period [s]
+TEST_PERIOD_S = 0.2       # window chi-square sample period [s]
+VAR_TAU_S = 20.0          # healthy residual variance, exponential weighting [s]
+SCALE_TAU_S = 10.0        # common thrust scale c, exponential weighting [s]
+Q_RATE = 0.005            # gamma random walk [1/sqrt(s)]
+IDENT_MIN_S = 1.0         # identification reported this long after isolation [s]
+MODEL_REL = 0.15          # relative error of the modelled moments (thrust curve slope)
+MIN_THRUST_SHARE = 0.8    # balance used while the modelled thrust is this share of the weight
+
+MOTOR_PARAMS = (
+    Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True),
+    Param("FDI_MOT_FS", 1.0, 0.0, 1.0, "", "motor fault failsafe: 0 report only, 1 LAND", is_int=True),
+    Param("FDI_MOT_COMP", 1.0, 0.0, 1.0, "bool", "compensate an identified weak rotor in the mixer",
+          is_int=True),
+    Param("FDI_MOT_MIN", 0.9, 0.1, 1.0, "", "a rotor identified below this share of its thrust "
+          "triggers the motor fault failsafe"),
+    Param("FDI_MOT_HAGL", 1.5, 0.0, 20.0, "m", "motor test runs only above this height over home "
+          "(ground contact, ground effect)"),
+    Param("FDI_MOT_WARM", 10.0, 1.0, 120.0, "s", "seconds of flight that teach the healthy "
+          "residual before the motor test runs"),
+)
+
+
+class MotorMonitor:
+    """``update(t_us, flying, motors, f_b, omega_b, thrust_of)`` once per step.
+
+    ``motors`` are the commands the rotors flew with since the previous step (the
+    previous step's output), ``f_b`` / ``omega_b`` the IMU sample less the filter's bias
+    estimates, ``thrust_of(u)`` the mixer's modelled thrust of a command [N]. Outputs:
+    ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
+    ``events`` (t_s, MAV_SEVERITY, text), ``failsafe`` ("LAND" or None), ``gamma``,
+    ``peak`` (largest detection statistic / threshold while healthy)."""
+
+    def __init__(self, params, dt_s: float, alpha: float = 1e-4, p_fa: float = 0.01,
+                 window: int = 10, clear_s: float = 2.0):
+        from .monitor import Episode   # noqa: F401  (record type shared with the monitor)
+        g = lambda n, d: float(params[n]) if params is not None and n in params else d  # noqa: E731
+        self.enabled = g("FDI_MOT_ENABLE", 1.0) >= 1.0
+        self.fs_action = int(g("FDI_MOT_FS", 1.0))
+        self.k_min = g("FDI_MOT_MIN", 0.9)
+        self.comp = g("FDI_MOT_COMP", 1.0) >= 1.0
+        self.warm_s = g("FDI_MOT_WARM", 10.0)
+        self.alpha = g("FDI_ALPHA", alpha)
+        p_fa = g("FDI_PFA", p_fa)
+        window = int(g("FDI_WIN", window))
+        self.clear_s = g("FDI_CLR_T", clear_s)
+        self.m = g("QD_MASS", 1.4)
+        self.l = g("QD_ARM", 0.2335)
+        self.ixx, self.iyy, self.izz = g("QD_IXX", 0.019), g("QD_IYY", 0.019), g("QD_IZZ", 0.0252)
+        self.km = g("QD_KM", 0.0197)
+        self.dt = dt_s
+        self._lag = 1.0 - math.exp(-dt_s / g("QD_TAU", 0.055))
+        self._b = 1.0 - math.exp(-dt_s / LP_TAU_S)
+        self._kf_n = max(1, int(round(KF_PERIOD_S / dt_s)))
+        self._test_n = max(1, int(round(TEST_PERIOD_S / KF_PERIOD_S)))
+        # the window test runs every TEST_PERIOD_S of a whole flight: level per test from
+        # the family-wise false-alarm probability per hour (stats.family_alpha)
+        self.win = WindowChi2(3, window, self.alpha, family_alpha(p_fa, 3600.0 / TEST_PERIOD_S))
+        self.thr_iso = chi2_threshold(self.alpha, 1)
+        self.reset()
+
+    def reset(self) -> None:
+        self.T = [0.0, 0.0, 0.0, 0.0]              # modelled rotor thrusts (lagged) [N]
+        self._lp = None                            # low-passed T1..T4, f_z, p, q, r, qr, pr, pq
+        self._k = 0
+        self._kt = 0
+        self.flight_s = 0.0
+        self.c = 1.0                               # common thrust scale (stage 1)
+        self._c_ok = False
+        self.var = np.ones(4)                      # healthy residual variances
+        self._var_n = 0
+        self.gamma = np.ones(4)                    # stage 2 state: rotor effectiveness
+        self.P = np.eye(4) * 0.01
+        self._e_ring: list[np.ndarray] = []        # stage-2 innovations for (2.35)
+        self.lam = 1.0
+        self.ratio = 0.0                           # window statistic / threshold
+        self.iso_ratio = 0.0
+        self.detected = False
+        self.isolated: str | None = None
+        self.episodes: list = []
+        self.events: list[tuple[float, int, str]] = []
+        self.failsafe: str | None = None
+        self.accommodation: tuple[float, ...] | None = None   # rotor effectiveness for the mixer
+        self._quiet_s: float | None = None
+        self._ident_next_s = 0.0
+        self.peak = 0.0
+
+    @property
+    def peaks(self) -> dict[str, float]:
+        """Largest detection statistic / threshold while no fault was detected."""
+        return {"motors": self.peak}
+
+    # ------------------------------------------------------------------- step ---
+    def update(self, t_us: int, flying: bool, motors, f_b, omega_b, thrust_of) -> None:
+        if not self.enabled:
+            return
+        T = self.T
+        a = self._lag
+        for j in range(4):
+            T[j] += (thrust_of(motors[j]) - T[j]) * a
+        if not flying:
+            self._lp = None
+            self.flight_s = 0.0
+            return
+        p, q, r = omega_b
+        x = (T[0], T[1], T[2], T[3], f_b[2], p, q, r, q * r, p * r, p * q)
+        lp = self._lp
+        if lp is None:
+            self._lp = list(x)
+            return
+        b = self._b
+        for i in range(11):
+            lp[i] += (x[i] - lp[i]) * b
+        self.flight_s += self.dt
+        self._k += 1
+        if self._k < self._kf_n:
+            return
+        self._k = 0
+        self._stage(t_us, (p, q, r))
+
+    def _stage(self, t_us: int, omega) -> None:
+        lp = self._lp
+        t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = lp
+        inv = 1.0 / LP_TAU_S
+        pd, qd, rd = (omega[0] - pf) * inv, (omega[1] - qf) * inv, (omega[2] - rf) * inv
+        y = np.array((-self.m * fz,
+                      (self.ixx * pd + (self.izz - self.iyy) * qr) / self.l,
+                      (self.iyy * qd + (self.ixx - self.izz) * pr) / self.l,
+                      (self.izz * rd + (self.iyy - self.ixx) * pq) / self.km))
+        H = np.array(((t1, t2, t3, t4), (0.0, t2, 0.0, -t4), (-t1, 0.0, t3, 0.0),
+                      (t1, -t2, t3, -t4)))
+        tsum = t1 + t2 + t3 + t4
+        if tsum < MIN_THRUST_SHARE * self.m * 9.80665 * (self.c if self._c_ok else 1.0):
+            return
+        t_s = t_us * 1e-6
+        healthy = not self.detected
+        # stage 1: common scale and the no-fault residual
+        kf = KF_PERIOD_S
+        if healthy:
+            w = 1.0 - math.exp(-kf / SCALE_TAU_S) if self._c_ok else 1.0
+            self.c += (y[0] / tsum - self.c) * w
+            self._c_ok = True
+        m1 = self.c * (H @ np.ones(4))          # the no-fault model's forces and moments
+        r1 = y - m1
+        if healthy:
+            w = 1.0 - math.exp(-kf / VAR_TAU_S)
+            if self._var_n == 0:
+                self.var = r1 * r1 + 1e-6
+            else:
+                self.var += (r1 * r1 - self.var) * w
+            self._var_n += 1
+        rel = MODEL_REL * m1
+        rel[0] = 0.0                             # the thrust row: its learnt variance only
+        var = np.maximum(self.var, 1e-6) + rel * rel
+        sd = np.sqrt(var)
+        # stage 2: Kalman filter over gamma, measurement y / c = H gamma
+        Hc = H
+        z = y / self.c
+        R = np.diag(var / (self.c * self.c))
+        Q = np.eye(4) * (Q_RATE * Q_RATE * kf)
+        e = z - Hc @ self.gamma
+        lam = 1.0
+        if self.detected and self._e_ring:
+            # fading factor (2.35-2.39) from the window of innovations, on innovations
+            # whitened by R^-1/2 so that the rows (newtons of thrust and of moment / arm)
+            # weigh alike: tr(W C W) = sum_i C_ii / R_ii
+            w = 1.0 / np.diag(R)
+            C = sum(v * v for v in self._e_ring) / len(self._e_ring)      # diag of (2.35)
+            hph = np.einsum("ij,jk,ik->i", Hc, self.P, Hc)
+            hqh = float(np.einsum("ij,jk,ik->i", Hc, Q, Hc) @ w)
+            if hqh > 0.0:
+                lam = max(1.0, (float(C @ w) - float(hph @ w) - 4.0) / hqh)
+        self.lam = lam
+        P = self.P + lam * Q                                        # (2.40)
+        S = Hc @ P @ Hc.T + R
+        K = np.linalg.solve(S, Hc @ P).T                            # P H^T S^-1
+        self.gamma = self.gamma + K @ e
+        IKH = np.eye(4) - K @ Hc
+        self.P = IKH @ P @ IKH.T + K @ R @ K.T                     # Joseph form
+        self.P = 0.5 * (self.P + self.P.T)
+        self._e_ring.append(e)
+        if len(self._e_ring) > self.win.M:
+            self._e_ring.pop(0)
+        # detection: window chi-square of the normalised no-fault residual
+        self._kt += 1
+        if self._kt >= self._test_n:
+            self._kt = 0
+            if self.flight_s >= self.warm_s:
+                self.win.push((r1[1:] / sd[1:]).tolist())
+                self.ratio = self.win.ratio_det
+                if not self.detected:
+                    self.peak = max(self.peak, self.ratio)
+        self._decide(t_s)
+
+    # --------------------------------------------------------------- decision ---
+    def _decide(self, t_s: float) -> None:
+        from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
+        dev = (1.0 - self.gamma) ** 2 / np.maximum(np.diag(self.P), 1e-12) / self.thr_iso
+        j = int(np.argmax(dev))
+        self.iso_ratio = float(dev[j])
+        if not self.detected:
+            if self.ratio > 1.0:
+                self.detected = True
+                self._quiet_s = None
+                self.episodes.append(Episode(t_s, "motors", kind="actuator", ident_log=[]))
+                self.events.append((t_s, SEV_WARNING, "FDI: fault detected on the motors"))
+            return
+        ep = self.episodes[-1]
+        if self.isolated is None and self.iso_ratio > 1.0 and self.gamma[j] < 1.0:
+            self.isolated = f"motor_{j + 1}"
+            ep.isolated, ep.isolated_s = self.isolated, t_s
+            self._ident_next_s = t_s + IDENT_MIN_S
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {self.isolated} fault isolated"))
+        if self.isolated is not None and t_s >= self._ident_next_s:
+            self._ident_next_s = t_s + 1.0
+            i = int(self.isolated[-1]) - 1
+            g = self.gamma
+            k = float(g[i]) * 3.0 / (float(g.sum()) - float(g[i]))
+            ep.identified = {"effectiveness": round(k, 3)}
+            ep.ident_log.append((t_s, dict(ep.identified)))
+            if self.comp:
+                acc = [1.0, 1.0, 1.0, 1.0]
+                acc[i] = min(k, 1.0)
+                if self.accommodation is None:
+                    self.events.append((t_s, SEV_NOTICE, f"FDI: {self.isolated} compensated "
+                                        f"(thrust {100.0 * k:.0f} %)"))
+                self.accommodation = tuple(acc)
+            if k < self.k_min and self.fs_action == 1 and self.failsafe is None \
+                    and not getattr(self, "_fs_done", False):
+                self._fs_done = True
+                self.failsafe = "LAND"
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: {self.isolated} thrust "
+                                    f"{100.0 * k:.0f} %: failsafe LAND"))
+        # clearance: the no-fault residual quiet for FDI_CLR_T and every rotor near 1
+        quiet = self.ratio < 1.0 and self.iso_ratio < 1.0
+        if quiet:
+            if self._quiet_s is None:
+                self._quiet_s = t_s
+            elif t_s - self._quiet_s >= self.clear_s:
+                ep.end_s = t_s
+                self.detected = False
+                self.isolated = None
+                self.events.append((t_s, SEV_NOTICE, "FDI: motor fault cleared"))
+                self.accommodation = None
+        else:
+            self._quiet_s = None
