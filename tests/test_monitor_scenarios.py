@@ -93,26 +93,28 @@ def test_false_alarm_bench_seed_4_is_quiet():
     assert max(flight["peaks"].values()) < 0.9
 
 
-@pytest.mark.parametrize("scenario, key, true_value", [
-    ("fault_elevator_stuck.toml", "stuck_rad", 0.17),
-    ("fault_elevator_loe.toml", "effectiveness", 0.5),
+@pytest.mark.parametrize("scenario, key, true_value, seed", [
+    ("fault_elevator_stuck.toml", "stuck_rad", 0.17, 1),
+    ("fault_elevator_stuck.toml", "stuck_rad", 0.17, 2),
+    ("fault_elevator_loe.toml", "effectiveness", 0.5, 1),
+    ("fault_elevator_loe.toml", "effectiveness", 0.5, 2),
 ])
-def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scenario, key, true_value):
-    # GIVEN the experimental elevator identifier (FDI_ACT_ID = 1), WHEN the elevator sticks
-    # at 0.17 rad (0.05 above trim) or loses half its effectiveness, THEN the fault is an
-    # actuator fault on the elevator, its parameter from the moment balance is within 20 %
-    # 10 s after the onset, and the aircraft keeps flying (seed 1; detection is the weak
-    # part on other seeds: autopilot/monitor/actuator.py)
-    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / scenario), duration_s=112.0, seed=1,
-                          param_overrides={"FDI_ACT_ID": 1}))
+def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scenario, key, true_value, seed):
+    # GIVEN the default monitor, WHEN the elevator sticks at 0.17 rad (0.05 above trim) or
+    # loses half its effectiveness at 142 s, THEN the fault is an actuator fault on the
+    # elevator, detected within 5 s, its parameter from the moment balance within 20 %
+    # 10 s after the onset, and the aircraft keeps flying (measured, seeds 1-3: stuck
+    # 0.157 / 0.159 / 0.140, effectiveness 0.58 / 0.52 / 0.52)
+    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / scenario), duration_s=154.0, seed=seed))
     s.run()
     summ = run_summary(s)
     f = summ["faults"][0]
     assert f["kind"] == "actuator" and f["isolated"] == "elevator"
-    assert f["delay_s"] is not None and f["delay_s"] <= 10.0
+    assert f["delay_s"] is not None and f["delay_s"] <= 5.0
     ident = f["identified_10s"]
     assert ident is not None and key in ident, ident
     assert abs(ident[key] - true_value) <= 0.2 * true_value
+    assert summ["false_alarms"] == 0
     assert not s.crashed
 
 

@@ -18,63 +18,55 @@ with the fault vector entering the actuators. For one surface the two fault type
     loss of effectiveness: k = 1 - loss, s = 0               (2.23)
     stuck at beta: k = 0, s = beta                           (2.24)
 
-Two stages, as the TSKF: the first is the bias-free model of the pitch axis, the second
-estimates the fault parameters gamma = [k, s] from the first one's residual.
+Two stages, as the TSKF: the first is the bias-free (no-fault) model of the pitch axis,
+the second estimates the fault parameters gamma = [k, s] from it.
 
-Stage 1, the pitch moment equation, learnt on line while no fault is suspected. With q
-the pitch rate (bias-corrected gyro), V the airspeed and alpha the angle of attack
-(from the navigation solution: the air-relative velocity ``R^T (v - w)`` in body axes)::
+Stage 1, the quasi-steady pitch-moment balance. With q the pitch rate (bias-corrected
+gyro), V the airspeed and alpha the angle of attack (from the navigation solution: the
+air-relative velocity ``R^T (v - w)`` in body axes), the pitch moment equation
+``Cm_0 + Cm_a alpha + Cm_q cbar q / (2 V) + Cm_d delta + (thrust moment) = I_yy q_dot /
+(qbar S cbar)`` with q_dot ~ 0, solved for the deflection, is linear in the
+regressors::
 
-    q_dot / V^2 = theta_0 + theta_a alpha + theta_q q / V + theta_d delta      (*)
+    delta = c_0 + c_a alpha + c_q q / V + c_t throttle / V^2 + c_n (n - 1)    (**)
 
-(the moment coefficients of the linearised short-period model times dynamic pressure
-over inertia; V^2 carries the dynamic pressure at the near-constant density of a
-mission). ``theta`` by recursive least squares with exponential forgetting
-(FDI_ACT_FORGET). q_dot is the difference of a low-passed q; every regressor goes
-through the same low-pass, so the filter's lag cancels. The aircraft has no actuator
-lag model here (JSBSim's aerosonde has none).
+(c_0 = -Cm_0 / Cm_d, c_a = -Cm_a / Cm_d, c_q = -Cm_q cbar / (2 Cm_d), c_t the thrust
+moment over dynamic pressure). The last term, with n = 1 / cos(bank) the load factor of
+a coordinated turn, is not in the moment equation: in a turn alpha and q both grow
+with n - 1, and alpha hardly varies otherwise in closed-loop cruise, so c_a alone is
+poorly identified (fitted 0.04 against the airframe's 0.76) and the balance was 0.04
+rad off in 30 deg banked turns (6 of its sigmas; a false alarm on the southern
+dateline mission in 6 m/s wind) until n - 1, which turns excite well, carried it. It is learnt by recursive least squares in healthy
+flight (:class:`MomentBalance`) on low-passed signals (time constant BAL_TAU_S = 1 s,
+the same filter on every signal so the lag cancels), with the *commanded* deflection as
+the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
+that the fault is never in the fit when it is detected, and not on the first
+FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-steady).
+With the coefficients, (**) gives z, the deflection the aircraft is flying with, every
+0.1 s. The no-fault residual ``r = z - delta_cmd`` is normalised by its own standard
+deviation in healthy flight (learnt FIT_DELAY_S late, exponentially weighted over
+RES_TAU_S; the balance's a-priori fit residuals are 2-3 times smaller than these
+prediction residuals, which wander with the manoeuvres: steep turns, descents at idle)
+and goes, every TEST_DIV-th sample (2 Hz), into the window chi-square test of
+:mod:`.stats` (eqs 2.12-2.15), its level from the family-wise false-alarm probability
+per flight hour FDI_PFA as the sensor channels'. The low-passed samples are still
+correlated at 2 Hz (lag-1 about 0.6), which the chi-square law does not allow for: the
+monitor detects at FDI_ACT_THR times the threshold.
 
-Stage 2, the apparent deflection: (*) solved for delta with the learnt theta,
-
-    z = (q_dot / V^2 - theta_0 - theta_a alpha - theta_q q / V) / theta_d   = delta_act + v
-
-and the fault parameters by a Kalman filter over the random-walk state gamma = [k, s]
-with the measurement ``z = [delta_cmd, 1] gamma + v`` (R = the healthy residual
-variance, learnt as an exponentially weighted mean). Detection: the normalised
-residual of the no-fault hypothesis, ``(z - delta_cmd) / sigma``, through the window
-chi-square test of :mod:`.stats` (2.12-2.15), decimated to 10 Hz.
-
-Q adaptation (2.35-2.40) on a detected actuator fault: the second stage's covariance is
-predicted with a fading factor, ``P = P + Lambda Q``, where, with the window mean of the
-squared innovations ``C = 1/M sum e_j^2`` (2.35) and the scalar measurement,
+Stage 2, the fault parameters: a Kalman filter over the random-walk state gamma =
+[k, s] with the measurement ``z = [delta_cmd, 1] gamma + v`` (R = the healthy residual
+variance), at 10 Hz. Q adaptation (2.35-2.40) on a detected actuator fault: the
+covariance is predicted with a fading factor, ``P = P + Lambda Q``, where, with the
+window mean of the squared innovations ``C = 1/M sum e_j^2`` (2.35) and the scalar
+measurement,
 
     lambda = max(1, (C - H P H^T - R) / (H Q H^T))                           (2.36-2.39)
 
 so the parameters move as fast as the innovations demand, and back to the optimal
-filter (lambda = 1) when the fault has been learnt. Identification: ``k`` below
-FDI_ACT_STUCK -> stuck at ``s``; otherwise loss of effectiveness ``k``.
+filter (lambda = 1) when the fault has been learnt.
 
-Identification (what ``identified()`` reports): the moment balance, not stage 2.
-Stage 1 above is learnt in closed loop, where the pitch loop makes the elevator a
-function of q and alpha: its coefficients are not those of the aircraft (measured, seed
-1: the damping term comes out positive, theta_d drifts 0.010 -> 0.005 over 40 s of
-healthy flight) and during the 2-6 s before a detection the recursion absorbs the fault
-(theta_d -> 1e-4), so the stage-2 estimates of [k, s] diverged (k 0.6-3 for a stuck
-surface, 45 for a 50 % loss). The identification therefore uses the quasi-steady pitch
-moment balance, q_dot ~ 0 in (*) plus the thrust moment, solved for the deflection::
-
-    delta = c_0 + c_a alpha + c_q q / V + c_t throttle / V^2                  (**)
-
-(c_0 = -Cm_0 / Cm_d, c_a = -Cm_a / Cm_d, c_q = -Cm_q cbar / (2 Cm_d), c_t the thrust
-moment over dynamic pressure), learnt by least squares in healthy flight on the same
-low-passed signals (time constant BAL_TAU_S = 1 s, so the lag cancels) with the
-*commanded* deflection as the dependent variable (healthy: actual = commanded), on
-samples FIT_DELAY_S old, so that the fault is never in the fit when it is detected, and
-not on the first FIT_WARMUP_S of flight (with the take-off and climb-out in the fit the
-stuck position came out 0.12 instead of 0.17 rad, measured).
-After a detection (**) with the frozen coefficients gives the deflection the aircraft
-is actually flying with, z; the two hypotheses of (2.22)-(2.24) are fitted over the
-window since the detection (from 1 s before it):
+Identification (what ``identified()`` reports): the two hypotheses of (2.22)-(2.24)
+fitted over the window since the detection (from 1 s before it), on the same z::
 
     loss of effectiveness: z = k delta_cmd       k = sum z delta_cmd / sum delta_cmd^2
     stuck:                 z = s                 s = mean of z over the last second
@@ -84,8 +76,16 @@ saturation, often against the side the surface is stuck on), so k outside
 [K_MIN, K_MAX] or a command saturated most of the window -> stuck; otherwise loss of
 effectiveness. (A stuck surface whose command happens to stay proportional to it is
 not distinguishable from a loss of effectiveness without excitation; an elevator doublet
-would tell them apart.) Measured, seed 1, default mission: stuck at 0.17 rad (0.05 above
-trim) -> stuck, 0.178 rad 10 s after the onset; 50 % loss -> effectiveness 0.46.
+would tell them apart.)
+
+Measured (default mission, fault at 142 s in a straight climb, seeds 1-3): stuck at
+0.17 rad -> detected +1.4-1.6 s, 0.154 / 0.146 / 0.139 rad 10 s after the onset; 50 %
+effectiveness -> detected +4.0-4.4 s, 0.58 / 0.52 / 0.52. The balance is fitted in
+cruise: a stuck surface that slows the aircraft to 18 m/s at full throttle takes it
+outside the fitted conditions, and it is read 10-18 % low. Fault-free, ``sitl bench
+--false-alarms`` (ten 10-minute flights): largest statistic 0.37 of the decision level. A fault in the first ~100 s of flight is not
+seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
+residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
 driven by the IMU, not by the control inputs: its gain has no control distribution
@@ -95,9 +95,9 @@ residual over its threshold while the navigation innovations are quiet is an act
 fault; with a sensor fault running, the stage-1 model's inputs are suspect and the
 actuator test is held.
 
-Limits: the model (*) holds in coordinated flight at moderate alpha; the RLS needs the
-excitation that turbulence and the pitch loop give (light turbulence is enough); the
-estimates of a stuck surface are those of (*) about the airspeed it was learnt at.
+Limits: the balance (**) holds in coordinated flight at moderate alpha; its fit needs
+the excitation that turbulence and the pitch loop give (light turbulence is enough); the
+estimates of a stuck surface are those of (**) about the conditions it was learnt in.
 """
 from __future__ import annotations
 
@@ -105,7 +105,7 @@ import math
 
 import numpy as np
 
-from .stats import WindowChi2
+from .stats import WindowChi2, family_alpha
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
 BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
@@ -115,16 +115,21 @@ FIT_WARMUP_S = 30.0             # ... and not on the first seconds of flight (ta
                                 # climb-out at full throttle: not quasi-steady) [s]
 K_MIN, K_MAX = 0.05, 1.2        # a loss-of-effectiveness k outside this: stuck
 SAT_SHARE = 0.5                 # command saturated this share of the window: stuck
+TEST_DIV = 5                    # detection test on every 5th balance sample (2 Hz)
+RES_TAU_S = 60.0                # healthy residual variance, exponential weighting [s]
+RES_SKIP_N = 50                 # fitted samples before the residual variance is kept
+RES_WARMUP_N = 200              # residual samples (20 s) learnt before the test runs
+RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
 
 
 class MomentBalance:
     """The quasi-steady pitch-moment balance (**) of the module docstring: recursive
-    least squares of the commanded deflection on [1, alpha, q / V, throttle / V^2],
+    least squares of the commanded deflection on [1, alpha, q / V, throttle / V^2, n - 1],
     fitted on samples FIT_DELAY_S old while ``frozen`` is false. The regressors are
     scaled by V_REF (``q V_REF / V``, ``throttle (V_REF / V)^2``) so that all are of
     order one and the nearly uninformative prior (P = 1e4 I) shrinks none of them."""
 
-    N = 4
+    N = 5
     V_REF = 25.0                      # [m/s]
 
     def __init__(self):
@@ -138,32 +143,41 @@ class MomentBalance:
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
+        self._res_sum = None          # a-priori fit residual variance [rad^2]
 
     @property
     def ready(self) -> bool:
         return self.n >= 300          # 30 s of fitted samples
 
-    def step(self, t_us: int, alpha: float, q: float, V: float, throttle: float, d_cmd: float) -> None:
+    @property
+    def res_var(self) -> float | None:
+        """Variance of the a-priori fit residuals once the balance is ready [rad^2]."""
+        return self._res_sum if self.ready else None
+
+    def step(self, t_us: int, alpha: float, q: float, V: float, throttle: float,
+             d_cmd: float, turn: float = 0.0) -> tuple[float, float] | None:
+        """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
+        z the deflection the balance says the aircraft flies with."""
         r = self.V_REF / V
-        x = (1.0, alpha, q * r, throttle * r * r, d_cmd)
+        x = (1.0, alpha, q * r, throttle * r * r, turn, d_cmd)
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             if self._t0_us is None:
                 self._t0_us = t_us
-            return
+            return None
         dt = (t_us - self._t_us) * 1e-6
         self._t_us = t_us
         if dt <= 0.0:
-            return
+            return None
         a = dt / (BAL_TAU_S + dt)
         lp = self._lp
-        for i in range(5):
+        for i in range(6):
             lp[i] += a * (x[i] - lp[i])
         if t_us < self._next_us:
-            return
+            return None
         self._next_us = t_us + BAL_PERIOD_US
-        phi = np.array(lp[:4])
-        d = lp[4]
+        phi = np.array(lp[:5])
+        d = lp[5]
         if not self.frozen and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
             q_.append((t_us, phi, d))
@@ -172,14 +186,24 @@ class MomentBalance:
                 P = self.P
                 Pp = P @ ph
                 g = Pp / (1.0 + ph @ Pp)
-                self.c = self.c + g * (dd - ph @ self.c)
+                e = dd - ph @ self.c              # a-priori residual of this sample
+                self.c = self.c + g * e
                 self.P = P - np.outer(g, Pp)
                 self.n += 1
+                if self.n > RES_SKIP_N:
+                    # its variance: the running mean, then exponentially weighted over
+                    # RES_TAU_S
+                    k = self.n - RES_SKIP_N
+                    a = max(1.0 / k, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
+                    self._res_sum = e * e if self._res_sum is None else self._res_sum + a * (e * e - self._res_sum)
         if self.ready:
+            z = float(phi @ self.c)
             h = self.hist
-            h.append((t_us, float(phi @ self.c), d))
+            h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:
                 h.pop(0)
+            return z, d
+        return None
 
     def freeze(self) -> None:
         """At a detection: the fit stops, and the samples not yet fitted (which may
@@ -206,34 +230,33 @@ class MomentBalance:
 class ElevatorIdentifier:
     """Two-stage elevator fault detection and identification (module docstring).
 
-    ``step(t_us, nav, elevator_cmd, flying)`` once per vehicle step with the navigation
-    state and the normalised elevator command (+1 nose up). Outputs: ``ratio`` (window
-    statistic / threshold), ``k``, ``s_rad``, ``lam`` (fading factor), ``frozen``.
+    ``step(t_us, nav, elevator_cmd, flying, throttle)`` once per vehicle step with the
+    navigation state and the normalised elevator command (+1 nose up). Outputs:
+    ``ratio`` (window statistic / threshold), ``k``, ``s_rad`` (stage 2), ``lam``
+    (fading factor), ``frozen``, ``ready``.
     """
 
-    def __init__(self, alpha: float = 1e-4, window: int = 10, forget: float = 0.9995,
-                 q_gamma: float = 1e-7, warmup_s: float = 30.0, lp_tau_s: float = 0.05):
-        self.win = WindowChi2(1, window, alpha)
-        self.forget = forget
+    def __init__(self, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
+                 q_gamma: float = 1e-6):
+        # the window test runs every TEST_DIV-th balance sample of a whole flight: its
+        # level from the family-wise false-alarm probability per hour (stats.family_alpha)
+        tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
+        self.win = WindowChi2(1, window, alpha, family_alpha(p_fa, tests_per_hour))
         self.q_gamma = q_gamma
-        self.warmup_us = int(warmup_s * 1e6)
-        self.lp_tau = lp_tau_s
         self.reset()
 
     def reset(self) -> None:
-        self.theta = np.zeros(4)
-        self.P_theta = np.eye(4) * 1e3
-        self._lp = None               # low-passed [q, 1, alpha, q/V, delta]
-        self._q_prev = None
-        self._t_prev = None
-        self._start_us = None
-        self.r_var = None             # healthy residual variance of z [rad^2]
+        self.r_var = None             # healthy residual variance of the balance [rad^2]
+        self._n_var = 0
+        self._r_queue: list[float] = []
+        self._r_delay_n = int(FIT_DELAY_S * 1e6 / BAL_PERIOD_US)
         self.gamma = np.array([1.0, 0.0])
         self.P_gamma = np.eye(2) * 1e-4
         self._e2 = []                 # squared innovations of stage 2 (window)
-        self.frozen = False           # stage 1 frozen (fault suspected)
+        self.frozen = False           # fault suspected: the balance and R stop learning
         self.adapt = False            # Q adaptation on
         self.ratio = 0.0
+        self.residual = 0.0           # latest balance residual z - delta_cmd [rad]
         self.lam = 1.0
         self._k = 0
         self.ready = False
@@ -249,8 +272,8 @@ class ElevatorIdentifier:
         return float(self.gamma[1])
 
     def freeze(self, t_us: int) -> None:
-        """A fault is detected: stage 1 and the moment balance stop learning, the
-        fault parameters adapt (Q adaptation) and identification starts."""
+        """A fault is detected: the moment balance and the residual variance stop
+        learning, the fault parameters adapt (Q adaptation) and identification starts."""
         self.frozen = self.adapt = True
         self.balance.freeze()
         self._fault_us = t_us - 1_000_000
@@ -260,12 +283,11 @@ class ElevatorIdentifier:
         w = nav.wind_ned
         V = nav.airspeed_mps
         if not flying or V < 10.0:
-            self._lp = None
             return
         # body-axis air velocity: R^T (v - w)
         qw, qx, qy, qz = (float(c) for c in nav.q_nb)
         ax, ay, az = float(v[0] - w[0]), float(v[1] - w[1]), float(v[2])
-        # third column / first column of R(q) for the body x and z axes in NED
+        # first and third columns of R(q): the body x and z axes in NED
         r00 = 1 - 2 * (qy * qy + qz * qz)
         r10 = 2 * (qx * qy + qw * qz)
         r20 = 2 * (qx * qz - qw * qy)
@@ -277,79 +299,59 @@ class ElevatorIdentifier:
         alpha = math.atan2(wb, u)
         q = float(nav.omega_b[1])
         d = elevator_cmd * MAX_DEFLECTION_RAD
-        self.balance.step(t_us, alpha, q, V, throttle, d)
-        x = (q, 1.0, alpha, q / V, d)
-        if self._lp is None or self._t_prev is None:
-            self._lp = list(x)
-            self._t_prev = t_us
-            self._start_us = t_us if self._start_us is None else self._start_us
-            self._q_prev = None
+        # load factor of a coordinated turn less one: 1 / cos(bank) - 1
+        c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
+        turn = 1.0 / max(c_bank, 0.5) - 1.0
+        sample = self.balance.step(t_us, alpha, q, V, throttle, d, turn)
+        if sample is None:
             return
-        dt = (t_us - self._t_prev) * 1e-6
-        self._t_prev = t_us
-        if dt <= 0.0:
-            return
-        a = dt / (self.lp_tau + dt)
-        lp = self._lp
-        for i in range(5):
-            lp[i] += a * (x[i] - lp[i])
-        qf = lp[0]
-        if self._q_prev is None:
-            self._q_prev = qf
-            return
-        qdot = (qf - self._q_prev) / dt
-        self._q_prev = qf
-        y = qdot / (V * V)
-        phi = np.array(lp[1:5])
-        # ---- stage 1: q_dot / V^2 = theta^T phi  (RLS, forgetting) ----------------
-        th = self.theta
+        z, dcmd = sample
+        # ---- stage 1: residual of the no-fault hypothesis, delta_act = delta_cmd -------
+        r = z - dcmd
+        self.residual = r
+        # the healthy residual variance: of this residual itself, learnt FIT_DELAY_S late
+        # (as the balance) so that a fault is not in it when it is detected -- the
+        # balance's own fit residuals are 2-3 times smaller than its prediction
+        # residuals, which wander with the manoeuvres (measured)
         if not self.frozen:
-            P = self.P_theta
-            Pphi = P @ phi
-            g = Pphi / (self.forget + phi @ Pphi)
-            th += g * (y - phi @ th)
-            self.P_theta = (P - np.outer(g, Pphi)) / self.forget
-        if t_us - self._start_us < self.warmup_us or abs(th[3]) < 1e-6:
-            return
-        # ---- stage 2: apparent deflection z = delta_act + v --------------------------
-        dcmd = lp[4]
-        z = (y - th[0] - th[1] * lp[2] - th[2] * lp[3]) / th[3]
-        r = z - dcmd                          # residual of the no-fault hypothesis
-        if not self.frozen:
-            # healthy residual variance (exponentially weighted, ~10 s)
-            self.r_var = r * r if self.r_var is None else self.r_var + 0.001 * (r * r - self.r_var)
-        if self.r_var is None or self.r_var <= 0.0:
+            q_ = self._r_queue
+            q_.append(r)
+            if len(q_) > self._r_delay_n:
+                ro = q_.pop(0)
+                self._n_var += 1
+                a = max(1.0 / self._n_var, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
+                self.r_var = ro * ro if self.r_var is None else self.r_var + a * (ro * ro - self.r_var)
+        if self._n_var < RES_WARMUP_N:
             return
         self.ready = True
-        R = self.r_var
-        # detection: window chi-square of the normalised residual at 10 Hz  (2.12-2.15)
+        R = max(self.r_var, RES_FLOOR_RAD * RES_FLOOR_RAD)
+        # detection: window chi-square of the normalised residual  (2.12-2.15)
         self._k += 1
-        if self._k >= 10:
+        if self._k >= TEST_DIV:
             self._k = 0
             self.win.push([r / math.sqrt(R)])
             self.ratio = self.win.ratio_det
-        # gamma = [k, s]: P = P + Lambda Q (2.40); H = [delta_cmd, 1]
+        # ---- stage 2: gamma = [k, s], z = [delta_cmd, 1] gamma + v (2.20-2.24) ----------
+        # P = P + Lambda Q (2.40), Lambda from the innovations' excess (2.35-2.39)
         H = np.array([dcmd, 1.0])
         Pg = self.P_gamma
         e = z - H @ self.gamma
         e2 = self._e2
         e2.append(e * e)
-        if len(e2) > 100:
+        if len(e2) > self.win.M:
             e2.pop(0)
         lam = 1.0
-        if self.adapt and len(e2) >= 20:
-            # lambda = max(1, (C - H P H^T - R) / (H Q H^T))   (2.35-2.39, scalar)
+        if self.adapt and len(e2) >= self.win.M:
             C = sum(e2) / len(e2)
             hqh = self.q_gamma * (dcmd * dcmd + 1.0)
-            lam = max(1.0, (C - float(H @ Pg @ H) - R) / hqh)
-            lam = min(lam, 1e6)
+            lam = min(max(1.0, (C - float(H @ Pg @ H) - R) / hqh), 1e6)
         self.lam = lam
         Pg = Pg + np.eye(2) * (self.q_gamma * lam)
         S = float(H @ Pg @ H) + R
         K = Pg @ H / S
         self.gamma = self.gamma + K * e
         A = np.eye(2) - np.outer(K, H)
-        self.P_gamma = A @ Pg @ A.T + np.outer(K, K) * R
+        self.P_gamma = A @ Pg @ A.T + np.outer(K, K) * R       # Joseph form
 
     def identified(self, stuck_below: float = 0.25) -> dict:
         """The fault parameters as the summary reports them: from the moment balance

@@ -46,17 +46,17 @@ How each is watched:
   over three seeds and a GPS outage, at an earlier state of the filter; 1-3.5, i.e.
   0.05-0.18 of the threshold, over ten 10-minute flights with the present filter,
   ``sitl bench --false-alarms``).
-* ``elevator`` (experimental, FDI_ACT_ID = 1; off by default): the two-stage pitch-model
-  identifier of :mod:`.actuator` gets the commands through ``observe_controls``; its
-  residual statistic over FDI_ACT_THR times its threshold while every navigation
-  statistic is under its own opens an actuator episode (kind "actuator", Q adaptation
-  of the fault parameters on, identification logged once a second). Identification is
-  by the quasi-steady pitch-moment balance fitted in healthy flight (:mod:`.actuator`).
-  Measured 10 s after the onset: stuck at 0.17 rad -> 0.173 (seed 1), 0.166 (seed 2);
-  50 % effectiveness loss -> 0.471 (seed 1). Detection (stage-1 residual) is the weak
-  part: +1.8 s stuck, +4.4 s loss on seed 1, but +17 s for the loss on seed 2 and a
-  false alarm at 38 s on seed 3; hence still off by default.
-* Accelerometers, other surfaces, motors: names reserved; no statistic yet (the
+* ``elevator`` (FDI_ACT_ID = 1, the default): the two-stage identifier of
+  :mod:`.actuator` gets the commands through ``observe_controls``; its no-fault
+  residual (the deflection the learnt pitch-moment balance says the aircraft flies
+  with, less the command) over FDI_ACT_THR times its window chi-square threshold while
+  every navigation statistic is under its own opens an actuator episode (kind
+  "actuator", Q adaptation of the fault parameters on, identification logged once a
+  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.139-0.154
+  rad 10 s after the onset, 50 % effectiveness loss +4.0-4.4 s and 0.52-0.58 (seeds
+  1-3); fault-free peak 0.37 of the decision level over ten 10-minute flights.
+* ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
+* Accelerometers, other surfaces: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
   not usable as they are).
 
@@ -169,8 +169,8 @@ FDI_PARAMS = (
           "inertial fault is suspected (1: off)"),
     Param("FDI_DRIFT", 0.5, 0.0, 1.0, "", "velocity innovations whose window means hold this share of the "
           "statistic are a drift (inertial fault)"),
-    Param("FDI_ACT_ID", 0.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
-          "(two-stage KF, experimental: off by default)", is_int=True),
+    Param("FDI_ACT_ID", 1.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
+          "(moment balance and two-stage KF)", is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
@@ -291,7 +291,7 @@ class FaultMonitor:
         self.elevator = None
         if p["FDI_ACT_ID"] >= 1:
             from .actuator import ElevatorIdentifier
-            self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], lp_tau_s=0.2, forget=0.9999)
+            self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._ident_next_s = 0.0
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
@@ -371,7 +371,10 @@ class FaultMonitor:
             return
         if not self.detected:
             quiet = all(ch.ratio < 1.0 for ch in self._aiding_list) and max(self.bias_ratio) < 1.0
-            if quiet and el.ratio > self.p["FDI_ACT_THR"]:
+            r_el = el.ratio / self.p["FDI_ACT_THR"]
+            if r_el > self.peaks.get("elevator", 0.0):
+                self.peaks["elevator"] = r_el
+            if quiet and r_el > 1.0:
                 # residual of the pitch model high, navigation innovations white: an
                 # actuator fault (the INS/GPS filter is insensitive to actuator faults)
                 self.detected = True
