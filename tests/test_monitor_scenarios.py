@@ -18,7 +18,9 @@ def _fly(scenario: str, duration_s: float, seed: int = 1) -> tuple[Session, dict
 
 
 def test_gps_off_detected_within_1s_isolated_and_failsafe_rtl():
-    s, summ = _fly("fault_gps_off.toml", 112.0)
+    # GIVEN no GPS fixes from 100 s on, WHEN the aircraft has dead-reckoned for
+    # FDI_DR_TIME = 60 s, THEN the failsafe turns it home (RTL), still flying
+    s, summ = _fly("fault_gps_off.toml", 172.0)
     f = summ["faults"][0]
     assert (f["unit"], f["type"]) == ("gps", "off")
     assert f["delay_s"] is not None and f["delay_s"] <= 1.0

@@ -105,12 +105,10 @@ def test_ukf_flies_the_default_mission_with_the_same_bounds():
 
 
 def test_gps_outage_in_flight():
-    # GIVEN a steady 6 m/s wind and no GPS fixes from 120 s to 150 s, the fault
-    #       monitor's GPS-lost failsafe off (FDI_GPS_FS; by default it turns the vehicle
-    #       home after FDI_DR_TIME = 10 s of dead reckoning, where issue 3 asks it to
-    #       keep flying the mission through 30 s)
-    s, summary = fly(nav="ekf", scenario=MISSIONS_DIR / "gps_outage.toml", seed=1,
-                     param_overrides={"FDI_GPS_FS": 0})
+    # GIVEN a steady 6 m/s wind and no GPS fixes from 120 s to 150 s, default parameters
+    #       (the fault monitor's GPS-lost failsafe comes after FDI_DR_TIME = 60 s of
+    #       dead reckoning: a 30 s outage is flown through)
+    s, summary = fly(nav="ekf", scenario=MISSIONS_DIR / "gps_outage.toml", seed=1)
     # THEN the vehicle keeps flying the mission to its end,
     assert summary["completed"] is True
     assert summary["mission_items_reached"] == summary["mission_items_total"]
