@@ -262,8 +262,30 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+# options whose value is a comma-separated list of numbers that may start with a minus
+# sign (a southern latitude): argparse would take "-41.0,179.95,10,90" for an option
+_SIGNED_LIST_OPTIONS = ("--home", "--wind")
+
+
+def _join_signed_values(argv: list[str]) -> list[str]:
+    """``--home -41.0,179.95,10,90`` -> ``--home=-41.0,179.95,10,90``."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a in _SIGNED_LIST_OPTIONS and i + 1 < len(argv) and argv[i + 1][:1] == "-" \
+                and argv[i + 1][1:2].isdigit():
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser().parse_args(_join_signed_values(argv))
     try:
         return args.func(args)
     except CliError as e:
