@@ -28,6 +28,16 @@ def test_gps_off_detected_within_1s_isolated_and_failsafe_rtl():
     texts = [e[1] for e in s.log.events]
     assert any("failsafe RTL" in t for t in texts)
     assert s.vehicle.mode.name == "RTL" and not s.crashed
+    # AND the ground stations are told: SYS_STATUS GPS unhealthy, EKF_STATUS_REPORT
+    #     relative position only (dead reckoning)
+    from autopilot.gcs.telemetry import Telemetry
+    from autopilot.link.codec import MAV
+    tm = Telemetry(s.vehicle)
+    st = tm.sys_status()
+    assert st.onboard_control_sensors_present & MAV.MAV_SYS_STATUS_SENSOR_GPS
+    assert not st.onboard_control_sensors_health & MAV.MAV_SYS_STATUS_SENSOR_GPS
+    flags = tm.ekf_status_report().flags
+    assert flags & MAV.EKF_POS_HORIZ_REL and not flags & MAV.EKF_POS_HORIZ_ABS
 
 
 def test_gps_noise_x7_detected_within_2s_isolated_to_gps_pos():
@@ -144,4 +154,9 @@ def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
     assert any("failsafe LAND" in t for t in texts) and "touchdown" in texts
     assert not s.crashed and not s.vehicle.armed
     assert s.plant.touchdown_speed_mps is not None and s.plant.touchdown_speed_mps < 1.0
+    # AND SYS_STATUS reports the motor outputs unhealthy
+    from autopilot.gcs.telemetry import Telemetry
+    from autopilot.link.codec import MAV
+    st = Telemetry(s.vehicle).sys_status()
+    assert not st.onboard_control_sensors_health & MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
     assert summ["max_tilt_deg"] <= 30.0      # measured 21.6 deg (rotors 1-4: 17.8-21.6)

@@ -53,6 +53,19 @@ _SENSORS = {  # SYS_STATUS bit: innovation source that judges its health
     MAV.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE: "baro",
     MAV.MAV_SYS_STATUS_SENSOR_GPS: "gps_pos",
 }
+# the fault monitor's isolated channel (autopilot/monitor CHANNELS) -> the SYS_STATUS bit
+# it makes unhealthy
+_FAULT_BITS = {
+    **{f"gyro_{a}": MAV.MAV_SYS_STATUS_SENSOR_3D_GYRO for a in "xyz"},
+    **{f"accel_{a}": MAV.MAV_SYS_STATUS_SENSOR_3D_ACCEL for a in "xyz"},
+    "mag": MAV.MAV_SYS_STATUS_SENSOR_3D_MAG,
+    "baro": MAV.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+    "airspeed": MAV.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE,
+    "gps_pos": MAV.MAV_SYS_STATUS_SENSOR_GPS, "gps_vel": MAV.MAV_SYS_STATUS_SENSOR_GPS,
+    **{name: MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+       for name in ("aileron", "elevator", "rudder", "throttle", "motor_1", "motor_2", "motor_3",
+                    "motor_4")},
+}
 _CONTROL = (MAV.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | MAV.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
             | MAV.MAV_SYS_STATUS_SENSOR_YAW_POSITION | MAV.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
             | MAV.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL | MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS)
@@ -168,6 +181,9 @@ class Telemetry:
             health |= MAV.MAV_SYS_STATUS_AHRS
         if v.arm_checks() is None:
             health |= MAV.MAV_SYS_STATUS_PREARM_CHECK
+        iso = self._isolated()
+        if iso is not None:
+            health &= ~_FAULT_BITS.get(iso, 0)
         enabled = present & ~MAV.MAV_SYS_STATUS_PREARM_CHECK
         if not v.armed or v.mode.name in ("MANUAL",):
             enabled &= ~_CONTROL
@@ -340,6 +356,11 @@ class Telemetry:
         return MAV.MAVLink_mission_current_message(min(seq, 0xFFFF), n if n > 0 else 0xFFFF, state,
                                                    1 if auto else 2)
 
+    def _isolated(self) -> str | None:
+        """The channel the fault monitor has isolated, if any."""
+        mon = getattr(self.vehicle, "monitor", None)
+        return getattr(mon, "isolated", None) if mon is not None else None
+
     def _ratio(self, src: str) -> float:
         r = self.ratios.get(src)
         return r[0] if r is not None else 0.0
@@ -353,13 +374,20 @@ class Telemetry:
              MAV.EKF_POS_HORIZ_ABS, MAV.EKF_POS_VERT_ABS, MAV.EKF_PRED_POS_HORIZ_REL,
              MAV.EKF_PRED_POS_HORIZ_ABS)
         flags = MAV.EKF_ATTITUDE
-        if v.gps_fix_type >= 3 and nav.healthy:
+        mon = getattr(v, "monitor", None)
+        if getattr(mon, "dead_reckoning", False):
+            # GPS lost in flight: velocity and position carried on air data and the wind
+            # estimate, relative only (as ArduPilot's EKF reports dead reckoning)
+            flags |= (MAV.EKF_VELOCITY_HORIZ | MAV.EKF_VELOCITY_VERT | MAV.EKF_POS_HORIZ_REL
+                      | MAV.EKF_POS_VERT_ABS | MAV.EKF_PRED_POS_HORIZ_REL)
+        elif v.gps_fix_type >= 3 and nav.healthy:
             for f in P:
                 flags |= f
         else:
             flags |= MAV.EKF_VELOCITY_VERT | MAV.EKF_POS_VERT_ABS | MAV.EKF_CONST_POS_MODE
         r = self.ratios.get("gps_pos")
-        if r is not None and r[1]:
+        if r is not None and r[1] or self._isolated() in ("gps_pos", "gps_vel") \
+                and not getattr(mon, "dead_reckoning", False):
             flags |= MAV.EKF_GPS_GLITCHING
         return flags  # ESTIMATOR_STATUS_FLAGS have the same bit values
 

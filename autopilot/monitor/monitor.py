@@ -315,6 +315,11 @@ class FaultMonitor:
         # the margin of the healthy flight (sitl bench --false-alarms)
         self.peaks: dict[str, float] = {}
 
+    @property
+    def dead_reckoning(self) -> bool:
+        """The GPS has fallen silent (flagged after FDI_TOUT): navigation dead-reckons."""
+        return self.detected and self.aiding["gps_pos"].silent
+
     # ------------------------------------------------------------------- step ---
     def update(self, t_us: int, armed: bool = True) -> None:
         nav = self.nav
