@@ -33,3 +33,23 @@ def test_fdi_picture_from_the_monitor_columns(tmp_path):
                "false_alarms": 0}
     p = fault_monitor_picture(plt, tmp_path, a, summary)
     assert p == tmp_path / "fdi.png" and p.stat().st_size > 20_000
+
+
+def test_quad_fdi_picture_from_the_motor_monitor_columns(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tools.report import _quad_fdi_picture
+    # GIVEN the motor monitor's columns of a quad flight log (autopilot/vehicle_quad.py)
+    t = np.arange(0.0, 30.0, 0.016)
+    on = t >= 10.0
+    a = {"t_s": t, "fdi_motor_det": np.where(on, 9.0, 0.1), "fdi_motor_iso": np.where(on, 90.0, 0.01),
+         "fdi_gamma_1": np.where(on, 0.72, 1.0), "fdi_motor_lam": np.where((t > 10) & (t < 11), 80.0, 1.0)}
+    for k in (2, 3, 4):
+        a[f"fdi_gamma_{k}"] = np.ones_like(t)
+    summary = {"faults_injected": [{"at_s": 10.0, "unit": "motor", "type": "wrong", "instance": 0}],
+               "faults": [{"isolated": "motor_1", "identified": {"effectiveness": 0.72}}]}
+    # THEN fdi.png is drawn
+    p = _quad_fdi_picture(plt, tmp_path, a, summary)
+    assert p == tmp_path / "fdi.png" and p.stat().st_size > 20_000

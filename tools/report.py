@@ -13,7 +13,7 @@
 Quadrotor runs: ``track.png``, ``alt.png`` (height, distance from the reference and the
 hold points), ``attitude.png`` (roll, pitch, yaw against the attitude loops'
 references), ``motors.png`` (the four motor commands and the effective inputs of eq
-3.30) and ``nav_error.png``.
+3.30), ``nav_error.png`` and ``fdi.png`` (the motor fault monitor).
 """
 from __future__ import annotations
 
@@ -271,7 +271,48 @@ def _quad_pictures(plt, run_dir: Path, a: dict, armed: np.ndarray, summary: dict
     fig.savefig(p, dpi=110, bbox_inches="tight")
     plt.close(fig)
     out.append(p)
+    if "fdi_motor_det" in a:
+        out.append(_quad_fdi_picture(plt, run_dir, a, summary))
     return out
+
+
+def _quad_fdi_picture(plt, run_dir: Path, a: dict, summary: dict) -> Path:
+    """``fdi.png`` of a quadrotor run: the motor fault monitor (autopilot/monitor/
+    motors.py) -- its window detection statistic (2.12) and isolation statistic over
+    their thresholds, the four rotor effectiveness estimates of the second stage, and
+    the fading factor lambda of the Q adaptation (2.35-2.40)."""
+    t = a["t_s"]
+    fig, axes = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
+    axes[0].plot(t, np.maximum(a["fdi_motor_det"], 1e-3), lw=0.8, label="moment residual, window statistic")
+    axes[0].plot(t, np.maximum(a["fdi_motor_iso"], 1e-3), lw=0.8, label="isolation: (k_j - mean of the others)^2 / (4/3 P_jj), largest")
+    axes[0].axhline(1.0, color="k", lw=1.0, label="threshold")
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel("statistic / threshold")
+    axes[0].legend(loc="upper right", fontsize=7)
+    names = ("1 aft", "2 left", "3 front", "4 right")
+    for k in range(4):
+        axes[1].plot(t, a[f"fdi_gamma_{k + 1}"], lw=0.8, label=f"k rotor {names[k]}")
+    axes[1].set_ylabel("rotor effectiveness")
+    axes[1].legend(loc="lower left", ncol=4, fontsize=7)
+    axes[2].plot(t, a["fdi_motor_lam"], lw=0.8, label="fading factor lambda")
+    axes[2].set_yscale("log")
+    axes[2].set_ylabel("lambda")
+    axes[2].set_xlabel("time [s]")
+    axes[2].legend(loc="upper right", fontsize=7)
+    for ax in axes:
+        for f in summary.get("faults_injected", ()):
+            ax.axvline(f["at_s"], color="green" if f["type"] == "ok" else "red", ls="--", lw=0.8)
+        ax.grid(True, alpha=0.3)
+    faults = [f"{f['unit']} {f['type']} {f['instance']} at {f['at_s']:g} s"
+              for f in summary.get("faults_injected", ())]
+    ident = [f"{f.get('isolated')}: {f.get('identified')}" for f in summary.get("faults", ())
+             if f.get("identified")]
+    fig.suptitle("Motor fault monitor" + (": " + ", ".join(faults) if faults else "")
+                 + ("; " + ", ".join(ident) if ident else ""), fontsize=10)
+    p = run_dir / "fdi.png"
+    fig.savefig(p, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return p
 
 
 def _fmt(v) -> str:

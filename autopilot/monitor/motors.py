@@ -59,8 +59,9 @@ prediction uses the fading factor of eqs 2.35-2.40::
 so gamma follows the fault within seconds and the filter is the optimal one again
 (lambda = 1) once it has been learnt.
 
-Isolation: the rotor whose effectiveness is farthest from 1 in its own standard
-deviations, ``(1 - k_j)^2 / P_jj`` over chi2_{alpha, 1}, named ``motor_1`` .. ``motor_4``.
+Isolation: the rotor whose effectiveness is farthest below the mean of the other three
+in its own standard deviations, ``(k_j - mean_others)^2 / (4/3 P_jj)`` over
+chi2_{alpha, 1}, named ``motor_1`` .. ``motor_4``.
 Identification: ``{"effectiveness": k_j / mean(k_others)}`` (relative to the healthy
 rotors: the common scale c is frozen at the detection, and what the other rotors drift
 by since is common-mode model error, not the fault).
@@ -296,7 +297,11 @@ class MotorMonitor:
     # --------------------------------------------------------------- decision ---
     def _decide(self, t_s: float) -> None:
         from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
-        dev = (1.0 - self.gamma) ** 2 / np.maximum(np.diag(self.P), 1e-12) / self.thr_iso
+        # each rotor against the mean of the other three (the common-mode model error,
+        # which moves them all, cancels), in its own standard deviations
+        g = self.gamma
+        others = (float(g.sum()) - g) / 3.0
+        dev = (g - others) ** 2 / (np.maximum(np.diag(self.P), 1e-12) * (4.0 / 3.0)) / self.thr_iso
         j = int(np.argmax(dev))
         self.iso_ratio = float(dev[j])
         if not self.detected:
@@ -307,7 +312,7 @@ class MotorMonitor:
                 self.events.append((t_s, SEV_WARNING, "FDI: fault detected on the motors"))
             return
         ep = self.episodes[-1]
-        if self.isolated is None and self.iso_ratio > 1.0 and self.gamma[j] < 1.0:
+        if self.isolated is None and self.iso_ratio > 1.0 and g[j] < others[j]:
             self.isolated = f"motor_{j + 1}"
             ep.isolated, ep.isolated_s = self.isolated, t_s
             self._ident_next_s = t_s + IDENT_MIN_S
