@@ -7,6 +7,9 @@ simulation time only. Truth (HIL_STATE_QUATERNION) is never used to fly unless t
 navigation source is explicitly ``truth`` (a debugging aid); otherwise it is only
 logged for scoring.
 
+Flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix, on the steps
+that bring truth when the simulator paces it (``autopilot.log.flightlog.RowSchedule``).
+
 Frames: the navigation filter has its own origin (its first GPS fix). Home is set when
 the vehicle arms, from the navigation solution, as ArduPilot does, and guidance works in
 the local NED frame of home (``home_frame``). Mission item 0 is replaced by that home.
@@ -22,7 +25,7 @@ from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
 from .guidance.mission import MissionSequencer, NavTarget
-from .log.flightlog import FlightLog
+from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
 from .mission.items import Mission
 from .link.codec import MAV
@@ -66,6 +69,8 @@ LOG_COLUMNS = (
 _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 _NAN9 = (math.nan,) * 9
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
+LOG_DIV = 2          # flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix
+NAV_COV_DIV = 2      # EKF covariance prediction every 2nd step (autopilot/nav/ekf.py)
 
 
 def plane_param_declarations() -> list[Param]:
@@ -101,7 +106,7 @@ def make_nav(source: str, params: ParamStore):
     values = {n: v for n, v in params.items()}
     if source == "ekf":
         from .nav.ekf import InsGpsEkf
-        return InsGpsEkf(values, vehicle="plane")
+        return InsGpsEkf(values, vehicle="plane", cov_div=NAV_COV_DIV)
     if source == "ukf":
         from .nav.ukf import InsGpsUkf
         return InsGpsUkf(values, vehicle="plane")
@@ -143,7 +148,8 @@ class PlaneVehicle:
         self.gps_fix_type = 0
         self.last_t_us: int | None = None
         self.steps = 0
-        self._gps_this_step = None
+        self._gps_this_step = None              # the GPS fix for the next log row
+        self.log_rows = RowSchedule(LOG_DIV)
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -282,8 +288,8 @@ class PlaneVehicle:
         dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
         self.last_t_us = t_us
         self.steps += 1
-        self._gps_this_step = frame.gps
         if frame.gps is not None:
+            self._gps_this_step = frame.gps
             self.gps_fix_type = frame.gps.fix_type
 
         # sensors -> navigation
@@ -324,7 +330,10 @@ class PlaneVehicle:
             controls = self._fly(nav, dt, t_us)
         if mon is not None:
             mon.observe_controls(t_us, nav, controls, self.armed and not self.landed)
-        self._log(t_us, nav, truth, controls)
+        if truth is not None and self.armed and self.home_truth_alt_m is None:
+            self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
+        if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
+            self._log(t_us, nav, truth, controls)
         return ActuatorOutputs(t_us, controls, self.armed)
 
     def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
@@ -370,6 +379,8 @@ class PlaneVehicle:
                                 euler=self.euler)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
+        gps = self._gps_this_step
+        self._gps_this_step = None
         hf = self.home_frame
         if hf is None:
             return
@@ -393,7 +404,6 @@ class PlaneVehicle:
         if hasattr(self.nav, "P"):
             d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
             sig = tuple(d.tolist())
-        gps = self._gps_this_step
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
             gps_row = (g[0], g[1], gps.alt_m)

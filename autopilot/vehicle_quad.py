@@ -37,7 +37,7 @@ from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .link.codec import MAV
-from .log.flightlog import FlightLog
+from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
 from .mission.items import Mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
@@ -301,7 +301,7 @@ class QuadVehicle:
         self.steps = 0
         self._gps_this_step = None
         self._land_since_us: int | None = None
-        self._log_div = int(params["QD_LOG_DIV"])
+        self.log_rows = RowSchedule(params["QD_LOG_DIV"])
         self._alt_ref = 0.0                     # ALT_HOLD height reference (home frame, up)
         self._yaw_hold = 0.0
         self.euler = (0.0, 0.0, 0.0)
@@ -452,7 +452,7 @@ class QuadVehicle:
             return str(e)
         self.ctrl.configure()
         self.navigator.traj.w = self.params["WPNAV_SMOOTH"]
-        self._log_div = int(self.params["QD_LOG_DIV"])
+        self.log_rows.div = max(1, int(self.params["QD_LOG_DIV"]))
         return None
 
     def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float,
@@ -528,7 +528,9 @@ class QuadVehicle:
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)
         self._motors = motors
-        if self.steps % self._log_div == 0 or self._gps_this_step is not None or not self.log.rows:
+        if truth is not None and self.armed and self.home_truth_alt_m is None:
+            self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
+        if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs(t_us, motors, self.armed)
 
@@ -660,6 +662,8 @@ class QuadVehicle:
         self.disarm(t_us, force=True)
 
     def _log(self, t_us: int, nav: NavState, truth, motors) -> None:
+        gps = self._gps_this_step
+        self._gps_this_step = None
         hf = self.home_frame
         if hf is None:
             return
@@ -691,11 +695,9 @@ class QuadVehicle:
         P = getattr(self.nav, "P", None)
         if P is not None:
             sig = tuple(math.sqrt(x) if x > 0.0 else 0.0 for x in P.diagonal()[:9].tolist())
-        gps = self._gps_this_step
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)
-            self._gps_this_step = None
         else:
             gps_row = (math.nan, math.nan, math.nan)
         seq = float(tgt.seq) if tgt is not None else 0.0

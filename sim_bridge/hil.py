@@ -2,6 +2,12 @@
 the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION and
 HIL_SENSOR, and waits for the HIL_ACTUATOR_CONTROLS that answers the step.
 
+Truth: HIL_STATE_QUATERNION goes out every ``truth_div``-th step (1: every step, the
+default, which ``--nav truth`` needs) and with every HIL_GPS. It is for logging and
+scoring only, and the autopilot's flight log takes its rows on the steps that bring it
+(``autopilot.log.flightlog.RowSchedule``), so a headless run sets ``truth_div`` to the
+log's step divisor and encodes no truth the log would not keep.
+
 Lost or late answers: the simulator waits ``answer_timeout_s`` (wall time) for the
 answer whose ``time_usec`` matches the step; stale answers (older time) are dropped. On
 a timeout it sends the same HIL_SENSOR again (the autopilot repeats its answer without
@@ -43,14 +49,18 @@ class SimulatorHilEnd:
         self.stale = 0
         self.commands: list = []   # COMMAND_LONG from the autopilot (fault relay)
         self.armed = False
+        self.truth_div = 1         # HIL_STATE_QUATERNION every truth_div-th step (and with GPS)
+        self._steps_sent = 0
 
     # --- sending ---------------------------------------------------------------------
     def send_step(self, readings, truth) -> None:
+        """HIL_GPS (if a fix arrives), HIL_STATE_QUATERNION (module docstring: truth),
+        then HIL_SENSOR, in one write."""
         enc = self.codec.encode_values
         out = []
         gps = readings.gps
         if gps is not None:
-            vn, ve, vd = (float(x) for x in gps.v_ned)
+            vn, ve, vd = gps.v_ned.tolist()
             vel = math.hypot(vn, ve)
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
             out.append(enc(ID_GPS, (
@@ -63,22 +73,9 @@ class SimulatorHilEnd:
                 _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
                 _clamp_int(vd * 100.0, -32767, 32767),
                 _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites), 0, 0)))
-        q = truth.q_nb
-        v = truth.v_ned
-        f = truth.f_b
-        w = truth.omega_b
-        ias = truth.airspeed_mps * math.sqrt(truth.rho_kgm3 / 1.225)
-        out.append(enc(ID_STATE, (
-            truth.t_us, float(q[0]), float(q[1]), float(q[2]), float(q[3]),
-            float(w[0]), float(w[1]), float(w[2]),
-            _clamp_int(truth.lat_rad * RAD_TO_E7, -900000000, 900000000),
-            _clamp_int(truth.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
-            _clamp_int(truth.alt_m * 1000.0, -2**31, 2**31 - 1),
-            _clamp_int(v[0] * 100.0, -32767, 32767), _clamp_int(v[1] * 100.0, -32767, 32767),
-            _clamp_int(v[2] * 100.0, -32767, 32767),
-            _clamp_int(ias * 100.0, 0, 65535), _clamp_int(truth.airspeed_mps * 100.0, 0, 65535),
-            _clamp_int(f[0] * MG_PER_MS2, -32767, 32767), _clamp_int(f[1] * MG_PER_MS2, -32767, 32767),
-            _clamp_int(f[2] * MG_PER_MS2, -32767, 32767))))
+        self._steps_sent = k = self._steps_sent + 1
+        if gps is not None or self.truth_div <= 1 or k % self.truth_div == 0:
+            out.append(self._truth_message(truth))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS
@@ -86,14 +83,34 @@ class SimulatorHilEnd:
             flags |= BARO_FLAGS
         if readings.airspeed_updated:
             flags |= DIFF_FLAG
-        a, g, m = readings.accel_b, readings.gyro_b, readings.mag_b_gauss
+        ax, ay, az = readings.accel_b.tolist()
+        gx, gy, gz = readings.gyro_b.tolist()
+        mx, my, mz = readings.mag_b_gauss.tolist()
         self._sensor_buf = enc(ID_SENSOR, (
-            readings.t_us, float(a[0]), float(a[1]), float(a[2]),
-            float(g[0]), float(g[1]), float(g[2]), float(m[0]), float(m[1]), float(m[2]),
+            readings.t_us, ax, ay, az, gx, gy, gz, mx, my, mz,
             readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,
             readings.pressure_alt_m, readings.temperature_k - 273.15, flags, 0))
         out.append(self._sensor_buf)
         self.transport.send(b"".join(out))
+
+    def _truth_message(self, truth) -> bytes:
+        """HIL_STATE_QUATERNION of a PlantState."""
+        qw, qx, qy, qz = truth.q_nb.tolist()
+        vn, ve, vd = truth.v_ned.tolist()
+        fx, fy, fz = truth.f_b.tolist()
+        wx, wy, wz = truth.omega_b.tolist()
+        tas = truth.airspeed_mps
+        ias = tas * math.sqrt(truth.rho_kgm3 / 1.225)
+        return self.codec.encode_values(ID_STATE, (
+            truth.t_us, qw, qx, qy, qz, wx, wy, wz,
+            _clamp_int(truth.lat_rad * RAD_TO_E7, -900000000, 900000000),
+            _clamp_int(truth.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
+            _clamp_int(truth.alt_m * 1000.0, -2**31, 2**31 - 1),
+            _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
+            _clamp_int(vd * 100.0, -32767, 32767),
+            _clamp_int(ias * 100.0, 0, 65535), _clamp_int(tas * 100.0, 0, 65535),
+            _clamp_int(fx * MG_PER_MS2, -32767, 32767), _clamp_int(fy * MG_PER_MS2, -32767, 32767),
+            _clamp_int(fz * MG_PER_MS2, -32767, 32767)))
 
     def send_battery(self, battery) -> None:
         """BATTERY_STATUS of the simulated pack (``sim_bridge.battery.Battery``)."""
@@ -115,6 +132,8 @@ class SimulatorHilEnd:
         """Controls answering step ``t_us`` if they arrived (else None)."""
         data = self.transport.recv(timeout_s)
         found = None
+        if not data:
+            return found
         for msg in self.codec.decode(data, HIL_IDS):
             mid = getattr(msg, "msg_id", None)
             if mid == ID_ACTUATORS:

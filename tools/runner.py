@@ -131,6 +131,15 @@ class Session:
             self.log = FlightLog(LOG_COLUMNS)
             self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav,
                                         autostart=not self.interactive, log=self.log)
+        # truth (HIL_STATE_QUATERNION) only where the flight log keeps it: on its row
+        # steps (and with every GPS fix); every step when the run flies on truth
+        if cfg.nav == "truth":
+            self.sim_end.truth_div = 1
+        elif quad:
+            self.sim_end.truth_div = int(self.params["QD_LOG_DIV"])
+        else:
+            from autopilot.vehicle import LOG_DIV
+            self.sim_end.truth_div = LOG_DIV
         self.crashed = False
         self.wall_loop_s = 0.0
         self.interrupted = False
@@ -153,8 +162,6 @@ class Session:
             self.ap_end.answer(out)
             if gcs is not None:
                 gcs.after_step(frame, out)
-                if out.armed and truth is not None and self.vehicle.home_truth_alt_m is None:
-                    self.vehicle.home_truth_alt_m = truth.alt_m  # armed by a ground station: scoring
         controls = self.sim_end.poll_answer(self.bridge.t_us)
         self.bridge.advance(controls)
         if gcs is not None:

@@ -40,6 +40,8 @@ _V2_HEADER = struct.Struct("<BBBBBBBHB")
 _V1_HEADER = struct.Struct("<BBBBBB")
 _CRC = struct.Struct("<H")
 _MAP = mavlink2.mavlink_map
+_EXTRA = {msg_id: bytes((cls.crc_extra,)) for msg_id, cls in _MAP.items()}  # CRC extra byte
+_ZEROS = bytes(256)   # the truncated tail of a MAVLink 2 payload (at most 255 bytes)
 
 
 def _field_plan(cls):
@@ -58,9 +60,11 @@ _PLANS: dict[int, tuple | None] = {}
 
 class _Flat:
     """For one message class: the declared-order flat field list <-> the wire-order
-    tuple of its struct (arrays flattened in place), as C-level itemgetters."""
+    tuple of its struct (arrays flattened in place), as C-level itemgetters; and what
+    framing needs (the struct, its size, the CRC extra byte, the id's header bytes)."""
 
-    __slots__ = ("cls", "to_declared", "to_wire", "n")
+    __slots__ = ("cls", "to_declared", "to_wire", "n", "pack", "unpack", "unpack_from",
+                 "size", "extra", "id_bytes")
 
     def __init__(self, cls):
         plan = _field_plan(cls)
@@ -74,6 +78,13 @@ class _Flat:
         self.to_declared = itemgetter(*flat)
         self.to_wire = itemgetter(*inverse)
         self.n = len(flat)
+        self.pack = cls.unpacker.pack
+        self.unpack = cls.unpacker.unpack
+        self.unpack_from = cls.unpacker.unpack_from
+        self.size = cls.unpacker.size
+        self.extra = bytes((cls.crc_extra,))
+        msg_id = cls.id
+        self.id_bytes = bytes((msg_id & 0xFF, (msg_id >> 8) & 0xFF, msg_id >> 16))
 
 
 _FLAT: dict[int, _Flat] = {}
@@ -145,15 +156,14 @@ class Codec:
     def encode_values(self, msg_id: int, values) -> bytes:
         """Pack a message from its field values in declared order, arrays flattened
         (the fast path of the lockstep link: no message object is built)."""
-        f = _flat(msg_id)
-        payload = f.cls.unpacker.pack(*f.to_wire(values))
-        p = payload.rstrip(b"\x00") or b"\x00"
+        f = _FLAT.get(msg_id) or _flat(msg_id)
+        p = f.pack(*f.to_wire(values)).rstrip(b"\x00") or b"\x00"
         mav = self.mav
-        head = _V2_HEADER.pack(STX_V2, len(p), 0, 0, mav.seq, mav.srcSystem, mav.srcComponent,
-                               msg_id & 0xFFFF, msg_id >> 16)
-        mav.seq = (mav.seq + 1) % 256
-        body = head[1:] + p
-        return head[:1] + body + _CRC.pack(_crc16(body + bytes((f.cls.crc_extra,)), 0xFFFF))
+        seq = mav.seq
+        mav.seq = (seq + 1) % 256
+        # header after the magic byte: len, incompat 0, compat 0, seq, sysid, compid, id
+        body = bytes((len(p), 0, 0, seq, mav.srcSystem, mav.srcComponent)) + f.id_bytes + p
+        return b"\xfd" + body + _CRC.pack(_crc16(f.extra, _crc16(body, 0xFFFF)))
 
     # ------------------------------------------------------------------ decode ---
     def decode(self, data: bytes, raw_ids: frozenset = frozenset()) -> list:
@@ -165,61 +175,69 @@ class Codec:
         out = []
         n = len(buf)
         i = 0
-        while i < n:
-            j2 = buf.find(b"\xfd", i)
-            j1 = buf.find(b"\xfe", i)
-            if j2 < 0 and j1 < 0:
-                self.bad_frames += 1
-                i = n
-                break
-            j = j2 if j1 < 0 or (0 <= j2 < j1) else j1
-            if j > i:
-                self.bad_frames += 1  # bytes outside any frame
-            if buf[j] == STX_V2:
-                if n - j < 10:
-                    i = j
-                    break
-                plen, incompat = buf[j + 1], buf[j + 2]
-                hlen = 10
-                total = 12 + plen + (13 if incompat & 0x01 else 0)
-            else:
-                if n - j < 6:
-                    i = j
-                    break
-                plen, incompat = buf[j + 1], 0
-                hlen = 6
-                total = 8 + plen
-            if n - j < total:
-                i = j
-                break
-            if hlen == 10:
-                msg_id = buf[j + 7] | (buf[j + 8] << 8) | (buf[j + 9] << 16)
-            else:
-                msg_id = buf[j + 5]
-            cls = _MAP.get(msg_id)
-            end = j + hlen + plen
-            if cls is None or incompat & ~0x01 or \
-                    _CRC.unpack_from(buf, end)[0] != _crc16(bytes(buf[j + 1:end]) + bytes((cls.crc_extra,)), 0xFFFF):
-                self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
-                i = j + 1
-                continue
-            if msg_id in raw_ids and not incompat:
-                f = _flat(msg_id)
-                payload = bytes(buf[j + hlen:end])
-                size = cls.unpacker.size
-                if plen < size:
-                    payload += bytes(size - plen)
-                m = RawMessage(msg_id, buf[j + 5] if hlen == 10 else buf[j + 3],
-                               buf[j + 6] if hlen == 10 else buf[j + 4],
-                               f.to_declared(cls.unpacker.unpack(payload[:size])))
-                out.append(m)
+        find = buf.find
+        crc16 = _crc16
+        with memoryview(buf) as mv:
+            while i < n:
+                j = i
+                c = buf[j]
+                if c != STX_V2 and c != STX_V1:
+                    j2 = find(b"\xfd", i)
+                    j1 = find(b"\xfe", i)
+                    if j2 < 0 and j1 < 0:
+                        self.bad_frames += 1
+                        i = n
+                        break
+                    j = j2 if j1 < 0 or (0 <= j2 < j1) else j1
+                    self.bad_frames += 1  # bytes outside any frame
+                    c = buf[j]
+                if c == STX_V2:
+                    if n - j < 10:
+                        i = j
+                        break
+                    plen, incompat = buf[j + 1], buf[j + 2]
+                    hlen = 10
+                    total = 12 + plen + (13 if incompat & 0x01 else 0)
+                    if n - j < total:
+                        i = j
+                        break
+                    msg_id = buf[j + 7] | (buf[j + 8] << 8) | (buf[j + 9] << 16)
+                else:
+                    if n - j < 6:
+                        i = j
+                        break
+                    plen, incompat = buf[j + 1], 0
+                    hlen = 6
+                    total = 8 + plen
+                    if n - j < total:
+                        i = j
+                        break
+                    msg_id = buf[j + 5]
+                cls = _MAP.get(msg_id)
+                end = j + hlen + plen
+                if cls is None or incompat & ~0x01 or \
+                        (buf[end] | (buf[end + 1] << 8)) != crc16(_EXTRA[msg_id], crc16(mv[j + 1:end], 0xFFFF)):
+                    self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
+                    i = j + 1
+                    continue
+                if msg_id in raw_ids and not incompat:
+                    f = _FLAT.get(msg_id) or _flat(msg_id)
+                    size = f.size
+                    if plen >= size:
+                        t = f.unpack_from(buf, j + hlen)
+                    else:
+                        t = f.unpack(bytes(mv[j + hlen:end]) + _ZEROS[:size - plen])
+                    if hlen == 10:
+                        out.append(RawMessage(msg_id, buf[j + 5], buf[j + 6], f.to_declared(t)))
+                    else:
+                        out.append(RawMessage(msg_id, buf[j + 3], buf[j + 4], f.to_declared(t)))
+                    i = j + total
+                    continue
+                frame = bytes(mv[j:j + total])
+                m = self._message(cls, msg_id, frame, hlen, plen, incompat)
+                if m is not None:
+                    out.append(m)
                 i = j + total
-                continue
-            frame = bytes(buf[j:j + total])
-            m = self._message(cls, msg_id, frame, hlen, plen, incompat)
-            if m is not None:
-                out.append(m)
-            i = j + total
         if i:
             del buf[:i]
         self.received += len(out)

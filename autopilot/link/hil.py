@@ -57,6 +57,9 @@ HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS})
 #   HIL_ACTUATOR_CONTROLS: time_usec, controls[16], mode, flags
 
 
+_MG_TO_MS2 = 9.80665e-3
+
+
 class TruthSample:
     """Truth from HIL_STATE_QUATERNION, in SI (for logging and scoring only)."""
 
@@ -65,22 +68,27 @@ class TruthSample:
 
     def __init__(self, v):
         self.t_us = int(v[0])
-        self.q_nb = np.array(v[1:5])
-        self.omega_b = np.array(v[5:8])
+        # one array, handed out as views (one allocation)
+        a = np.array((v[1], v[2], v[3], v[4], v[5], v[6], v[7],
+                      v[11] * 0.01, v[12] * 0.01, v[13] * 0.01,
+                      v[16] * _MG_TO_MS2, v[17] * _MG_TO_MS2, v[18] * _MG_TO_MS2))
+        self.q_nb = a[0:4]
+        self.omega_b = a[4:7]
         self.lat_rad = v[8] / RAD_TO_E7
         self.lon_rad = v[9] / RAD_TO_E7
         self.alt_m = v[10] * 1e-3
-        self.v_ned = np.array((v[11] * 0.01, v[12] * 0.01, v[13] * 0.01))
+        self.v_ned = a[7:10]
         self.airspeed_mps = v[15] * 0.01
-        self.f_b = np.array((v[16] * 9.80665e-3, v[17] * 9.80665e-3, v[18] * 9.80665e-3))
+        self.f_b = a[10:13]
 
 
 def sensor_frame_from(v, gps: GpsFix | None) -> SensorFrame:
     """HIL_SENSOR values (+ a pending HIL_GPS) -> SensorFrame in SI."""
     t_us = int(v[0])
     flags = v[14]
-    imu = ImuSample(t_us, np.array(v[1:4]), np.array(v[4:7]))
-    mag = MagSample(t_us, np.array(v[7:10])) if flags & MAG_FLAGS else None
+    a = np.array(v[1:10])    # accel, gyro, mag: one array, handed out as views
+    imu = ImuSample(t_us, a[0:3], a[3:6])
+    mag = MagSample(t_us, a[6:9]) if flags & MAG_FLAGS else None
     baro = BaroSample(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
@@ -121,27 +129,32 @@ class AutopilotHilEnd:
     def poll(self, timeout_s: float = 0.0) -> list[tuple[SensorFrame, TruthSample | None]]:
         steps = []
         data = self.transport.recv(timeout_s)
+        if not data:
+            return steps
         for msg in self.codec.decode(data, HIL_IDS):
             mid = getattr(msg, "msg_id", None)
             if mid == ID_SENSOR:
                 v = msg.values
                 t_us = int(v[0])
-                if t_us == self._last_t_us:
+                last = self._last_t_us
+                if t_us == last:
                     # the simulator did not get our answer: repeat it, do not re-run
                     self.duplicates += 1
                     if self._last_answer is not None:
                         self.transport.send(self._last_answer)
                     continue
-                if self._last_t_us is not None and t_us < self._last_t_us:
+                if last is not None and t_us < last:
                     continue  # stale (late duplicate of an older step)
-                truth = self._truth if self._truth is not None and self._truth.t_us == t_us else None
+                truth = self._truth
+                if truth is not None and truth.t_us != t_us:
+                    truth = None
                 steps.append((sensor_frame_from(v, self._gps), truth))
                 self._gps = None
                 self._last_t_us = t_us
-            elif mid == ID_GPS:
-                self._gps = gps_fix_from(msg.values)
             elif mid == ID_STATE:
                 self._truth = TruthSample(msg.values)
+            elif mid == ID_GPS:
+                self._gps = gps_fix_from(msg.values)
             elif mid is None:
                 kind = msg.get_type()
                 if kind == "BATTERY_STATUS":
@@ -163,8 +176,13 @@ class AutopilotHilEnd:
         return acks
 
     def answer(self, outputs: ActuatorOutputs) -> None:
-        controls = tuple(outputs.controls) + (0.0,) * (16 - len(outputs.controls))
+        c = tuple(outputs.controls)
+        if len(c) < 16:
+            c += _ZERO_CONTROLS[len(c):]
         mode = MAV.MAV_MODE_FLAG_SAFETY_ARMED if outputs.armed else 0
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us,) + controls + (mode, 0))
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us,) + c + (mode, 0))
         self._last_answer = buf
         self.transport.send(buf)
+
+
+_ZERO_CONTROLS = (0.0,) * 16

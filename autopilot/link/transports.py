@@ -25,11 +25,17 @@ class TransportError(OSError):
 
 class MemoryEndpoint:
     """One end of an in-process byte pipe. Thread-safe, so it also works when the two
-    programs run in separate threads; in one thread ``recv`` never blocks."""
+    programs run in separate threads; in one thread ``recv`` never blocks.
+
+    The inbox is a deque, whose ``append`` and ``popleft`` are atomic: a sender appends
+    and takes the lock only to wake a receiver that waits (``_waiting``); a receiver
+    sets ``_waiting`` under the lock before it looks at the inbox and sleeps, so a
+    datagram is either seen by that look or followed by the sender's notify."""
 
     def __init__(self):
         self._inbox: deque[bytes] = deque()
         self._cond = threading.Condition()
+        self._waiting = False
         self.peer: MemoryEndpoint | None = None
         self.closed = False
 
@@ -37,21 +43,30 @@ class MemoryEndpoint:
         peer = self.peer
         if peer is None or peer.closed:
             return
-        with peer._cond:
-            peer._inbox.append(data)
-            peer._cond.notify()
+        peer._inbox.append(data)
+        if peer._waiting:
+            with peer._cond:
+                peer._cond.notify()
 
     def recv(self, timeout_s: float = 0.0) -> bytes:
-        with self._cond:
-            if not self._inbox and timeout_s > 0:
-                self._cond.wait(timeout_s)
-            if not self._inbox:
-                return b""
-            if len(self._inbox) == 1:
-                return self._inbox.popleft()
-            data = b"".join(self._inbox)
-            self._inbox.clear()
+        inbox = self._inbox
+        if not inbox and timeout_s > 0:
+            with self._cond:
+                self._waiting = True
+                try:
+                    if not inbox:
+                        self._cond.wait(timeout_s)
+                finally:
+                    self._waiting = False
+        if not inbox:
+            return b""
+        data = inbox.popleft()
+        if not inbox:
             return data
+        parts = [data]
+        while inbox:
+            parts.append(inbox.popleft())
+        return b"".join(parts)
 
     def close(self) -> None:
         self.closed = True

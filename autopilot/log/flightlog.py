@@ -42,3 +42,37 @@ class FlightLog:
             arrays[k] = np.asarray(v)
         with open(path, "wb") as f:
             np.savez_compressed(f, **arrays)
+
+
+class RowSchedule:
+    """Which lockstep steps get a flight-log row.
+
+    Rows are due every ``div``-th step (steps counted from 1) and at every step that
+    brings a GPS fix (the fix is scored against truth at its own time). Truth
+    (HIL_STATE_QUATERNION) is what the rows are for, and the simulator may send it only
+    on some steps (``sim_bridge``: every ``div``-th step and with every HIL_GPS): while
+    truth is arriving (seen within the last ``div`` steps), a row is taken only on a
+    step that has truth, so a due row waits for the next truth; when no truth comes at
+    all (another simulator), rows follow the step count alone.
+
+    ``take(step, truth, gps) -> bool``, called once per step; ``div`` may be changed
+    between steps (a parameter)."""
+
+    __slots__ = ("div", "_next", "_truth_step")
+
+    def __init__(self, div: int):
+        self.div = max(1, int(div))
+        self._next = self.div
+        self._truth_step: int | None = None
+
+    def take(self, step: int, truth: bool, gps: bool) -> bool:
+        div = self.div
+        if truth:
+            self._truth_step = step
+        elif self._truth_step is not None and step - self._truth_step <= div:
+            return False                      # truth is paced by the simulator: wait for it
+        due = step >= self._next
+        if due:
+            # the next due step on the lattice of multiples of div after this one
+            self._next = (step // div + 1) * div
+        return due or gps

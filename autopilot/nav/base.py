@@ -364,9 +364,11 @@ class NavFilterBase:
                 self._predict(dt, f1, [0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])])
             self._push_history(t)
 
-        batch = self._assemble(frame, gps, self._accumulate_aux(frame))
-        if batch is not None:
-            self._fuse(batch, t)
+        aux_due = self._accumulate_aux(frame)
+        if gps is not None or aux_due or self._pos_src == "fake":   # else nothing to fuse
+            batch = self._assemble(frame, gps, aux_due)
+            if batch is not None:
+                self._fuse(batch, t)
         self._update_health(t)
         return self._output(t)
 
@@ -743,6 +745,7 @@ class NavFilterBase:
     # --------------------------------------------------------------------- fusion --
     def _fuse(self, batch: Batch, t: int) -> None:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
+        self._sync_covariance()
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
         if self.r_scale_hook is not None:
             self._scale_r(batch, self.r_scale_hook)
@@ -901,6 +904,10 @@ class NavFilterBase:
                         a[13:16], self.aligned, self.healthy, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
+    def _sync_covariance(self) -> None:
+        """Bring P up to the present before a fusion (a filter that propagates its
+        covariance every few steps catches up here; the default propagates every step)."""
+
     def _reset_covariance_model(self) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 

@@ -39,6 +39,18 @@ its 24 dynamic entries are rewritten each step (one ``put``); Q is a constant di
 matrix for a given dt; the gain is solved with LAPACK ``dposv`` (Cholesky) instead of an
 explicit inverse; the aux sensors are fused at 25 Hz as means (base.py), so an update
 runs on every other step at most (50 us per step on average in the closed loop).
+
+Covariance rate (``cov_div``, 1 by default; the fixed-wing flies with 2). The nominal
+state is propagated at every IMU step and measurements are fused at the step they
+arrive, as above; the covariance prediction ``P = F P F^T + Q`` may instead run every
+``cov_div``-th step over the steps since the last one, and always right before a
+fusion. Over those steps F is the first-order transition of the whole interval (its
+dynamic entries are the sums of the per-step ones: ``-[sum f_n dt x]``, ``-sum R dt``;
+``F[POS, VEL] = sum dt``, the Gauss-Markov decay the product of the per-step ones) and
+Q the sum of the per-step noises (the Gauss-Markov part decayed exactly), plus the
+sampling errors of every step: the terms left out are second order in the interval
+(20 ms at 100 Hz with 2), as the per-step F already leaves out its own. Between two
+predictions ``P`` is the covariance at the last one (at most ``cov_div - 1`` steps old).
 """
 from __future__ import annotations
 
@@ -55,21 +67,28 @@ from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, VEL, WIND
 class InsGpsEkf(NavFilterBase):
     """INS/GPS error-state EKF.
 
-    ``InsGpsEkf(params=None, vehicle="plane", origin=None)``; ``update(frame) -> NavState``
-    once per IMU step; ``innovations`` (records of the latest update), ``P``,
-    ``sigma()``, ``reset()``. The origin is the vehicle's home if given, else the
-    first 3D GPS fix.
+    ``InsGpsEkf(params=None, vehicle="plane", origin=None, cov_div=1)``; ``update(frame)
+    -> NavState`` once per IMU step; ``innovations`` (records of the latest update),
+    ``P``, ``sigma()``, ``reset()``. The origin is the vehicle's home if given, else the
+    first 3D GPS fix. ``cov_div``: covariance prediction every N-th step (module
+    docstring).
     """
 
     SOURCE = "ekf"
 
+    def __init__(self, params=None, vehicle: str = "plane", origin=None, cov_div: int = 1):
+        self.cov_div = max(1, int(cov_div))
+        super().__init__(params, vehicle, origin)
+
     def _reset_covariance_model(self) -> None:
+        self._clear_pending()
         n = self.n
         self._P = np.eye(n)
         self._F = np.eye(n)          # preallocated; only the dynamic entries are rewritten
         self._I = np.eye(n)
         self._Q = np.zeros((n, n))
         self._q_dt = -1.0
+        self._interval_cache: dict = {}   # (dt, dt, ...) -> (diag Q, Gauss-Markov decay)
         # flat indices of F's dynamic entries: -[f_n x] dt (6 off-diagonal), -R dt (2 x 9)
         a, b, g, v = ATT.start, ABIAS.start, GBIAS.start, VEL.start
         idx = [(v + 0) * n + a + 1, (v + 0) * n + a + 2, (v + 1) * n + a + 0,
@@ -112,6 +131,9 @@ class InsGpsEkf(NavFilterBase):
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
         nom = self.nom
         self._propagate_nominal(dt, f_m, omega_m)
+        if self.cov_div > 1:
+            self._accumulate(dt)
+            return
         if dt != self._q_dt:
             self._process_noise(dt)
         fx, fy, fz = nom.f_n
@@ -134,6 +156,77 @@ class InsGpsEkf(NavFilterBase):
         if self._q_sample is not None:
             P.flat[self._qs_idx] += self._q_sample
         self._P = P
+
+    # ------------------------------------------- covariance every cov_div steps --
+    def _clear_pending(self) -> None:
+        self._pend: list[tuple] = []               # (dt, f_n, R, sampling error) per step
+
+    def _accumulate(self, dt: float) -> None:
+        """Keep one step's share of the interval's F and Q (module docstring)."""
+        nom = self.nom
+        pend = self._pend
+        pend.append((dt, nom.f_n, nom.R, self._q_sample))   # (fresh objects every step)
+        if len(pend) >= self.cov_div:
+            self._sync_covariance()
+
+    def _interval_noise(self, dts: tuple) -> tuple:
+        """(diag Q, Gauss-Markov decay) over the steps ``dts``: the per-step noises
+        summed, the Gauss-Markov part decayed exactly (b' = a b + w per step)."""
+        key = dts
+        hit = self._interval_cache.get(key)
+        if hit is not None:
+            return hit
+        q = np.zeros(self.n)
+        a_tot = 1.0
+        g = GPSB.start
+        for dt in dts:
+            self._process_noise(dt)
+            a = self._F[g, g]
+            q[GPSB] *= a * a                          # earlier steps' GPS noise decays
+            q += self._Q.diagonal()
+            a_tot *= a
+        if len(self._interval_cache) > 16:
+            self._interval_cache.clear()
+        self._interval_cache[key] = hit = (q, a_tot)
+        return hit
+
+    def _sync_covariance(self) -> None:
+        """P = F P F^T + Q over the steps not yet in P (module docstring)."""
+        pend = self._pend
+        if not pend:
+            return
+        dts = tuple(e[0] for e in pend)
+        q, a = self._interval_noise(dts)
+        # sums over the steps of f_n dt and R dt
+        dt, (fx, fy, fz), r, qs = pend[0]
+        fx, fy, fz = fx * dt, fy * dt, fz * dt
+        r = [c * dt for c in r]
+        for dt, f, rk, qk in pend[1:]:
+            fx, fy, fz = fx + f[0] * dt, fy + f[1] * dt, fz + f[2] * dt
+            r = [c + ck * dt for c, ck in zip(r, rk)]
+            if qk is not None:
+                qs = qk if qs is None else [c + ck for c, ck in zip(qs, qk)]
+        F = self._F
+        T = math.fsum(dts)
+        F[0, 3] = F[1, 4] = F[2, 5] = T
+        i = GPSB.start
+        F[i, i] = F[i + 1, i + 1] = F[i + 2, i + 2] = a
+        self._q_dt = -1.0                             # F's constant entries are the interval's
+        # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt
+        F.put(self._F_idx, (
+            fz, -fy, -fz, fx, fy, -fx,
+            -r[0], -r[1], -r[2], -r[3], -r[4], -r[5], -r[6], -r[7], -r[8],
+            -r[0], -r[1], -r[2], -r[3], -r[4], -r[5], -r[6], -r[7], -r[8]))
+        P = F @ self._P @ F.T
+        lam = self.q_scale_hook(T) if self.q_scale_hook is not None else None
+        if lam is None:
+            P.flat[:: self.n + 1] += q
+        else:
+            P.flat[:: self.n + 1] += q * lam
+        if qs is not None:
+            P.flat[self._qs_idx] += qs
+        self._P = P
+        self._pend = []
 
     def _gate_stats(self, batch) -> None:
         H = batch.H
