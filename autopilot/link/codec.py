@@ -170,76 +170,80 @@ class Codec:
         """Feed received bytes; return the complete, valid messages among them.
         Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`."""
         buf = self._buf
-        if data:
+        if buf:                 # the incomplete tail of the last call comes first
             buf += data
+            data = bytes(buf)
+            buf.clear()
+        elif not data:
+            return []
+        elif type(data) is not bytes:
+            data = bytes(data)
         out = []
-        n = len(buf)
+        n = len(data)
         i = 0
-        find = buf.find
+        find = data.find
         crc16 = _crc16
-        with memoryview(buf) as mv:
-            while i < n:
-                j = i
-                c = buf[j]
-                if c != STX_V2 and c != STX_V1:
-                    j2 = find(b"\xfd", i)
-                    j1 = find(b"\xfe", i)
-                    if j2 < 0 and j1 < 0:
-                        self.bad_frames += 1
-                        i = n
-                        break
-                    j = j2 if j1 < 0 or (0 <= j2 < j1) else j1
-                    self.bad_frames += 1  # bytes outside any frame
-                    c = buf[j]
-                if c == STX_V2:
-                    if n - j < 10:
-                        i = j
-                        break
-                    plen, incompat = buf[j + 1], buf[j + 2]
-                    hlen = 10
-                    total = 12 + plen + (13 if incompat & 0x01 else 0)
-                    if n - j < total:
-                        i = j
-                        break
-                    msg_id = buf[j + 7] | (buf[j + 8] << 8) | (buf[j + 9] << 16)
+        while i < n:
+            j = i
+            c = data[j]
+            if c != STX_V2 and c != STX_V1:
+                j2 = find(b"\xfd", i)
+                j1 = find(b"\xfe", i)
+                if j2 < 0 and j1 < 0:
+                    self.bad_frames += 1
+                    i = n
+                    break
+                j = j2 if j1 < 0 or (0 <= j2 < j1) else j1
+                self.bad_frames += 1  # bytes outside any frame
+                c = data[j]
+            if c == STX_V2:
+                if n - j < 10:
+                    i = j
+                    break
+                plen, incompat = data[j + 1], data[j + 2]
+                hlen = 10
+                total = 12 + plen + (13 if incompat & 0x01 else 0)
+                if n - j < total:
+                    i = j
+                    break
+                msg_id = data[j + 7] | (data[j + 8] << 8) | (data[j + 9] << 16)
+            else:
+                if n - j < 6:
+                    i = j
+                    break
+                plen, incompat = data[j + 1], 0
+                hlen = 6
+                total = 8 + plen
+                if n - j < total:
+                    i = j
+                    break
+                msg_id = data[j + 5]
+            cls = _MAP.get(msg_id)
+            end = j + hlen + plen
+            if cls is None or incompat & ~0x01 or \
+                    (data[end] | (data[end + 1] << 8)) != crc16(_EXTRA[msg_id], crc16(data[j + 1:end], 0xFFFF)):
+                self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
+                i = j + 1
+                continue
+            if msg_id in raw_ids and not incompat:
+                f = _FLAT.get(msg_id) or _flat(msg_id)
+                size = f.size
+                if plen >= size:
+                    t = f.unpack_from(data, j + hlen)
                 else:
-                    if n - j < 6:
-                        i = j
-                        break
-                    plen, incompat = buf[j + 1], 0
-                    hlen = 6
-                    total = 8 + plen
-                    if n - j < total:
-                        i = j
-                        break
-                    msg_id = buf[j + 5]
-                cls = _MAP.get(msg_id)
-                end = j + hlen + plen
-                if cls is None or incompat & ~0x01 or \
-                        (buf[end] | (buf[end + 1] << 8)) != crc16(_EXTRA[msg_id], crc16(mv[j + 1:end], 0xFFFF)):
-                    self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
-                    i = j + 1
-                    continue
-                if msg_id in raw_ids and not incompat:
-                    f = _FLAT.get(msg_id) or _flat(msg_id)
-                    size = f.size
-                    if plen >= size:
-                        t = f.unpack_from(buf, j + hlen)
-                    else:
-                        t = f.unpack(bytes(mv[j + hlen:end]) + _ZEROS[:size - plen])
-                    if hlen == 10:
-                        out.append(RawMessage(msg_id, buf[j + 5], buf[j + 6], f.to_declared(t)))
-                    else:
-                        out.append(RawMessage(msg_id, buf[j + 3], buf[j + 4], f.to_declared(t)))
-                    i = j + total
-                    continue
-                frame = bytes(mv[j:j + total])
-                m = self._message(cls, msg_id, frame, hlen, plen, incompat)
-                if m is not None:
-                    out.append(m)
+                    t = f.unpack(data[j + hlen:end] + _ZEROS[:size - plen])
+                if hlen == 10:
+                    out.append(RawMessage(msg_id, data[j + 5], data[j + 6], f.to_declared(t)))
+                else:
+                    out.append(RawMessage(msg_id, data[j + 3], data[j + 4], f.to_declared(t)))
                 i = j + total
-        if i:
-            del buf[:i]
+                continue
+            m = self._message(cls, msg_id, data[j:j + total], hlen, plen, incompat)
+            if m is not None:
+                out.append(m)
+            i = j + total
+        if i < n:
+            buf += data[i:]
         self.received += len(out)
         return out
 

@@ -172,11 +172,12 @@ class Batch:
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
-        self.m = len(z)
-        self.z = np.array(z)
-        self.h0 = np.array(h0)
-        self.R = np.array(R)
-        self.g2 = np.array(g2)
+        m = self.m = len(z)
+        a = np.array(z + h0 + R + g2)        # one allocation, handed out as views
+        self.z = a[:m]
+        self.h0 = a[m:2 * m]
+        self.R = a[2 * m:3 * m]
+        self.g2 = a[3 * m:]
         self.H = H
         self.y = None         # z - h0
         self.Sd = None        # diag(H P H^T) + R
@@ -230,6 +231,7 @@ class NavFilterBase:
         # flat offsets row * n + col of each source's H nonzeros
         self._h_offsets = {name: tuple(row * self.n + col for row, col in cols)
                            for name, cols in _H_COLS.items()}
+        self._h_index: dict[tuple, np.ndarray] = {}   # sources of a batch -> H's flat indices
         self._floor = _P_FLOOR[: self.n].copy()
         self._ceil = _P_CEIL[: self.n].copy()
         self.reset()
@@ -679,9 +681,13 @@ class NavFilterBase:
 
         if not z:
             return None
+        key = tuple(src)
+        idx = self._h_index.get(key)
+        if idx is None:
+            idx = self._h_index[key] = np.array(hi, dtype=np.intp)
         Hb = self._Hbuf
         Hb.fill(0.0)
-        Hb.put(hi, hv)
+        Hb.put(idx, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
     def _set_sampling_noise(self, dt: float, f0, f1, w0, w1) -> None:
@@ -797,14 +803,16 @@ class NavFilterBase:
         R and Sd are copied first (never written in place)."""
         R, Sd, y = batch.R, batch.Sd, batch.y
         copied = False
+        hph_all = Sd - R                              # diag(H P H^T)
+        r_all = R.copy()                              # the hook's copy of R
         for k, name in enumerate(batch.src):
             a = batch.start[k]
             b = a + batch.size[k]
-            r = R[a:b]
-            hph = Sd[a:b] - r
-            s = hook(name, y[a:b], hph, r.copy())
+            hph = hph_all[a:b]
+            s = hook(name, y[a:b], hph, r_all[a:b])
             if s is None:
                 continue
+            r = R[a:b]
             s = np.asarray(s, dtype=float)
             if (s == 1.0).all():
                 continue                              # the optimal filter, bit for bit
@@ -865,7 +873,9 @@ class NavFilterBase:
         """Symmetrise P and keep its diagonal inside [floor, ceiling]."""
         P = P + P.T
         P *= 0.5
-        P.flat[:: self.n + 1] = np.minimum(np.maximum(P.diagonal(), self._floor), self._ceil)
+        d = P.reshape(-1)[:: self.n + 1]              # the diagonal, as a writeable view
+        np.maximum(d, self._floor, out=d)
+        np.minimum(d, self._ceil, out=d)
         return P
 
     # --------------------------------------------------------------------- output --

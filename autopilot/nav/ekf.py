@@ -219,10 +219,11 @@ class InsGpsEkf(NavFilterBase):
             -r[0], -r[1], -r[2], -r[3], -r[4], -r[5], -r[6], -r[7], -r[8]))
         P = F @ self._P @ F.T
         lam = self.q_scale_hook(T) if self.q_scale_hook is not None else None
+        d = P.reshape(-1)[:: self.n + 1]              # the diagonal, as a writeable view
         if lam is None:
-            P.flat[:: self.n + 1] += q
+            d += q
         else:
-            P.flat[:: self.n + 1] += q * lam
+            d += q * lam
         if qs is not None:
             P.flat[self._qs_idx] += qs
         self._P = P
@@ -244,7 +245,7 @@ class InsGpsEkf(NavFilterBase):
             H, PHt, R, y = H[rows], PHt[:, rows], R[rows], y[rows]
             S = S[np.ix_(rows, rows)]
         # S = H P H^T + R
-        S.flat[:: S.shape[0] + 1] += R
+        S += np.diag(R)
         # K = P H^T S^-1   (Cholesky solve of S K^T = H P)
         _, KT, info = lapack.dposv(S, PHt.T)
         if info != 0:
