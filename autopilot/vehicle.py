@@ -300,7 +300,7 @@ class PlaneVehicle:
         if nav is None:
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
-        self.euler = quat_to_euler(nav.q_nb)  # (roll, pitch, yaw), computed once per step
+        self.euler = quat_to_euler(nav.q_nb.tolist())  # (roll, pitch, yaw), once per step
 
         # navigation -> fault monitor
         mon = self.monitor
@@ -388,7 +388,7 @@ class PlaneVehicle:
         er, ep, ey = self.euler
         if truth is not None:
             p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-            tr, tp, ty = quat_to_euler(truth.q_nb)
+            tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
             tv = truth.v_ned
             t_alt, t_as = truth.alt_m, truth.airspeed_mps
         else:

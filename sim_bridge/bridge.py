@@ -93,7 +93,8 @@ class SimBridge:
 
     # --------------------------------------------------------------- stepping ---
     def send_current(self) -> None:
-        self._apply_due_events()
+        if self._next_event < len(self.events):
+            self._apply_due_events()
         readings = self.sensors.sample(self.state)
         if self.faults is not None:
             readings = self.faults.apply(readings)
@@ -102,7 +103,8 @@ class SimBridge:
     def advance(self, controls: tuple | None) -> None:
         if controls is not None:
             self.controls = tuple(controls[:4])
-        self._handle_commands()
+        if self.link.commands:
+            self._handle_commands()
         c = self.controls
         if self.faults is not None:
             c = tuple(self.faults.apply_controls(c))

@@ -598,23 +598,20 @@ class NavFilterBase:
         n = self.n
         src, start, size, reset = [], [], [], []
         z, h0, R, g2 = [], [], [], []
-        hi, hv = [], []
-        offsets = self._h_offsets
+        hv = []
 
         def add(name, zs, hs, var, gate, vals, forced=False):
             """Append one source at row r: z, h, R; H[r + row, col] = val for the
-            (row, col) pairs of _H_COLS[name], kept as flat offsets row * n + col."""
-            r = len(z)
+            (row, col) pairs of _H_COLS[name] (flat offsets row * n + col, below)."""
             m = len(zs)
             src.append(name)
-            start.append(r)
+            start.append(len(z))
             size.append(m)
             reset.append(forced)
             z.extend(zs)
             h0.extend(hs)
             R.extend(var)
             g2.extend((gate * gate,) * m)
-            hi.extend(map((r * n).__add__, offsets[name]))
             hv.extend(vals)
 
         if gps is not None:
@@ -684,6 +681,10 @@ class NavFilterBase:
         key = tuple(src)
         idx = self._h_index.get(key)
         if idx is None:
+            # H's flat indices for this sequence of sources: row r of source k is its
+            # start row + the row of its (row, col) pairs
+            offsets = self._h_offsets
+            hi = [r * n + o for name, r in zip(src, start) for o in offsets[name]]
             idx = self._h_index[key] = np.array(hi, dtype=np.intp)
         Hb = self._Hbuf
         Hb.fill(0.0)

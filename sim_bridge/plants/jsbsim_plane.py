@@ -183,20 +183,27 @@ class JSBSimPlane:
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
+        # one array for the vectors, handed out as views (one allocation): v_ned, q_nb
+        # (Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first),
+        # omega_b, f_b, wind_ned
+        a = np.array((vn * FT_M, ve * FT_M, vd * FT_M,
+                      cr * cp * cy + sr * sp * sy,
+                      sr * cp * cy - cr * sp * sy,
+                      cr * sp * cy + sr * cp * sy,
+                      cr * cp * sy - sr * sp * cy,
+                      p, q, r,
+                      ax * FT_M, ay * FT_M, az * FT_M,
+                      wn * FT_M, we * FT_M, wd * FT_M))
         return PlantState(
             t_us=self._t_us,
             lat_rad=lat,
             lon_rad=_wrap_pi(lon),
             alt_m=alt,
-            v_ned=np.array((vn * FT_M, ve * FT_M, vd * FT_M)),
-            # Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
-            q_nb=np.array((cr * cp * cy + sr * sp * sy,
-                           sr * cp * cy - cr * sp * sy,
-                           cr * sp * cy + sr * cp * sy,
-                           cr * cp * sy - sr * sp * cy)),
-            omega_b=np.array((p, q, r)),
-            f_b=np.array((ax * FT_M, ay * FT_M, az * FT_M)),
-            wind_ned=np.array((wn * FT_M, we * FT_M, wd * FT_M)),
+            v_ned=a[0:3],
+            q_nb=a[3:7],
+            omega_b=a[7:10],
+            f_b=a[10:13],
+            wind_ned=a[13:16],
             airspeed_mps=vt * FT_M,
             alpha_rad=alpha,
             beta_rad=beta,

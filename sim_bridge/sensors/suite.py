@@ -177,6 +177,7 @@ class SensorSuite:
         self._bias_carry = bias[-1].copy()
         self._imu_bias = bias
         self._imu_err = block[:, _IMU_WHITE] * self._imu_white_scale + bias
+        self._imu_err_rows = self._imu_err.tolist()
         self._rows = block[:, _N_IMU:].tolist()
         self._row = 0
 
@@ -190,13 +191,16 @@ class SensorSuite:
         n = self._rows[i]
         t_us = state.t_us
 
-        # IMU
-        imu = np.concatenate((state.f_b, state.omega_b))
-        imu += self._imu_err[i]
+        # IMU (truth + this row's white noise and bias)
+        fx, fy, fz = state.f_b.tolist()
+        wx, wy, wz = state.omega_b.tolist()
+        e = self._imu_err_rows[i]
+        imu = np.array((fx + e[0], fy + e[1], fz + e[2], wx + e[3], wy + e[4], wz + e[5]))
         imu.flags.writeable = False
 
         # Barometer
-        baro_updated = self._next_baro_us is None or t_us >= self._next_baro_us
+        nxt = self._next_baro_us
+        baro_updated = nxt is None or t_us >= nxt
         if baro_updated:
             self._next_baro_us = self._advance(self._next_baro_us, self._baro_period_us, t_us)
             alt = state.alt_m
@@ -214,7 +218,8 @@ class SensorSuite:
             self._temperature_k = temp + prm.baro_temperature_sigma_k * n[_TEMP_W]
 
         # Magnetometer
-        mag_updated = self._next_mag_us is None or t_us >= self._next_mag_us
+        nxt = self._next_mag_us
+        mag_updated = nxt is None or t_us >= nxt
         if mag_updated:
             self._next_mag_us = self._advance(self._next_mag_us, self._mag_period_us, t_us)
             if self._b_ned is None:
@@ -236,7 +241,8 @@ class SensorSuite:
             self._mag_b = mag
 
         # Airspeed
-        arsp_updated = self._next_arsp_us is None or t_us >= self._next_arsp_us
+        nxt = self._next_arsp_us
+        arsp_updated = nxt is None or t_us >= nxt
         if arsp_updated:
             self._next_arsp_us = self._advance(self._next_arsp_us, self._arsp_period_us, t_us)
             rho = state.rho_kgm3
@@ -249,7 +255,8 @@ class SensorSuite:
             self._airspeed_mps = math.sqrt(2.0 * dp / isa.RHO0_KGM3) if dp > 0.0 else 0.0
 
         # GPS: compute a fix at its epoch, deliver it after the latency
-        if self._next_gps_us is None or t_us >= self._next_gps_us:
+        nxt = self._next_gps_us
+        if nxt is None or t_us >= nxt:
             self._next_gps_us = self._advance(self._next_gps_us, self._gps_period_us, t_us)
             self._gps_epoch(state, n)
         gps = None
