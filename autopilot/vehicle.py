@@ -70,7 +70,7 @@ _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 _NAN9 = (math.nan,) * 9
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 LOG_DIV = 2          # flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix
-NAV_COV_DIV = 2      # EKF covariance prediction every 2nd step (autopilot/nav/ekf.py)
+NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before every fusion (autopilot/nav/ekf.py)
 
 
 def plane_param_declarations() -> list[Param]:
@@ -350,8 +350,10 @@ class PlaneVehicle:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
             tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
         self.target = tgt
-        v_ne = (float(nav.v_ned[0]), float(nav.v_ned[1]))
-        p_ne = (float(p_ned[0]), float(p_ned[1]))
+        vn, ve, _ = nav.v_ned.tolist()
+        pn, pe, pd = p_ned.tolist()
+        v_ne = (vn, ve)
+        p_ne = (pn, pe)
         self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
         pitch_min = None
         throttle = None
@@ -372,7 +374,7 @@ class PlaneVehicle:
             self.xtrack_m = cmd.xtrack_m
         else:
             bank = 0.0
-        if tgt.kind != "takeoff" and -p_ned[2] < p["TKOFF_LVL_ALT"]:
+        if tgt.kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
@@ -384,12 +386,12 @@ class PlaneVehicle:
         hf = self.home_frame
         if hf is None:
             return
-        p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
         er, ep, ey = self.euler
         if truth is not None:
-            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
+            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
             tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
-            tv = truth.v_ned
+            tv = truth.v_ned.tolist()
             t_alt, t_as = truth.alt_m, truth.airspeed_mps
         else:
             p_tru = (math.nan, math.nan, math.nan)
@@ -399,13 +401,14 @@ class PlaneVehicle:
         c = self.ctrl
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
-        w = nav.wind_ned
+        w = nav.wind_ned.tolist()
+        v = nav.v_ned.tolist()
         sig = _NAN9
         if hasattr(self.nav, "P"):
             d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
             sig = tuple(d.tolist())
         if gps is not None:
-            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
+            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)
         else:
             gps_row = (math.nan, math.nan, math.nan)
@@ -414,7 +417,7 @@ class PlaneVehicle:
             float(KIND_CODES[tgt.kind]),
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
-            nav.v_ned[0], nav.v_ned[1], nav.v_ned[2], nav.airspeed_mps, w[0], w[1],
+            v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
             c.alt_dem_m if c.alt_dem_m is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
             tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,

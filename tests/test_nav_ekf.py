@@ -255,6 +255,27 @@ def test_accuracy_targets_on_the_simulator(long_run):
     assert a["inside_3sigma_min"] >= 0.95, a
 
 
+def test_covariance_every_few_steps_keeps_the_accuracy(long_run):
+    # GIVEN the same ten minutes of flight, WHEN the EKF predicts its covariance only
+    #       every 4th step and before each fusion (cov_div=4; the nominal state and the
+    #       fusions stay at every step; the fixed-wing flies with this)
+    sim, _, trace1, _ = long_run
+    filt = InsGpsEkf(PARAMS, "plane", CFG.origin(), cov_div=4)
+    trace4 = run_filter(filt, sim, keep_records=False)
+    a1, a4 = accuracy(trace1, sim, 60.0), accuracy(trace4, sim, 60.0)
+    # THEN the acceptance targets hold and the figures stay those of every-step prediction
+    assert a4["ratio"] <= 0.7, a4
+    assert a4["roll_rms_deg"] <= 0.5 and a4["pitch_rms_deg"] <= 0.5, a4
+    assert a4["yaw_rms_deg"] <= 2.0, a4
+    assert a4["inside_3sigma_min"] >= 0.95, a4
+    assert abs(a4["nav_pos_h_rms"] - a1["nav_pos_h_rms"]) <= 0.05 * a1["nav_pos_h_rms"], (a1, a4)
+    for k in ("roll_rms_deg", "pitch_rms_deg", "yaw_rms_deg"):
+        assert abs(a4[k] - a1[k]) <= 0.1 * a1[k] + 0.005, (k, a1, a4)
+    P = filt.P
+    assert np.abs(P - P.T).max() <= 1e-12 * np.abs(P).max()
+    assert np.linalg.eigvalsh(P).min() > 0.0
+
+
 def test_accuracy_with_white_gps_noise():
     # GIVEN a GPS whose 1.6 m error is white (as many SITL GPS models are), the filter
     #       told so (no Gauss-Markov state), four minutes of flight

@@ -168,18 +168,21 @@ class Batch:
     ``R`` (variances), ``g2`` (gate^2) and ``H`` (rows of a preallocated buffer)."""
 
     __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
-                 "y", "Sd", "ratio")
+                 "y", "Sd", "ratio", "g2_list", "y0")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
-        a = np.array(z + h0 + R + g2)        # one allocation, handed out as views
+        self.g2_list = g2
+        # y0 = z - h0 (the EKF's innovation); one allocation, handed out as views
+        a = np.array(z + h0 + R + g2 + [zi - hi for zi, hi in zip(z, h0)])
         self.z = a[:m]
         self.h0 = a[m:2 * m]
         self.R = a[2 * m:3 * m]
-        self.g2 = a[3 * m:]
+        self.g2 = a[3 * m:4 * m]
+        self.y0 = a[4 * m:]
         self.H = H
-        self.y = None         # z - h0
+        self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
         self.ratio = None     # y^2 / (gate^2 Sd)
 
@@ -757,10 +760,9 @@ class NavFilterBase:
         if self.r_scale_hook is not None:
             self._scale_r(batch, self.r_scale_hook)
         y, Sd = batch.y, batch.Sd
-        # test ratio = y^2 / (gate^2 S)
-        ratio = y * y / (batch.g2 * Sd)
-        batch.ratio = ratio
-        rl = ratio.tolist()
+        # test ratio = y^2 / (gate^2 S)   (on floats: one array instead of three)
+        rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
+        ratio = batch.ratio = np.array(rl)
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
         rejected = []
