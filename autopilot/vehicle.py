@@ -19,8 +19,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
-
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
@@ -149,6 +147,7 @@ class PlaneVehicle:
         self.last_t_us: int | None = None
         self.steps = 0
         self._gps_this_step = None              # the GPS fix for the next log row
+        self._p_home = None                     # (nav state, its position in home's NED)
         self.log_rows = RowSchedule(LOG_DIV)
 
     # ------------------------------------------------------------------ arming ---
@@ -351,7 +350,8 @@ class PlaneVehicle:
             tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
         self.target = tgt
         vn, ve, _ = nav.v_ned.tolist()
-        pn, pe, pd = p_ned.tolist()
+        pn, pe, pd = pl = p_ned.tolist()
+        self._p_home = (nav, pl)                 # for the log row of this step
         v_ne = (vn, ve)
         p_ne = (pn, pe)
         self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
@@ -386,7 +386,11 @@ class PlaneVehicle:
         hf = self.home_frame
         if hf is None:
             return
-        p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
+        ph = self._p_home
+        if ph is not None and ph[0] is nav:
+            p_est = ph[1]                        # computed by _fly this step
+        else:
+            p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
         er, ep, ey = self.euler
         if truth is not None:
             p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
@@ -404,9 +408,10 @@ class PlaneVehicle:
         w = nav.wind_ned.tolist()
         v = nav.v_ned.tolist()
         sig = _NAN9
-        if hasattr(self.nav, "P"):
-            d = np.sqrt(np.maximum(np.diagonal(self.nav.P)[:9], 0.0))
-            sig = tuple(d.tolist())
+        P = getattr(self.nav, "P", None)
+        if P is not None:
+            sig = tuple([math.sqrt(x) if x > 0.0 else (0.0 if x <= 0.0 else x)
+                         for x in P.diagonal()[:9].tolist()])
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)
