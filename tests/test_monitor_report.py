@@ -53,3 +53,26 @@ def test_quad_fdi_picture_from_the_motor_monitor_columns(tmp_path):
     # THEN fdi.png is drawn
     p = _quad_fdi_picture(plt, tmp_path, a, summary)
     assert p == tmp_path / "fdi.png" and p.stat().st_size > 20_000
+
+
+def test_innovation_log_columns_and_picture(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from autopilot.nav.records import InnovationLog, InnovationRecord
+    from tools.report import innovations_picture
+    # GIVEN GPS position records with a 5-sigma gate, one of them rejected
+    log = InnovationLog()
+    for k in range(50):
+        y = np.array([0.3, -0.2, 3.0 if k == 10 else 0.1])
+        S = np.array([0.25, 0.25, 0.04])
+        tr = y * y / (25.0 * S)
+        log.add([InnovationRecord(k * 200_000, "gps_pos", y, y, S, tr, bool(tr.max() > 1.0), True)])
+    a = log.arrays()
+    # THEN one row per component, the gate recovered from the test ratio, rejected marked
+    assert len(a["innov_t_s"]) == 150
+    assert np.allclose(a["innov_gate"], 5.0) and np.allclose(a["innov_sd"][:3], (0.5, 0.5, 0.2))
+    assert a["innov_rejected"].sum() == 3 and a["innov_value"][32] == 3.0
+    p = innovations_picture(plt, tmp_path, a)
+    assert p == tmp_path / "innovations.png" and p.stat().st_size > 20_000

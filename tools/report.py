@@ -5,6 +5,7 @@
 * ``xtrack.png``    cross-track error on the straight legs (counted part highlighted)
 * ``nav_error.png`` estimate error of each state with its +-3 sigma bound (when the
                     log carries the filter's sigmas)
+* ``innovations.png`` every fused measurement's innovation against +-gate x sqrt(S)
 * ``fdi.png``       the fault monitor (autopilot/monitor, LOG_COLUMNS there): each
                     statistic divided by its chi-square threshold (1 = threshold) and
                     the noise scale factor over time, injected faults, detected
@@ -107,7 +108,47 @@ def make_report(run_dir: Path) -> list[Path]:
         out.append(_nav_error(plt, run_dir, a, armed))
     if "fdi_gps_pos" in a:
         out.append(fault_monitor_picture(plt, run_dir, a, summary))
+    if "innov_t_s" in a and len(a["innov_t_s"]):
+        out.append(innovations_picture(plt, run_dir, a))
     return out
+
+
+_INNOV_PANELS = (("gps_pos", 0, "GPS position N [m]"), ("gps_pos", 1, "GPS position E [m]"),
+                 ("gps_pos", 2, "GPS position D [m]"), ("gps_vel", 0, "GPS velocity N [m/s]"),
+                 ("gps_vel", 1, "GPS velocity E [m/s]"), ("gps_vel", 2, "GPS velocity D [m/s]"),
+                 ("baro", 0, "baro altitude [m]"), ("mag", 0, "magnetic heading [rad]"),
+                 ("airspeed", 0, "airspeed [m/s]"), ("sideslip", 0, "sideslip (body-y air velocity) [m/s]"))
+
+
+def innovations_picture(plt, run_dir: Path, a: dict) -> Path:
+    """``innovations.png``: every fused measurement's innovation (autopilot/nav/records.py,
+    the flight log's ``innov_*`` columns) against its gate, +-gate x sqrt(S) (the
+    filter's innovation standard deviation times the gate in standard deviations);
+    rejected measurements in red."""
+    from autopilot.nav.records import SOURCES
+    t, src, comp = a["innov_t_s"], a["innov_source"], a["innov_comp"]
+    y, sd, gate, rej = a["innov_value"], a["innov_sd"], a["innov_gate"], a["innov_rejected"] > 0
+    fig, axes = plt.subplots(5, 2, figsize=(13, 13), sharex=True)
+    for ax, (name, k, label) in zip(axes.T.ravel(), _INNOV_PANELS):
+        m = (src == SOURCES.index(name)) & (comp == k)
+        if m.any():
+            ax.plot(t[m], y[m], ".", ms=1.2, color="tab:blue", label="innovation")
+            g = np.nan_to_num(gate[m], nan=0.0)
+            ax.plot(t[m], g * sd[m], lw=0.7, color="k", label="+- gate x sqrt(S)")
+            ax.plot(t[m], -g * sd[m], lw=0.7, color="k")
+            r = m & rej
+            if r.any():
+                ax.plot(t[r], y[r], "x", ms=3, color="red", label=f"rejected ({int(r.sum())})")
+            ax.legend(loc="upper right", fontsize=6)
+        ax.set_title(label, fontsize=9)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    fig.suptitle("Navigation filter innovations against their gates", fontsize=11)
+    p = run_dir / "innovations.png"
+    fig.savefig(p, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return p
 
 
 def _spans(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:

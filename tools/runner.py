@@ -238,8 +238,11 @@ def write_run(session: Session, summary: dict, log_dir: Path) -> Path:
             if it.command in POSITION_COMMANDS and (it.x_lat_deg, it.y_lon_deg) != (0.0, 0.0):
                 p = hf.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), hf.alt0_m)
                 mission_xy.append((it.seq, p[0], p[1]))
-    session.log.save(log_dir / "flight.npz",
-                     extra={"mission_wp": np.array(mission_xy, dtype=float).reshape(-1, 3)})
+    extra = {"mission_wp": np.array(mission_xy, dtype=float).reshape(-1, 3)}
+    innov = getattr(getattr(session.vehicle, "monitor", None), "innovation_log", None)
+    if innov is not None:
+        extra.update(innov.arrays())        # innov_* columns: every innovation record
+    session.log.save(log_dir / "flight.npz", extra=extra)
     session.params.save(log_dir / "params.parm")
     with open(log_dir / "summary.json", "w") as f:
         json.dump(summary, f, indent=2, sort_keys=True)

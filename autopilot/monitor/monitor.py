@@ -314,6 +314,8 @@ class FaultMonitor:
         # largest detection statistic / threshold per channel while no fault is detected:
         # the margin of the healthy flight (sitl bench --false-alarms)
         self.peaks: dict[str, float] = {}
+        from autopilot.nav.records import InnovationLog
+        self.innovation_log = InnovationLog()
 
     @property
     def dead_reckoning(self) -> bool:
@@ -323,7 +325,11 @@ class FaultMonitor:
     # ------------------------------------------------------------------- step ---
     def update(self, t_us: int, armed: bool = True) -> None:
         nav = self.nav
-        if not self.enabled or nav is None:
+        if nav is None:
+            return
+        if getattr(nav, "aligned", False):
+            self.innovation_log.add(nav.innovations)   # for the flight log (every record)
+        if not self.enabled:
             return
         if self._aligned_us is None:
             if not getattr(nav, "aligned", False):

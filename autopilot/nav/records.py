@@ -30,3 +30,34 @@ class InnovationRecord:
     test_ratio: np.ndarray             # y^2 / (gate^2 * S) per component; > 1 fails
     rejected: bool                     # the gate test failed (any component > 1)
     fused: bool                        # the measurement changed the state (fusion or reset)
+
+
+class InnovationLog:
+    """Every innovation record of a flight as columns, one row per component (for the
+    flight log and ``sitl report``'s innovations picture): time [s], source index in
+    SOURCES, component, innovation, its standard deviation sqrt(S), the gate in standard
+    deviations (from the test ratio: y^2 / (gate^2 S)), rejected."""
+
+    COLUMNS = ("innov_t_s", "innov_source", "innov_comp", "innov_value", "innov_sd",
+               "innov_gate", "innov_rejected")
+    _INDEX = {name: i for i, name in enumerate(SOURCES)}
+
+    def __init__(self):
+        self.rows: list[tuple] = []
+
+    def add(self, records) -> None:
+        rows = self.rows
+        index = self._INDEX
+        for r in records:
+            src = float(index.get(r.source, -1))
+            rej = 1.0 if r.rejected else 0.0
+            t = r.t_us * 1e-6
+            for k, (y, s, tr) in enumerate(zip(r.innovation.tolist(), r.innovation_variance.tolist(),
+                                                r.test_ratio.tolist())):
+                sd = s ** 0.5 if s > 0.0 else 0.0
+                gate = abs(y) / (sd * tr ** 0.5) if sd > 0.0 and tr > 0.0 else float("nan")
+                rows.append((t, src, float(k), y, sd, gate, rej))
+
+    def arrays(self) -> dict:
+        a = np.array(self.rows, dtype=float).reshape(-1, len(self.COLUMNS))
+        return {c: a[:, i] for i, c in enumerate(self.COLUMNS)}
