@@ -14,7 +14,9 @@ rotation speeds), with the magnetometer, barometer and GPS samples of the interv
 between, an output predictor (as PX4's EKF2 has) carries the latest estimate forward
 with each bias-corrected IMU sample: q <- q (x) Exp(omega dt), v <- v + (R f + g) dt,
 p <- p + v dt. The attitude loop thus sees a fresh attitude and the raw gyro rate at
-every step. QD_NAV_DIV = 1 runs the filter at the full rate.
+every step. QD_NAV_DIV = 1 runs the filter at the full rate. The filter predicts its
+covariance over as many of its steps as fit in 40 ms, and before every fusion
+(``InsGpsEkf(cov_div=...)``: 2 at 250 Hz with QD_NAV_DIV = 4).
 
 Frames: the filter's origin is its first GPS fix; home is set at arming from the
 navigation solution (as ArduPilot does) and guidance works in the NED frame of home,
@@ -155,6 +157,7 @@ class DecimatedNav:
         self._bg = (0.0, 0.0, 0.0)
         self._g = G
         self._last_t: int | None = None
+        self.f_raw = [0.0, 0.0, 0.0]    # this step's specific-force sample as floats
 
     @property
     def P(self):
@@ -183,7 +186,7 @@ class DecimatedNav:
 
     def update(self, frame: SensorFrame):
         imu = frame.imu
-        fx, fy, fz = imu.f_b.tolist()
+        fx, fy, fz = self.f_raw = imu.f_b.tolist()
         wx, wy, wz = imu.omega_b.tolist()
         t = frame.t_us
         dt = 0.0 if self._last_t is None else (t - self._last_t) * 1e-6
@@ -250,14 +253,21 @@ class DecimatedNav:
         return self.nav, self._p, self._v, self._q, [wx, wy, wz]
 
 
-def make_quad_nav(source: str, params: ParamStore):
+COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
+
+
+def make_quad_nav(source: str, params: ParamStore, dt_s: float = 0.004):
     if source == "truth":
         return TruthNav()
     values = {n: v for n, v in params.items()}
     div = int(params["QD_NAV_DIV"])
     if source == "ekf":
         from .nav.ekf import InsGpsEkf
-        return DecimatedNav(InsGpsEkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"])
+        # the covariance over as many filter steps as fit in COV_PERIOD_S (the aux
+        # sensors' fusion period): 2 at 250 Hz / 4 (autopilot/nav/ekf.py)
+        cov_div = max(1, int(COV_PERIOD_S / (max(div, 1) * dt_s) + 1e-9))
+        return DecimatedNav(InsGpsEkf(values, vehicle="quad", cov_div=cov_div), div,
+                            params["QD_NAV_AUX_HZ"])
     if source == "ukf":
         from .nav.ukf import InsGpsUkf
         return DecimatedNav(InsGpsUkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"])
@@ -277,7 +287,7 @@ class QuadVehicle:
         self.params = params
         self.mission = mission
         self.nav_source = nav_source
-        self.nav = make_quad_nav(nav_source, params)
+        self.nav = make_quad_nav(nav_source, params, dt_s)
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.dt_nominal = dt_s
@@ -603,8 +613,9 @@ class QuadVehicle:
         """The motor fault monitor on this step's IMU sample (less the filter's bias
         estimates) and the commands of the last step; its events to the log, its
         failsafe to the modes."""
-        ba = getattr(self.nav, "_ba", (0.0, 0.0, 0.0))
-        f = frame.imu.f_b.tolist()
+        nav = self.nav
+        ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
+        f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b.tolist()
         # free flight only: not on the ground nor within FDI_MOT_HAGL of home's height
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground

@@ -3,7 +3,8 @@ the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNIO
 HIL_SENSOR, and waits for the HIL_ACTUATOR_CONTROLS that answers the step.
 
 Truth: HIL_STATE_QUATERNION goes out every ``truth_div``-th step (1: every step, the
-default, which ``--nav truth`` needs) and with every HIL_GPS. It is for logging and
+default, which ``--nav truth`` needs) and with every HIL_GPS; ``truth_div = 0``: never
+(a run that scores from the plant itself). It is for logging and
 scoring only, and the autopilot's flight log takes its rows on the steps that bring it
 (``autopilot.log.flightlog.RowSchedule``), so a headless run sets ``truth_div`` to the
 log's step divisor and encodes no truth the log would not keep.
@@ -49,7 +50,7 @@ class SimulatorHilEnd:
         self.stale = 0
         self.commands: list = []   # COMMAND_LONG from the autopilot (fault relay)
         self.armed = False
-        self.truth_div = 1         # HIL_STATE_QUATERNION every truth_div-th step (and with GPS)
+        self.truth_div = 1         # HIL_STATE_QUATERNION every truth_div-th step (and with GPS); 0 never
         self._steps_sent = 0
 
     # --- sending ---------------------------------------------------------------------
@@ -74,7 +75,8 @@ class SimulatorHilEnd:
                 _clamp_int(vd * 100.0, -32767, 32767),
                 _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites), 0, 0)))
         self._steps_sent = k = self._steps_sent + 1
-        if gps is not None or self.truth_div <= 1 or k % self.truth_div == 0:
+        div = self.truth_div
+        if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
             out.append(self._truth_message(truth))
         flags = IMU_FLAGS
         if readings.mag_updated:

@@ -345,8 +345,9 @@ class QuadMember:
         if qs.gps == "rtk":
             for k2, val in RTK_EKF.items():
                 self.params.set(k2, val)
-        # truth (for the vehicle's own flight log only) on its row steps and with GPS
-        self.bridge.link.truth_div = 1 if qs.nav == "truth" else int(self.params["QD_LOG_DIV"])
+        # no truth on the HIL link unless the vehicle flies on it: the formation is
+        # scored from the plants, and the vehicles' own flight logs are not kept
+        self.bridge.link.truth_div = 1 if qs.nav == "truth" else 0
         self.ap_end = AutopilotHilEnd(ap_pipe)
         self.vehicle = FormationQuad(self.params, spec, vid, qs.nav, FlightLog(LOG_COLUMNS),
                                      dt_s=self.bridge.hil_period_us * 1e-6, start_s=QUAD_START_S)

@@ -47,13 +47,14 @@ class FlightLog:
 class RowSchedule:
     """Which lockstep steps get a flight-log row.
 
-    Rows are due every ``div``-th step (steps counted from 1) and at every step that
-    brings a GPS fix (the fix is scored against truth at its own time). Truth
+    Rows are due every ``div``-th step (steps counted from 1). Truth
     (HIL_STATE_QUATERNION) is what the rows are for, and the simulator may send it only
     on some steps (``sim_bridge``: every ``div``-th step and with every HIL_GPS): while
     truth is arriving (seen within the last ``div`` steps), a row is taken only on a
-    step that has truth, so a due row waits for the next truth; when no truth comes at
-    all (another simulator), rows follow the step count alone.
+    step that has truth, so a due row waits for the next truth, and every step that
+    brings truth with a GPS fix gets a row (the fix is scored against truth at its own
+    time). When no truth comes at all (another simulator), rows follow the step count
+    alone and a fix goes with the next row.
 
     ``take(step, truth, gps) -> bool``, called once per step; ``div`` may be changed
     between steps (a parameter)."""
@@ -75,4 +76,4 @@ class RowSchedule:
         if due:
             # the next due step on the lattice of multiples of div after this one
             self._next = (step // div + 1) * div
-        return due or gps
+        return due or (gps and truth)
