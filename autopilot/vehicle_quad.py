@@ -318,7 +318,7 @@ class QuadVehicle:
         self.p_home = (0.0, 0.0, 0.0)
         self.v_ned = (0.0, 0.0, 0.0)
         # motor fault monitor on the rotor force / moment balance (none on truth nav)
-        self.monitor = (MotorMonitor(params, dt_s) if params["FDI_ENABLE"] >= 1
+        self.monitor = (MotorMonitor(params, dt_s, div=2) if params["FDI_ENABLE"] >= 1
                         and params["FDI_MOT_ENABLE"] >= 1 else None)
         self._fdi_events = 0
         self._motors = (0.0, 0.0, 0.0, 0.0)     # the commands flown since the last step
@@ -613,6 +613,8 @@ class QuadVehicle:
         """The motor fault monitor on this step's IMU sample (less the filter's bias
         estimates) and the commands of the last step; its events to the log, its
         failsafe to the modes."""
+        if not mon.due():
+            return
         nav = self.nav
         ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
         f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b.tolist()

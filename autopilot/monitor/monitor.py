@@ -379,6 +379,11 @@ class FaultMonitor:
         el = self.elevator
         if el is None or nav_state is None or len(controls) < 2:
             return
+        # the identifier samples at half the loop rate (50 Hz): its signals are low-passed
+        # at 1 s and sampled at 10 Hz
+        self._el_k = k = getattr(self, "_el_k", 0) + 1
+        if k & 1:
+            return
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
                 float(controls[3]) if len(controls) > 3 else 0.0)
         t_s = t_us * 1e-6

@@ -86,8 +86,10 @@ compares the thrust the commands should give with what the airframe shows. Fails
 (FDI_MOT_FS): a rotor identified below FDI_MOT_MIN of its thrust makes the vehicle land
 where it is (1, LAND; 0: only report).
 
-Cost: the low-passes run every step (pure Python floats); the Kalman filter and the
-tests every 0.1 s (numpy, 4 x 4).
+Cost: the rotor lag model and the low-passes run every ``div``-th vehicle step (2 on
+the quadrotor: 125 Hz, pure Python floats; the commands are sampled there, well inside
+the rotor lag and the 0.1 s low-pass); the Kalman filter and the tests every 0.1 s
+(numpy, 4 x 4).
 """
 from __future__ import annotations
 
@@ -134,7 +136,7 @@ class MotorMonitor:
     ``peak`` (largest detection statistic / threshold while healthy)."""
 
     def __init__(self, params, dt_s: float, alpha: float = 1e-4, p_fa: float = 0.01,
-                 window: int = 10, clear_s: float = 2.0):
+                 window: int = 10, clear_s: float = 2.0, div: int = 1):
         from .monitor import Episode   # noqa: F401  (record type shared with the monitor)
         g = lambda n, d: float(params[n]) if params is not None and n in params else d  # noqa: E731
         self.enabled = g("FDI_MOT_ENABLE", 1.0) >= 1.0
@@ -150,6 +152,10 @@ class MotorMonitor:
         self.l = g("QD_ARM", 0.2335)
         self.ixx, self.iyy, self.izz = g("QD_IXX", 0.019), g("QD_IYY", 0.019), g("QD_IZZ", 0.0252)
         self.km = g("QD_KM", 0.0197)
+        # the balance runs every ``div``-th vehicle step (``due()``), dt_s apart each
+        self.div = max(1, int(div))
+        self._n_due = 0
+        dt_s = dt_s * self.div
         self.dt = dt_s
         self._lag = 1.0 - math.exp(-dt_s / g("QD_TAU", 0.055))
         self._b = 1.0 - math.exp(-dt_s / LP_TAU_S)
@@ -192,14 +198,24 @@ class MotorMonitor:
         """Largest detection statistic / threshold while no fault was detected."""
         return {"motors": self.peak}
 
+    def due(self) -> bool:
+        """Call once per vehicle step: True on the steps the monitor runs."""
+        self._n_due += 1
+        if self._n_due >= self.div:
+            self._n_due = 0
+            return self.enabled
+        return False
+
     # ------------------------------------------------------------------- step ---
     def update(self, t_us: int, flying: bool, motors, f_b, omega_b, thrust_of) -> None:
         if not self.enabled:
             return
         T = self.T
         a = self._lag
-        for j in range(4):
-            T[j] += (thrust_of(motors[j]) - T[j]) * a
+        T[0] += (thrust_of(motors[0]) - T[0]) * a
+        T[1] += (thrust_of(motors[1]) - T[1]) * a
+        T[2] += (thrust_of(motors[2]) - T[2]) * a
+        T[3] += (thrust_of(motors[3]) - T[3]) * a
         if not flying:
             self._lp = None
             self.flight_s = 0.0

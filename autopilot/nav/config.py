@@ -68,6 +68,7 @@ NAV_PARAMS: tuple[Param, ...] = (
     Param("EK_GPS_DELAY", 0.15, 0.0, 0.5, "s", "GPS latency: a fix arriving at t is valid at t - delay"),
     Param("EK_GPS_RST_T", 5.0, 0.5, 60.0, "s", "reset position/velocity to GPS after this long rejected"),
     # --- barometer, magnetometer --------------------------------------------------
+    Param("EK_AUX_HZ", 12.5, 1.0, 100.0, "Hz", "baro, magnetometer and airspeed fused as means at this rate"),
     Param("EK_BARO_NSE", 0.3, 0.01, 20.0, "m", "barometric altitude noise, 1 sigma"),
     Param("EK_BARO_GATE", 5.0, 1.0, 100.0, "SD", "barometric altitude innovation gate"),
     Param("EK_MAG_NSE", 0.03, 0.001, 1.0, "rad", "magnetic heading noise, 1 sigma"),
