@@ -217,11 +217,13 @@ class JSBSimPlane:
         """Hold ``controls`` for ``n_steps`` JSBSim steps and return the new state."""
         self._apply_controls(controls)
         run = self._fdm.run
+        # the gust advances once per call, over the n steps (its correlation lengths are
+        # tens to hundreds of metres: 0.25 m of flight per JSBSim step changes nothing)
+        if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
+            self._gusts.step(self, n_steps)
         for _ in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
-            if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
-                self._gusts.step(self)
             run()
             self._t_us += self._dt_us
         return self.state()
@@ -626,8 +628,8 @@ class _DrydenGusts:
         fdm["atmosphere/gust-east-fps"] = gust_e / FT_M
         fdm["atmosphere/gust-down-fps"] = gust_d / FT_M
 
-    def step(self, plant: "JSBSimPlane") -> None:
-        """Advance the gust one time step and hand it to JSBSim."""
+    def step(self, plant: "JSBSimPlane", n_steps: int = 1) -> None:
+        """Advance the gust ``n_steps`` time steps and hand it to JSBSim."""
         n = plant._n
         h_m = n["agl"]() * FT_M
         h_m = 3.0 if h_m < 3.0 else (300.0 if h_m > 300.0 else h_m)
@@ -646,7 +648,7 @@ class _DrydenGusts:
         nu_u, nu_v, nu_w = self._noise[self._k]
         self._k += 1
         x = self._x
-        step_m = speed * self._dt_s
+        step_m = speed * self._dt_s * n_steps
         a = math.exp(-step_m / length_u)
         x[0] = a * x[0] + sigma_u * math.sqrt(1.0 - a * a) * nu_u
         a = math.exp(-2.0 * step_m / length_u)
