@@ -78,11 +78,11 @@ effectiveness. (A stuck surface whose command happens to stay proportional to it
 not distinguishable from a loss of effectiveness without excitation; an elevator doublet
 would tell them apart.)
 
-Measured (default mission, fault at 142 s in a straight climb, seeds 1-3): stuck at
-0.17 rad -> detected +1.4-1.6 s, 0.154 / 0.146 / 0.139 rad 10 s after the onset; 50 %
-effectiveness -> detected +4.0-4.4 s, 0.58 / 0.52 / 0.52. The balance is fitted in
+Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
+detected +1.4-1.6 s, 0.171 / 0.133 / 0.156 / 0.146 / 0.152 rad 10 s after the onset
+(seeds 1-5); 50 % effectiveness -> detected +2.6-3.5 s, 0.49 / 0.50 / 0.53 (seeds 1-3). The balance is fitted in
 cruise: a stuck surface that slows the aircraft to 18 m/s at full throttle takes it
-outside the fitted conditions, and it is read 10-18 % low. Fault-free, ``sitl bench
+outside the fitted conditions, and it is read up to 22 % low. Fault-free, ``sitl bench
 --false-alarms`` (ten 10-minute flights): largest statistic 0.37 of the decision level. A fault in the first ~100 s of flight is not
 seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
 residual variance 20 s more.

@@ -52,9 +52,10 @@ How each is watched:
   with, less the command) over FDI_ACT_THR times its window chi-square threshold while
   every navigation statistic is under its own opens an actuator episode (kind
   "actuator", Q adaptation of the fault parameters on, identification logged once a
-  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.139-0.154
-  rad 10 s after the onset, 50 % effectiveness loss +4.0-4.4 s and 0.52-0.58 (seeds
-  1-3); fault-free peak 0.37 of the decision level over ten 10-minute flights.
+  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.133-0.171
+  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +2.6-3.5 s and
+  0.49-0.53 (seeds 1-3); fault-free peak 0.37 of the decision level over ten 10-minute
+  flights.
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
