@@ -67,6 +67,16 @@ def test_gps_noise_x7_mmnsf_error_well_under_the_plain_ekf():
     assert robust < 0.5
 
 
+def test_after_a_gps_fault_the_rest_of_the_mission_raises_no_alarm():
+    # GIVEN the GPS-noise fault (100-130 s), WHEN the mission goes on through its steep
+    #       idle descending turns (190-205 s), THEN no channel alarms: the elevator
+    #       identifier learnt nothing during the sensor fault (its inputs were suspect)
+    #       and its residual is normalised with a floor (this was a false alarm at 192 s)
+    _s, summ = _fly("fault_gps_noise.toml", 215.0)
+    assert summ["false_alarms"] == 0, summ["fdi_episodes"]
+    assert summ["fdi_peak_ratio"]["elevator"] < 0.8
+
+
 def test_pitch_gyro_bias_isolated_to_gyro_y_within_10s():
     s, summ = _fly("fault_gyro_y_bias.toml", 111.0)
     f = summ["faults"][0]
@@ -115,8 +125,8 @@ def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scena
     # GIVEN the default monitor, WHEN the elevator sticks at 0.17 rad (0.05 above trim) or
     # loses half its effectiveness at 142 s, THEN the fault is an actuator fault on the
     # elevator, detected within 5 s, its parameter from the moment balance within 20 %
-    # 10 s after the onset, and the aircraft keeps flying. Measured: effectiveness 0.49 /
-    # 0.50 / 0.53 (seeds 1-3); stuck 0.171 / 0.133 / 0.156 / 0.146 / 0.152 (seeds 1-5):
+    # 10 s after the onset, and the aircraft keeps flying. Measured: effectiveness 0.48 /
+    # 0.49 / 0.53 (seeds 1-3); stuck 0.171 / 0.133 / 0.156 / 0.146 / 0.152 (seeds 1-5):
     # seed 2 reads 22 % low, outside the 20 % -- the balance, fitted in cruise,
     # extrapolates to the slow, nose-high flight a stuck elevator leads to
     # (autopilot/monitor/actuator.py); that seed is not tested here

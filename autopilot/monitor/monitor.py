@@ -53,9 +53,9 @@ How each is watched:
   every navigation statistic is under its own opens an actuator episode (kind
   "actuator", Q adaptation of the fault parameters on, identification logged once a
   second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.133-0.171
-  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +2.6-3.5 s and
-  0.49-0.53 (seeds 1-3); fault-free peak 0.37 of the decision level over ten 10-minute
-  flights.
+  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +3.1-4.5 s and
+  0.48-0.53 (seeds 1-3); fault-free peak 0.12 of the decision level over ten 10-minute
+  flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
@@ -385,6 +385,8 @@ class FaultMonitor:
         self._el_k = k = getattr(self, "_el_k", 0) + 1
         if k & 1:
             return
+        # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
+        el.suspend(self.detected and self.episodes[-1].kind != "actuator")
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
                 float(controls[3]) if len(controls) > 3 else 0.0)
         t_s = t_us * 1e-6
