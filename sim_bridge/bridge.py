@@ -56,7 +56,7 @@ class SimBridge:
         self.battery = Battery() if vehicle == "plane" else Battery(cells=4, capacity_ah=5.0, max_power_w=800.0)
         self.battery_period_us = 1_000_000
         self._next_battery_us = 0
-        self._bat_u = self._bat_t = 0.0      # command x time and time since the last update
+        self._bat_u_s = self._bat_t_s = 0.0  # command x time [s] and time [s] since the last update
 
     @property
     def t_us(self) -> int:
@@ -123,11 +123,11 @@ class SimBridge:
         # the battery integrates the mean command over BATTERY_STEP_US (its power is
         # linear in the command and its voltage changes over minutes)
         dt = self.hil_period_us * 1e-6
-        self._bat_u += (u if self.link.armed else 0.0) * dt
-        self._bat_t += dt
-        if self._bat_t * 1e6 >= BATTERY_STEP_US - 1 or self.t_us >= self._next_battery_us:
-            self.battery.update(self._bat_u / self._bat_t, self._bat_t)
-            self._bat_u = self._bat_t = 0.0
+        self._bat_u_s += (u if self.link.armed else 0.0) * dt
+        self._bat_t_s += dt
+        if self._bat_t_s * 1e6 >= BATTERY_STEP_US - 1 or self.t_us >= self._next_battery_us:
+            self.battery.update(self._bat_u_s / self._bat_t_s, self._bat_t_s)
+            self._bat_u_s = self._bat_t_s = 0.0
         if self.t_us >= self._next_battery_us:
             self._next_battery_us = self.t_us + self.battery_period_us
             self.link.send_battery(self.battery)

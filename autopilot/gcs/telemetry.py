@@ -386,8 +386,8 @@ class Telemetry:
         else:
             flags |= MAV.EKF_VELOCITY_VERT | MAV.EKF_POS_VERT_ABS | MAV.EKF_CONST_POS_MODE
         r = self.ratios.get("gps_pos")
-        if r is not None and r[1] or self._isolated() in ("gps_pos", "gps_vel") \
-                and not getattr(mon, "dead_reckoning", False):
+        if (r is not None and r[1]) or (self._isolated() in ("gps_pos", "gps_vel")
+                                         and not getattr(mon, "dead_reckoning", False)):
             flags |= MAV.EKF_GPS_GLITCHING
         return flags  # ESTIMATOR_STATUS_FLAGS have the same bit values
 

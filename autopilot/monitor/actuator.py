@@ -36,8 +36,8 @@ a coordinated turn, is not in the moment equation: in a turn alpha and q both gr
 with n - 1, and alpha hardly varies otherwise in closed-loop cruise, so c_a alone is
 poorly identified (fitted 0.04 against the airframe's 0.76) and the balance was 0.04
 rad off in 30 deg banked turns (6 of its sigmas; a false alarm on the southern
-dateline mission in 6 m/s wind) until n - 1, which turns excite well, carried it. It is learnt by recursive least squares in healthy
-flight (:class:`MomentBalance`) on low-passed signals (time constant BAL_TAU_S = 1 s,
+dateline mission in 6 m/s wind) until n - 1, which turns excite well, carried it. It is
+learnt by recursive least squares in healthy flight (:class:`MomentBalance`) on low-passed signals (time constant BAL_TAU_S = 1 s,
 the same filter on every signal so the lag cancels), with the *commanded* deflection as
 the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
 that the fault is never in the fit when it is detected, and not on the first
@@ -80,11 +80,11 @@ would tell them apart.)
 
 Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
 detected +1.4-1.6 s, 0.171 / 0.133 / 0.156 / 0.146 / 0.152 rad 10 s after the onset
-(seeds 1-5); 50 % effectiveness -> detected +3.1-4.5 s, 0.48 / 0.49 / 0.53 (seeds 1-3). The balance is fitted in
-cruise: a stuck surface that slows the aircraft to 18 m/s at full throttle takes it
+(seeds 1-5); 50 % effectiveness -> detected +3.1-4.5 s, 0.48 / 0.49 / 0.53 (seeds
+1-3). The balance is fitted in cruise: a stuck surface that slows the aircraft to 18 m/s at full throttle takes it
 outside the fitted conditions, and it is read up to 22 % low. Fault-free, ``sitl bench
---false-alarms`` (ten 10-minute flights): largest statistic 0.12 of the decision level. A fault in the first ~100 s of flight is not
-seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
+--false-alarms`` (ten 10-minute flights): largest statistic 0.12 of the decision
+level. A fault in the first ~100 s of flight is not seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
 residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
@@ -117,7 +117,6 @@ K_MIN, K_MAX = 0.05, 1.2        # a loss-of-effectiveness k outside this: stuck
 SAT_SHARE = 0.5                 # command saturated this share of the window: stuck
 TEST_DIV = 5                    # detection test on every 5th balance sample (2 Hz)
 RES_TAU_S = 60.0                # healthy residual variance, exponential weighting [s]
-RES_SKIP_N = 50                 # fitted samples before the residual variance is kept
 RES_WARMUP_N = 200              # residual samples (20 s) learnt before the test runs
 RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad] (0.01 let the
                                 # steep idle descending turns of the default mission after a
@@ -146,16 +145,11 @@ class MomentBalance:
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        self._res_sum = None          # a-priori fit residual variance [rad^2]
 
     @property
     def ready(self) -> bool:
         return self.n >= 300          # 30 s of fitted samples
 
-    @property
-    def res_var(self) -> float | None:
-        """Variance of the a-priori fit residuals once the balance is ready [rad^2]."""
-        return self._res_sum if self.ready else None
 
     def step(self, t_us: int, alpha: float, q: float, V: float, throttle: float,
              d_cmd: float, turn: float = 0.0) -> tuple[float, float] | None:
@@ -189,16 +183,9 @@ class MomentBalance:
                 P = self.P
                 Pp = P @ ph
                 g = Pp / (1.0 + ph @ Pp)
-                e = dd - ph @ self.c              # a-priori residual of this sample
-                self.c = self.c + g * e
+                self.c = self.c + g * (dd - ph @ self.c)
                 self.P = P - np.outer(g, Pp)
                 self.n += 1
-                if self.n > RES_SKIP_N:
-                    # its variance: the running mean, then exponentially weighted over
-                    # RES_TAU_S
-                    k = self.n - RES_SKIP_N
-                    a = max(1.0 / k, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
-                    self._res_sum = e * e if self._res_sum is None else self._res_sum + a * (e * e - self._res_sum)
         if self.ready:
             z = float(phi @ self.c)
             h = self.hist
@@ -213,6 +200,12 @@ class MomentBalance:
         hold the fault) are dropped."""
         self.frozen = True
         self._queue.clear()
+
+    def suspend(self, on: bool) -> None:
+        """While ``on`` nothing is fitted; the samples waiting at its start are dropped."""
+        if on and not self.suspended:
+            self._queue.clear()
+        self.suspended = on
 
     def identify(self, since_us: int) -> dict | None:
         """The two hypotheses (2.23, 2.24) over the samples since ``since_us``."""
@@ -279,9 +272,9 @@ class ElevatorIdentifier:
         wind) are suspect: nothing is learnt, and the samples still waiting FIT_DELAY_S
         for the fit or the residual variance are dropped (they may already hold it)."""
         if on and not self.suspended:
-            self.balance._queue.clear()
             self._r_queue.clear()
-        self.suspended = self.balance.suspended = on
+        self.suspended = on
+        self.balance.suspend(on)
 
     def freeze(self, t_us: int) -> None:
         """A fault is detected: the moment balance and the residual variance stop
@@ -374,5 +367,5 @@ class ElevatorIdentifier:
             if r is not None:
                 return r
         if self.k < stuck_below:
-            return {"stuck_rad": round(self.s_rad + self.k * 0.0, 4), "k": round(self.k, 3)}
+            return {"stuck_rad": round(self.s_rad, 4), "k": round(self.k, 3)}
         return {"effectiveness": round(self.k, 3), "s_rad": round(self.s_rad, 4)}

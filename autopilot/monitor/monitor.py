@@ -298,6 +298,7 @@ class FaultMonitor:
             from .actuator import ElevatorIdentifier
             self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._ident_next_s = 0.0
+        self._el_k = 0                        # vehicle steps seen by observe_controls
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
         self.detected = False
@@ -382,8 +383,8 @@ class FaultMonitor:
             return
         # the identifier samples at half the loop rate (50 Hz): its signals are low-passed
         # at 1 s and sampled at 10 Hz
-        self._el_k = k = getattr(self, "_el_k", 0) + 1
-        if k & 1:
+        self._el_k += 1
+        if self._el_k & 1:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
         el.suspend(self.detected and self.episodes[-1].kind != "actuator")

@@ -56,6 +56,9 @@ prediction uses the fading factor of eqs 2.35-2.40::
     lambda = max(1, (tr C_k - tr(H P H^T) - tr R) / tr(H Q H^T))              (2.36-2.39)
     P_k/k-1 = P_k-1 + lambda Q                                                (2.40)
 
+(the traces taken of the innovations whitened by R^-1/2, so that the rows -- newtons of
+thrust and of moment over arm -- weigh alike: tr(R^-1 C) - tr(R^-1 H P H^T) - 4)
+
 so gamma follows the fault within seconds and the filter is the optimal one again
 (lambda = 1) once it has been learnt.
 
@@ -99,6 +102,7 @@ import numpy as np
 
 from autopilot.params import Param
 
+from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
 from .stats import WindowChi2, chi2_threshold, family_alpha
 
 LP_TAU_S = 0.1            # low-pass of every balance signal [s]
@@ -137,7 +141,6 @@ class MotorMonitor:
 
     def __init__(self, params, dt_s: float, alpha: float = 1e-4, p_fa: float = 0.01,
                  window: int = 10, clear_s: float = 2.0, div: int = 1):
-        from .monitor import Episode   # noqa: F401  (record type shared with the monitor)
         g = lambda n, d: float(params[n]) if params is not None and n in params else d  # noqa: E731
         self.enabled = g("FDI_MOT_ENABLE", 1.0) >= 1.0
         self.fs_action = int(g("FDI_MOT_FS", 1.0))
@@ -191,6 +194,7 @@ class MotorMonitor:
         self.accommodation: tuple[float, ...] | None = None   # rotor effectiveness for the mixer
         self._quiet_s: float | None = None
         self._ident_next_s = 0.0
+        self._fs_done = False
         self.peak = 0.0
 
     @property
@@ -239,6 +243,9 @@ class MotorMonitor:
     def _stage(self, t_us: int, omega) -> None:
         lp = self._lp
         t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = lp
+        tsum = t1 + t2 + t3 + t4
+        if tsum < MIN_THRUST_SHARE * self.m * 9.80665 * (self.c if self._c_ok else 1.0):
+            return
         inv = 1.0 / LP_TAU_S
         pd, qd, rd = (omega[0] - pf) * inv, (omega[1] - qf) * inv, (omega[2] - rf) * inv
         y = np.array((-self.m * fz,
@@ -247,9 +254,6 @@ class MotorMonitor:
                       (self.izz * rd + (self.iyy - self.ixx) * pq) / self.km))
         H = np.array(((t1, t2, t3, t4), (0.0, t2, 0.0, -t4), (-t1, 0.0, t3, 0.0),
                       (t1, -t2, t3, -t4)))
-        tsum = t1 + t2 + t3 + t4
-        if tsum < MIN_THRUST_SHARE * self.m * 9.80665 * (self.c if self._c_ok else 1.0):
-            return
         t_s = t_us * 1e-6
         healthy = not self.detected
         # stage 1: common scale and the no-fault residual
@@ -272,11 +276,10 @@ class MotorMonitor:
         var = np.maximum(self.var, 1e-6) + rel * rel
         sd = np.sqrt(var)
         # stage 2: Kalman filter over gamma, measurement y / c = H gamma
-        Hc = H
         z = y / self.c
         R = np.diag(var / (self.c * self.c))
         Q = np.eye(4) * (Q_RATE * Q_RATE * kf)
-        e = z - Hc @ self.gamma
+        e = z - H @ self.gamma
         lam = 1.0
         if self.detected and self._e_ring:
             # fading factor (2.35-2.39) from the window of innovations, on innovations
@@ -284,16 +287,16 @@ class MotorMonitor:
             # weigh alike: tr(W C W) = sum_i C_ii / R_ii
             w = 1.0 / np.diag(R)
             C = sum(v * v for v in self._e_ring) / len(self._e_ring)      # diag of (2.35)
-            hph = np.einsum("ij,jk,ik->i", Hc, self.P, Hc)
-            hqh = float(np.einsum("ij,jk,ik->i", Hc, Q, Hc) @ w)
+            hph = np.einsum("ij,jk,ik->i", H, self.P, H)
+            hqh = float(np.einsum("ij,jk,ik->i", H, Q, H) @ w)
             if hqh > 0.0:
                 lam = max(1.0, (float(C @ w) - float(hph @ w) - 4.0) / hqh)
         self.lam = lam
         P = self.P + lam * Q                                        # (2.40)
-        S = Hc @ P @ Hc.T + R
-        K = np.linalg.solve(S, Hc @ P).T                            # P H^T S^-1
+        S = H @ P @ H.T + R
+        K = np.linalg.solve(S, H @ P).T                            # P H^T S^-1
         self.gamma = self.gamma + K @ e
-        IKH = np.eye(4) - K @ Hc
+        IKH = np.eye(4) - K @ H
         self.P = IKH @ P @ IKH.T + K @ R @ K.T                     # Joseph form
         self.P = 0.5 * (self.P + self.P.T)
         self._e_ring.append(e)
@@ -312,7 +315,6 @@ class MotorMonitor:
 
     # --------------------------------------------------------------- decision ---
     def _decide(self, t_s: float) -> None:
-        from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
         # each rotor against the mean of the other three (the common-mode model error,
         # which moves them all, cancels), in its own standard deviations
         g = self.gamma
@@ -348,7 +350,7 @@ class MotorMonitor:
                                         f"(thrust {100.0 * k:.0f} %)"))
                 self.accommodation = tuple(acc)
             if k < self.k_min and self.fs_action == 1 and self.failsafe is None \
-                    and not getattr(self, "_fs_done", False):
+                    and not self._fs_done:
                 self._fs_done = True
                 self.failsafe = "LAND"
                 self.events.append((t_s, SEV_CRITICAL, f"FDI: {self.isolated} thrust "
