@@ -28,7 +28,8 @@ QUIET = SensorParams(  # every noise source off: the output is the truth
     gyro_bias_turn_on_sigma=0.0, accel_bias_rw_density=0.0, gyro_bias_rw_density=0.0,
     gps_pos_white_sigma_h=0.0, gps_pos_white_sigma_v=0.0, gps_pos_gm_sigma_h=0.0,
     gps_pos_gm_sigma_v=0.0, gps_vel_sigma_h=0.0, gps_vel_sigma_v=0.0,
-    baro_noise_sigma_pa=0.0, baro_drift_rw_density=0.0, baro_temperature_sigma_k=0.0,
+    baro_noise_sigma_pa=0.0, baro_drift_rw_density=0.0, baro_tendency_sigma_pa_s=0.0,
+    baro_temperature_sigma_k=0.0,
     mag_noise_sigma_gauss=0.0, airspeed_noise_sigma_pa=0.0)
 
 
@@ -261,6 +262,26 @@ def test_baro_altitude_error_is_bounded_and_updates_at_50_hz():
     assert np.diff(pres).std() == pytest.approx(math.sqrt(2) * 3.0, rel=0.05)
     # AND the temperature is the ISA temperature at 500 m
     assert np.mean([x.temperature_k for x in upd]) == pytest.approx(288.15 - 3.25, abs=0.01)
+
+
+def test_baro_drift_is_a_per_flight_pressure_tendency():
+    # GIVEN a barometer whose only error is the weather's tendency (sigma 1 hPa / 3 h)
+    p = dataclasses.replace(QUIET, baro_tendency_sigma_pa_s=SensorParams().baro_tendency_sigma_pa_s)
+    assert p.baro_tendency_sigma_pa_s == pytest.approx(100.0 / 10800.0)
+    rates = []
+    for seed in range(200):
+        suite = SensorSuite(p, np.random.default_rng(seed), DT)
+        # WHEN 2 s are sampled at a constant altitude
+        r = [x for x in run(suite, 200, lambda k, t: state(t, alt=500.0)) if x.baro_updated]
+        t = np.array([x.t_us for x in r]) * 1e-6
+        err = np.array([x.pressure_pa for x in r]) - isa.pressure_pa(500.0)
+        # THEN the pressure error is a straight line through zero at t = 0 ...
+        rate = float(err[-1] / t[-1])
+        assert np.abs(err - rate * t).max() < 1e-6
+        rates.append(rate)
+    # ... whose slope differs from flight to flight with sd 0.0093 Pa/s (+-15 % for n=200)
+    assert np.std(rates) == pytest.approx(100.0 / 10800.0, rel=0.15)
+    assert abs(np.mean(rates)) < 3 * 0.0093 / math.sqrt(200)
 
 
 def test_baro_uses_the_plant_pressure_when_given():

@@ -30,7 +30,8 @@ sensor suite (``sim_bridge/sensors/params.py``), so that the filters' defaults
   0.15 m/s vertical. Reported eph = the radial horizontal 1-sigma
   sqrt(2 (gm^2 + white^2)), epv the vertical one (as the flight simulator's).
 * Baro: 0.3 m white (3 Pa), a datum offset from the GPS altitude and a random-walk
-  drift of 0.026 m/sqrt(s) (0.3 Pa/sqrt(s)).
+  drift of 0.008 m/sqrt(s) (the flight simulator's weather tendency, 0.8 mm/s at one
+  sigma, has this spread after about 100 s).
 * Magnetometer: 0.5 gauss field, inclination -66 deg, declination 12 deg, 0.005 gauss noise.
 * Airspeed: a pitot's dynamic pressure 1/2 rho V^2 (rho of the ISA atmosphere at the
   altitude, as the baro's pressure and temperature) with 1.5 Pa white noise; the
@@ -82,7 +83,7 @@ class SimConfig:
     baro_rate_hz: float = 50.0
     baro_sigma: float = 0.3
     baro_offset_m: float = 4.0
-    baro_drift: float = 0.026                       # random walk [m/sqrt(s)]
+    baro_drift: float = 0.008                       # random walk [m/sqrt(s)]
     mag_rate_hz: float = 50.0
     mag_gauss: float = 0.5
     mag_inclination_deg: float = -66.0

@@ -59,8 +59,17 @@ Sources of the defaults (datasheet figures, then the margin we add for an airfra
   wandering at minute rate): the model of neither the receiver nor PX4.
 * Barometer: TE MS5611 (RMS resolution 0.012 mbar = 1.2 Pa at OSR 4096, ~1 cm of
   altitude per 0.12 Pa); we use 3 Pa (about 0.25 m) to include airframe and propwash
-  pressure noise, plus a slow random-walk drift (thermal) of 0.3 Pa/sqrt(s), about
-  0.6 m after 10 min.
+  pressure noise. Drift: the weather's pressure tendency, a constant rate over a flight
+  drawn once per run with sigma 1 hPa per 3 h (0.0093 Pa/s, 0.8 mm/s of altitude; the
+  Met Office's shipping-forecast terms call 0.1-1.5 hPa in 3 h "rising/falling
+  slowly" and 1.6-3.5 hPa plain "rising/falling"), so about 0.5 m after 10 min at one
+  sigma. The reference SITLs default to no drift at all: PX4's Gazebo Classic
+  barometer (gazebo_barometer_plugin.cpp) adds 1 Pa white noise and a linear drift
+  baroDriftPaPerSec that defaults to 0; ArduPilot's SIM_BARO_DRIFT defaults to 0 and its
+  board-temperature factor SIM_TEMP_BFACTOR too. A random-walk drift
+  (``baro_drift_rw_density``, Pa/sqrt(s)) is kept for studies, default 0: our earlier
+  default of 0.3 Pa/sqrt(s) had no source, and with it the quadrotor's altitude hold
+  was set by the simulated sensor's wander (0.17-0.38 m RMS over a one-minute hover).
 * Magnetometer: Honeywell HMC5883L (noise floor 2 mG) and iSentek IST8310 (0.3 uT =
   3 mG resolution); default 5 mG per axis including airframe currents. Hard-iron
   offset is a parameter, default 0 (a calibrated installation).
@@ -120,7 +129,8 @@ class SensorParams:
     # --- barometer ------------------------------------------------------------
     baro_rate_hz: float = 50.0               # update rate [Hz]
     baro_noise_sigma_pa: float = 3.0         # white pressure noise per sample [Pa]
-    baro_drift_rw_density: float = 0.3      # pressure drift random walk [Pa/sqrt(s)]
+    baro_tendency_sigma_pa_s: float = 1e2 / (3 * 3600.0)  # weather drift rate, 1 sigma [Pa/s]
+    baro_drift_rw_density: float = 0.0      # pressure drift random walk [Pa/sqrt(s)]
     baro_temperature_sigma_k: float = 0.05   # temperature noise per sample [K]
 
     # --- magnetometer ----------------------------------------------------------

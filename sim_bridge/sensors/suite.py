@@ -89,7 +89,8 @@ class SensorSuite:
         self._imu_rw_scale = np.array(
             [p.accel_bias_rw_density * sq] * 3 + [p.gyro_bias_rw_density * sq] * 3)
 
-        # Draws at construction, in this fixed order: turn-on biases, GM initial state.
+        # Draws at construction, in this fixed order: turn-on biases, GM initial state,
+        # the barometer's weather tendency.
         turn_on = rng.standard_normal(6)
         turn_on[:3] *= p.accel_bias_turn_on_sigma
         turn_on[3:] *= p.gyro_bias_turn_on_sigma
@@ -97,6 +98,7 @@ class SensorSuite:
         gm0 = rng.standard_normal(3)
         self._gm_sigma = (p.gps_pos_gm_sigma_h, p.gps_pos_gm_sigma_h, p.gps_pos_gm_sigma_v)
         self._gps_gm = [gm0[i] * self._gm_sigma[i] for i in range(3)]
+        self._baro_tendency_pa_s = float(rng.standard_normal()) * p.baro_tendency_sigma_pa_s
 
         # Noise block state
         self._imu_err = np.zeros((0, 6))         # white + bias per row
@@ -212,7 +214,8 @@ class SensorSuite:
                 temp = isa.temperature_k(alt)
             prm = self.params
             self._baro_drift_pa += self._baro_drift_k * n[_BARO_RW]
-            pres = p_true + self._baro_drift_pa + prm.baro_noise_sigma_pa * n[_BARO_W]
+            pres = (p_true + self._baro_drift_pa + self._baro_tendency_pa_s * t_us * 1e-6
+                    + prm.baro_noise_sigma_pa * n[_BARO_W])
             self._pressure_pa = pres
             self._pressure_alt_m = isa.pressure_altitude_m(pres)
             self._temperature_k = temp + prm.baro_temperature_sigma_k * n[_TEMP_W]
