@@ -410,8 +410,7 @@ class PlaneVehicle:
         sig = _NAN9
         P = getattr(self.nav, "P", None)
         if P is not None:
-            sig = tuple([math.sqrt(x) if x > 0.0 else (0.0 if x <= 0.0 else x)
-                         for x in P.diagonal()[:9].tolist()])
+            sig = tuple([math.sqrt(max(x, 0.0)) for x in P.diagonal()[:9].tolist()])  # NaN stays NaN
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)

@@ -37,8 +37,9 @@ with n - 1, and alpha hardly varies otherwise in closed-loop cruise, so c_a alon
 poorly identified (fitted 0.04 against the airframe's 0.76) and the balance was 0.04
 rad off in 30 deg banked turns (6 of its sigmas; a false alarm on the southern
 dateline mission in 6 m/s wind) until n - 1, which turns excite well, carried it. It is
-learnt by recursive least squares in healthy flight (:class:`MomentBalance`) on low-passed signals (time constant BAL_TAU_S = 1 s,
-the same filter on every signal so the lag cancels), with the *commanded* deflection as
+learnt by recursive least squares in healthy flight (:class:`MomentBalance`) on
+low-passed signals (time constant BAL_TAU_S = 1 s, the same filter on every signal so
+the lag cancels), with the *commanded* deflection as
 the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
 that the fault is never in the fit when it is detected, and not on the first
 FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-steady).
@@ -80,11 +81,12 @@ would tell them apart.)
 
 Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
 detected +1.4-1.6 s, 0.172 / 0.131 / 0.156 / 0.147 / 0.152 rad 10 s after the onset
-(seeds 1-5); 50 % effectiveness -> detected +3.1-4.5 s, 0.48 / 0.49 / 0.53 (seeds
-1-3). The balance is fitted in cruise: a stuck surface that slows the aircraft to 18 m/s at full throttle takes it
-outside the fitted conditions, and it is read up to 23 % low. Fault-free, ``sitl bench
---false-alarms`` (ten 10-minute flights): largest statistic 0.14 of the decision
-level. A fault in the first ~100 s of flight is not seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
+(seeds 1-5); 50 % effectiveness -> detected +3.1-4.9 s, 0.49 / 0.49 / 0.53 (seeds
+1-3). The balance is fitted in cruise: a stuck surface that slows the aircraft to
+18 m/s at full throttle takes it outside the fitted conditions, and it is read up to
+23 % low. Fault-free, ``sitl bench --false-alarms`` (ten 10-minute flights): largest
+statistic 0.14 of the decision level. A fault in the first ~100 s of flight is not
+seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
 residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
@@ -149,7 +151,6 @@ class MomentBalance:
     @property
     def ready(self) -> bool:
         return self.n >= 300          # 30 s of fitted samples
-
 
     def step(self, t_us: int, alpha: float, q: float, V: float, throttle: float,
              d_cmd: float, turn: float = 0.0) -> tuple[float, float] | None:

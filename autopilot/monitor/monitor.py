@@ -52,9 +52,9 @@ How each is watched:
   with, less the command) over FDI_ACT_THR times its window chi-square threshold while
   every navigation statistic is under its own opens an actuator episode (kind
   "actuator", Q adaptation of the fault parameters on, identification logged once a
-  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.133-0.171
-  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +3.1-4.5 s and
-  0.48-0.53 (seeds 1-3); fault-free peak 0.12 of the decision level over ten 10-minute
+  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.131-0.172
+  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +3.1-4.9 s and
+  0.49-0.53 (seeds 1-3); fault-free peak 0.14 of the decision level over ten 10-minute
   flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
@@ -137,6 +137,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from autopilot.nav.records import InnovationLog
 from autopilot.params import Param
 
 from .radapt import R_MULTIPLE, RAdapter, attach
@@ -316,7 +317,6 @@ class FaultMonitor:
         # largest detection statistic / threshold per channel while no fault is detected:
         # the margin of the healthy flight (sitl bench --false-alarms)
         self.peaks: dict[str, float] = {}
-        from autopilot.nav.records import InnovationLog
         self.innovation_log = InnovationLog()
 
     @property

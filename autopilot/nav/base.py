@@ -257,8 +257,7 @@ class NavFilterBase:
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
         self._t_us: int | None = None
-        self._gyro = np.zeros(3)              # last raw gyro sample [rad/s]
-        self._gyro_l = [0.0, 0.0, 0.0]        # ... as floats
+        self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
         self._gyro_prev: list | None = None   # the one before, floats [rad/s]
         self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
         self._q_sample: tuple | None = None   # sampling-error covariance of this step (18 entries)
@@ -351,8 +350,7 @@ class NavFilterBase:
         if gps is not None and self.origin is None:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
 
-        self._gyro = imu.omega_b
-        w1 = self._gyro_l = imu.omega_b.tolist()
+        w1 = self._gyro = imu.omega_b.tolist()
         w0 = self._gyro_prev if self._gyro_prev is not None else w1
         self._gyro_prev = w1
         f1 = imu.f_b.tolist()
@@ -916,7 +914,7 @@ class NavFilterBase:
             airspeed = math.sqrt((v[0] - w[0]) ** 2 + (v[1] - w[1]) ** 2 + v[2] ** 2)
         # omega_b = gyro - bias estimate (after this step's update)
         bg = nom.bg
-        gx, gy, gz = self._gyro_l
+        gx, gy, gz = self._gyro
         # one array for all vectors of the state, handed out as views (one allocation)
         a = np.array(p + nom.v + nom.q + [gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
