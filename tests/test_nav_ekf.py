@@ -305,6 +305,31 @@ def test_copter_has_no_wind_or_air_data():
     assert a["nav_pos_h_rms"] < 3.0 and a["inside_3sigma_min"] >= 0.95, a
 
 
+def test_barometric_height_reference_keeps_the_height_off_the_gps_wander():
+    # GIVEN a copter flight with a drift-free barometer and the GPS's vertical error
+    #       (0.6 m white, 0.4 m Gauss-Markov over 60 s)
+    cfg = dataclasses.replace(CFG, baro_drift=0.0)
+    sim = simulate_flight(np.random.default_rng(3), cfg, duration_s=120.0)
+    spread = {}
+    for ref in (0, 1):
+        filt = InsGpsEkf(dict(PARAMS, EK_HGT_REF=ref), "copter", cfg.origin())
+        # WHEN it runs with the barometer (0) or the GPS (1) as its height reference
+        ez = []
+        for i, frame in enumerate(sim.frames(0, len(sim))):
+            s = filt.update(frame)
+            if s.aligned and sim.t_us[i] > 20e6:
+                ez.append(s.p_ned[2] - sim.p_ned[i, 2])
+                # the filter's own position is the same in both; only the output differs
+                if ref == 0:
+                    assert s.p_ned[2] == pytest.approx(
+                        filt.position_ned[2] - (filt.baro_bias - filt._bb0), abs=1e-9)
+        spread[ref] = float(np.std(ez))
+    # THEN the output height on the barometer's datum moves by centimetres (measured
+    #      0.044 m), against 0.185 m when it follows the GPS's height (seed 3)
+    assert spread[0] <= 0.07, spread
+    assert spread[0] <= 0.5 * spread[1], spread
+
+
 # ----------------------------------------------------------------- measurement models --
 
 def _aligned_filter(vehicle="plane"):

@@ -3,12 +3,14 @@
 truth (tools/summary.py quad_figures).
 
 Absolute figures (``hold_pos_rms_m``, ``land_error_m``, ...) include the navigation
-solution's own error: with the simulated u-blox-class GPS (1.2 m Gauss-Markov per axis,
-60 s) the EKF's position wanders by about a metre, more than the issue's bounds
-(0.3 m, 1.0 m). The issue's bounds are therefore asserted (a) on truth navigation
-(``--nav truth``), where the figures are the guidance/control/plant performance
-itself, and (b) with the EKF on the ``*_ctl`` figures (navigation solution against the
-target); the absolute EKF figures are checked against the navigation error."""
+solution's own error. In height the filter flies the barometer (EK_HGT_REF = 0), and
+the hover's absolute height error is within the issue's 0.15 m with the EKF. Horizontally
+the simulated u-blox-class GPS wanders 0.2 m per axis over a minute (Gauss-Markov, 60 s;
+0.28 m radial RMS expected), which no filter removes, about the issue's 0.3 m bound: the
+horizontal bounds are therefore asserted (a) on truth navigation (``--nav truth``), where
+the figures are the guidance/control/plant performance itself, and (b) with the EKF on
+the ``*_ctl`` figures (navigation solution against the target); the absolute EKF
+figures are checked against the navigation error."""
 import math
 
 import numpy as np
@@ -51,6 +53,7 @@ def test_hover_with_the_ekf_holds_where_it_believes_the_point_is():
     assert m["nav_source"] == "ekf"
     assert m["hold_pos_ctl_rms_m"] <= 0.3
     assert m["hold_alt_ctl_rms_m"] <= 0.15
+    assert m["hold_alt_rms_m"] <= 0.15          # absolute: the barometric height reference
     assert m["land_error_ctl_m"] <= 1.0
     # the absolute figures differ from those by the navigation error, no more
     assert m["hold_pos_rms_m"] <= m["hold_pos_ctl_rms_m"] + m["nav_pos_h_err_max_m"]

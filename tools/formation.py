@@ -30,7 +30,9 @@ GPS: formation flight at 1 m spacing needs relative positions good to centimetre
 a standard GNSS receiver (metres of slowly wandering error per vehicle) cannot give. The
 default ``[quad] gps = "rtk"`` gives each vehicle an RTK-class receiver (u-blox ZED-F9P
 class: 1 cm white + 1 cm Gauss-Markov per horizontal axis, 20 Hz, 50 ms latency) and sets its
-filter's GPS noise to match (and trusts the barometer less, 1 m); ``gps = "standard"`` keeps the default receiver (the
+filter's GPS noise to match (and trusts the barometer less, 1 m, and takes the GPS as its
+height reference, EK_HGT_REF = 1, as PX4's EKF2_HGT_REF = GNSS and ArduPilot's
+EK3_SRC1_POSZ = GPS are set for RTK); ``gps = "standard"`` keeps the default receiver (the
 formation then holds to the receivers' relative error, metres).
 
 Figures (truth, the formation's local NED frame): ``distance_error_max_m`` /
@@ -296,7 +298,7 @@ RTK_GPS = dict(gps_rate_hz=20.0, gps_latency_s=0.05, gps_pos_white_sigma_h=0.01,
                gps_pos_white_sigma_v=0.015, gps_pos_gm_sigma_h=0.01, gps_pos_gm_sigma_v=0.02,
                gps_vel_sigma_h=0.03, gps_vel_sigma_v=0.05)
 RTK_EKF = dict(EK_GPS_P_NSE=0.01, EK_GPS_Z_NSE=0.015, EK_GPSB_SD=0.01, EK_GPSB_Z_SD=0.02,
-               EK_GPS_V_NSE=0.03, EK_GPS_DELAY=0.05, EK_BARO_NSE=1.0)
+               EK_GPS_V_NSE=0.03, EK_GPS_DELAY=0.05, EK_BARO_NSE=1.0, EK_HGT_REF=1)
 
 
 class QuadMember:

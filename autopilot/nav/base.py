@@ -43,6 +43,22 @@ seed-to-seed spread (roll/pitch RMS 0.11 -> 0.14 deg, position and yaw within 1 
 * ``baro`` pressure altitude, ``h = alt0 - p_D + b_baro``: the barometer offset is an
   error state (layout.BBIAS), initialised from the first GPS altitude with the GPS's
   vertical variance, then estimated against GPS altitude.
+  Height reference (EK_HGT_REF): the filter is the same either way; what differs is
+  the height it hands out. With the GPS (1) it is ``p_D``, the absolute estimate, which
+  moves as the GPS heights teach the offset state (the GPS's vertical error wanders
+  0.4 m over a minute, and the offset follows it at its random-walk rate). With the
+  barometer (0, the default) it is ``p_D - (b_baro - b_baro0)``: the barometer's height
+  smoothed by the IMU, on the datum fixed when the offset was initialised (one GPS
+  height, so up to a metre off in absolute altitude, constant over the flight). This
+  is ``alt0 - (baro - b_baro0)`` up to the filtering, the same information as ``p_D``
+  and ``b_baro`` rearranged (``baro = alt0 - p_D + b_baro``), so the innovations, the
+  gates and the fault monitor see nothing of the choice. ArduPilot flies the barometer
+  by default (EK3_SRC1_POSZ = 1) and PX4 offers it (EKF2_HGT_REF = 0); both take the
+  GPS for RTK receivers (the formation's quadrotors set EK_HGT_REF = 1). Measured on the
+  quadrotor's one-minute hover (seeds 1-10): hold_alt_rms 0.05-0.09 m on the
+  barometer, 0.08-0.37 m on the GPS, whose wander the offset carried into the height
+  flown after arming. The barometer's own drift (the weather's pressure tendency, about
+  1 mm/s) goes into the height instead, as on a real vehicle.
 * ``mag`` magnetic heading: the measured field rotated into NED by the estimate,
   ``m = R m_b``, must point at the declination. Innovation ``y = wrap(dec - atan2(m_E,
   m_N))``; recorded as a heading observation ``yaw + y`` against ``h = yaw``. With the
@@ -272,6 +288,8 @@ class NavFilterBase:
         self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
         self._fake_hold = [0.0, 0.0, 0.0]
         self._baro_ok = False                 # baro offset initialised from GPS
+        self._bb0 = 0.0                       # ... to this value: the baro height datum [m]
+        self._hgt_baro = int(self.params["EK_HGT_REF"]) == 0
         self._last_baro_alt: float | None = None
         self._airspeed: tuple[int, float] | None = None
         self._rej_since: dict[str, int] = {}
@@ -309,6 +327,13 @@ class NavFilterBase:
         if self.is_plane:
             out["wind"] = s[WIND]
         return out
+
+    @property
+    def position_ned(self) -> np.ndarray:
+        """The filter's NED position estimate, the state its covariance describes. The
+        output (NavState.p_ned) differs from it in height under the barometric height
+        reference (EK_HGT_REF = 0) by the offset estimate's change since its datum."""
+        return np.array(self.nom.p)
 
     @property
     def accel_bias(self) -> np.ndarray:
@@ -483,7 +508,7 @@ class NavFilterBase:
         white = self._gps_white(gps)
         baro_sd = _BARO_INIT_SD
         if self._last_baro_alt is not None:
-            nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+            nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._baro_ok = True
         self._init_covariance(self._sd_vector(
@@ -841,7 +866,7 @@ class NavFilterBase:
             self._rej_since.pop("gps_pos", None)
             self._pos_src = "gps"
             if not self._baro_ok and self._last_baro_alt is not None:
-                nom.bb = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+                nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
                 self._reset_covariance_block(BBIAS, self.P[_IP + 2, _IP + 2])
                 self._baro_ok = True
         elif source == "gps_vel":
@@ -902,6 +927,10 @@ class NavFilterBase:
     def _output(self, t: int) -> NavState:
         nom = self.nom
         p = nom.p
+        if self._hgt_baro and self._baro_ok:
+            # baro height reference: the height the barometer and the IMU give, on the
+            # datum of the offset's initialisation (module docstring)
+            p = [p[0], p[1], p[2] - (nom.bb - self._bb0)]
         if self.origin is not None:
             lat, lon, alt = self.origin.to_geodetic_fast(p)
         else:

@@ -39,8 +39,8 @@ where the simulation adds to them (default mission, light turbulence, seeds 1-5)
   0.1 m/s horizontal (0.15 m/s vertical: 1.5 times, base.py). The pessimistic
   long-horizon sensor model (``sim_bridge.sensors.params.GPS_LONG_HORIZON``) has its
   matching values in :data:`NAV_GPS_LONG_HORIZON` (``--param`` each of them).
-* Barometer: 3 Pa white is 0.26 m at 700 m (0.3 m); a 0.3 Pa/sqrt(s) drift is
-  0.026 m/sqrt(s) (0.03). Magnetometer: 5 mG per axis over the 0.24 G horizontal field
+* Barometer: 3 Pa white is 0.26 m at 700 m (0.3 m). Height reference: the barometer
+  (EK_HGT_REF = 0, base.py; the GPS for RTK receivers). Magnetometer: 5 mG per axis over the 0.24 G horizontal field
   at home is 0.021 rad of heading (0.03).
 * Airspeed 0.3 m/s and sideslip 0.5 m/s: not the pitot's 1.5 Pa (0.05 m/s) but what
   the wind states cannot follow of the turbulence (the residuals' RMS is 0.17 and
@@ -75,6 +75,7 @@ NAV_PARAMS: tuple[Param, ...] = (
     # --- barometer, magnetometer --------------------------------------------------
     Param("EK_AUX_HZ", 12.5, 1.0, 100.0, "Hz", "baro, magnetometer and airspeed fused as means at this rate"),
     Param("EK_BARO_NSE", 0.3, 0.01, 20.0, "m", "barometric altitude noise, 1 sigma"),
+    Param("EK_HGT_REF", 0.0, 0.0, 1.0, "enum", "height reference: 0 barometer (GPS height estimates its offset), 1 GPS", is_int=True),
     Param("EK_BARO_GATE", 5.0, 1.0, 100.0, "SD", "barometric altitude innovation gate"),
     Param("EK_MAG_NSE", 0.03, 0.001, 1.0, "rad", "magnetic heading noise, 1 sigma"),
     Param("EK_MAG_GATE", 5.0, 1.0, 100.0, "SD", "magnetic heading innovation gate"),

@@ -353,7 +353,9 @@ class FilterTrace:
 def run_filter(filt, sim: SimRun, start: int = 0, stop: int | None = None,
                keep_records: bool = True) -> FilterTrace:
     """Feed ``sim``'s frames to ``filt`` (anything with ``update(frame) -> NavState``
-    and ``P``) and collect errors against the truth."""
+    and ``P``) and collect errors against the truth. Position is the filter's own
+    estimate (``position_ned``, the state P describes) where it has one: under the
+    barometric height reference the output's height is on the barometer's datum."""
     stop = len(sim) if stop is None else stop
     n = stop - start
     p = np.full((n, 3), np.nan)
@@ -363,6 +365,7 @@ def run_filter(filt, sim: SimRun, start: int = 0, stop: int | None = None,
     aligned = np.zeros(n, dtype=bool)
     healthy = np.zeros(n, dtype=bool)
     records = []
+    state_pos = hasattr(filt, "position_ned")
     for i, frame in enumerate(sim.frames(start, stop)):
         s = filt.update(frame)
         aligned[i] = s.aligned
@@ -370,7 +373,7 @@ def run_filter(filt, sim: SimRun, start: int = 0, stop: int | None = None,
         if keep_records:
             records.append(filt.innovations)
         if s.aligned:
-            p[i], v[i], q[i] = s.p_ned, s.v_ned, s.q_nb
+            p[i], v[i], q[i] = (filt.position_ned if state_pos else s.p_ned), s.v_ned, s.q_nb
             sig[i] = np.sqrt(np.diagonal(filt.P)[:9])
     sl = slice(start, stop)
     att = qbatch.to_rotvec(qbatch.mul(sim.q_nb[sl], qbatch.conj(q)))
