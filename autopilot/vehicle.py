@@ -408,9 +408,9 @@ class PlaneVehicle:
         w = nav.wind_ned.tolist()
         v = nav.v_ned.tolist()
         sig = _NAN9
-        P = getattr(self.nav, "P", None)
-        if P is not None:
-            sig = tuple([math.sqrt(max(x, 0.0)) for x in P.diagonal()[:9].tolist()])  # NaN stays NaN
+        out_sig = getattr(self.nav, "output_sigmas9", None)
+        if out_sig is not None:
+            sig = out_sig()
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)

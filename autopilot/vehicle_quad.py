@@ -163,6 +163,9 @@ class DecimatedNav:
     def P(self):
         return self.filt.P
 
+    def output_sigmas9(self) -> tuple:
+        return self.filt.output_sigmas9()
+
     def _aux(self, t: int):
         """The averaged magnetometer and barometer samples, if due."""
         if self._aux_t is not None and t - self._aux_t < self._aux_us:
@@ -705,9 +708,9 @@ class QuadVehicle:
                        tgt.goal_ne[0], tgt.goal_ne[1], tgt.leg_a[0], tgt.leg_a[1])
             hold = float(tgt.hold)
         sig = _NAN9
-        P = getattr(self.nav, "P", None)
-        if P is not None:
-            sig = tuple(math.sqrt(x) if x > 0.0 else 0.0 for x in P.diagonal()[:9].tolist())
+        out_sig = getattr(self.nav, "output_sigmas9", None)
+        if out_sig is not None:
+            sig = out_sig()
         if gps is not None:
             g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
             gps_row = (g[0], g[1], gps.alt_m)

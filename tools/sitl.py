@@ -135,6 +135,14 @@ def cmd_run(args) -> int:
     if session.gcs is not None:
         print(f"sitl: ground stations: {session.gcs.stats()}", file=sys.stderr, flush=True)
     summary = run_summary(session)
+    if (summary.get("nav_pos_h_rms_during_fault_m") is not None and session.gcs is None
+            and not args.no_okf_replay and "FDI_RADAPT" in session.params.names()
+            and int(session.params["FDI_RADAPT"]) != 0):
+        # the comparison: the same seed flown again on the plain filter
+        from .summary import okf_replay
+        print("sitl: replaying the same seed with R adaptation off (FDI_RADAPT=0) for "
+              "nav_pos_h_rms_during_fault_okf_m (--no-okf-replay skips it)", file=sys.stderr, flush=True)
+        summary["nav_pos_h_rms_during_fault_okf_m"] = okf_replay(cfg)
     write_run(session, summary, log_dir)
     if args.json:
         print(json.dumps(summary, indent=2, sort_keys=True))
@@ -218,6 +226,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--param", action="append", help="NAME=VALUE parameter override (repeatable)")
     r.add_argument("--params", help=".parm file of parameters to load")
     r.add_argument("--json", action="store_true", help="print only the summary JSON on stdout")
+    r.add_argument("--no-okf-replay", action="store_true",
+                   help="with a sensor fault in the scenario: do not replay the seed with R adaptation "
+                        "off for nav_pos_h_rms_during_fault_okf_m")
     r.add_argument("--gcs", action="append", nargs="?", const="default", metavar="URL",
                    help="serve ground stations and wait for one to fly the vehicle: tcpin:HOST:PORT, "
                         "udpout:HOST:PORT, udpin:HOST:PORT (repeatable); alone: "

@@ -289,6 +289,7 @@ class NavFilterBase:
         self._fake_hold = [0.0, 0.0, 0.0]
         self._baro_ok = False                 # baro offset initialised from GPS
         self._bb0 = 0.0                       # ... to this value: the baro height datum [m]
+        self._bb0_var = 0.0                   # ... known to this variance [m^2]
         self._hgt_baro = int(self.params["EK_HGT_REF"]) == 0
         self._last_baro_alt: float | None = None
         self._airspeed: tuple[int, float] | None = None
@@ -327,6 +328,17 @@ class NavFilterBase:
         if self.is_plane:
             out["wind"] = s[WIND]
         return out
+
+    def output_sigmas9(self) -> tuple:
+        """1-sigma of the output's position, velocity and attitude errors (the first nine
+        error states). Under the barometric height reference the output's height is
+        ``p_D - b_baro`` on the datum ``b_baro0``: its variance is that of ``p_D - b_baro``
+        plus the datum's, the offset's variance when it was initialised."""
+        P = self.P
+        d = P.diagonal()[:9].tolist()
+        if self._hgt_baro and self._baro_ok:
+            d[2] = P[_IP + 2, _IP + 2] + P[_IBB, _IBB] - 2.0 * P[_IP + 2, _IBB] + self._bb0_var
+        return tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN stays NaN
 
     @property
     def position_ned(self) -> np.ndarray:
@@ -510,6 +522,7 @@ class NavFilterBase:
         if self._last_baro_alt is not None:
             nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
+            self._bb0_var = baro_sd * baro_sd
             self._baro_ok = True
         self._init_covariance(self._sd_vector(
             pos=1.0, vel=1.0, att=(0.3, 0.3, 0.35), abias=_BA_INIT_SD, gbias=0.02,
@@ -868,6 +881,7 @@ class NavFilterBase:
             if not self._baro_ok and self._last_baro_alt is not None:
                 nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
                 self._reset_covariance_block(BBIAS, self.P[_IP + 2, _IP + 2])
+                self._bb0_var = float(self.P[_IBB, _IBB])
                 self._baro_ok = True
         elif source == "gps_vel":
             nom.v = [nom.v[i] + dz[i] for i in range(3)]
