@@ -48,3 +48,10 @@ def test_run_with_a_gps_fault_replays_the_seed_on_the_plain_filter(tmp_path, cap
     # AND --no-okf-replay leaves it out
     assert main(argv + ["--no-okf-replay", "--log-dir", str(tmp_path / "b")]) == 0
     assert "nav_pos_h_rms_during_fault_okf_m" not in json.loads(capsys.readouterr().out)
+
+
+def test_gps_receiver_model_option():
+    assert _config(_args("run")).gps == "standard"
+    assert _config(_args("run", "--gps", "rtk")).gps == "rtk"
+    with pytest.raises(SystemExit):
+        _args("run", "--gps", "perfect")

@@ -58,6 +58,8 @@ from autopilot.formation.geometry import dist
 from autopilot.formation.peers import PeerTable, PositionPublisher
 from autopilot.formation.point import PointVehicle
 from autopilot.geo import LocalFrame
+from autopilot.nav.config import NAV_GPS_RTK as RTK_EKF
+from sim_bridge.sensors.params import GPS_RTK as RTK_GPS
 
 CONVERGE_S = 5.0           # figures exclude the first 5 s of formation flight
 LOG_HZ = 25.0              # truth samples for the figures
@@ -294,11 +296,6 @@ def run_point(spec: FormationSpec, seed: int, net, duration_s: float) -> dict:
 
 
 # --------------------------------------------------------------------- quad ---
-RTK_GPS = dict(gps_rate_hz=20.0, gps_latency_s=0.05, gps_pos_white_sigma_h=0.01,
-               gps_pos_white_sigma_v=0.015, gps_pos_gm_sigma_h=0.01, gps_pos_gm_sigma_v=0.02,
-               gps_vel_sigma_h=0.03, gps_vel_sigma_v=0.05)
-RTK_EKF = dict(EK_GPS_P_NSE=0.01, EK_GPS_Z_NSE=0.015, EK_GPSB_SD=0.01, EK_GPSB_Z_SD=0.02,
-               EK_GPS_V_NSE=0.03, EK_GPS_DELAY=0.05, EK_BARO_NSE=1.0, EK_HGT_REF=1)
 
 
 class QuadMember:

@@ -43,6 +43,7 @@ class RunConfig:
     speedup: float | None = None                   # None = as fast as possible
     duration_s: float = 1800.0
     nav: str = "ekf"
+    gps: str = "standard"                           # receiver model (GPS_PRESETS)
     home: tuple[float, float, float, float] | None = None  # lat, lon, alt, heading
     log_dir: Path | None = None
     progress: bool = False
@@ -81,15 +82,20 @@ class Session:
         self.cfg = cfg
         self.mission = load_mission(cfg.mission)
         self.home = cfg.home or mission_home(self.mission)
+        from autopilot.nav.config import NAV_GPS_PRESETS
+        from sim_bridge.sensors.params import GPS_PRESETS, SensorParams
+        if cfg.gps not in GPS_PRESETS:
+            raise ValueError(f"unknown GPS receiver model {cfg.gps!r} ({', '.join(GPS_PRESETS)})")
+        sensor_params = SensorParams(**GPS_PRESETS[cfg.gps])
         world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
-                            cfg.turbulence, cfg.vehicle)
+                            cfg.turbulence, cfg.vehicle, sensor_params)
         quad = cfg.vehicle == "quad"
         if cfg.home is None and world.wind.speed_mps >= LAUNCH_INTO_WIND_MPS and not quad:
             # as an operator would: the launcher points into the wind (a catapult shot
             # downwind leaves the rail below stall speed); --home's heading overrides
             self.home = (*self.home[:3], world.wind.from_deg % 360.0)
             world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
-                                cfg.turbulence, cfg.vehicle)
+                                cfg.turbulence, cfg.vehicle, sensor_params)
         self.world = world
         self.wind = world.wind
         self.plant = world.plant
@@ -113,6 +119,8 @@ class Session:
         airframe_parm = MISSIONS_DIR / "params" / f"{cfg.airframe}.parm"
         if airframe_parm.exists():
             self.params.load(airframe_parm)   # the airframe's tuning, before the user's
+        for k, v in NAV_GPS_PRESETS[cfg.gps].items():
+            self.params.set(k, v)             # the filter told of the receiver, before the user
         if self.interactive and cfg.param_store is not None and Path(cfg.param_store).exists():
             from autopilot.gcs import load_lenient
             for problem in load_lenient(self.params, Path(cfg.param_store))[1]:

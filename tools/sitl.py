@@ -83,7 +83,7 @@ def _config(args) -> RunConfig:
                      mission=Path(args.mission) if args.mission else default_mission,
                      scenario=scenario, wind=wind, turbulence=args.turbulence, seed=args.seed,
                      speedup=speedup, duration_s=1800.0 if duration is None else duration,
-                     nav=args.nav, home=home,
+                     nav=args.nav, gps=args.gps, home=home,
                      log_dir=Path(args.log_dir) if args.log_dir else None,
                      progress=not args.json and sys.stderr.isatty() and gcs is None,
                      params_file=Path(args.params) if args.params else None,
@@ -221,6 +221,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated seconds at most (default 1800; with --gcs: until Ctrl-C)")
     r.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"],
                    help="navigation source (truth is a debugging aid)")
+    r.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+                   help="receiver model: standard (u-blox M8/M9 class, default), rtk (ZED-F9P "
+                        "RTK fixed: centimetres; the filter flies GPS height), long-horizon "
+                        "(the data sheet's metres, wandering at minute rate); the filter's GPS "
+                        "parameters are set to match")
     r.add_argument("--home", help="LAT,LON,ALT_M,HEADING_DEG (default: the mission's item 0)")
     r.add_argument("--log-dir", help="run folder (default runs/DATE-TIME-seedN)")
     r.add_argument("--param", action="append", help="NAME=VALUE parameter override (repeatable)")

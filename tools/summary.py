@@ -352,6 +352,7 @@ def run_summary(session) -> dict:
         "vehicle": session.cfg.vehicle,
         "airframe": session.cfg.airframe,
         "nav_source": v.nav_source,
+        "gps": getattr(session.cfg, "gps", "standard"),
         "seed": session.cfg.seed,
         "completed": completed,
         "crashed": session.crashed,

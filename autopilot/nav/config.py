@@ -101,6 +101,17 @@ _DEFAULTS = {p.name: float(p.default) for p in NAV_PARAMS}
 NAV_GPS_LONG_HORIZON = {"EK_GPS_P_NSE": 0.3, "EK_GPS_Z_NSE": 0.5, "EK_GPSB_SD": 1.2,
                         "EK_GPSB_Z_SD": 2.5, "EK_GPSB_TAU": 60.0}
 
+# ... and for the RTK receiver (sim_bridge.sensors.params.GPS_RTK): its noise, the
+# barometer trusted less (1 m: the GPS height is now the better one) and the GPS as the
+# height reference, as PX4 (EKF2_HGT_REF = GNSS) and ArduPilot (EK3_SRC1_POSZ = GPS)
+# are set up for RTK.
+NAV_GPS_RTK = {"EK_GPS_P_NSE": 0.01, "EK_GPS_Z_NSE": 0.015, "EK_GPSB_SD": 0.01,
+               "EK_GPSB_Z_SD": 0.02, "EK_GPS_V_NSE": 0.03, "EK_GPS_DELAY": 0.05,
+               "EK_BARO_NSE": 1.0, "EK_HGT_REF": 1}
+
+# Filter parameters by receiver name (``sitl run --gps NAME``).
+NAV_GPS_PRESETS = {"standard": {}, "rtk": NAV_GPS_RTK, "long-horizon": NAV_GPS_LONG_HORIZON}
+
 
 def resolve(params: Mapping[str, float] | None) -> dict[str, float]:
     """Defaults overridden by ``params`` (a dict or a ParamStore); unknown EK_ names

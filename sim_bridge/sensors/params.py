@@ -97,6 +97,22 @@ GPS_LONG_HORIZON = {
     "gps_pos_gm_sigma_h": 1.2, "gps_pos_gm_sigma_v": 2.5, "gps_pos_gm_tau_s": 60.0,
 }
 
+# An RTK-fixed receiver (u-blox ZED-F9P class: data sheet UBX-17051259, RTK 0.01 m +
+# 1 ppm CEP horizontal, 0.01 m + 1 ppm R50 vertical, 20 Hz navigation rate, velocity
+# 0.05 m/s): 1 cm white + 1 cm Gauss-Markov per horizontal axis, 1.5 / 2 cm vertically,
+# 50 ms latency. The navigation filter's matching parameters are
+# ``autopilot.nav.config.NAV_GPS_RTK``. Used by the formation's quadrotors and by
+# ``sitl run --gps rtk``.
+GPS_RTK = {
+    "gps_rate_hz": 20.0, "gps_latency_s": 0.05, "gps_pos_white_sigma_h": 0.01,
+    "gps_pos_white_sigma_v": 0.015, "gps_pos_gm_sigma_h": 0.01, "gps_pos_gm_sigma_v": 0.02,
+    "gps_vel_sigma_h": 0.03, "gps_vel_sigma_v": 0.05,
+}
+
+# Receiver models by name (``sitl run --gps NAME``): the sensor parameters that differ
+# from the defaults.
+GPS_PRESETS = {"standard": {}, "rtk": GPS_RTK, "long-horizon": GPS_LONG_HORIZON}
+
 
 @dataclass(frozen=True, slots=True)
 class SensorParams:
