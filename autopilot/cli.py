@@ -29,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mission", default=str(DEFAULT_MISSION))
     ap.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"])
     ap.add_argument("--params", help=".parm file to load")
+    ap.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+                    help="the simulator's receiver model: the filter's GPS parameters to match "
+                         "(autopilot/nav/config.py NAV_GPS_PRESETS), before --params")
     ap.add_argument("--duration", type=float, default=1e9, help="stop after this much simulated time [s]")
     ap.add_argument("--log-dir", help="write flight.npz and params.parm here at the end")
     ap.add_argument("--connect-timeout", type=float, default=30.0)
@@ -62,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
             from .gcs import GCS_PARAMS, load_lenient
             decls += list(GCS_PARAMS)
         params = ParamStore(decls)
+        from .nav.config import NAV_GPS_PRESETS
+        for name, value in NAV_GPS_PRESETS[args.gps].items():
+            params.set(name, value)
         if gcs_urls is not None and args.param_store and Path(args.param_store).exists():
             load_lenient(params, Path(args.param_store))
         if args.params:

@@ -38,6 +38,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--wind", help="SPEED_MPS,FROM_DEG")
     ap.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+                    help="receiver model (sim_bridge/sensors/params.py GPS_PRESETS); give the "
+                         "autopilot the same --gps")
     ap.add_argument("--speedup", type=float, default=None, help="real-time multiple (default: as fast as lockstep allows)")
     ap.add_argument("--duration", type=float, default=1e9, help="simulated seconds")
     ap.add_argument("--accept-timeout", type=float, default=60.0)
@@ -52,8 +55,9 @@ def main(argv: list[str] | None = None) -> int:
         home = _home_from(args)
         w = parse_wind_arg(args.wind) if args.wind else None
         wind = (w.speed_mps, w.from_deg) if w else None
+        from .sensors.params import GPS_PRESETS, SensorParams
         world = build_world(home, args.seed, args.airframe, Path(args.scenario) if args.scenario else None,
-                            wind, args.turbulence, args.vehicle)
+                            wind, args.turbulence, args.vehicle, SensorParams(**GPS_PRESETS[args.gps]))
         transport = open_url(args.listen)
     except (ScenarioError, TransportError, ValueError, OSError) as e:
         print(f"sim-bridge: error: {e}", file=sys.stderr)
