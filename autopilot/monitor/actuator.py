@@ -21,30 +21,32 @@ with the fault vector entering the actuators. For one surface the two fault type
 Two stages, as the TSKF: the first is the bias-free (no-fault) model of the pitch axis,
 the second estimates the fault parameters gamma = [k, s] from it.
 
-Stage 1, the quasi-steady pitch-moment balance. With q the pitch rate (bias-corrected
-gyro) and V the airspeed, the pitch moment equation ``Cm_0 + Cm_a alpha + Cm_q cbar q /
-(2 V) + Cm_d delta + (thrust moment) = I_yy q_dot / (qbar S cbar)`` with q_dot ~ 0,
-solved for the deflection, is linear in alpha, q / V and the thrust moment over the
-dynamic pressure. The angle of attack is replaced by the lift it must give: in
-quasi-steady flight ``C_L = n m g / (qbar S)`` and ``alpha = alpha_0 + C_L / C_L_a``, so
-alpha is affine in ``n / V^2`` (n = 1 / cos(bank), the load factor of a coordinated
-turn; V the pitot's equivalent airspeed, for which qbar = rho_0 V^2 / 2)::
+Stage 1, the quasi-steady pitch-moment balance. With V the airspeed and q the pitch
+rate, the pitch moment equation ``Cm_0 + Cm_a alpha + Cm_q cbar q / (2 V) + Cm_d delta +
+(thrust moment) = I_yy q_dot / (qbar S cbar)`` with q_dot ~ 0, solved for the
+deflection, is linear in alpha, q / V and the thrust moment over the dynamic pressure.
+The angle of attack is replaced by the lift it must give: in quasi-steady flight
+``C_L = n m g / (qbar S)`` and ``alpha = alpha_0 + C_L / C_L_a``, so alpha is affine in
+``n / V^2`` (n = 1 / cos(bank), the load factor of a coordinated turn; V the pitot's
+equivalent airspeed, for which qbar = rho_0 V^2 / 2). The pitch-damping term is left
+out: in a coordinated turn q = g tan(bank) sin(bank) / V grows with n as the lift does,
+so a fit cannot tell the two apart, and it is the smaller one (Beard & McLain, Small
+Unmanned Aircraft, 2012, table E.2, the Aerosonde this project flies: Cm_a = -0.38,
+Cm_q = -3.6, cbar = 0.19 m; in a 30 deg turn at 25 m/s, q = 0.11 rad/s gives
+Cm_q cbar q / (2 V) = -0.0016 against Cm_a d_alpha = -0.011)::
 
-    delta = c_0 + c_L (n (V_ref / V)^2 - 1) + c_q q V_ref / V + c_t throttle (V_ref / V)^2   (**)
+    delta = c_0 + c_L (n (V_ref / V)^2 - 1) + c_t throttle (V_ref / V)^2          (**)
 
-(c_L = -Cm_a m g / (Cm_d qbar_ref S C_L_a), c_q = -Cm_q cbar / (2 Cm_d V_ref), c_t the
-thrust moment over dynamic pressure). The lift regressor is excited by the turns (n)
-and by every speed change, and it carries the balance to the low airspeeds a stuck
-nose-up elevator flies at. The angle of attack from the navigation solution (the
-air-relative velocity in body axes), used before, hardly varies in closed-loop cruise:
-its coefficient was poorly identified (0.04 against the airframe's 0.76), a separate
-(n - 1) term had to carry the turns (a false alarm in 30 deg banked turns on the
-southern dateline mission in 6 m/s wind without it), and a stuck elevator was read
-8-23 % low on seeds 2-5 (now 1-7 % on seeds 1 and 3-5; seed 2 below). It is
-learnt by recursive least squares in healthy flight (:class:`MomentBalance`) on
-low-passed signals (time constant BAL_TAU_S = 1 s, the same filter on every signal so
-the lag cancels), with the *commanded* deflection as
-the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
+(c_L = -Cm_a m g / (Cm_d qbar_ref S C_L_a), c_t the thrust moment over dynamic
+pressure). The lift regressor is excited by the turns and by every speed change, and it
+carries the balance to the low airspeeds a stuck nose-up elevator flies at. Before,
+the regressors were the angle of attack from the navigation solution (hardly varying in
+closed-loop cruise: its coefficient came out 0.04 against the airframe's 0.76), q / V
+and a separate n - 1 term for the turns; a stuck elevator was then read 8-23 % low on
+seeds 2-5 (figures below). The balance is learnt by recursive least squares in
+healthy flight (:class:`MomentBalance`) on low-passed signals (time constant
+BAL_TAU_S = 1 s, the same filter on every signal so the lag cancels), with the
+*commanded* deflection as the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
 that the fault is never in the fit when it is detected, and not on the first
 FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-steady).
 With the coefficients, (**) gives z, the deflection the aircraft is flying with, every
@@ -74,7 +76,7 @@ Identification (what ``identified()`` reports): the two hypotheses of (2.22)-(2.
 fitted over the window since the detection (from 1 s before it), on the same z::
 
     loss of effectiveness: z = k delta_cmd       k = sum z delta_cmd / sum delta_cmd^2
-    stuck:                 z = s                 s = mean of z over the last second
+    stuck:                 z = s                 s = mean of z over the window
 
 A stuck surface leaves the command free to wander: the loop winds it up (usually into
 saturation, often against the side the surface is stuck on), so k outside
@@ -84,15 +86,16 @@ not distinguishable from a loss of effectiveness without excitation; an elevator
 would tell them apart.)
 
 Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
-detected +1.4-1.6 s, 0.182 / 0.129 / 0.177 / 0.172 / 0.164 rad 10 s after the onset
-(seeds 1-5; with the angle-of-attack balance 0.172 / 0.131 / 0.156 / 0.147 / 0.152);
-50 % effectiveness -> detected +3.1-4.5 s, 0.497 / 0.499 / 0.518 (seeds 1-3). Seed 2
-is read 24 % low: its fit learnt almost no lift coefficient (c_L = -0.01) and the
-aircraft is in the trough of a phugoid (15-23 m/s) 10 s after the onset; a balance
-fitted in cruise extrapolates to the slow, nose-high flight a stuck elevator leads to
-only as well as cruise excited it. Fault-free, ``sitl bench --false-alarms`` (ten
-10-minute flights): largest statistic 0.14 of the decision level (seed 10; the other
-nine 0.04-0.10). A fault in the first ~100 s of flight is not seen: the balance needs
+detected +1.4-2.0 s; 10 s after the onset, seeds 1-10: 0.170 / 0.159 / 0.164 / 0.184 /
+0.173 / 0.185 / 0.190 / 0.185 / 0.175 / 0.211 rad (within 20 % on nine, seed 10 24 %
+high: the phugoid the fault starts is not averaged out in 8.5 s). With the lift balance
+and q / V, reading the last second: 0.182 / 0.129 / 0.177 / 0.172 / 0.164 / 0.202 /
+0.185 / 0.227 / 0.169 / 0.274; with the angle-of-attack balance (seeds 1-5) 0.172 /
+0.131 / 0.156 / 0.147 / 0.152. 50 % effectiveness -> detected +3.1-4.5 s, 0.498 /
+0.505 / 0.515 (seeds 1-3). The balance is fitted in cruise and extrapolates to the
+slow, nose-high flight a stuck elevator leads to only as well as cruise excited it.
+Fault-free, ``sitl bench --false-alarms`` (ten 10-minute flights): largest statistic
+0.14 of the decision level (seed 2; the other nine 0.05-0.11). A fault in the first ~100 s of flight is not seen: the balance needs
 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
@@ -133,12 +136,12 @@ RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad]
 
 class MomentBalance:
     """The quasi-steady pitch-moment balance (**) of the module docstring: recursive
-    least squares of the commanded deflection on [1, n / V^2, q / V, throttle / V^2],
+    least squares of the commanded deflection on [1, n / V^2, throttle / V^2],
     fitted on samples FIT_DELAY_S old while ``frozen`` is false. The regressors are
-    scaled by V_REF (``q V_REF / V``, ``throttle (V_REF / V)^2``) so that all are of
+    scaled by V_REF (``n (V_REF / V)^2 - 1``, ``throttle (V_REF / V)^2``) so that all are of
     order one and the nearly uninformative prior (P = 1e4 I) shrinks none of them."""
 
-    N = 4
+    N = 3
     V_REF = 25.0                      # [m/s]
 
     def __init__(self):
@@ -158,12 +161,12 @@ class MomentBalance:
     def ready(self) -> bool:
         return self.n >= 300          # 30 s of fitted samples
 
-    def step(self, t_us: int, q: float, V: float, throttle: float,
-             d_cmd: float, n: float = 1.0) -> tuple[float, float] | None:
+    def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
+             n: float = 1.0) -> tuple[float, float] | None:
         """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
         z the deflection the balance says the aircraft flies with."""
         r = self.V_REF / V
-        x = (1.0, n * r * r - 1.0, q * r, throttle * r * r, d_cmd)
+        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd)
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             if self._t0_us is None:
@@ -175,13 +178,13 @@ class MomentBalance:
             return None
         a = dt / (BAL_TAU_S + dt)
         lp = self._lp
-        for i in range(5):
+        for i in range(4):
             lp[i] += a * (x[i] - lp[i])
         if t_us < self._next_us:
             return None
         self._next_us = t_us + BAL_PERIOD_US
-        phi = np.array(lp[:4])
-        d = lp[4]
+        phi = np.array(lp[:3])
+        d = lp[3]
         if not self.frozen and not self.suspended and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
             q_.append((t_us, phi, d))
@@ -224,7 +227,7 @@ class MomentBalance:
         dd = float(d @ d)
         k = float(z @ d) / dd if dd > 0.0 else 0.0
         sat = float(np.mean(np.abs(d) >= 0.98 * MAX_DEFLECTION_RAD))
-        s_now = float(np.mean(z[-10:]))
+        s_now = float(np.mean(z))
         if k < K_MIN or k > K_MAX or sat >= SAT_SHARE:
             return {"stuck_rad": round(s_now, 4)}
         return {"effectiveness": round(k, 3)}
@@ -295,12 +298,11 @@ class ElevatorIdentifier:
         if not flying or V < 10.0:
             return
         qw, qx, qy, qz = (float(c) for c in nav.q_nb)
-        q = float(nav.omega_b[1])
         d = elevator_cmd * MAX_DEFLECTION_RAD
         # load factor of a coordinated turn: 1 / cos(bank)
         c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
         n = 1.0 / max(c_bank, 0.5)
-        sample = self.balance.step(t_us, q, V, throttle, d, n)
+        sample = self.balance.step(t_us, V, throttle, d, n)
         if sample is None:
             return
         z, dcmd = sample
