@@ -256,8 +256,9 @@ def quad_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: float 
     * ``max_tilt_deg``: largest true tilt (angle of the body z axis from the vertical)
       in flight.
 
-    These absolute figures include the navigation solution's own error (GPS: about a
-    metre horizontally, wandering with a 60 s correlation time; see the nav_* figures).
+    These absolute figures include the navigation solution's own error (standard GPS:
+    a few decimetres horizontally, wandering with a 60 s correlation time; see the nav_*
+    figures).
     The ``*_ctl`` figures are the same quantities measured with the navigation solution
     instead of truth: what guidance and control achieve on the position they are given
     (for the hold and the landing, the difference is the navigation error)."""
