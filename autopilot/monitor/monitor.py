@@ -137,6 +137,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from autopilot.geo import G0
 from autopilot.nav.records import InnovationLog
 from autopilot.params import Param
 
@@ -388,8 +389,10 @@ class FaultMonitor:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
         el.suspend(self.detected and self.episodes[-1].kind != "actuator")
+        f = getattr(self.nav, "specific_force_b", None)
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
-                float(controls[3]) if len(controls) > 3 else 0.0)
+                float(controls[3]) if len(controls) > 3 else 0.0,
+                None if f is None else -f[2] / G0)
         t_s = t_us * 1e-6
         if not el.ready or not self.enabled or self._healthy_us is None:
             return

@@ -341,6 +341,15 @@ class NavFilterBase:
         return tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN stays NaN
 
     @property
+    def specific_force_b(self) -> tuple | None:
+        """The last accelerometer sample less the bias estimate, body axes [m/s^2]."""
+        f = self._accel_prev
+        if f is None:
+            return None
+        ba = self.nom.ba
+        return f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]
+
+    @property
     def position_ned(self) -> np.ndarray:
         """The filter's NED position estimate, the state its covariance describes. The
         output (NavState.p_ned) differs from it in height under the barometric height
