@@ -15,6 +15,7 @@ from .link.hil import AutopilotHilEnd
 from .link.transports import TransportError, open_url
 from .log.flightlog import FlightLog
 from .mission.files import MissionFileError, load_mission
+from .nav.config import NAV_GPS_PRESETS
 from .params import ParamError, ParamStore
 from .vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
 
@@ -29,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mission", default=str(DEFAULT_MISSION))
     ap.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"])
     ap.add_argument("--params", help=".parm file to load")
-    ap.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+    ap.add_argument("--gps", default="standard", choices=list(NAV_GPS_PRESETS),
                     help="the simulator's receiver model: the filter's GPS parameters to match "
                          "(autopilot/nav/config.py NAV_GPS_PRESETS), before --params")
     ap.add_argument("--duration", type=float, default=1e9, help="stop after this much simulated time [s]")
@@ -65,7 +66,6 @@ def main(argv: list[str] | None = None) -> int:
             from .gcs import GCS_PARAMS, load_lenient
             decls += list(GCS_PARAMS)
         params = ParamStore(decls)
-        from .nav.config import NAV_GPS_PRESETS
         for name, value in NAV_GPS_PRESETS[args.gps].items():
             params.set(name, value)
         if gcs_urls is not None and args.param_store and Path(args.param_store).exists():

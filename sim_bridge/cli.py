@@ -15,6 +15,8 @@ from pathlib import Path
 
 from autopilot.link.transports import TransportError, open_url
 
+from .sensors.params import GPS_PRESETS, SensorParams
+
 DEFAULT_MISSION = Path(__file__).resolve().parent.parent / "missions" / "default.waypoints"
 
 
@@ -38,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--wind", help="SPEED_MPS,FROM_DEG")
     ap.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+    ap.add_argument("--gps", default="standard", choices=list(GPS_PRESETS),
                     help="receiver model (sim_bridge/sensors/params.py GPS_PRESETS); give the "
                          "autopilot the same --gps")
     ap.add_argument("--speedup", type=float, default=None, help="real-time multiple (default: as fast as lockstep allows)")
@@ -55,7 +57,6 @@ def main(argv: list[str] | None = None) -> int:
         home = _home_from(args)
         w = parse_wind_arg(args.wind) if args.wind else None
         wind = (w.speed_mps, w.from_deg) if w else None
-        from .sensors.params import GPS_PRESETS, SensorParams
         world = build_world(home, args.seed, args.airframe, Path(args.scenario) if args.scenario else None,
                             wind, args.turbulence, args.vehicle, SensorParams(**GPS_PRESETS[args.gps]))
         transport = open_url(args.listen)

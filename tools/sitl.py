@@ -204,6 +204,7 @@ def cmd_formation(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from sim_bridge.sensors.params import GPS_PRESETS
     ap = argparse.ArgumentParser(prog="sitl", description="Headless SITL flights: run, report, bench")
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run", help="fly a mission headless and print its summary")
@@ -221,7 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated seconds at most (default 1800; with --gcs: until Ctrl-C)")
     r.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"],
                    help="navigation source (truth is a debugging aid)")
-    r.add_argument("--gps", default="standard", choices=["standard", "rtk", "long-horizon"],
+    r.add_argument("--gps", default="standard", choices=list(GPS_PRESETS),
                    help="receiver model: standard (u-blox M8/M9 class, default), rtk (ZED-F9P "
                         "RTK fixed: centimetres; the filter flies GPS height), long-horizon "
                         "(the data sheet's metres, wandering at minute rate); the filter's GPS "

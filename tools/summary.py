@@ -353,7 +353,7 @@ def run_summary(session) -> dict:
         "vehicle": session.cfg.vehicle,
         "airframe": session.cfg.airframe,
         "nav_source": v.nav_source,
-        "gps": getattr(session.cfg, "gps", "standard"),
+        "gps": session.cfg.gps,
         "seed": session.cfg.seed,
         "completed": completed,
         "crashed": session.crashed,

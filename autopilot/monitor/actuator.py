@@ -49,8 +49,9 @@ and a separate n - 1 term for the turns; a stuck elevator was then read 8-23 % l
 seeds 2-5 (figures below). The balance is learnt by recursive least squares in
 healthy flight (:class:`MomentBalance`) on low-passed signals (time constant
 BAL_TAU_S = 1 s, the same filter on every signal so the lag cancels), with the
-*commanded* deflection as the dependent variable (healthy: actual = commanded), on samples FIT_DELAY_S old, so
-that the fault is never in the fit when it is detected, and not on the first
+*commanded* deflection as the dependent variable (healthy: actual = commanded), on
+samples FIT_DELAY_S old, so that the fault is never in the fit when it is detected, and
+not on the first
 FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-steady).
 With the coefficients, (**) gives z, the deflection the aircraft is flying with, every
 0.1 s. The no-fault residual ``r = z - delta_cmd`` is normalised by its own standard
@@ -96,10 +97,10 @@ balance on 1 / cos(bank) and q / V, reading the last second: 0.182 / 0.129 / 0.1
 (seeds 1-5) 0.172 / 0.131 / 0.156 / 0.147 / 0.152. 50 % effectiveness -> detected
 +3.1-4.5 s, 0.514 / 0.521 / 0.521 (seeds 1-3). The balance is fitted in cruise and
 extrapolates to the slow, nose-high flight a stuck elevator leads to only as well as
-cruise excited it.
-Fault-free, ``sitl bench --false-alarms`` (ten 10-minute flights): largest statistic
-0.17 of the decision level (seed 10; the other nine 0.02-0.11). A fault in the first ~100 s of flight is not seen: the balance needs
-30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the residual variance 20 s more.
+cruise excited it. Fault-free, ``sitl bench --false-alarms`` (ten 10-minute flights):
+largest statistic 0.17 of the decision level (seed 10; the other nine 0.02-0.11). A
+fault in the first ~100 s of flight is not seen: the balance needs 30 s of fit after
+FIT_WARMUP_S plus FIT_DELAY_S, and the residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
 driven by the IMU, not by the control inputs: its gain has no control distribution

@@ -40,8 +40,8 @@ where the simulation adds to them (default mission, light turbulence, seeds 1-5)
   long-horizon sensor model (``sim_bridge.sensors.params.GPS_LONG_HORIZON``) has its
   matching values in :data:`NAV_GPS_LONG_HORIZON` (``--param`` each of them).
 * Barometer: 3 Pa white is 0.26 m at 700 m (0.3 m). Height reference: the barometer
-  (EK_HGT_REF = 0, base.py; the GPS for RTK receivers). Magnetometer: 5 mG per axis over the 0.24 G horizontal field
-  at home is 0.021 rad of heading (0.03).
+  (EK_HGT_REF = 0, base.py; the GPS for RTK receivers). Magnetometer: 5 mG per axis
+  over the 0.24 G horizontal field at home is 0.021 rad of heading (0.03).
 * Airspeed 0.3 m/s and sideslip 0.5 m/s: not the pitot's 1.5 Pa (0.05 m/s) but what
   the wind states cannot follow of the turbulence (the residuals' RMS is 0.17 and
   0.23 m/s, correlated over seconds).
