@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tools.runner import MISSIONS_DIR, RunConfig, Session
@@ -172,3 +173,33 @@ def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
     st = Telemetry(s.vehicle).sys_status()
     assert not st.onboard_control_sensors_health & MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
     assert summ["max_tilt_deg"] <= 30.0      # measured 21.6 deg (rotors 1-4: 17.8-21.6)
+
+
+def _fly_stuck_elevator(seed: int, duration_s: float, **params):
+    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / "fault_elevator_stuck.toml"),
+                          duration_s=duration_s, seed=seed, param_overrides=params))
+    s.run()
+    a = s.log.arrays()
+    after = a["t_s"] >= 142.0
+    err = (a["truth_alt_m"] - a["tgt_alt_m"])[after]
+    return s, np.abs(err).max(), float(np.sqrt(np.mean(err ** 2))), a["truth_airspeed_mps"][after].min()
+
+
+def test_stuck_elevator_height_flown_on_the_throttle_instead_of_climbing_away():
+    # GIVEN the elevator stuck nose-up at 142 s (0.05 rad above trim): the airspeed the
+    #       mission asks for is no longer reachable
+    # WHEN the monitor identifies it stuck, THEN it says so, and the controller flies the
+    #      height on the throttle ("elevator out", EOUT_ENABLE = 1, the default): within
+    #      about 35 m of the target where the airspeed loop alone climbs away at full
+    #      throttle (measured to 200 s, seed 2: max 30.7 m vs 188.5 m; whole flights, seeds
+    #      1-6: alt_rms_m 7.0-9.6 m vs 184-239 m, airspeed >= 14.3 m/s)
+    s, err_max, err_rms, v_min = _fly_stuck_elevator(2, 200.0)
+    texts = [e[1] for e in s.log.events]
+    assert any(t.startswith("FDI: elevator identified stuck at 0.1") for t in texts), texts
+    assert "elevator out: height flown on the throttle" in texts
+    assert s.vehicle.ctrl.elevator_out and not s.crashed
+    assert err_max <= 40.0 and err_rms <= 20.0 and v_min >= 12.0
+    # AND without it (EOUT_ENABLE = 0) the same seed climbs away
+    s0, err_max0, _, _ = _fly_stuck_elevator(2, 200.0, EOUT_ENABLE=0)
+    assert not s0.vehicle.ctrl.elevator_out
+    assert err_max0 >= 3.0 * err_max

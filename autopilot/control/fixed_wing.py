@@ -19,6 +19,22 @@ Loops are named by what they close:
                           simplest form
 * airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
 * yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
+* elevator out:           once the fault monitor has identified the elevator stuck
+                          (``set_elevator_out``, EOUT_ENABLE), the airspeed is no longer
+                          the throttle's: with the elevator fixed the angle of attack is
+                          nearly fixed, so the airspeed is whatever that trim gives and the
+                          throttle sets the flight-path angle instead (the principle of
+                          propulsion-controlled aircraft, Burcham et al., NASA TP-3627).
+                          dt = THR_TRIM + EOUT_THR_KP (h_dem - h) + EOUT_THR_KI int(...)
+                          + EOUT_SPD_KP (V_mean - V), with V_mean the airspeed low-passed over
+                          EOUT_SPD_TAU (phugoid damping: thrust against the speed swing),
+                          the height demand slewed at EOUT_DEM_RATE and no speed priority.
+                          The gains are low on purpose: the throttle's own pitching moment
+                          (a cut pitches the nose up on the default airframe) and the
+                          lightly damped phugoid turn faster throttle loops, and a climb-
+                          rate feedback, into growing pitch oscillations. Without this the
+                          airspeed loop, asking for a speed a nose-up stuck elevator cannot
+                          give, holds full throttle and the aircraft climbs away.
 
 The feed-forwards follow from the lift and pitching-moment balance: the trim angle of
 attack and the trim elevator both grow as 1/V^2 about their values at TRIM_ARSPD, and
@@ -75,6 +91,12 @@ FW_PARAMS = (
     Param("TRIM_ARSPD", 25.0, 10.0, 80.0, "m/s", "cruise airspeed"),
     Param("ARSPD_FBW_MIN", 20.0, 8.0, 80.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
+    Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor identifies the elevator stuck (0: off)"),
+    Param("EOUT_THR_KP", 0.015, 0.0, 0.2, "1/m", "elevator out: height error to throttle, proportional"),
+    Param("EOUT_THR_KI", 0.0008, 0.0, 0.05, "1/(m s)", "elevator out: height error to throttle, integral"),
+    Param("EOUT_SPD_KP", 0.08, 0.0, 1.0, "s/m", "elevator out: airspeed below its own mean to throttle (phugoid damping)"),
+    Param("EOUT_SPD_TAU", 20.0, 1.0, 200.0, "s", "elevator out: time constant of that mean airspeed"),
+    Param("EOUT_DEM_RATE", 1.0, 0.1, 10.0, "m/s", "elevator out: slew rate of the altitude demand"),
 )
 
 
@@ -97,6 +119,7 @@ class FixedWingController:
             if kd is not None:
                 pid.kd = p[kd]
         self.speed_pid.out_max = p["THR_MAX"]
+        self.eout_pid.kp, self.eout_pid.ki, self.eout_pid.out_max = p["EOUT_THR_KP"], p["EOUT_THR_KI"], p["THR_MAX"]
         self.climb_pid.out_min = math.radians(p["PTCH_LIM_MIN_DEG"])
         self.climb_pid.out_max = math.radians(p["PTCH_LIM_MAX_DEG"])
 
@@ -113,6 +136,16 @@ class FixedWingController:
         self.pitch_cmd_rad = 0.0
         self.climb_cmd_mps = 0.0
         self.alt_dem_m: float | None = None
+        self.elevator_out = False
+        self.eout_pid = Pid(p["EOUT_THR_KP"], p["EOUT_THR_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.5)
+        self._eout_v: float | None = None     # mean airspeed while the elevator is out
+
+    def set_elevator_out(self, out: bool) -> None:
+        """Elevator out (stuck): the height on the throttle (module docstring)."""
+        if out and not self.elevator_out:
+            self.eout_pid.reset()
+            self._eout_v = None
+        self.elevator_out = out
 
     def reset(self) -> None:
         self.alt_dem_m = None
@@ -135,6 +168,8 @@ class FixedWingController:
         if self.alt_dem_m is None or throttle_override is not None:
             self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
         up, down = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
+        if self.elevator_out:
+            up, down = min(up, p["EOUT_DEM_RATE"]), min(down, p["EOUT_DEM_RATE"])
         hdot_dem = min(max((alt_cmd_m - self.alt_dem_m) / dt, -down), up) if dt > 0 else 0.0
         self.alt_dem_m += hdot_dem * dt
         if throttle_override is not None:
@@ -144,7 +179,8 @@ class FixedWingController:
         hdot_c = min(max(hdot_dem + p["ALT_KP"] * alt_err, -p["SINK_MAX"]), p["CLMB_MAX"])
         dv = airspeed_cmd_mps - v_air
         db = p["SPD_PRIO_DB"]
-        if abs(dv) > db:
+        eout = self.elevator_out and throttle_override is None
+        if abs(dv) > db and not eout:
             hdot_c -= p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
@@ -163,6 +199,14 @@ class FixedWingController:
         if throttle_override is not None:
             thr = throttle_override
             self.speed_pid.reset(self.speed_pid.integ)
+        elif eout:
+            # elevator out: throttle from the height error, plus the airspeed's deviation
+            # below its own slow mean (the speed the stuck elevator trims to)
+            if self._eout_v is None:
+                self._eout_v = v_air
+            self._eout_v += (v_air - self._eout_v) * min(dt / p["EOUT_SPD_TAU"], 1.0)
+            thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, rate=0.0,
+                                       feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v - v_air))
         else:
             thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
                                         feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)

@@ -56,6 +56,9 @@ How each is watched:
   rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +3.1-4.9 s and
   0.49-0.53 (seeds 1-3); fault-free peak 0.14 of the decision level over ten 10-minute
   flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
+  Once the identification says *stuck*, ``elevator_stuck_rad`` holds the estimate
+  (announced once, CRITICAL) and the fixed-wing flies its height on the throttle
+  (control/fixed_wing.py, "elevator out").
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
@@ -300,6 +303,7 @@ class FaultMonitor:
             from .actuator import ElevatorIdentifier
             self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._ident_next_s = 0.0
+        self.elevator_stuck_rad: float | None = None   # latched once identified stuck
         self._el_k = 0                        # vehicle steps seen by observe_controls
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
@@ -421,6 +425,12 @@ class FaultMonitor:
             self._ident_next_s = t_s + 1.0
             ep.identified = el.identified()
             ep.ident_log.append((round(t_s, 3), ep.identified))
+            stuck = ep.identified.get("stuck_rad")
+            if stuck is not None:
+                if self.elevator_stuck_rad is None:
+                    self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator identified stuck at "
+                                                           f"{stuck:.3f} rad"))
+                self.elevator_stuck_rad = stuck
 
     def _q_hook(self, dt: float):
         """The filter's q_scale_hook: Lambda while an inertial fault is suspected."""
