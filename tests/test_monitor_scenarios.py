@@ -175,8 +175,8 @@ def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
     assert summ["max_tilt_deg"] <= 30.0      # measured 21.6 deg (rotors 1-4: 17.8-21.6)
 
 
-def _fly_stuck_elevator(seed: int, duration_s: float, **params):
-    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / "fault_elevator_stuck.toml"),
+def _fly_stuck_elevator(seed: int, duration_s: float, scenario="fault_elevator_stuck.toml", **params):
+    s = Session(RunConfig(scenario=Path(MISSIONS_DIR / scenario),
                           duration_s=duration_s, seed=seed, param_overrides=params))
     s.run()
     a = s.log.arrays()
@@ -203,3 +203,16 @@ def test_stuck_elevator_height_flown_on_the_throttle_instead_of_climbing_away():
     s0, err_max0, _, _ = _fly_stuck_elevator(2, 200.0, EOUT_ENABLE=0)
     assert not s0.vehicle.ctrl.elevator_out
     assert err_max0 >= 3.0 * err_max
+
+
+def test_stuck_nose_down_elevator_flown_on_the_throttle_instead_of_into_the_ground():
+    # GIVEN the elevator stuck 0.03 rad below trim at 142 s (fault_elevator_stuck_down.toml)
+    # WHEN it is identified stuck and the height is flown on the throttle, THEN the
+    #      aircraft is still flying at 200 s, within 80 m of its altitude (seed 1: 66.5 m
+    #      at worst, in the dive after the onset)
+    s, err_max, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml")
+    assert s.vehicle.ctrl.elevator_out and not s.crashed
+    assert err_max <= 80.0
+    # AND with the airspeed loop keeping the throttle it flies into the ground (176 s)
+    s0, _, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml", EOUT_ENABLE=0)
+    assert s0.crashed
