@@ -216,3 +216,22 @@ def test_stuck_nose_down_elevator_flown_on_the_throttle_instead_of_into_the_grou
     # AND with the airspeed loop keeping the throttle it flies into the ground (176 s)
     s0, _, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml", EOUT_ENABLE=0)
     assert s0.crashed
+
+
+def test_elevator_working_again_after_ok_flies_on_with_height_and_airspeed_held(tmp_path):
+    # GIVEN the elevator stuck nose-up at 142 s and cleared (`ok`) at 170 s: the monitor's
+    #       actuator episode stays open, so the controller stays "elevator out"
+    scen = tmp_path / "stuck_then_ok.toml"
+    scen.write_text((MISSIONS_DIR / "fault_elevator_stuck.toml").read_text()
+                    + '\n[[event]]\nat_s = 170.0\nunit = "servo"\ntype = "ok"\ninstance = 1\n')
+    s = Session(RunConfig(scenario=scen, duration_s=260.0, seed=1))
+    s.run()
+    assert s.vehicle.ctrl.elevator_out and not s.crashed
+    # THEN with the surface working the pitch loop holds the height and the airspeed
+    #      stays near its cruise value without a demand (measured 190-260 s, seeds 1-3:
+    #      within 2.6-3.3 m of the target altitude, airspeed 19.6-26.6 m/s)
+    a = s.log.arrays()
+    late = a["t_s"] >= 190.0
+    assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 5.0
+    v = a["truth_airspeed_mps"][late]
+    assert v.min() >= 18.0 and v.max() <= 32.0

@@ -28,7 +28,11 @@ Loops are named by what they close:
                           dt = THR_TRIM + EOUT_THR_KP (h_dem - h) + EOUT_THR_KI int(...)
                           + EOUT_SPD_KP (V_mean - V), with V_mean the airspeed low-passed over
                           EOUT_SPD_TAU (phugoid damping: thrust against the speed swing),
-                          the height demand slewed at EOUT_DEM_RATE and no speed priority.
+                          the height demand slewed at EOUT_DEM_RATE, and the speed priority
+                          only outside ARSPD_FBW_MIN..MAX (it acts through the elevator: it
+                          matters only if the surface works again, e.g. after a fault is
+                          cleared, when the pitch loop holds the height and the throttle
+                          nothing else).
                           The gains are low on purpose: the throttle's own pitching moment
                           (a cut pitches the nose up on the default airframe) and the
                           lightly damped phugoid turn faster throttle loops, and a climb-
@@ -180,7 +184,11 @@ class FixedWingController:
         dv = airspeed_cmd_mps - v_air
         db = p["SPD_PRIO_DB"]
         eout = self.elevator_out and throttle_override is None
-        if abs(dv) > db and not eout:
+        if eout:
+            # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
+            # (should the surface work again) trade height for speed
+            dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
+        if abs(dv) > db:
             hdot_c -= p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
