@@ -52,9 +52,9 @@ How each is watched:
   with, less the command) over FDI_ACT_THR times its window chi-square threshold while
   every navigation statistic is under its own opens an actuator episode (kind
   "actuator", Q adaptation of the fault parameters on, identification logged once a
-  second). Measured: stuck at 0.17 rad detected +1.4-1.6 s and identified 0.131-0.172
-  rad 10 s after the onset (seeds 1-5), 50 % effectiveness loss +3.1-4.9 s and
-  0.49-0.53 (seeds 1-3); fault-free peak 0.14 of the decision level over ten 10-minute
+  second). Measured: stuck at 0.17 rad detected +1.4-1.7 s and identified 0.158-0.182
+  rad 10 s after the onset (seeds 1-10), 50 % effectiveness loss +3.1-4.5 s and
+  0.50-0.54 (seeds 1-6); fault-free peak 0.17 of the decision level over ten 10-minute
   flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
   Once the identification says *stuck*, ``elevator_stuck_rad`` holds the estimate
   (announced once, CRITICAL) and the fixed-wing flies its height on the throttle
@@ -423,7 +423,7 @@ class FaultMonitor:
         ep = self.episodes[-1]
         if ep.kind == "actuator" and t_s >= self._ident_next_s:
             self._ident_next_s = t_s + 1.0
-            ep.identified = el.identified()
+            ep.identified = el.identified(stuck=self.elevator_stuck_rad is not None)
             ep.ident_log.append((round(t_s, 3), ep.identified))
             stuck = ep.identified.get("stuck_rad")
             if stuck is not None:
