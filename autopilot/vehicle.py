@@ -28,7 +28,7 @@ from .messages import ActuatorOutputs, NavState, SensorFrame
 from .mission.items import Mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
-from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, FaultMonitor
+from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
 from .params import Param, ParamStore
 
 GUIDANCE_PARAMS = (
@@ -313,8 +313,8 @@ class PlaneVehicle:
             if eout != self.ctrl.elevator_out:
                 # the elevator is stuck: height on the throttle (control/fixed_wing.py)
                 self.ctrl.set_elevator_out(eout)
-                self.log.event(t_us * 1e-6, "elevator out: height flown on the throttle" if eout
-                               else "elevator out: off")
+                mon.announce(t_us * 1e-6, SEV_WARNING, "elevator out: height flown on the throttle"
+                              if eout else "elevator out: off")
             if mon.failsafe == "RTL" and self.armed and self.mode not in (PlaneMode.RTL, PlaneMode.MANUAL):
                 mon.failsafe = None
                 self.set_mode(PlaneMode.RTL, t_us)

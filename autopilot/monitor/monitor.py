@@ -432,6 +432,12 @@ class FaultMonitor:
                                                            f"{stuck:.3f} rad"))
                 self.elevator_stuck_rad = stuck
 
+    def announce(self, t_s: float, severity: int, text: str) -> None:
+        """A reaction of the vehicle to a finding of the monitor (e.g. its controller
+        reconfigured): into the running fault log, so the log and the ground stations
+        get it with the monitor's own messages."""
+        self.events.append((t_s, severity, text))
+
     def _q_hook(self, dt: float):
         """The filter's q_scale_hook: Lambda while an inertial fault is suspected."""
         return self._lam if self.qfade_on else None
