@@ -309,9 +309,9 @@ class PlaneVehicle:
                 for t_s, _sev, text in mon.events[self._fdi_events:]:
                     self.log.event(t_s, text)
                 self._fdi_events = len(mon.events)
-            eout = mon.elevator_stuck_rad is not None and self.params["EOUT_ENABLE"] > 0
+            eout = mon.elevator_fault_s is not None and self.params["EOUT_ENABLE"] > 0
             if eout != self.ctrl.elevator_out:
-                # the elevator is stuck: height on the throttle (control/fixed_wing.py)
+                # the elevator is faulty: height on the throttle (control/fixed_wing.py)
                 self.ctrl.set_elevator_out(eout)
                 mon.announce(t_us * 1e-6, SEV_WARNING, "elevator out: height flown on the throttle"
                               if eout else "elevator out: off")

@@ -19,26 +19,29 @@ Loops are named by what they close:
                           simplest form
 * airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
 * yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
-* elevator out:           once the fault monitor has identified the elevator stuck
+* elevator out:           once the fault monitor has found an elevator actuator fault
                           (``set_elevator_out``, EOUT_ENABLE), the airspeed is no longer
-                          the throttle's: with the elevator fixed the angle of attack is
+                          the throttle's: with the elevator stuck the angle of attack is
                           nearly fixed, so the airspeed is whatever that trim gives and the
                           throttle sets the flight-path angle instead (the principle of
-                          propulsion-controlled aircraft, Burcham et al., NASA TP-3627).
+                          propulsion-controlled aircraft, Burcham et al., NASA TP-3627):
                           dt = THR_TRIM + EOUT_THR_KP (h_dem - h) + EOUT_THR_KI int(...)
                           + EOUT_SPD_KP (V_mean - V), with V_mean the airspeed low-passed over
                           EOUT_SPD_TAU (phugoid damping: thrust against the speed swing),
-                          the height demand slewed at EOUT_DEM_RATE, and the speed priority
-                          only outside ARSPD_FBW_MIN..MAX (it acts through the elevator: it
-                          matters only if the surface works again, e.g. after a fault is
-                          cleared, when the pitch loop holds the height and the throttle
-                          nothing else).
+                          and the height demand slewed at EOUT_DEM_RATE. It engages at the
+                          detection, before the monitor has told a stuck surface from a
+                          weakened one (seconds, tens of seconds in turbulence). Where the
+                          elevator still acts (weakened, or working again after ``ok``) the
+                          pitch loop holds the height as before and the speed priority,
+                          now only outside ARSPD_FBW_MIN..MAX, guards the airspeed.
                           The gains are low on purpose: the throttle's own pitching moment
                           (a cut pitches the nose up on the default airframe) and the
                           lightly damped phugoid turn faster throttle loops, and a climb-
                           rate feedback, into growing pitch oscillations. Without this the
                           airspeed loop, asking for a speed a nose-up stuck elevator cannot
-                          give, holds full throttle and the aircraft climbs away.
+                          give, holds full throttle and the aircraft climbs away, and with
+                          the elevator stuck nose-down it flies into the ground
+                          (missions/fault_elevator_stuck_down.toml).
 
 The feed-forwards follow from the lift and pitching-moment balance: the trim angle of
 attack and the trim elevator both grow as 1/V^2 about their values at TRIM_ARSPD, and
@@ -95,7 +98,7 @@ FW_PARAMS = (
     Param("TRIM_ARSPD", 25.0, 10.0, 80.0, "m/s", "cruise airspeed"),
     Param("ARSPD_FBW_MIN", 20.0, 8.0, 80.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
-    Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor identifies the elevator stuck (0: off)"),
+    Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor finds an elevator actuator fault (0: off)"),
     Param("EOUT_THR_KP", 0.015, 0.0, 0.2, "1/m", "elevator out: height error to throttle, proportional"),
     Param("EOUT_THR_KI", 0.0008, 0.0, 0.05, "1/(m s)", "elevator out: height error to throttle, integral"),
     Param("EOUT_SPD_KP", 0.08, 0.0, 1.0, "s/m", "elevator out: airspeed below its own mean to throttle (phugoid damping)"),

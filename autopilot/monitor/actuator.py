@@ -95,7 +95,7 @@ the loss-of-effectiveness fit then read k = 0.09-0.40 at the end of 8 of 10 flig
 Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
 detected +1.4-1.7 s; 10 s after the onset, seeds 1-10: 0.161 / 0.158 / 0.163 / 0.164 /
 0.159 / 0.182 / 0.169 / 0.170 / 0.167 / 0.182 rad (all within 8 %; the height flown on
-the throttle from the first stuck reading on). Before that change, with the airspeed
+the throttle from the detection on). Before that change, with the airspeed
 loop climbing away at full throttle: 0.171 / 0.160 / 0.166 / 0.163 / 0.162 / 0.187 /
 0.177 / 0.185 / 0.172 / 0.193. With the lift
 balance on 1 / cos(bank) and q / V, reading the last second: 0.182 / 0.129 / 0.177 /

@@ -56,9 +56,10 @@ How each is watched:
   rad 10 s after the onset (seeds 1-10), 50 % effectiveness loss +3.1-4.5 s and
   0.50-0.54 (seeds 1-6); fault-free peak 0.17 of the decision level over ten 10-minute
   flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
-  Once the identification says *stuck*, ``elevator_stuck_rad`` holds the estimate
-  (announced once, CRITICAL) and the fixed-wing flies its height on the throttle
-  (control/fixed_wing.py, "elevator out").
+  ``elevator_fault_s`` keeps the time of the detection (the fixed-wing then flies its
+  height on the throttle, control/fixed_wing.py, "elevator out"); once the
+  identification says *stuck*, ``elevator_stuck_rad`` holds the estimate (announced
+  once, CRITICAL) and the classification holds.
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
   accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
@@ -303,6 +304,7 @@ class FaultMonitor:
             from .actuator import ElevatorIdentifier
             self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._ident_next_s = 0.0
+        self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
         self._el_k = 0                        # vehicle steps seen by observe_controls
         # decision state
@@ -414,6 +416,7 @@ class FaultMonitor:
                 ep.ident_log = []
                 self.episodes.append(ep)
                 self.isolated = "elevator"
+                self.elevator_fault_s = t_s
                 el.freeze(t_us)
                 self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on elevator "
                                                       f"(statistic {el.ratio / self.p['FDI_ACT_THR']:.1f}x threshold)"))
