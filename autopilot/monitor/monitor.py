@@ -54,7 +54,7 @@ How each is watched:
   "actuator", Q adaptation of the fault parameters on, identification logged once a
   second). Measured: stuck at 0.17 rad detected +1.4-1.7 s and identified 0.158-0.182
   rad 10 s after the onset (seeds 1-10), 50 % effectiveness loss +3.1-4.5 s and
-  0.50-0.54 (seeds 1-6); fault-free peak 0.17 of the decision level over ten 10-minute
+  0.515-0.544 (seeds 1-6); fault-free peak 0.17 of the decision level over ten 10-minute
   flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
   ``elevator_fault_s`` keeps the time of the detection (the fixed-wing then flies its
   height on the throttle, control/fixed_wing.py, "elevator out"); once the
