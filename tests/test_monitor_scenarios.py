@@ -216,6 +216,10 @@ def test_stuck_nose_down_elevator_flown_on_the_throttle_instead_of_into_the_grou
     s, err_max, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml")
     assert s.vehicle.ctrl.elevator_out and not s.crashed
     assert err_max <= 80.0
+    # AND it is identified stuck within 20 % 10 s after the onset (measured 0.0995 rad;
+    #     the loss-of-effectiveness fit alone read it as k = 0.31 then)
+    ident = next(i for t, i in s.vehicle.monitor.episodes[-1].ident_log if t >= 152.0)
+    assert "stuck_rad" in ident and abs(ident["stuck_rad"] - 0.09) <= 0.2 * 0.09, ident
     # AND with the airspeed loop keeping the throttle it flies into the ground (176 s)
     s0, _, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml", EOUT_ENABLE=0)
     assert s0.crashed
