@@ -19,6 +19,7 @@ from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.mission.files import load_mission
 from autopilot.mission.items import Mission, POSITION_COMMANDS
+from autopilot.nav.config import NAV_GPS_PRESETS
 from autopilot.params import ParamStore
 from autopilot.vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
 from autopilot.log.flightlog import FlightLog
@@ -82,7 +83,6 @@ class Session:
         self.cfg = cfg
         self.mission = load_mission(cfg.mission)
         self.home = cfg.home or mission_home(self.mission)
-        from autopilot.nav.config import NAV_GPS_PRESETS
         from sim_bridge.sensors.params import GPS_PRESETS, SensorParams
         if cfg.gps not in GPS_PRESETS:
             raise ValueError(f"unknown GPS receiver model {cfg.gps!r} ({', '.join(GPS_PRESETS)})")

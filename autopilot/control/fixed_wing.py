@@ -145,13 +145,13 @@ class FixedWingController:
         self.alt_dem_m: float | None = None
         self.elevator_out = False
         self.eout_pid = Pid(p["EOUT_THR_KP"], p["EOUT_THR_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.5)
-        self._eout_v: float | None = None     # mean airspeed while the elevator is out
+        self._eout_v_mean: float | None = None  # airspeed low-passed while the elevator is out
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
         if out and not self.elevator_out:
             self.eout_pid.reset()
-            self._eout_v = None
+            self._eout_v_mean = None
         self.elevator_out = out
 
     def reset(self) -> None:
@@ -213,11 +213,11 @@ class FixedWingController:
         elif eout:
             # elevator out: throttle from the height error, plus the airspeed's deviation
             # below its own slow mean (the speed the stuck elevator trims to)
-            if self._eout_v is None:
-                self._eout_v = v_air
-            self._eout_v += (v_air - self._eout_v) * min(dt / p["EOUT_SPD_TAU"], 1.0)
+            if self._eout_v_mean is None:
+                self._eout_v_mean = v_air
+            self._eout_v_mean += (v_air - self._eout_v_mean) * min(dt / p["EOUT_SPD_TAU"], 1.0)
             thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, rate=0.0,
-                                       feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v - v_air))
+                                       feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
         else:
             thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
                                         feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)
