@@ -17,12 +17,14 @@ import numpy as np
 
 from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
-from autopilot.mission.files import load_mission
+from autopilot.mission.files import MissionFileError, save_waypoints
 from autopilot.mission.items import Mission, POSITION_COMMANDS
 from autopilot.nav.config import NAV_GPS_PRESETS
 from autopilot.params import ParamStore
 from autopilot.vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
 from autopilot.log.flightlog import FlightLog
+
+from .missions_random import is_random_source, load_source, parse_source
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 MISSIONS_DIR = REPO_ROOT / "missions"
@@ -81,7 +83,11 @@ class Session:
         from sim_bridge.world import build_world
 
         self.cfg = cfg
-        self.mission = load_mission(cfg.mission)
+        # a mission file, or random:VEHICLE:SEED (tools/missions_random.py)
+        self.mission, self.mission_notes = load_source(cfg.mission)
+        if is_random_source(cfg.mission) and parse_source(cfg.mission)[0] != cfg.vehicle:
+            raise MissionFileError(str(cfg.mission), None,
+                                   f"a {parse_source(cfg.mission)[0]} mission; the vehicle is a {cfg.vehicle}")
         self.home = cfg.home or mission_home(self.mission)
         from sim_bridge.sensors.params import GPS_PRESETS, SensorParams
         if cfg.gps not in GPS_PRESETS:
@@ -251,6 +257,9 @@ def write_run(session: Session, summary: dict, log_dir: Path) -> Path:
     if innov is not None:
         extra.update(innov.arrays())        # innov_* columns: every innovation record
     session.log.save(log_dir / "flight.npz", extra=extra)
+    # the mission flown (the last one loaded: a ground station may have replaced it)
+    flown = session.vehicle.mission if session.vehicle.mission is not None else session.mission
+    save_waypoints(flown, log_dir / "mission.waypoints")
     session.params.save(log_dir / "params.parm")
     with open(log_dir / "summary.json", "w") as f:
         json.dump(summary, f, indent=2, sort_keys=True)

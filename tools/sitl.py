@@ -5,6 +5,7 @@
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
                 [--gcs [URL] ...] [--param-store FILE] [--wipe]
+    sitl missions random --vehicle plane|quad --seed N -o FILE
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
@@ -152,6 +153,19 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_missions(args) -> int:
+    from .missions_random import describe, write_random
+    if args.seed < 0:
+        raise CliError("--seed: must be >= 0")
+    try:
+        notes = write_random(args.vehicle, args.seed, args.output)
+    except OSError as e:
+        raise CliError(f"-o: {e}") from None
+    print(describe(args.vehicle, args.seed, notes))
+    print(f"# written to {args.output}")
+    return 0
+
+
 def cmd_params(args) -> int:
     from .params_cli import params_command
     try:
@@ -211,7 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     r.add_argument("--airframe", default=None,
                    help="plane: aerosonde (default) or c172p; quad: f450 (default)")
-    r.add_argument("--mission", help=f"mission file (.waypoints or .plan); default {DEFAULT_MISSION.name}"
+    r.add_argument("--mission", help=f"mission file (.waypoints or .plan), or random:VEHICLE:SEED (the "
+                                     f"mission of 'sitl missions random'); default {DEFAULT_MISSION.name}"
                                      f" (quad: {QUAD_DEFAULT_MISSION.name})")
     r.add_argument("--scenario", help="scenario TOML: wind, turbulence, timed fault events")
     r.add_argument("--wind", help="steady wind SPEED_MPS,FROM_DEG")
@@ -244,6 +259,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--wipe", action="store_true", help="with --gcs: start from the default parameters "
                                                        "and persist nothing")
     r.set_defaults(func=cmd_run)
+    ms = sub.add_parser("missions", help="mission tools: random missions")
+    ms_sub = ms.add_subparsers(dest="missions_cmd", required=True)
+    mr = ms_sub.add_parser("random", help="write a random valid mission (QGC WPL 110) of a seed")
+    mr.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    mr.add_argument("--seed", type=int, required=True)
+    mr.add_argument("-o", "--output", required=True, help="the .waypoints file to write")
+    mr.set_defaults(func=cmd_missions)
     pp = sub.add_parser("params", help="save or load a .parm file (persistent store or a live vehicle)")
     pp.add_argument("action", choices=["save", "load"])
     pp.add_argument("file")

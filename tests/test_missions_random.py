@@ -1,0 +1,197 @@
+"""Random missions (tools/missions_random.py): valid, deterministic, and as broad as
+the distribution promises; the CLI and the random:VEHICLE:SEED source of sitl run."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autopilot.geo import LocalFrame
+from autopilot.mission.files import dumps_waypoints, load_mission, loads_waypoints
+from autopilot.mission.items import (DO_CHANGE_SPEED, DO_JUMP, NAV_LAND, NAV_LOITER_TIME,
+                                     NAV_LOITER_TURNS, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
+                                     NAV_WAYPOINT)
+from tools.missions_random import (LEG_MAX_M, PLANE_R_MIN_M, TIME_BUDGET_S, estimate_time_s,
+                                   mission_for_seed, random_mission, resolve_order)
+
+REPO = Path(__file__).resolve().parent.parent
+SEEDS = range(150)
+
+
+def _sample(vehicle):
+    return [mission_for_seed(vehicle, s)[0] for s in SEEDS]
+
+
+@pytest.fixture(scope="module")
+def planes():
+    return _sample("plane")
+
+
+@pytest.fixture(scope="module")
+def quads():
+    return _sample("quad")
+
+
+def _positions(m):
+    """(seq, north, east) of the items with a position, in home's NED frame."""
+    h = m.home
+    f = LocalFrame.from_degrees(h.x_lat_deg, h.y_lon_deg, h.z_alt_m)
+    out = []
+    for it in m.items[1:]:
+        if it.command in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF) \
+                and (it.x_lat_deg, it.y_lon_deg) != (0.0, 0.0):
+            p = f.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), f.alt0_m)
+            out.append((it.seq, float(p[0]), float(p[1])))
+    return out
+
+
+@pytest.mark.parametrize("vehicle", ["plane", "quad"])
+def test_valid_bounded_and_deterministic(vehicle, planes, quads):
+    sample = planes if vehicle == "plane" else quads
+    for seed, m in zip(SEEDS, sample):
+        text = dumps_waypoints(m)
+        assert loads_waypoints(text) == m                     # the loader accepts it as is
+        assert 2 <= len(m) - 1 <= 20
+        assert m[1].command == NAV_TAKEOFF
+        assert estimate_time_s(m, vehicle) <= TIME_BUDGET_S[vehicle] + 1e-6
+        order = resolve_order(m)
+        assert order[0] == 1 and len(order) < 2000             # the jumps end
+        pos = _positions(m)
+        for (_, n0, e0), (_, n1, e1) in zip(pos, pos[1:]):
+            assert math.hypot(n1 - n0, e1 - e0) <= LEG_MAX_M + 1.0
+        if vehicle == "plane":
+            assert all(it.command != NAV_LAND for it in m)    # the fixed-wing does not land
+    # a pure function of (vehicle, seed)
+    assert dumps_waypoints(mission_for_seed(vehicle, 17)[0]) == dumps_waypoints(sample[17])
+    texts = {dumps_waypoints(m) for m in sample}
+    assert len(texts) == len(sample)
+    rng_a, rng_b = np.random.default_rng(5), np.random.default_rng(5)
+    assert random_mission(vehicle, rng_a)[0] == random_mission(vehicle, rng_b)[0]
+
+
+def test_the_distribution_is_broad(planes, quads):
+    """Every class the issue names occurs in 150 seeds of each vehicle."""
+    seen = set()
+    for vehicle, sample in (("plane", planes), ("quad", quads)):
+        for m in sample:
+            home = m.home
+            if abs(home.x_lat_deg) > 70:
+                seen.add("high latitude")
+            pos = _positions(m)
+            lats = [m[s].x_lat_deg for s, _, _ in pos] + [home.x_lat_deg]
+            lons = [m[s].y_lon_deg for s, _, _ in pos] + [home.y_lon_deg]
+            if min(lats) < 0 < max(lats):
+                seen.add("across the equator")
+            if min(lons) < -179 and max(lons) > 179:
+                seen.add("across the 180 meridian")
+            track = [(0.0, 0.0)] + [(n, e) for s, n, e in pos if m[s].command != NAV_TAKEOFF]
+            lengths = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(track, track[1:])]
+            if any(L > 2000 for L in lengths):
+                seen.add("long leg")
+            if any(L < 40 for L in lengths[1:] if L > 0.5):
+                seen.add("short leg")
+            if any(L < 0.5 for L in lengths[1:]):
+                seen.add("duplicate")
+            if lengths and lengths[0] < 0.5:
+                seen.add("first waypoint at home")
+            for a, b, c in zip(track, track[1:], track[2:]):
+                u = (b[0] - a[0], b[1] - a[1])
+                w = (c[0] - b[0], c[1] - b[1])
+                if math.hypot(*u) > 1 and math.hypot(*w) > 1:
+                    cos = (u[0] * w[0] + u[1] * w[1]) / (math.hypot(*u) * math.hypot(*w))
+                    if cos < -0.999:
+                        seen.add("reversal")
+            takeoff = m[1]
+            if (takeoff.x_lat_deg, takeoff.y_lon_deg) != (0.0, 0.0) and len(pos) > 1:
+                t = [p for p in pos if p[0] == 1][0]
+                first = [p for p in pos if p[0] > 1][0]
+                if t[1] * first[1] + t[2] * first[2] < 0:
+                    seen.add("first waypoint behind the launch")
+            for it in m.items[1:]:
+                if it.command in (NAV_LOITER_TURNS, NAV_LOITER_TIME) and vehicle == "plane":
+                    r = it.param3
+                    seen.add("loiter cw" if r > 0 else "loiter ccw")
+                    if abs(r) < PLANE_R_MIN_M:
+                        seen.add("loiter radius below the minimum turn radius")
+                    if abs(r) > 500:
+                        seen.add("loiter radius over 500 m")
+                    if it.command == NAV_LOITER_TURNS:
+                        seen.add("loiter turns")
+                    else:
+                        seen.add("loiter time")
+                if it.command == DO_JUMP:
+                    seen.add(f"jump repeat {int(it.param2)}")
+                    if any(j.command == DO_JUMP for j in m.items[int(it.param1):it.seq]):
+                        seen.add("jump over a jump")
+                if it.command == DO_CHANGE_SPEED and vehicle == "plane" and it.param2 > 0:
+                    seen.add("speed within limits" if 20 <= it.param2 <= 30 else "speed outside limits")
+            last = m.items[-1].command
+            end = {NAV_RETURN_TO_LAUNCH: "rtl", NAV_LAND: "land"}.get(last, "none")
+            seen.add(f"{vehicle} ends {end}")
+            h_rel = [it.z_alt_m - (0 if it.frame in (3, 6) else home.z_alt_m)
+                     for it in m.items[1:] if it.command in (NAV_WAYPOINT,)]
+            for (s0, n0, e0), (s1, n1, e1) in zip(pos, pos[1:]):
+                if m[s0].command == NAV_WAYPOINT and m[s1].command == NAV_WAYPOINT:
+                    dh = abs(_h(m, s1) - _h(m, s0))
+                    if vehicle == "plane" and dh > 0.1 * max(math.hypot(n1 - n0, e1 - e0), 1.0) + 1:
+                        seen.add("height step steeper than the plane climbs")
+            del h_rel
+    expected = {"high latitude", "across the equator", "across the 180 meridian", "long leg",
+                "short leg", "duplicate", "first waypoint at home", "reversal",
+                "first waypoint behind the launch", "loiter cw", "loiter ccw",
+                "loiter radius below the minimum turn radius", "loiter radius over 500 m",
+                "loiter turns", "loiter time", "jump repeat 0", "jump repeat 3",
+                "jump over a jump", "speed within limits", "speed outside limits",
+                "plane ends rtl", "plane ends none", "quad ends rtl", "quad ends land",
+                "quad ends none", "height step steeper than the plane climbs"}
+    assert expected - seen == set()
+
+
+def _h(m, seq):
+    it = m[seq]
+    return it.z_alt_m if it.frame in (3, 6) else it.z_alt_m - m.home.z_alt_m
+
+
+def test_resolve_order_follows_jumps():
+    from autopilot.mission.files import loads_waypoints as lw
+    text = ("QGC WPL 110\n"
+            "0\t1\t0\t16\t0\t0\t0\t0\t-35.0\t149.0\t500\t1\n"
+            "1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t50\t1\n"
+            "2\t0\t3\t16\t0\t0\t0\t0\t-35.001\t149.0\t50\t1\n"
+            "3\t0\t3\t16\t0\t0\t0\t0\t-35.002\t149.0\t50\t1\n"
+            "4\t0\t2\t177\t3\t1\t0\t0\t0\t0\t0\t1\n"       # 3 once more
+            "5\t0\t3\t16\t0\t0\t0\t0\t-35.003\t149.0\t50\t1\n"
+            "6\t0\t2\t177\t2\t2\t0\t0\t0\t0\t0\t1\n"       # over the first jump, twice
+            "7\t0\t2\t20\t0\t0\t0\t0\t0\t0\t0\t1\n")
+    # counts are never reset: the inner jump is spent on the first pass
+    assert resolve_order(lw(text)) == [1, 2, 3, 3, 5, 2, 3, 5, 2, 3, 5, 7]
+
+
+def _sitl(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "tools.sitl", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_cli_writes_the_mission_and_sitl_run_flies_the_same(tmp_path):
+    out = tmp_path / "q.waypoints"
+    r = _sitl("missions", "random", "--vehicle", "quad", "--seed", "11", "-o", str(out), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("# random quad mission, seed 11")
+    assert load_mission(out) == mission_for_seed("quad", 11)[0]
+    run = tmp_path / "run"
+    r = _sitl("run", "--vehicle", "quad", "--mission", "random:quad:11", "--duration", "15",
+              "--json", "--log-dir", str(run), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (run / "mission.waypoints").read_text() == out.read_text()
+    s = json.loads(r.stdout)
+    assert s["mission_items_total"] == len(load_mission(out)) - 1
+    # malformed sources and a source for the other vehicle: clear errors
+    for spec, vehicle in (("random:plane", "plane"), ("random:boat:3", "plane"),
+                          ("random:plane:x", "plane"), ("random:plane:3", "quad")):
+        r = _sitl("run", "--vehicle", vehicle, "--mission", spec, "--duration", "1", cwd=tmp_path)
+        assert r.returncode == 2 and "random" in r.stderr, (spec, r.stderr)
