@@ -25,7 +25,7 @@ def _home_from(args) -> tuple[float, float, float, float]:
         lat, lon, alt, hdg = (float(x) for x in args.home.split(","))
         return lat, lon, alt, hdg
     from autopilot.mission.files import load_mission
-    from tools.runner import mission_home
+    from autopilot.mission.home import mission_home
     return mission_home(load_mission(args.mission))
 
 

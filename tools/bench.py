@@ -15,7 +15,9 @@ import sys
 import time
 from collections import defaultdict
 
-from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, RunConfig, Session, mission_home
+from autopilot.mission.home import mission_home
+
+from .runner import DEFAULT_MISSION, DEFAULT_SCENARIO, RunConfig, Session
 
 
 def _free_port() -> int:

@@ -67,7 +67,7 @@ roll step overshoots 0.4 % and settles (2 %) in 0.41 s; with the seed's set, 53 
 2.6 s (tests/test_quad_control.py, tests/test_quad_e2e.py).
 
 Implementation: derivative actions on the measurement (the gyro rates), not on the
-error, so a step of the reference does not kick (STYLE lesson 8):
+error, so a step of the reference does not kick (as every control law here):
 
     u = Cbar(s) [k_P e - F(s) omega],   F(s) = (k_D (s + p_d) + k_DD s) / (s + p_d)^2,
 

@@ -1,5 +1,6 @@
-"""A small PID block with the habits of STYLE.md lesson 8: derivative on the
-measurement (or a measured rate) instead of the error, explicit output saturation and
+"""A small PID block with the habits of every control law here (docs/architecture.md,
+"Conventions"): derivative on the measurement (or a measured rate) instead of the error,
+so a reference step does not kick, explicit output saturation and
 conditional-integration anti-windup (the integrator only moves when the output is not
 saturated in the direction the error would push it), and ``reset()``."""
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Rotations: the one module that fixes the quaternion convention.
 
-Convention (DESIGN.md section 4): Hamilton quaternions, scalar first ``[w, x, y, z]``;
+Convention (docs/architecture.md, "Conventions"): Hamilton quaternions, scalar first ``[w, x, y, z]``;
 ``q_nb`` rotates body (FRD) vectors into the NED frame, ``v_ned = R(q_nb) @ v_b``.
 Euler angles are the aerospace 3-2-1 sequence (yaw psi, pitch theta, roll phi), seed
 eqs 1.6-1.10 (Beard & McLain 2012, ch. 2 and app. B). Quaternion kinematics
