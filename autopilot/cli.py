@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         gcs_urls = _gcs_urls(args.gcs)
-        mission = load_mission(args.mission)
+        mission = load_mission(args.mission, vehicle="plane")
         decls = list(plane_param_declarations())
         if gcs_urls is not None:
             from .gcs import GCS_PARAMS, load_lenient

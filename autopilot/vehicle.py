@@ -25,7 +25,7 @@ from .guidance.l1 import G, L1Guidance
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
-from .mission.items import Mission
+from .mission.items import Mission, validate_mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
@@ -248,6 +248,9 @@ class PlaneVehicle:
         item 1 (ArduPilot keeps the index; a fresh start is the simpler promise)."""
         if len(mission) < 1:
             return "empty mission"
+        problem = validate_mission(mission.items, "plane")
+        if problem is not None:
+            return f"item {problem.seq}: {problem.text}"
         self.mission = mission
         if self.sequencer is not None:
             self.sequencer.load(mission)

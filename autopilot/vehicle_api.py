@@ -31,6 +31,7 @@ class VehicleApi(Protocol):
     mission: Mission | None          # the active mission (item 0 = home)
     gps_fix_type: int
     landed: bool                     # on the ground (EXTENDED_SYS_STATE landed_state)
+    notices: list                    # (t_s, MAV_SEVERITY, text) the vehicle announces (STATUSTEXT)
 
     def current_seq(self) -> int: ...              # MISSION_CURRENT seq
     def reached_events(self) -> list[tuple[int, int]]: ...  # (t_us, seq), every item reached so far

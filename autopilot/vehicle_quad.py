@@ -41,7 +41,7 @@ from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
-from .mission.items import Mission
+from .mission.items import Mission, validate_mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
@@ -325,6 +325,7 @@ class QuadVehicle:
                         and params["FDI_MOT_ENABLE"] >= 1 else None)
         self._fdi_events = 0
         self._motors = (0.0, 0.0, 0.0, 0.0)     # the commands flown since the last step
+        self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -355,6 +356,7 @@ class QuadVehicle:
         self.ctrl.reset()
         self.navigator.init((0.0, 0.0, 0.0), self.euler[2])
         self.navigator.speed_mps = None
+        self.navigator.speed_up_mps = self.navigator.speed_dn_mps = None
         self.on_ground = True
         self.flying = False
         self.mission_landed = False
@@ -391,6 +393,7 @@ class QuadVehicle:
 
     def _enter_mode(self, prev: CopterMode, mode: CopterMode) -> None:
         nv = self.navigator
+        nv.release_yaw()                         # a mission's CONDITION_YAW ends with AUTO
         if prev not in POSITION_MODES or nv.phase in ("idle", "landed") and not self.on_ground:
             nv.init(self.p_home, self.euler[2])
         if not self.armed or self.on_ground:
@@ -424,6 +427,9 @@ class QuadVehicle:
     def set_mission(self, mission: Mission, t_us: int) -> str | None:
         if len(mission) < 1:
             return "empty mission"
+        problem = validate_mission(mission.items, "quad")
+        if problem is not None:
+            return f"item {problem.seq}: {problem.text}"
         self.mission = mission
         if self.sequencer is not None:
             self.sequencer.load(mission)
@@ -587,8 +593,15 @@ class QuadVehicle:
         self._touchdown_pending = False
         seq, hold = 0, False
         if mode == CopterMode.AUTO and self.sequencer is not None:
-            seq, hold = self.sequencer.advance(t_us, pos, touchdown)
-            if self.sequencer.landed and not self.mission_landed:
+            sq = self.sequencer
+            seq, hold = sq.advance(t_us, pos, touchdown, yaw)
+            if sq.home_request is not None:
+                self._mission_set_home(sq, t_us)
+            if sq.notices:
+                for t_s, severity, text in sq.notices:
+                    self.notice(t_s, severity, text)
+                sq.notices.clear()
+            if sq.landed and not self.mission_landed:
                 self._landed_end(t_us)
         elif touchdown and nv.phase == "land_descend":
             nv.touchdown()
@@ -611,6 +624,22 @@ class QuadVehicle:
         return ctrl.attitude(q, omega, r_d, p_d, tgt.yaw_rad, u_z)
 
     _touchdown_pending = False
+
+    def notice(self, t_s: float, severity: int, text: str) -> None:
+        """Something to tell the ground stations (STATUSTEXT) and the flight log."""
+        self.notices.append((t_s, severity, text))
+        self.log.event(t_s, text)
+
+    def _mission_set_home(self, sq: CopterMissionSequencer, t_us: int) -> None:
+        """A mission's DO_SET_HOME: here (the navigation solution) or the item's place."""
+        req = sq.home_request
+        sq.home_request = None
+        nav = self.nav_state
+        if req == "here":
+            req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
+        self.set_home(*req, t_us)
+        self.notice(t_us * 1e-6, 6, f"Mission: home set to {math.degrees(req[0]):.7f} "
+                                    f"{math.degrees(req[1]):.7f} {req[2]:.1f} m")
 
     def _monitor(self, mon: MotorMonitor, frame: SensorFrame, omega, t_us: int) -> None:
         """The motor fault monitor on this step's IMU sample (less the filter's bias

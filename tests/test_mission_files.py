@@ -350,8 +350,9 @@ def test_missing_file_is_an_os_error(tmp_path):
      "MAV_MISSION_INVALID_PARAM1"),
     (wp(4, cmd=DO_JUMP, frame=FRAME_MISSION, p=(4, 1, 0, 0), lat=0, lon=0, alt=0),
      "MAV_MISSION_INVALID_PARAM1"),  # to itself
-    (wp(1, cmd=DO_JUMP, frame=FRAME_MISSION, p=(3, -1, 0, 0), lat=0, lon=0, alt=0),
-     "MAV_MISSION_INVALID_PARAM2"),
+    (wp(1, cmd=DO_JUMP, frame=FRAME_MISSION, p=(3, -1, 0, 0), lat=0, lon=0, alt=0), None),
+    (wp(1, cmd=DO_JUMP, frame=FRAME_MISSION, p=(3, -2, 0, 0), lat=0, lon=0, alt=0),
+     "MAV_MISSION_INVALID_PARAM2"),  # -1 is "for ever", nothing below
     (wp(1, cmd=DO_CHANGE_SPEED, frame=FRAME_MISSION, p=(0, 22, -1, 0), lat=0, lon=0, alt=0), None),
     (wp(1, cmd=DO_CHANGE_SPEED, frame=FRAME_MISSION, p=(7, 22, -1, 0), lat=0, lon=0, alt=0),
      "MAV_MISSION_INVALID_PARAM1"),

@@ -18,7 +18,7 @@ import numpy as np
 from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.mission.files import MissionFileError, save_waypoints
-from autopilot.mission.items import Mission, POSITION_COMMANDS
+from autopilot.mission.items import POSITION_COMMANDS, Mission, validate_mission
 from autopilot.nav.config import NAV_GPS_PRESETS
 from autopilot.params import ParamStore
 from autopilot.vehicle import LOG_COLUMNS, PlaneVehicle, plane_param_declarations
@@ -88,6 +88,9 @@ class Session:
         if is_random_source(cfg.mission) and parse_source(cfg.mission)[0] != cfg.vehicle:
             raise MissionFileError(str(cfg.mission), None,
                                    f"a {parse_source(cfg.mission)[0]} mission; the vehicle is a {cfg.vehicle}")
+        problem = validate_mission(self.mission.items, cfg.vehicle)
+        if problem is not None:               # a command this vehicle does not fly (yet)
+            raise MissionFileError(str(cfg.mission), f"item {problem.seq}", str(problem))
         self.home = cfg.home or mission_home(self.mission)
         from sim_bridge.sensors.params import GPS_PRESETS, SensorParams
         if cfg.gps not in GPS_PRESETS:

@@ -140,6 +140,7 @@ class GcsCore:
         self._mode = vehicle.mode
         self._reached_n = len(vehicle.reached_events())
         self._fdi_n = self._fdi_count()
+        self._notice_n = len(getattr(vehicle, "notices", ()))
         self._home_key = None
 
     # ------------------------------------------------------------------- output ---
@@ -320,6 +321,7 @@ class GcsCore:
         self._armed, self._mode = v.armed, v.mode
         self._reached_n = len(v.reached_events())
         self._fdi_n = self._fdi_count()
+        self._notice_n = len(getattr(v, "notices", ()))
 
     def _fdi_count(self) -> int:
         mon = getattr(self.vehicle, "monitor", None)
@@ -340,6 +342,12 @@ class GcsCore:
             self._broadcast(R.MAVLink_mission_item_reached_message(seq))
             self.say(SEV_INFO, f"Reached waypoint #{seq}")
         self._reached_n = len(reached)
+        notices = getattr(v, "notices", None)
+        if notices:
+            # the vehicle's own announcements (mission warnings, crash detection)
+            for _t_s, severity, text in notices[self._notice_n:]:
+                self.say(severity, text)
+            self._notice_n = len(notices)
         mon = getattr(v, "monitor", None)
         if mon is not None and len(mon.events) > self._fdi_n:
             # fault monitor: detection, isolation, adaptation, failsafe, clearance

@@ -11,9 +11,12 @@ One upload at a time: a second client's MISSION_COUNT during an upload is answer
 MAV_MISSION_DENIED; the same client's restarts it. An item request unanswered for
 ``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
 (MAV_MISSION_OPERATION_CANCELLED). Items are checked one by one as they arrive
-(``validate_item``) and the whole mission at the end (``validate_mission``); any refusal
-ends the upload with the matching MAV_MISSION_RESULT, and only a complete, valid mission
-replaces the active one (``vehicle.set_mission``), atomically. A duplicate item (already
+(``item_problem``) and the whole mission at the end (``validate_mission``), both for the
+vehicle served: a command it does not fly is MAV_MISSION_UNSUPPORTED, a mission that
+cannot be flown (a DO_JUMP loop without a navigation item) MAV_MISSION_INVALID_PARAM1,
+each with a STATUSTEXT naming the item. Any refusal ends the upload with the matching
+MAV_MISSION_RESULT, and only a complete, valid mission replaces the active one
+(``vehicle.set_mission``), atomically. A duplicate item (already
 received) is ignored; an item from the future is ignored and the expected one requested
 again. Legacy clients: a MISSION_ITEM answers a request like a MISSION_ITEM_INT, and a
 client that speaks the legacy messages (or ignores the first MISSION_REQUEST_INT) is
@@ -35,7 +38,7 @@ import math
 
 from ..link.codec import MAV
 from ..mission.items import (ABSOLUTE_ALT_FRAMES, FRAME_GLOBAL, MISSION_TYPE_MISSION, NAV_WAYPOINT,
-                             Mission, MissionItem, item_problem, validate_mission)
+                             Mission, MissionItem, item_problem, validate_mission, vehicle_kind)
 
 MISSION_TIMEOUT_S = 1.5     # mavlink.io: item request timeout (ms 1500)
 MISSION_RETRIES = 5
@@ -68,6 +71,7 @@ class MissionServer:
     def __init__(self, vehicle, send, say, home_item, clock, timeout_s: float = MISSION_TIMEOUT_S,
                  retries: int = MISSION_RETRIES, max_items: int = MAX_ITEMS):
         self.vehicle = vehicle
+        self.kind = vehicle_kind(vehicle.mav_type)   # what it flies (mission.items)
         self.send = send
         self.say = say
         self.home_item = home_item
@@ -188,7 +192,7 @@ class MissionServer:
             item = MissionItem.from_float(msg) if legacy else MissionItem.from_int(msg)
         except (TypeError, ValueError, OverflowError):
             item = None
-        problem = item_problem(item) if item is not None else None
+        problem = item_problem(item, self.kind) if item is not None else None
         if item is None or (problem is not None and seq > 0):
             code = problem.code if problem is not None else "MAV_MISSION_INVALID"
             self._fail(up, code, f"item {seq}: {problem.text if problem else 'not a mission item'}")
@@ -213,7 +217,7 @@ class MissionServer:
     def _finish(self, up: _Upload, t_us: int) -> None:
         wire = tuple(up.items)
         flown = self._flown_copy(wire)
-        problem = validate_mission(flown)
+        problem = validate_mission(flown, self.kind)
         if problem is not None:
             self._fail(up, problem.code, f"item {problem.seq}: {problem.text}")
             return

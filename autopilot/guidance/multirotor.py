@@ -31,9 +31,14 @@ climb to Q_RTL_ALT above home (if lower), fly home, land.
 Mission items (item 0 is home): NAV_TAKEOFF (vertical, param7 altitude; its lat/lon are
 ignored, as ArduCopter does), NAV_WAYPOINT (param1 hold time [s], param2 acceptance
 radius [m], param4 heading [deg]), NAV_LOITER_TIME (param1 seconds), NAV_LOITER_UNLIM,
-NAV_LOITER_TURNS (a hold of param1 x 20 s: no circling), NAV_LAND (lat/lon 0: here),
-NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (param2 [m/s] replaces WPNAV_SPEED for the
-rest of the flight), DO_SET_HOME.
+NAV_LOITER_TURNS (a hold of param1 x 20 s: no circling), NAV_LOITER_TO_ALT (to the place
+and its altitude, as ArduCopter), NAV_DELAY (hold where the vehicle can stop, param1
+seconds), NAV_LAND (lat/lon 0: here), NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED
+(param2 [m/s], clamped to the parameter's range with a warning, replaces WPNAV_SPEED --
+speed types 0 and 1 --, WPNAV_SPEED_UP -- 2 -- or WPNAV_SPEED_DN -- 3 -- for the rest of
+the flight; -2 restores the parameter), DO_SET_HOME (param1 1 or all zero: here),
+CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``).
+Latitude and longitude 0 mean "here" and altitude 0 "this height" (``item_ned``).
 A waypoint is reached when the reference has arrived and the vehicle is within the
 acceptance radius (default WPNAV_RADIUS); the hold time starts then. Timed holds and
 loiters are flagged ``hold`` in the target (scored as hold_pos_rms_m). A mission that
@@ -45,15 +50,20 @@ import math
 from dataclasses import dataclass
 
 from ..geo import LocalFrame, wrap_pi
-from ..mission.items import (MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP, MAV_CMD_DO_SET_HOME,
-                             MAV_CMD_NAV_LAND, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_TURNS,
+from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
+                             MAV_CMD_CONDITION_DISTANCE, MAV_CMD_CONDITION_YAW,
+                             MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP, MAV_CMD_DO_SET_HOME,
+                             MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND, MAV_CMD_NAV_LOITER_TIME,
+                             MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem)
+                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, NAV_COMMANDS, Mission,
+                             MissionItem)
 from ..params import Param
 
 RELATIVE_FRAMES = (3, 6, 11)
 LOITER_TURN_S = 20.0
 YAW_MIN_LEG_M = 5.0           # shorter moves keep the heading
+YAW_DONE_DEG = 5.0            # CONDITION_YAW holds with the heading this close
 
 COPTER_GUIDANCE_PARAMS = (
     Param("WPNAV_SPEED", 5.0, 0.5, 20.0, "m/s", "horizontal speed between waypoints"),
@@ -167,6 +177,16 @@ class Trajectory:
         self._u, self._len, self._s, self._vs = u, length, 0.0, min(vs, vmax)
         self._vmax, self._amax = vmax, amax
 
+    def retune(self, v_h: float, v_up: float, v_dn: float) -> None:
+        """New speed limits for the line being flown (a speed change in flight: the
+        profile slows down at its acceleration limit or speeds up)."""
+        if self.descending or self._len <= 0.0:
+            return
+        u = self._u
+        uh, uz = math.hypot(u[0], u[1]), abs(u[2])
+        vz = v_up if u[2] < 0.0 else v_dn
+        self._vmax = min(v_h / uh if uh > 1e-9 else math.inf, vz / uz if uz > 1e-9 else math.inf)
+
     def stopping_point(self) -> tuple[float, float, float]:
         """Where the raw profile stops if it brakes now at its acceleration limit."""
         r = self.raw
@@ -257,6 +277,13 @@ class CopterNavigator:
         self.goal_ne = (0.0, 0.0)
         self.land_ne = (0.0, 0.0)
         self.speed_mps: float | None = None   # DO_CHANGE_SPEED override of WPNAV_SPEED
+        self.speed_up_mps: float | None = None   # ... of WPNAV_SPEED_UP
+        self.speed_dn_mps: float | None = None   # ... of WPNAV_SPEED_DN
+        # CONDITION_YAW: the heading still to turn through [rad, signed] at a rate [rad/s];
+        # None when the heading follows the legs
+        self._yaw_left: float | None = None
+        self._yaw_fix_rate = 0.0
+        self.yaw_fix_target = 0.0
 
     # ----------------------------------------------------------------- actions --
     def init(self, p_ned, yaw: float) -> None:
@@ -264,13 +291,40 @@ class CopterNavigator:
         self.traj.reset(p_ned)
         self.yaw_ref = yaw
         self._yaw_goal = None
+        self._yaw_left = None
         self.phase = "idle"
+
+    def fix_yaw(self, turn_rad: float, rate_rad_s: float) -> None:
+        """Turn the heading reference through ``turn_rad`` (signed: + clockwise seen from
+        above) at ``rate_rad_s``, then hold it, whatever the legs flown meanwhile
+        (CONDITION_YAW, ArduCopter's fixed-yaw mode) until `release_yaw`."""
+        self._yaw_left = turn_rad
+        self._yaw_fix_rate = rate_rad_s
+        self.yaw_fix_target = wrap_pi(self.yaw_ref + turn_rad)
+
+    def release_yaw(self) -> None:
+        """The heading follows the legs again."""
+        self._yaw_left = None
+
+    @property
+    def yaw_fixed(self) -> bool:
+        return self._yaw_left is not None
+
+    @property
+    def yaw_fix_turned(self) -> bool:
+        """The fixed heading's reference has turned all the way."""
+        return self._yaw_left == 0.0
+
+    def speeds(self) -> tuple[float, float, float]:
+        """Horizontal, climb and descent speed limits: DO_CHANGE_SPEED's, else WPNAV_*."""
+        p = self.params
+        return (self.speed_mps if self.speed_mps is not None else p["WPNAV_SPEED"],
+                self.speed_up_mps if self.speed_up_mps is not None else p["WPNAV_SPEED_UP"],
+                self.speed_dn_mps if self.speed_dn_mps is not None else p["WPNAV_SPEED_DN"])
 
     def _line(self, goal) -> None:
         p = self.params
-        v_h = self.speed_mps if self.speed_mps is not None else p["WPNAV_SPEED"]
-        self.traj.line_to(goal, v_h, p["WPNAV_SPEED_UP"], p["WPNAV_SPEED_DN"],
-                          p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"])
+        self.traj.line_to(goal, *self.speeds(), p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"])
         self.leg_id += 1
         self.goal_ne = (goal[0], goal[1])
         dn, de = goal[0] - self.traj.start[0], goal[1] - self.traj.start[1]
@@ -348,7 +402,12 @@ class CopterNavigator:
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
         traj.update(dt, p_vehicle, prm["WPNAV_LEASH"])
         # heading reference slewed towards its goal
-        if self._yaw_goal is not None:
+        if self._yaw_left is not None:
+            step = self._yaw_fix_rate * dt
+            turn = max(-step, min(step, self._yaw_left))
+            self._yaw_left = 0.0 if abs(self._yaw_left - turn) < 1e-9 else self._yaw_left - turn
+            self.yaw_ref = self.yaw_fix_target if self._yaw_left == 0.0 else wrap_pi(self.yaw_ref + turn)
+        elif self._yaw_goal is not None:
             err = wrap_pi(self._yaw_goal - self.yaw_ref)
             step = math.radians(prm["YAW_RATE_MAX"]) * dt
             self.yaw_ref = wrap_pi(self.yaw_ref + max(-step, min(step, err)))
@@ -366,12 +425,26 @@ class CopterNavigator:
 
 
 class CopterMissionSequencer:
-    """Mission items -> navigator actions (module docstring)."""
+    """Mission items -> navigator actions (module docstring).
+
+    DO items run in mission order when the navigation item before them completes
+    (DO_JUMP follows its target, DO_CHANGE_SPEED, DO_SET_HOME). A condition
+    (CONDITION_DELAY / _DISTANCE / _YAW) gates only the DO items after it, as AP_Mission
+    does: the next navigation item starts at once, the gated items wait in ``pending``
+    until the condition holds, and those still waiting when that navigation item
+    completes are dropped (said in ``notices``). CONDITION_YAW turns the nose and holds
+    it for the navigation item it belongs to; the condition holds once the vehicle's
+    heading is within YAW_DONE_DEG of the fixed heading.
+
+    ``notices``: (t_s, MAV_SEVERITY, text) for the vehicle to announce (STATUSTEXT);
+    ``home_request``: (lat_rad, lon_rad, alt_m) or "here", a DO_SET_HOME for the vehicle
+    to apply (the next navigation item starts only after it did)."""
 
     def __init__(self, mission: Mission, frame: LocalFrame, params, nav: CopterNavigator):
         self.params = params
         self.frame = frame
         self.nav = nav
+        self.notices: list[tuple[float, int, str]] = []
         self.load(mission)
 
     def load(self, mission: Mission) -> None:
@@ -390,16 +463,25 @@ class CopterMissionSequencer:
         self._hold_s = 0.0
         self._end_rtl = False
         self._goal = (0.0, 0.0, 0.0)
+        self.pending: list[MissionItem] = []     # DO items waiting behind a condition
+        self._cond_start_us: int | None = None   # when the first pending condition started
+        self._yaw_owner: int | None = None       # nav item a CONDITION_YAW belongs to (-1: next)
+        self.home_request = None
 
     def set_current(self, seq: int) -> None:
         self.current = seq
         self.finished = False
         self._entered = None
         self._hold_start_us = None
+        self.pending = []
+        self._cond_start_us = None
 
     @property
     def total_items(self) -> int:
         return max(len(self.items) - 1, 0)
+
+    def _say(self, t_us: int, severity: int, text: str) -> None:
+        self.notices.append((t_us * 1e-6, severity, text))
 
     # ------------------------------------------------------------- geometry ---
     def item_alt_m(self, item: MissionItem) -> float:
@@ -408,15 +490,17 @@ class CopterMissionSequencer:
         return item.z_alt_m
 
     def item_ned(self, item: MissionItem, p_now) -> tuple[float, float, float]:
-        """Item position in home NED; lat/lon 0 means "here" (ArduCopter)."""
+        """Item position in home NED. As ArduCopter reads a location (loc_from_cmd):
+        latitude and longitude 0 mean "here", altitude 0 (any frame) "this height";
+        "here" is ``p_now``, the reference's position (the last destination)."""
         if item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0:
             n, e = p_now[0], p_now[1]
         else:
             q = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
                                        self.frame.alt0_m)
             n, e = float(q[0]), float(q[1])
-        if item.frame in RELATIVE_FRAMES and item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND:
-            d = p_now[2]                         # relative altitude 0: keep the height
+        if item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND:
+            d = p_now[2]                         # altitude 0: keep the height
         else:
             d = self.frame.alt0_m - self.item_alt_m(item)
         return n, e, d
@@ -429,49 +513,166 @@ class CopterMissionSequencer:
         self._entered = None
         self._hold_start_us = None
 
-    def _run_do_items(self, t_us: int) -> None:
+    def _nav_done(self, t_us: int) -> None:
+        """The current navigation item completed: DO items still gated are dropped."""
+        if self.pending:
+            names = ", ".join(f"{it.seq} {it.command_name}" for it in self.pending)
+            self._say(t_us, 4, f"Mission: item {self.current} done before its conditions "
+                               f"held; skipped {names}")
+            self.pending = []
+            self._cond_start_us = None
+        self._advance(t_us)
+
+    def _jump(self, item: MissionItem, t_us: int) -> None:
+        target, repeat = int(item.param1), int(item.param2)
+        done = self.jump_counts.get(item.seq, 0)
+        if repeat < 0 or done < repeat:
+            self.jump_counts[item.seq] = done + 1
+            self.reached.append((t_us, item.seq))
+            self.reached_seqs.add(item.seq)
+            self.current = target
+        else:
+            self.reached_seqs.add(item.seq)
+            self.current += 1
+        self._entered = None
+
+    def _run_do_items(self, t_us: int, yaw: float) -> bool:
+        """DO items at the current index until a navigation item is current. A condition
+        moves the DO items after it (to the next navigation item, jumps followed) to
+        ``pending``. False when a DO_SET_HOME waits for the vehicle."""
+        gating = False
         for _ in range(len(self.items) * 4 + 8):
             if self.current >= len(self.items):
-                return
+                return True
             item = self.items[self.current]
-            if item.command == MAV_CMD_DO_JUMP:
-                target, repeat = int(item.param1), int(item.param2)
-                done = self.jump_counts.get(item.seq, 0)
-                if repeat < 0 or done < repeat:
-                    self.jump_counts[item.seq] = done + 1
-                    self.reached.append((t_us, item.seq))
-                    self.reached_seqs.add(item.seq)
-                    self.current = target
-                else:
-                    self.reached_seqs.add(item.seq)
-                    self.current += 1
-                self._entered = None
-            elif item.command == MAV_CMD_DO_CHANGE_SPEED:
-                if item.param2 > 0:
-                    self.nav.speed_mps = min(max(item.param2, 0.5), 20.0)
-                self._advance(t_us)
-            elif item.command == MAV_CMD_DO_SET_HOME:
-                self._advance(t_us)
+            cmd = item.command
+            if cmd == MAV_CMD_DO_JUMP:
+                self._jump(item, t_us)
+            elif cmd in NAV_COMMANDS:
+                return True
+            elif gating or cmd in CONDITION_COMMANDS:
+                gating = True
+                self.pending.append(item)
+                self.current += 1
             else:
-                return
+                self._do(item, t_us, yaw)
+                self._advance(t_us)
+                if self.home_request is not None:
+                    return False
+        return True
+
+    def _do(self, item: MissionItem, t_us: int, yaw: float) -> None:
+        """Execute one DO item (conditions start here)."""
+        cmd = item.command
+        nav = self.nav
+        prm = self.params
+        if cmd == MAV_CMD_DO_CHANGE_SPEED:
+            kind = int(item.param1)
+            v = item.param2
+            name, attr = {2: ("WPNAV_SPEED_UP", "speed_up_mps"),
+                          3: ("WPNAV_SPEED_DN", "speed_dn_mps")}.get(kind, ("WPNAV_SPEED", "speed_mps"))
+            if v == -2.0:
+                setattr(nav, attr, None)        # back to the parameter
+            elif v > 0.0:
+                spec = prm.declaration(name)
+                lo, hi = spec.min, spec.max
+                if not lo <= v <= hi:
+                    self._say(t_us, 4, f"Mission: item {item.seq} speed {v:g} m/s outside "
+                                       f"{name} {lo:g}..{hi:g}: {min(max(v, lo), hi):g} m/s")
+                setattr(nav, attr, min(max(v, lo), hi))
+            nav.traj.retune(*nav.speeds())       # the leg being flown too
+        elif cmd == MAV_CMD_DO_SET_HOME:
+            use_here = item.param1 == 1.0 or (item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0
+                                              and item.z_alt_m == 0.0)
+            if use_here:
+                self.home_request = "here"
+            else:
+                self.home_request = (math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
+                                     self.item_alt_m(item))
+
+    def _start_yaw(self, item: MissionItem, yaw: float) -> None:
+        """CONDITION_YAW: the signed turn as ArduCopter's fixed yaw computes it."""
+        angle = math.radians(item.param1)
+        direction = int(item.param3)
+        if item.param4 == 1.0:                   # relative to the heading
+            turn = angle * (direction if direction != 0 else 1)
+        else:
+            turn = wrap_pi(angle - self.nav.yaw_ref)
+            if direction < 0 and turn > 0.0:
+                turn -= 2.0 * math.pi
+            elif direction > 0 and turn < 0.0:
+                turn += 2.0 * math.pi
+        rate_max = self.params["YAW_RATE_MAX"]
+        rate = item.param2 if math.isfinite(item.param2) and item.param2 > 0.0 else rate_max
+        self.nav.fix_yaw(turn, math.radians(min(rate, rate_max)))
+        self._yaw_owner = self._entered if self._entered == self.current else -1
+
+    def _condition_holds(self, item: MissionItem, t_us: int, p_ned, yaw: float) -> bool:
+        if self._cond_start_us is None:
+            self._cond_start_us = t_us
+            if item.command == MAV_CMD_CONDITION_YAW:
+                self._start_yaw(item, yaw)
+        if item.command == MAV_CMD_CONDITION_DELAY:
+            return (t_us - self._cond_start_us) * 1e-6 >= item.param1
+        if item.command == MAV_CMD_CONDITION_DISTANCE:
+            g = self._goal                       # horizontal, as ArduCopter's wp_distance
+            return math.hypot(p_ned[0] - g[0], p_ned[1] - g[1]) <= item.param1
+        # CONDITION_YAW
+        return (self.nav.yaw_fix_turned and abs(wrap_pi(yaw - self.nav.yaw_fix_target))
+                <= math.radians(YAW_DONE_DEG))
+
+    def _run_pending(self, t_us: int, p_ned, yaw: float) -> None:
+        """The gated DO items, in order, as far as their conditions allow."""
+        while self.pending:
+            item = self.pending[0]
+            if item.command in CONDITION_COMMANDS:
+                if not self._condition_holds(item, t_us, p_ned, yaw):
+                    return
+                self._cond_start_us = None
+            else:
+                self._do(item, t_us, yaw)
+            self.pending.pop(0)
+            self.reached.append((t_us, item.seq))
+            self.reached_seqs.add(item.seq)
+
+    def _entering(self, seq: int) -> None:
+        """A navigation item starts: a fixed heading belongs to the item it was set
+        for (or, set between items, to this one); any other is released."""
+        if self.nav.yaw_fixed and self._yaw_owner not in (-1, seq):
+            self.nav.release_yaw()
+        elif self.nav.yaw_fixed:
+            self._yaw_owner = seq
 
     def update(self, t_us: int, p_ned, touchdown: bool) -> CopterTarget:
         """Advance the mission; the target of the current action (reference not stepped)."""
         seq, hold = self.advance(t_us, p_ned, touchdown)
         return self.nav.target(seq, hold)
 
-    def advance(self, t_us: int, p_ned, touchdown: bool) -> tuple[int, bool]:
+    def advance(self, t_us: int, p_ned, touchdown: bool, yaw: float | None = None) -> tuple[int, bool]:
         """Advance the mission: start the actions of new items, detect their ends.
         Returns (seq being flown, timed hold running). ``touchdown``: the vehicle's land
-        detector saw the ground this step."""
-        nav = self.nav
+        detector saw the ground this step; ``yaw``: the vehicle's heading (default the
+        reference's)."""
+        if yaw is None:
+            yaw = self.nav.yaw_ref
         if self.landed:
             return self.current, False
-        self._run_do_items(t_us)
+        if self.home_request is not None:
+            return self.current, False          # the vehicle moves home first
+        if not self._run_do_items(t_us, yaw):
+            return self.current, False
+        seq, hold = self._step_nav(t_us, p_ned, touchdown, yaw)
+        if self.pending and not self.landed:
+            self._run_pending(t_us, p_ned, yaw)
+        return seq, hold
+
+    def _step_nav(self, t_us: int, p_ned, touchdown: bool, yaw: float) -> tuple[int, bool]:
+        nav = self.nav
         if self.current >= len(self.items):
             # past the last item without a landing: return to launch and land
             if not self._end_rtl:
                 self._end_rtl = True
+                self._entering(len(self.items))
                 nav.rtl(p_ned)
             if touchdown:
                 nav.touchdown()
@@ -482,33 +683,46 @@ class CopterMissionSequencer:
         seq = self.current
         entering = self._entered != seq
         self._entered = seq
+        if entering:
+            self._entering(seq)
         if cmd == MAV_CMD_NAV_TAKEOFF:
             goal_d = self.frame.alt0_m - self.item_alt_m(item)
             if entering:
+                self._goal = (nav.traj.raw[0], nav.traj.raw[1], goal_d)
                 if nav.phase in ("idle", "landed"):
                     nav.takeoff(p_ned, -goal_d)
                 else:
                     nav.goto((nav.traj.raw[0], nav.traj.raw[1], min(goal_d, nav.traj.raw[2])))
             if nav.arrived and abs(p_ned[2] - nav.traj.p[2]) <= self.params["WPNAV_TKOFF_TOL"]:
-                self._advance(t_us)
-                return self.advance(t_us, p_ned, touchdown)
+                return self._next(t_us, p_ned, touchdown, yaw)
             return seq, False
         if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
-                   MAV_CMD_NAV_LOITER_TURNS):
+                   MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY):
             if entering:
-                self._goal = goal = self.item_ned(item, nav.traj.raw)
-                yaw = None
-                if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param4) and item.param4 != 0.0:
-                    yaw = math.radians(item.param4)
-                nav.goto(goal, yaw)
-                if cmd == MAV_CMD_NAV_WAYPOINT:
-                    self._hold_s = max(item.param1, 0.0) if math.isfinite(item.param1) else 0.0
-                elif cmd == MAV_CMD_NAV_LOITER_TIME:
-                    self._hold_s = max(item.param1, 0.0)
-                elif cmd == MAV_CMD_NAV_LOITER_TURNS:
-                    self._hold_s = max(item.param1, 0.0) * LOITER_TURN_S
+                if cmd == MAV_CMD_NAV_DELAY:
+                    # hold where the reference can stop, for param1 seconds
+                    stop = nav.traj.stopping_point()
+                    self._goal = stop
+                    nav.hold(stop, scored=True)
+                    self._hold_s = item.param1
+                    self._hold_start_us = t_us
+                    self._say(t_us, 6, f"Mission: delaying {item.param1:g} s")
                 else:
-                    self._hold_s = math.inf
+                    self._goal = goal = self.item_ned(item, nav.traj.raw)
+                    yaw_wp = None
+                    if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param4) and item.param4 != 0.0:
+                        yaw_wp = math.radians(item.param4)
+                    nav.goto(goal, yaw_wp)
+                    if cmd == MAV_CMD_NAV_WAYPOINT:
+                        self._hold_s = max(item.param1, 0.0) if math.isfinite(item.param1) else 0.0
+                    elif cmd == MAV_CMD_NAV_LOITER_TIME:
+                        self._hold_s = max(item.param1, 0.0)
+                    elif cmd == MAV_CMD_NAV_LOITER_TURNS:
+                        self._hold_s = max(item.param1, 0.0) * LOITER_TURN_S
+                    elif cmd == MAV_CMD_NAV_LOITER_TO_ALT:
+                        self._hold_s = 0.0
+                    else:
+                        self._hold_s = math.inf
             goal = self._goal
             radius = self.params["WPNAV_RADIUS"]
             if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
@@ -517,26 +731,34 @@ class CopterMissionSequencer:
                 dist = math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1])
                 if nav.arrived and dist <= radius and abs(p_ned[2] - goal[2]) <= max(radius, 1.0):
                     self._hold_start_us = t_us
-                    if self._hold_s > 0.0:
+                    if self._hold_s > 0.0 and cmd != MAV_CMD_NAV_DELAY:
                         nav.hold(None, scored=True)
             if self._hold_start_us is not None:
                 if (t_us - self._hold_start_us) * 1e-6 >= self._hold_s:
-                    self._advance(t_us)
-                    return self.advance(t_us, p_ned, touchdown)
+                    return self._next(t_us, p_ned, touchdown, yaw)
                 return seq, self._hold_s > 0.0
             return seq, False
         if cmd in (MAV_CMD_NAV_LAND, MAV_CMD_NAV_RETURN_TO_LAUNCH):
             if entering:
                 if cmd == MAV_CMD_NAV_LAND:
                     goal = self.item_ned(item, nav.traj.raw)
+                    self._goal = (goal[0], goal[1], 0.0)
                     nav.land((goal[0], goal[1]))
                 else:
+                    self._goal = (0.0, 0.0, 0.0)
                     nav.rtl(p_ned)
             if touchdown and nav.phase == "land_descend":
                 nav.touchdown()
                 self._advance(t_us)
+                self.pending = []
                 self.finished = self.landed = self.rtl_established = True
             return seq, False
-        # refused at load time; skip defensively
-        self._advance(t_us)
-        return self.advance(t_us, p_ned, touchdown)
+        raise AssertionError(f"{item.command_name} at item {seq} is not flown by the quadrotor "
+                             "and should have been refused when the mission was loaded")
+
+    def _next(self, t_us: int, p_ned, touchdown: bool, yaw: float) -> tuple[int, bool]:
+        """The navigation item completed: on to the next one at once."""
+        self._nav_done(t_us)
+        if not self._run_do_items(t_us, yaw):
+            return self.current, False
+        return self._step_nav(t_us, p_ned, touchdown, yaw)

@@ -13,6 +13,10 @@
   save every item gets doJumpId = seq so the two numberings agree. ComplexItems (survey,
   corridor scan, structure scan) are refused. Geofence and rally points are ignored.
 
+`load_mission(path, vehicle="plane" | "quad")` also refuses what that vehicle does not fly
+(`autopilot.mission.items.vehicle_problem`), naming the item; without ``vehicle`` any
+command some vehicle flies is accepted.
+
 Every defect raises `MissionFileError`, whose text points at the place:
 `missions/x.waypoints:7: expected 12 fields, got 9` (line number) or
 `missions/x.plan:item 3: ...` (item N = seq N = mission.items[N-1]; item 0 = home).
@@ -71,8 +75,9 @@ class MissionFileError(ValueError):
 
 # --- entry points ----------------------------------------------------------------------
 
-def load_mission(path: PathLike) -> Mission:
-    """Read a `.waypoints` or `.plan` file (by extension, else by content)."""
+def load_mission(path: PathLike, vehicle: str | None = None) -> Mission:
+    """Read a `.waypoints` or `.plan` file (by extension, else by content); with
+    ``vehicle`` ('plane' / 'quad'), one that vehicle can fly."""
     with open(path, "rb") as f:
         raw = f.read()
     try:
@@ -81,14 +86,14 @@ def load_mission(path: PathLike) -> Mission:
         raise MissionFileError(path, None, f"not UTF-8 text ({exc.reason})") from None
     suffix = os.path.splitext(os.fspath(path))[1].lower()
     if suffix == ".plan":
-        return loads_plan(text, path)
+        return loads_plan(text, path, vehicle)
     if suffix in (".waypoints", ".txt"):
-        return loads_waypoints(text, path)
+        return loads_waypoints(text, path, vehicle)
     stripped = text.lstrip()
     if stripped.startswith("{"):
-        return loads_plan(text, path)
+        return loads_plan(text, path, vehicle)
     if stripped.startswith("QGC WPL"):
-        return loads_waypoints(text, path)
+        return loads_waypoints(text, path, vehicle)
     raise MissionFileError(path, None, "unknown mission file format "
                                        "(expected a .waypoints or .plan file)")
 
@@ -108,7 +113,7 @@ def save_plan(mission: Mission, path: PathLike, *,
 
 # --- .waypoints ------------------------------------------------------------------------
 
-def loads_waypoints(text: str, path: PathLike = "<string>") -> Mission:
+def loads_waypoints(text: str, path: PathLike = "<string>", vehicle: str | None = None) -> Mission:
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise MissionFileError(path, 1, f"missing header, expected '{WPL_HEADER}'")
@@ -143,9 +148,9 @@ def loads_waypoints(text: str, path: PathLike = "<string>") -> Mission:
         item = MissionItem(seq=seq, frame=frame, command=command, current=current,
                            autocontinue=autocontinue, param1=p1, param2=p2, param3=p3,
                            param4=p4, x_lat_deg=lat, y_lon_deg=lon, z_alt_m=alt)
-        problem = item_problem(item)
+        problem = item_problem(item, vehicle)
         if problem is not None:
-            raise MissionFileError(path, lineno, str(problem))
+            raise MissionFileError(path, lineno, f"item {seq}: {problem}")
         items.append(item)
         line_of_seq.append(lineno)
 
@@ -153,9 +158,9 @@ def loads_waypoints(text: str, path: PathLike = "<string>") -> Mission:
         raise MissionFileError(path, None, "empty mission: no items after the header")
     if len(items) == 1:
         raise MissionFileError(path, None, "empty mission: only home (item 0), no mission items")
-    problem = validate_mission(items)
+    problem = validate_mission(items, vehicle)
     if problem is not None:
-        raise MissionFileError(path, line_of_seq[problem.seq], str(problem))
+        raise MissionFileError(path, line_of_seq[problem.seq], f"item {problem.seq}: {problem}")
     return Mission(tuple(items))
 
 
@@ -176,7 +181,7 @@ def _fmt(value: float) -> str:
 
 # --- .plan -----------------------------------------------------------------------------
 
-def loads_plan(text: str, path: PathLike = "<string>") -> Mission:
+def loads_plan(text: str, path: PathLike = "<string>", vehicle: str | None = None) -> Mission:
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -237,10 +242,10 @@ def loads_plan(text: str, path: PathLike = "<string>") -> Mission:
         items[item.seq] = item.replace(param1=float(seq_of_jump_id[int(target)]))
 
     for item in items:
-        problem = item_problem(item)
+        problem = item_problem(item, vehicle)
         if problem is not None:
             raise MissionFileError(path, f"item {item.seq}", str(problem))
-    problem = validate_mission(items)
+    problem = validate_mission(items, vehicle)
     if problem is not None:
         raise MissionFileError(path, f"item {problem.seq}", str(problem))
     return Mission(tuple(items))

@@ -11,6 +11,13 @@ QGroundControl expect): a NAV_WAYPOINT in an absolute-altitude global frame.
 
 `validate_item` and `validate_mission` answer with MAV_MISSION_RESULT names, so the
 ground-station mission handler can put them straight into MISSION_ACK.
+
+Which commands a vehicle flies (``VEHICLE_COMMANDS``, ``vehicle_problem``): a command one
+vehicle cannot fly yet is refused for it at upload and at load (MAV_MISSION_UNSUPPORTED,
+named), never accepted and skipped. ``validate_mission`` also refuses a mission that
+cannot be flown at all: DO_JUMP targets that do not exist, a chain of DO items and jumps
+that loops for ever without a navigation item (an infinite DO_JUMP whose loop holds no
+navigation command), and a mission with items but no navigation command.
 """
 
 from __future__ import annotations
@@ -33,6 +40,11 @@ NAV_TAKEOFF = mavlink2.MAV_CMD_NAV_TAKEOFF  # 22
 DO_JUMP = mavlink2.MAV_CMD_DO_JUMP  # 177
 DO_CHANGE_SPEED = mavlink2.MAV_CMD_DO_CHANGE_SPEED  # 178
 DO_SET_HOME = mavlink2.MAV_CMD_DO_SET_HOME  # 179
+NAV_LOITER_TO_ALT = mavlink2.MAV_CMD_NAV_LOITER_TO_ALT  # 31
+NAV_DELAY = mavlink2.MAV_CMD_NAV_DELAY  # 93
+CONDITION_DELAY = mavlink2.MAV_CMD_CONDITION_DELAY  # 112
+CONDITION_DISTANCE = mavlink2.MAV_CMD_CONDITION_DISTANCE  # 114
+CONDITION_YAW = mavlink2.MAV_CMD_CONDITION_YAW  # 115
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -45,6 +57,11 @@ MAV_CMD_NAV_TAKEOFF = NAV_TAKEOFF
 MAV_CMD_DO_JUMP = DO_JUMP
 MAV_CMD_DO_CHANGE_SPEED = DO_CHANGE_SPEED
 MAV_CMD_DO_SET_HOME = DO_SET_HOME
+MAV_CMD_NAV_LOITER_TO_ALT = NAV_LOITER_TO_ALT
+MAV_CMD_NAV_DELAY = NAV_DELAY
+MAV_CMD_CONDITION_DELAY = CONDITION_DELAY
+MAV_CMD_CONDITION_DISTANCE = CONDITION_DISTANCE
+MAV_CMD_CONDITION_YAW = CONDITION_YAW
 
 COMMAND_NAMES: dict[int, str] = {
     NAV_WAYPOINT: "NAV_WAYPOINT",
@@ -57,14 +74,35 @@ COMMAND_NAMES: dict[int, str] = {
     DO_JUMP: "DO_JUMP",
     DO_CHANGE_SPEED: "DO_CHANGE_SPEED",
     DO_SET_HOME: "DO_SET_HOME",
+    NAV_LOITER_TO_ALT: "NAV_LOITER_TO_ALT",
+    NAV_DELAY: "NAV_DELAY",
+    CONDITION_DELAY: "CONDITION_DELAY",
+    CONDITION_DISTANCE: "CONDITION_DISTANCE",
+    CONDITION_YAW: "CONDITION_YAW",
 }
 SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
 
 # Commands whose x / y / z are a place to fly to (DO_SET_HOME only when param1 == 0).
 POSITION_COMMANDS = frozenset(
-    {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF}
+    {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF,
+     NAV_LOITER_TO_ALT}
 )
-NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH}
+# Navigation commands (ArduPilot's "NAV" ids, < 95): the vehicle flies one at a time.
+NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
+# Conditions gate the DO items after them, never a navigation command (AP_Mission).
+CONDITION_COMMANDS = frozenset({CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW})
+
+# What each vehicle flies. The quadrotor flies every command above
+# (guidance/multirotor.py); the fixed-wing (guidance/mission.py) the ones listed, and
+# `_plane_problem` names what it does not fly yet within those.
+VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
+    "quad": SUPPORTED_COMMANDS,
+    "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
+                        NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, DO_JUMP, DO_CHANGE_SPEED}),
+}
+VEHICLE_NAMES = {"plane": "the fixed-wing", "quad": "the quadrotor"}
+# DO_CHANGE_SPEED speed types (MAV_SPEED_TYPE)
+SPEED_TYPE_NAMES = {0: "airspeed", 1: "ground speed", 2: "climb speed", 3: "descent speed"}
 
 # --- frames (MAV_FRAME) ----------------------------------------------------------------
 FRAME_GLOBAL = mavlink2.MAV_FRAME_GLOBAL  # 0, alt above MSL
@@ -210,6 +248,11 @@ class Problem:
         return f"{self.text} ({self.code})"
 
 
+def vehicle_kind(mav_type: int) -> str:
+    """'plane' or 'quad' for a HEARTBEAT MAV_TYPE (what `VEHICLE_COMMANDS` is keyed by)."""
+    return "plane" if mav_type == mavlink2.MAV_TYPE_FIXED_WING else "quad"
+
+
 def _uses_position(item: MissionItem) -> bool:
     if item.command in POSITION_COMMANDS:
         return True
@@ -220,8 +263,16 @@ def _is_whole(value: float) -> bool:
     return math.isfinite(value) and value == int(value)
 
 
-def item_problem(item: MissionItem) -> Problem | None:
-    """The first thing wrong with one item on its own, or None."""
+def item_problem(item: MissionItem, vehicle: str | None = None) -> Problem | None:
+    """The first thing wrong with one item on its own, or None; with ``vehicle``
+    ('plane' / 'quad') also what that vehicle cannot fly (`vehicle_problem`)."""
+    problem = _item_problem(item)
+    if problem is None and vehicle is not None:
+        problem = vehicle_problem(item, vehicle)
+    return problem
+
+
+def _item_problem(item: MissionItem) -> Problem | None:
     seq = item.seq
 
     def bad(code: str, text: str) -> Problem:
@@ -232,7 +283,11 @@ def item_problem(item: MissionItem) -> Problem | None:
     if item.mission_type != MISSION_TYPE_MISSION:
         return bad("UNSUPPORTED", f"mission_type {item.mission_type} (only plain missions)")
     if item.command not in SUPPORTED_COMMANDS:
-        return bad("UNSUPPORTED", f"unknown command {item.command}")
+        known = mavlink2.enums["MAV_CMD"].get(item.command)
+        if known is None:
+            return bad("UNSUPPORTED", f"unknown command {item.command}")
+        return bad("UNSUPPORTED", f"{known.name.removeprefix('MAV_CMD_')} ({item.command}) "
+                                  "is not supported")
     if item.frame not in SUPPORTED_FRAMES:
         return bad("UNSUPPORTED_FRAME", f"unsupported frame {item.frame}")
     if item.current not in (0, 1):
@@ -278,34 +333,91 @@ def item_problem(item: MissionItem) -> Problem | None:
             return bad("INVALID_PARAM1", f"DO_JUMP target {item.param1:g} is not a seq >= 1")
         if item.param1 == item.seq:
             return bad("INVALID_PARAM1", f"DO_JUMP to itself (seq {item.seq})")
-        if not (_is_whole(item.param2) and item.param2 >= 0.0):
-            return bad("INVALID_PARAM2", f"DO_JUMP repeat {item.param2:g} is not a count >= 0")
+        if not (_is_whole(item.param2) and item.param2 >= -1.0):
+            return bad("INVALID_PARAM2",
+                       f"DO_JUMP repeat {item.param2:g} is not a count >= 0 or -1 (for ever)")
     elif item.command == DO_CHANGE_SPEED:
         if item.param1 not in (0.0, 1.0, 2.0, 3.0):
             return bad("INVALID_PARAM1", f"speed type {item.param1} not in 0..3")
-        if not (item.param2 == -1.0 or (0.0 <= item.param2 <= SPEED_MAX_M_S)):
-            return bad("INVALID_PARAM2",
-                       f"speed {item.param2} m/s not -1 (no change) or in [0, {SPEED_MAX_M_S:g}]")
+        if not (item.param2 in (-1.0, -2.0) or (0.0 <= item.param2 <= SPEED_MAX_M_S)):
+            return bad("INVALID_PARAM2", f"speed {item.param2} m/s not -1 (no change), "
+                                         f"-2 (default) or in [0, {SPEED_MAX_M_S:g}]")
         if not (math.isnan(item.param3) or item.param3 == -1.0 or 0.0 <= item.param3 <= 100.0):
             return bad("INVALID_PARAM3", f"throttle {item.param3} % not -1 or in [0, 100]")
     elif item.command == DO_SET_HOME:
         if item.param1 not in (0.0, 1.0):
             return bad("INVALID_PARAM1", f"DO_SET_HOME use-current {item.param1} not 0 or 1")
+    elif item.command == NAV_LOITER_TO_ALT:
+        if not (math.isnan(item.param2) or abs(item.param2) <= 10000.0):
+            return bad("INVALID_PARAM2", f"loiter radius {item.param2} m is absurd")
+    elif item.command == NAV_DELAY:
+        if not (math.isfinite(item.param1) and item.param1 >= -1.0):
+            return bad("INVALID_PARAM1", f"NAV_DELAY {item.param1} s must be >= 0 (or -1)")
+        if item.param1 < 0.0:
+            return bad("UNSUPPORTED", "NAV_DELAY until a time of day (param1 -1) is not "
+                                      "supported: give the delay in seconds")
+    elif item.command in (CONDITION_DELAY, CONDITION_DISTANCE):
+        if not (math.isfinite(item.param1) and item.param1 >= 0.0):
+            unit = "s" if item.command == CONDITION_DELAY else "m"
+            return bad("INVALID_PARAM1", f"{name} {item.param1} {unit} must be >= 0")
+    elif item.command == CONDITION_YAW:
+        if not (math.isfinite(item.param1) and 0.0 <= item.param1 <= 360.0):
+            return bad("INVALID_PARAM1", f"CONDITION_YAW angle {item.param1} deg not in [0, 360]")
+        if not (math.isnan(item.param2) or 0.0 <= item.param2 <= 360.0):
+            return bad("INVALID_PARAM2", f"CONDITION_YAW rate {item.param2} deg/s not in [0, 360]")
+        if item.param3 not in (-1.0, 0.0, 1.0):
+            return bad("INVALID_PARAM3", f"CONDITION_YAW direction {item.param3} not -1, 0 or 1")
+        if item.param4 not in (0.0, 1.0):
+            return bad("INVALID_PARAM4", f"CONDITION_YAW relative {item.param4} not 0 or 1")
     return None
 
 
-def validate_item(item: MissionItem) -> str | None:
+def _plane_problem(item: MissionItem) -> str | None:
+    """What the fixed-wing does not fly yet within the commands it flies, or None."""
+    if item.command == DO_CHANGE_SPEED:
+        # types 0 and 1 set the airspeed flown (ArduPlane's type 1 sets its minimum
+        # ground speed instead, which this fixed-wing does not have)
+        if item.param1 not in (0.0, 1.0):
+            kind = SPEED_TYPE_NAMES.get(int(item.param1), item.param1)
+            return f"DO_CHANGE_SPEED of the {kind} (speed type {item.param1:g})"
+        if item.param2 == -2.0:
+            return "DO_CHANGE_SPEED back to the default (speed -2)"
+        if math.isfinite(item.param3) and item.param3 > 0.0:
+            return f"DO_CHANGE_SPEED throttle {item.param3:g} %"
+    if (item.command in POSITION_COMMANDS and item.command != NAV_TAKEOFF
+            and item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0):
+        return f"{item.command_name} at latitude and longitude 0 ('here')"
+    return None
+
+
+def vehicle_problem(item: MissionItem, vehicle: str) -> Problem | None:
+    """Why ``vehicle`` ('plane' / 'quad') cannot fly this (otherwise valid) item, or None.
+    Item 0 (home) is not flown and never refused here."""
+    if item.seq == 0:
+        return None
+    who = VEHICLE_NAMES.get(vehicle, vehicle)
+    if item.command not in VEHICLE_COMMANDS[vehicle]:
+        return Problem(item.seq, "MAV_MISSION_UNSUPPORTED",
+                       f"{item.command_name} is not flown by {who}")
+    if vehicle == "plane":
+        what = _plane_problem(item)
+        if what is not None:
+            return Problem(item.seq, "MAV_MISSION_UNSUPPORTED", f"{what} is not flown by {who}")
+    return None
+
+
+def validate_item(item: MissionItem, vehicle: str | None = None) -> str | None:
     """None if the item is acceptable on its own, else a MAV_MISSION_RESULT name."""
-    problem = item_problem(item)
+    problem = item_problem(item, vehicle)
     return None if problem is None else problem.code
 
 
-def validate_mission(items: Iterable[MissionItem]) -> Problem | None:
+def validate_mission(items: Iterable[MissionItem], vehicle: str | None = None) -> Problem | None:
     """The first thing wrong with a whole mission (item 0 = home), or None.
 
     Checks: at least the home item; seq == index; home is a NAV_WAYPOINT at an
-    absolute altitude; every item passes `item_problem`; DO_JUMP targets exist and are
-    not home.
+    absolute altitude; every item passes `item_problem` (for ``vehicle`` if given);
+    DO_JUMP targets exist and are not home; the mission can be flown (`_flight_problem`).
     """
     items = tuple(items)
     if not items:
@@ -322,13 +434,49 @@ def validate_mission(items: Iterable[MissionItem]) -> Problem | None:
         return Problem(0, "MAV_MISSION_UNSUPPORTED_FRAME",
                        f"item 0 (home) needs an absolute-altitude frame (0 or 5), got {home.frame}")
     for item in items:
-        problem = item_problem(item)
+        problem = item_problem(item, vehicle)
         if problem is not None:
             return problem
         if item.command == DO_JUMP and not 1 <= int(item.param1) < len(items):
             return Problem(item.seq, "MAV_MISSION_INVALID_PARAM1",
                            f"DO_JUMP to missing item {int(item.param1)} "
                            f"(mission has items 1..{len(items) - 1})")
+    return _flight_problem(items)
+
+
+def _flight_problem(items: tuple[MissionItem, ...]) -> Problem | None:
+    """A mission that cannot be flown at all: items but no navigation command, or DO
+    items and jumps that loop for ever without one.
+
+    From a DO item the sequencer goes on to the next item, or, from a DO_JUMP repeated
+    for ever (param2 -1), to its target; a jump repeated a finite number of times falls
+    through in the end. These moves form a functional graph on the DO items; a cycle in
+    it is a loop the vehicle never leaves (ArduPilot stops such a mission in flight)."""
+    if len(items) > 1 and not any(it.command in NAV_COMMANDS for it in items[1:]):
+        return Problem(1, "MAV_MISSION_INVALID", "no navigation command in the mission "
+                                                 "(nothing to fly)")
+
+    def after(it: MissionItem) -> int:
+        if it.command == DO_JUMP and it.param2 < 0:
+            return int(it.param1)
+        return it.seq + 1
+
+    done: set[int] = set()
+    for start in range(1, len(items)):
+        path: list[int] = []
+        seq = start
+        while (seq < len(items) and seq not in done and items[seq].command not in NAV_COMMANDS
+               and seq not in path):
+            path.append(seq)
+            seq = after(items[seq])
+        if seq in path:
+            jumps = [s for s in path[path.index(seq):] if items[s].command == DO_JUMP]
+            j = jumps[0] if jumps else seq
+            return Problem(j, "MAV_MISSION_INVALID_PARAM1",
+                           f"DO_JUMP {j} loops for ever through items "
+                           f"{min(path[path.index(seq):])}..{max(path[path.index(seq):])} "
+                           "with no navigation command in the loop")
+        done.update(path)
     return None
 
 
