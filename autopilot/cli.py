@@ -38,8 +38,13 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--connect-timeout", type=float, default=30.0)
     ap.add_argument("--gcs", action="append", nargs="?", const="default", metavar="URL",
                     help="serve ground stations (tcpin:/udpout:/udpin:HOST:PORT, repeatable; alone: "
-                         "tcpin:0.0.0.0:5760 + udpout:127.0.0.1:14550) and wait for one to fly")
-    ap.add_argument("--param-store", help="with --gcs: parameters persisted across runs")
+                         "tcpin:127.0.0.1:5760 + udpout:127.0.0.1:14550, loopback only) and wait "
+                         "for one to fly")
+    ap.add_argument("--param-store", help="with --gcs: parameters persisted across runs (and the "
+                                          "signing key, beside it)")
+    ap.add_argument("--signing-key", metavar="FILE",
+                    help="with --gcs: MAVLink 2 signing key file (first line: a passphrase, as "
+                         "MAVProxy's 'signing setup PASSPHRASE', or 64 hex digits)")
     return ap
 
 
@@ -72,6 +77,12 @@ def main(argv: list[str] | None = None) -> int:
             load_lenient(params, Path(args.param_store))
         if args.params:
             params.load(args.params)
+        signing_key = None
+        if args.signing_key is not None:
+            from .link.signing import read_key_file
+            if gcs_urls is None:
+                raise ValueError("--signing-key: only with --gcs")
+            signing_key = read_key_file(args.signing_key)
         transport = open_url(args.sim, connect_timeout_s=args.connect_timeout)
     except (MissionFileError, ParamError, TransportError, FileNotFoundError, ValueError) as e:
         print(f"autopilot: error: {e}", file=sys.stderr)
@@ -86,12 +97,16 @@ def main(argv: list[str] | None = None) -> int:
         from .gcs import GcsService
         try:
             gcs = GcsService(vehicle, gcs_urls, hil=end, param_store_path=args.param_store,
-                             tlog_path=Path(args.log_dir) / "gcs.tlog" if args.log_dir else None)
+                             tlog_path=Path(args.log_dir) / "gcs.tlog" if args.log_dir else None,
+                             signing_key=signing_key)
         except OSError as e:
             print(f"autopilot: error: --gcs: {e}", file=sys.stderr)
             transport.close()
             return 2
-        print(f"autopilot: {gcs.describe()}", file=sys.stderr, flush=True)
+        for w in gcs.warnings(gcs_urls):
+            print(f"autopilot: warning: {w}", file=sys.stderr, flush=True)
+        print(f"autopilot: signing {'on' if gcs.signing.active else 'off'}; {gcs.describe()}",
+              file=sys.stderr, flush=True)
     last_rx = time.monotonic()
     t_s = 0.0
     try:

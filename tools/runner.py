@@ -56,6 +56,7 @@ class RunConfig:
     # URLs = interactive: serve them, sit disarmed at home until a ground station flies it
     gcs: tuple[str, ...] | None = None
     param_store: Path | None = None                # parameters persisted across runs (gcs)
+    signing_key: bytes | None = None               # MAVLink 2 signing key (gcs)
 
 
 def mission_home(mission: Mission) -> tuple[float, float, float, float]:
@@ -165,7 +166,8 @@ class Session:
             from autopilot.gcs import DEFAULT_URLS, GcsService
             tlog = Path(cfg.log_dir) / "gcs.tlog" if cfg.log_dir is not None else None
             self.gcs = GcsService(self.vehicle, cfg.gcs or DEFAULT_URLS, hil=self.ap_end,
-                                  tlog_path=tlog, param_store_path=cfg.param_store)
+                                  tlog_path=tlog, param_store_path=cfg.param_store,
+                                  signing_key=cfg.signing_key)
 
     @property
     def t_s(self) -> float:

@@ -4,7 +4,7 @@
                 [--wind SPEED,FROM_DEG] [--turbulence LEVEL] [--seed N] [--speedup max|X]
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
-                [--gcs [URL] ...] [--param-store FILE] [--wipe]
+                [--gcs [URL] ...] [--param-store FILE] [--wipe] [--signing-key FILE]
     sitl missions random --vehicle plane|quad --seed N -o FILE
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
@@ -80,6 +80,7 @@ def _config(args) -> RunConfig:
             duration = float("inf")
         if not args.wipe:
             param_store = Path(args.param_store or f"sitl-params-{args.vehicle}.parm")
+    signing_key = _signing_key(args, gcs)
     return RunConfig(vehicle=args.vehicle, airframe=airframe,
                      mission=Path(args.mission) if args.mission else default_mission,
                      scenario=scenario, wind=wind, turbulence=args.turbulence, seed=args.seed,
@@ -88,12 +89,35 @@ def _config(args) -> RunConfig:
                      log_dir=Path(args.log_dir) if args.log_dir else None,
                      progress=not args.json and sys.stderr.isatty() and gcs is None,
                      params_file=Path(args.params) if args.params else None,
-                     param_overrides=overrides, gcs=gcs, param_store=param_store)
+                     param_overrides=overrides, gcs=gcs, param_store=param_store,
+                     signing_key=signing_key)
+
+
+def _signing_key(args, gcs) -> bytes | None:
+    """``--signing-key FILE`` (a passphrase or 64 hex digits, autopilot/link/signing.py);
+    ``--wipe`` also removes the key stored beside the parameter store."""
+    from autopilot.link.signing import KeyFileError, group_or_other_readable, key_store_beside, read_key_file
+    if args.signing_key is not None and gcs is None:
+        raise CliError("--signing-key: only with --gcs")
+    if gcs is not None and args.wipe:
+        store = key_store_beside(args.param_store or f"sitl-params-{args.vehicle}.parm")
+        if store.remove():
+            print(f"sitl: --wipe: signing key {store.path} removed", file=sys.stderr)
+    if args.signing_key is None:
+        return None
+    try:
+        key = read_key_file(args.signing_key)
+    except KeyFileError as e:
+        raise CliError(str(e)) from None
+    if group_or_other_readable(args.signing_key):
+        print(f"sitl: warning: {args.signing_key} is readable by other users (chmod 600 it)",
+              file=sys.stderr)
+    return key
 
 
 def _gcs_urls(args) -> tuple[str, ...] | None:
-    """``--gcs`` alone: TCP server on 5760 + UDP out to 127.0.0.1:14550 (ArduPilot SITL's
-    links); ``--gcs URL`` (repeatable): exactly those."""
+    """``--gcs`` alone: TCP server on 127.0.0.1:5760 + UDP out to 127.0.0.1:14550
+    (ArduPilot SITL's links, on loopback only); ``--gcs URL`` (repeatable): exactly those."""
     from autopilot.gcs import DEFAULT_URLS, LinkUrlError, parse_url
     if not args.gcs:
         return None
@@ -127,7 +151,12 @@ def cmd_run(args) -> int:
     except OSError as e:  # a ground-station port that cannot be opened
         raise CliError(f"--gcs: {e}") from None
     if session.gcs is not None:
-        print(f"sitl: {session.gcs.describe()}; waiting for a ground station "
+        g = session.gcs
+        for w in g.warnings(cfg.gcs):
+            print(f"sitl: warning: {w}", file=sys.stderr, flush=True)
+        print(f"sitl: signing {'on (key from ' + g.key_source + ')' if g.signing.active else 'off'}",
+              file=sys.stderr, flush=True)
+        print(f"sitl: {g.describe()}; waiting for a ground station "
               f"(Ctrl-C to stop)", file=sys.stderr, flush=True)
     try:
         session.run()
@@ -136,6 +165,10 @@ def cmd_run(args) -> int:
     if session.gcs is not None:
         print(f"sitl: ground stations: {session.gcs.stats()}", file=sys.stderr, flush=True)
     summary = run_summary(session)
+    if session.gcs is not None:
+        summary["gcs_signing"] = session.gcs.signing.active
+        summary["gcs_refused_messages"] = session.gcs.refused_total
+        summary["gcs_refused_by_reason"] = dict(sorted(session.gcs.refused.items()))
     if (summary.get("nav_pos_h_rms_during_fault_m") is not None and session.gcs is None
             and not args.no_okf_replay and "FDI_RADAPT" in session.params.names()
             and int(session.params["FDI_RADAPT"]) != 0):
@@ -253,11 +286,16 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--gcs", action="append", nargs="?", const="default", metavar="URL",
                    help="serve ground stations and wait for one to fly the vehicle: tcpin:HOST:PORT, "
                         "udpout:HOST:PORT, udpin:HOST:PORT (repeatable); alone: "
-                        "tcpin:0.0.0.0:5760 + udpout:127.0.0.1:14550")
+                        "tcpin:127.0.0.1:5760 + udpout:127.0.0.1:14550 (loopback only; another "
+                        "address must be given, e.g. tcpin:0.0.0.0:5760)")
     r.add_argument("--param-store", help="with --gcs: parameters persisted across runs "
                                          "(default sitl-params-VEHICLE.parm here)")
     r.add_argument("--wipe", action="store_true", help="with --gcs: start from the default parameters "
-                                                       "and persist nothing")
+                                                       "and persist nothing; remove the stored signing key")
+    r.add_argument("--signing-key", metavar="FILE",
+                   help="with --gcs: MAVLink 2 signing key file (first line: a passphrase, as "
+                        "MAVProxy's 'signing setup PASSPHRASE', or 64 hex digits); stored beside "
+                        "the parameter store")
     r.set_defaults(func=cmd_run)
     ms = sub.add_parser("missions", help="mission tools: random missions")
     ms_sub = ms.add_subparsers(dest="missions_cmd", required=True)

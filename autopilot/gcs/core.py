@@ -35,6 +35,9 @@ INJECT_FAILURE 420                      relayed to the simulator; its answer, or
 anything else                           UNSUPPORTED
 =====================================  ===========================================
 
+SETUP_SIGNING (no reply, as in the protocol) sets the signing key, or removes it with an
+all-zero key; the check of every incoming signature is the service's (``service.py``).
+
 Optional vehicle methods beyond ``VehicleApi`` (used when present, else UNSUPPORTED):
 ``takeoff(alt_m, t_us)``, ``set_speed(speed_mps, t_us)``,
 ``set_guided_target(lat_rad, lon_rad, alt_m, t_us)``, each returning None or a reason.
@@ -142,6 +145,8 @@ class GcsCore:
         self._fdi_n = self._fdi_count()
         self._notice_n = len(getattr(vehicle, "notices", ()))
         self._home_key = None
+        self.signing = None                     # link/signing.Signing (service.py), if any
+        self.on_signing_change = None           # called after SETUP_SIGNING changed the key
 
     # ------------------------------------------------------------------- output ---
     def _send(self, cid: int, msg) -> None:
@@ -231,11 +236,33 @@ class GcsCore:
             self._position_target(msg, t_us)
         elif name == "FILE_TRANSFER_PROTOCOL":
             self._ftp_nak(c, msg)
+        elif name == "SETUP_SIGNING":
+            self._setup_signing(msg)
         elif name == "TIMESYNC":
             if msg.tc1 == 0:
                 self._send(c.cid, R.MAVLink_timesync_message(t_us * 1000, msg.ts1))
         else:
             self.ignored += 1
+
+    def _setup_signing(self, msg) -> None:
+        """SETUP_SIGNING (no reply in the protocol): a key sets signing up (or changes
+        the key); the all-zero key removes it. With a key set, only a correctly signed
+        message gets here (service.py), so a key is changed or removed over a signed
+        link only."""
+        if self.signing is None:
+            self.ignored += 1
+            return
+        key = bytes(int(b) & 0xFF for b in msg.secret_key)
+        if not any(key):
+            if not self.signing.active:
+                return
+            self.signing.set_key(None)
+            self.say(SEV_NOTICE, "Signing off: key removed")
+        else:
+            self.signing.set_key(key, int(msg.initial_timestamp))
+            self.say(SEV_NOTICE, "Signing on: key set")
+        if self.on_signing_change is not None:
+            self.on_signing_change()
 
     # ----------------------------------------------------------------- streams ---
     def _request_data_stream(self, c: Client, msg) -> None:

@@ -9,6 +9,16 @@ codec and the protocol state machines live elsewhere (sans-IO, STYLE.md lesson 1
 * ``udpout:HOST:PORT``  send to HOST:PORT, receive the replies on an ephemeral port
 * ``udpin:HOST:PORT``   bind, answer the last sender
 
+``--gcs`` alone listens on the loopback interface only (``DEFAULT_URLS``): a link anyone on
+the network can reach is something the user asks for by address (:func:`exposed` names
+them, so the caller can warn when no signing key guards them).
+
+Input is read only from peers the service has not paused (``Peer.paused``: a client over
+its input budget, see ``service.py``), at most ``READ_SIZE`` bytes per TCP client per
+poll; a paused client's bytes wait in the kernel, and TCP flow control slows the sender.
+At most ``MAX_TCP_CLIENTS`` TCP clients at once: a connection beyond them is closed at
+once (``refused_connections``).
+
 Output to a TCP client is written without blocking. What the kernel will not take at
 once waits in a per-peer buffer; telemetry is dropped for a peer whose buffer holds more
 than ``TELEMETRY_BACKLOG`` bytes (a slow client loses telemetry, never a protocol
@@ -24,7 +34,9 @@ from dataclasses import dataclass, field
 
 TELEMETRY_BACKLOG = 64 * 1024
 MAX_BACKLOG = 4 * 1024 * 1024
-DEFAULT_URLS = ("tcpin:0.0.0.0:5760", "udpout:127.0.0.1:14550")
+READ_SIZE = 16 * 1024               # bytes read from one TCP client per poll
+MAX_TCP_CLIENTS = 16
+DEFAULT_URLS = ("tcpin:127.0.0.1:5760", "udpout:127.0.0.1:14550")
 _KINDS = ("tcpin", "udpout", "udpin", "udp")
 
 
@@ -48,6 +60,16 @@ def parse_url(url: str) -> tuple[str, str, int]:
     return ("udpout" if kind == "udp" else kind), host or "0.0.0.0", port
 
 
+def is_loopback(host: str) -> bool:
+    return host == "localhost" or host.startswith("127.") or host == "::1"
+
+
+def exposed(urls) -> list[str]:
+    """The URLs other machines can reach: a server bound to an address other than
+    loopback, or a UDP destination that is not this machine."""
+    return [u for u in urls if not is_loopback(parse_url(u)[1])]
+
+
 @dataclass(eq=False)
 class Peer:
     """One ground-station connection as the service sees it."""
@@ -62,6 +84,7 @@ class Peer:
     heard: bool = False            # something was received from it
     sent_bytes: int = 0
     dropped: int = 0               # telemetry messages dropped (backlog)
+    paused: bool = False           # over its input budget: not read until unpaused
 
 
 class GcsLinks:
@@ -75,6 +98,7 @@ class GcsLinks:
         self._tcp: dict[socket.socket, Peer] = {}
         self.new_peers: list[Peer] = []      # opened since the last poll
         self.gone_peers: list[Peer] = []     # closed since the last poll
+        self.refused_connections = 0         # TCP clients beyond MAX_TCP_CLIENTS
         try:
             for url in urls:
                 self._open(*parse_url(url))
@@ -116,7 +140,7 @@ class GcsLinks:
         return [s.getsockname() for s in self._udp]
 
     def fds(self) -> list:
-        return self.listeners + [p.sock for p in self.peers.values() if not p.closed]
+        return self.listeners + [p.sock for p in self.peers.values() if not p.closed and not p.paused]
 
     # -------------------------------------------------------------------- input ---
     def poll(self, timeout_s: float = 0.0) -> list[tuple[Peer, bytes]]:
@@ -136,7 +160,9 @@ class GcsLinks:
                 continue
             peer = self._udp.get(s)
             if peer is not None:
-                chunks = []
+                if peer.paused:
+                    continue
+                chunks, size = [], 0
                 for _ in range(256):
                     try:
                         data, addr = s.recvfrom(65536)
@@ -149,15 +175,18 @@ class GcsLinks:
                     elif addr[1] != peer.addr[1]:
                         continue  # not from the ground station we send to
                     chunks.append(data)
+                    size += len(data)
+                    if size >= READ_SIZE:
+                        break
                 if chunks:
                     peer.heard = True
                     got.append((peer, b"".join(chunks)))
                 continue
             peer = self._tcp_peer(s)
-            if peer is None:
+            if peer is None or peer.paused:
                 continue
             try:
-                data = s.recv(65536)
+                data = s.recv(READ_SIZE)
             except (BlockingIOError, InterruptedError):
                 continue
             except OSError:
@@ -181,6 +210,10 @@ class GcsLinks:
                 return
             except OSError:
                 return
+            if len(self._tcp) >= MAX_TCP_CLIENTS:
+                self.refused_connections += 1
+                conn.close()
+                continue
             conn.setblocking(False)
             try:
                 conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)

@@ -14,7 +14,9 @@ variables at import). The framing, however, is our own, for two reasons:
   garbage on a link never swallows the good frames that follow it.
 
 MAVLink 1 frames are understood (decoded); we send MAVLink 2. Signed frames are handed
-to pymavlink's decoder. Everything on the wire stays standard MAVLink bytes.
+to pymavlink's decoder (the signature is checked by the caller, ``signing.py``); with a
+:class:`~autopilot.link.signing.Signing` in ``Codec.signing`` every frame ``encode``
+makes is signed. Everything on the wire stays standard MAVLink bytes.
 """
 from __future__ import annotations
 
@@ -123,6 +125,14 @@ class Codec:
         self._buf = bytearray()
         self.bad_frames = 0
         self.received = 0
+        self.signing = None     # a Signing with a key: encode() signs every frame
+        self.link_id = 0        # our link id in the signatures we make
+
+    @property
+    def pending(self) -> int:
+        """Bytes received and not yet decoded (an incomplete frame, or what a
+        ``decode(limit=...)`` left for later)."""
+        return len(self._buf)
 
     @property
     def system_id(self) -> int:
@@ -140,13 +150,15 @@ class Codec:
         else:
             msg_id = msg._header.msgId  # (not msg.id: some messages have a field "id")
             mav = self.mav
+            signing = self.signing if self.signing is not None and self.signing.active else None
 
             def frame(_mav, crc_extra, payload, force_mavlink1=False):
                 p = payload.rstrip(b"\x00") or b"\x00"
-                head = _V2_HEADER.pack(STX_V2, len(p), 0, 0, mav.seq, mav.srcSystem,
-                                       mav.srcComponent, msg_id & 0xFFFF, msg_id >> 16)
+                head = _V2_HEADER.pack(STX_V2, len(p), 0 if signing is None else 1, 0, mav.seq,
+                                       mav.srcSystem, mav.srcComponent, msg_id & 0xFFFF, msg_id >> 16)
                 body = head[1:] + p
-                return head[:1] + body + _CRC.pack(_crc16(body + bytes((crc_extra,)), 0xFFFF))
+                f = head[:1] + body + _CRC.pack(_crc16(body + bytes((crc_extra,)), 0xFFFF))
+                return f if signing is None else f + signing.signature(f, self.link_id)
 
             msg._pack = frame  # the generated pack() lays out the payload, we frame it
             buf = msg.pack(mav)
@@ -166,9 +178,11 @@ class Codec:
         return b"\xfd" + body + _CRC.pack(_crc16(f.extra, _crc16(body, 0xFFFF)))
 
     # ------------------------------------------------------------------ decode ---
-    def decode(self, data: bytes, raw_ids: frozenset = frozenset()) -> list:
+    def decode(self, data: bytes, raw_ids: frozenset = frozenset(), limit: int | None = None) -> list:
         """Feed received bytes; return the complete, valid messages among them.
-        Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`."""
+        Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`.
+        With ``limit``: stop after that many frames (messages plus rejected frames or
+        stretches of garbage) and keep the rest for the next call (``pending``)."""
         buf = self._buf
         if buf:                 # the incomplete tail of the last call comes first
             buf += data
@@ -183,7 +197,10 @@ class Codec:
         i = 0
         find = data.find
         crc16 = _crc16
+        stop_at = None if limit is None else self.bad_frames + limit
         while i < n:
+            if stop_at is not None and len(out) + self.bad_frames >= stop_at:
+                break
             j = i
             c = data[j]
             if c != STX_V2 and c != STX_V1:
@@ -246,6 +263,20 @@ class Codec:
             buf += data[i:]
         self.received += len(out)
         return out
+
+    @staticmethod
+    def unsigned(frame: bytes) -> bytes:
+        """The same MAVLink 2 frame without its signature (flag cleared, CRC recomputed),
+        for logs: the specification keeps signatures out of telemetry logs."""
+        if not (len(frame) > 25 and frame[0] == STX_V2 and frame[2] & 0x01):
+            return bytes(frame)
+        msg_id = frame[7] | (frame[8] << 8) | (frame[9] << 16)
+        extra = _EXTRA.get(msg_id)
+        if extra is None:
+            return bytes(frame)
+        plen = frame[1]
+        body = bytes((plen, frame[2] & 0xFE)) + bytes(frame[3:10 + plen])
+        return b"\xfd" + body + _CRC.pack(_crc16(extra, _crc16(body, 0xFFFF)))
 
     def _message(self, cls, msg_id: int, frame: bytes, hlen: int, plen: int, incompat: int):
         plan = _PLANS.get(msg_id, False)

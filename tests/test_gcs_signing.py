@@ -1,0 +1,250 @@
+"""MAVLink 2 message signing (autopilot/link/signing.py, autopilot/gcs/service.py).
+
+Frame level, against pymavlink's own signing: our signatures are accepted by pymavlink
+with the key, pymavlink's by us; wrong key, unsigned, replayed and too old frames are
+refused for their reasons; RADIO_STATUS passes unsigned. Over real sockets, with a
+``sitl run --gcs`` process: pymavlink clients (``MAVLINK20=1`` and ``setup_signing``, as
+a user would) with the right key, a wrong key, no key, and a captured signed
+COMMAND_LONG replayed; the key survives a restart, is removed by an all-zero
+SETUP_SIGNING over a signed link only, and by ``--wipe``. MAVProxy (``signing setup``)
+flies the default mission while another MAVProxy without the key changes nothing.
+"""
+import hashlib
+import os
+import socket
+import stat
+import subprocess
+import sys
+import time
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav2
+
+from autopilot.link.codec import Codec
+from autopilot.link.signing import (BAD_SIGNATURE, ONE_MINUTE, REPLAY, TOO_OLD, UNSIGNED, KeyStore,
+                                    Signing, clock_timestamp, passphrase_key, read_key_file)
+from test_gcs_support import REPO, Sitl, wait_for
+
+KEY = passphrase_key("correct horse battery staple")
+WRONG = passphrase_key("wrong horse")
+NOW = 1.75e9                                   # a fixed Unix time for the frame-level tests
+
+
+def _pymav(key, link_id=0, ts=None, sysid=255):
+    m = mav2.MAVLink(None, srcSystem=sysid, srcComponent=190)
+    if key is not None:
+        m.signing.secret_key = key
+        m.signing.link_id = link_id
+        m.signing.timestamp = clock_timestamp(NOW) if ts is None else ts
+        m.signing.sign_outgoing = True
+    return m
+
+
+def _frame(m, msg=None):
+    msg = msg or mav2.MAVLink_command_long_message(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+    return bytes(msg.pack(m))
+
+
+def test_signatures_agree_with_pymavlink_both_ways():
+    ours = Signing(KEY, clock_timestamp(NOW), clock=lambda: NOW)
+    c = Codec(1, 1)
+    c.signing, c.link_id = ours, 7
+    buf = c.encode(mav2.MAVLink_heartbeat_message(1, 3, 0, 0, 0, 3))
+    assert len(buf) == 12 + 9 + 13 and buf[2] & 1 and buf[-13] == 7
+    theirs = _pymav(KEY)
+    msg = theirs.decode(bytearray(buf))                          # raises on a bad signature
+    assert msg.get_type() == "HEARTBEAT" and msg._signed
+    with pytest.raises(mav2.MAVError):
+        _pymav(WRONG).decode(bytearray(buf))
+    # pymavlink's signed frame is accepted once, then is a replay
+    f = _frame(_pymav(KEY))
+    assert ours.check(f) is None
+    assert ours.check(f) == REPLAY
+    # the logged form: same message, no signature, valid CRC
+    plain = Codec.unsigned(buf)
+    assert len(plain) == len(buf) - 13 and not plain[2] & 1
+    assert Codec(9, 9).decode(plain)[0].get_type() == "HEARTBEAT"
+
+
+def test_wrong_key_unsigned_old_and_radio_status():
+    s = Signing(KEY, clock_timestamp(NOW), clock=lambda: NOW)
+    assert s.check(_frame(_pymav(WRONG))) == BAD_SIGNATURE
+    assert s.check(_frame(_pymav(None))) == UNSIGNED
+    v1 = bytes(mav2.MAVLink_command_long_message(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+               .pack(_pymav(None), force_mavlink1=True))
+    assert s.check(v1) == UNSIGNED
+    radio = _frame(_pymav(None), mav2.MAVLink_radio_status_message(200, 190, 50, 40, 30, 0, 0))
+    assert s.check(radio) is None                                # telemetry radios: unsigned
+    # a new stream more than a minute behind our timestamp: too old
+    assert s.check(_frame(_pymav(KEY, link_id=3, ts=s.timestamp - ONE_MINUTE - 10))) == TOO_OLD
+    assert s.check(_frame(_pymav(KEY, link_id=4, ts=s.timestamp - ONE_MINUTE + 10))) is None
+    # streams are (sysid, compid, link id): the same timestamp on another link is new
+    t = s.timestamp + 100
+    assert s.check(_frame(_pymav(KEY, link_id=5, ts=t))) is None
+    assert s.check(_frame(_pymav(KEY, link_id=6, ts=t))) is None
+    assert s.check(_frame(_pymav(KEY, link_id=5, ts=t))) == REPLAY
+    # an accepted timestamp ahead of ours moves ours on; a refused one does not
+    s.check(_frame(_pymav(WRONG, link_id=8, ts=t + 10**9)))
+    assert s.timestamp == t
+    s.check(_frame(_pymav(KEY, link_id=8, ts=t + 10**6)))
+    assert s.timestamp == t + 10**6
+
+
+def test_restart_timestamp_and_key_store(tmp_path):
+    store = KeyStore(tmp_path / "v.signing")
+    store.save(KEY, 5_000)
+    assert stat.S_IMODE(os.stat(store.path).st_mode) == 0o600
+    key, ts = store.load()
+    assert key == KEY and ts == 5_000
+    s = Signing(clock=lambda: 0.0)                               # a clock before 2015
+    s.restore(key, ts)
+    assert s.timestamp == 5_000 + ONE_MINUTE + 1
+    # a frame signed before the restart (timestamp <= stored) is too old, a later one is not
+    assert s.check(_frame(_pymav(KEY, ts=ts))) == TOO_OLD
+    assert s.check(_frame(_pymav(KEY, ts=ts + 1))) is None
+    assert store.remove() and store.load() is None
+    # key files: a passphrase as MAVProxy hashes it, or 64 hex digits
+    (tmp_path / "p").write_text("correct horse battery staple\n")
+    (tmp_path / "h").write_text(KEY.hex() + "\n")
+    (tmp_path / "z").write_text("00" * 32 + "\n")
+    assert read_key_file(tmp_path / "p") == KEY == read_key_file(tmp_path / "h")
+    assert KEY == hashlib.sha256(b"correct horse battery staple").digest()
+    with pytest.raises(ValueError):
+        read_key_file(tmp_path / "z")
+
+
+# ----------------------------------------------------------------- over sockets ---
+def _client(url, key=None, sysid=255, link_id=0, heartbeat=True):
+    """pymavlink as a user sets it up: MAVLINK20=1 (mavutil speaks MAVLink 1 without it)
+    and ``setup_signing``; the environment is restored for the other tests."""
+    from pymavlink import mavutil
+    old = os.environ.get("MAVLINK20")
+    os.environ["MAVLINK20"] = "1"
+    try:
+        m = mavutil.mavlink_connection(url, source_system=sysid, source_component=190,
+                                       dialect="ardupilotmega")
+    finally:
+        if old is None:
+            del os.environ["MAVLINK20"]
+        else:
+            os.environ["MAVLINK20"] = old
+    if key is not None:
+        m.setup_signing(key, sign_outgoing=True, link_id=link_id)
+    if heartbeat:
+        assert m.wait_heartbeat(timeout=15) is not None
+    return m
+
+
+def _param(m, name, timeout_s=2.0):
+    m.mav.param_request_read_send(1, 1, name.encode(), -1)
+    msg = wait_for(m, "PARAM_VALUE", timeout_s, lambda p: p.param_id == name)
+    return None if msg is None else msg.param_value
+
+
+class RawTcp:
+    """A socket that sends exact bytes and parses what comes back (no signing state)."""
+
+    def __init__(self, port):
+        self.sock = socket.create_connection(("127.0.0.1", port))
+        self.sock.settimeout(0.2)
+        self.mav = mav2.MAVLink(None)
+        self.mav.robust_parsing = True
+
+    def acks(self, seconds):
+        out = []
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            try:
+                data = self.sock.recv(65536)
+            except socket.timeout:
+                continue
+            for msg in self.mav.parse_buffer(data) or []:
+                if msg.get_type() == "COMMAND_ACK":
+                    out.append(msg)
+        return out
+
+
+def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
+    keyfile = tmp_path / "key.txt"
+    keyfile.write_text("correct horse battery staple\n")
+    keyfile.chmod(0o600)
+    store = tmp_path / "store.parm"
+    sitl = Sitl(tmp_path / "run1", "--signing-key", str(keyfile), speedup="1", store=store)
+    try:
+        assert "signing on (key from --signing-key)" in "".join(sitl.err)
+        key_file = tmp_path / "store.signing"
+        assert stat.S_IMODE(os.stat(key_file).st_mode) == 0o600
+        good = _client(sitl.url, KEY)
+        assert _param(good, "NAVL1_PERIOD") is not None
+        # wrong key, unsigned MAVLink 2, unsigned MAVLink 1: no reply, no change
+        for kw in ({"key": WRONG, "sysid": 250}, {"sysid": 251}):
+            bad = _client(sitl.url, heartbeat=False, **kw)   # a wrong key drops our frames
+            time.sleep(0.5)
+            bad.mav.param_set_send(1, 1, b"NAVL1_PERIOD", 33.0, 9)
+            bad.mav.command_long_send(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+            assert wait_for(bad, "COMMAND_ACK", 2.0) is None
+            assert wait_for(bad, "PARAM_VALUE", 0.5) is None
+            bad.close()
+        v1 = RawTcp(sitl.port)
+        v1.sock.sendall(bytes(mav2.MAVLink_command_long_message(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+                              .pack(mav2.MAVLink(None, 249, 190), force_mavlink1=True)))
+        assert v1.acks(1.5) == []
+        assert _param(good, "NAVL1_PERIOD") != 33.0
+        hb = wait_for(good, "HEARTBEAT", 3, lambda h: h.get_srcSystem() == 1)
+        assert not hb.base_mode & 128                            # not armed
+        # a captured signed COMMAND_LONG: answered once, ignored when replayed later,
+        # on the same connection and on another
+        cap = _pymav(KEY, link_id=9, sysid=252)
+        cap.signing.timestamp = clock_timestamp(time.time())
+        frame = _frame(cap, mav2.MAVLink_command_long_message(1, 1, 512, 0, 242, 0, 0, 0, 0, 0, 0))
+        a = RawTcp(sitl.port)
+        a.sock.sendall(frame)
+        assert [k.command for k in a.acks(1.5)] == [512]
+        time.sleep(1.0)
+        a.sock.sendall(frame)
+        b = RawTcp(sitl.port)
+        b.sock.sendall(frame)
+        assert a.acks(1.5) == [] and b.acks(0.5) == []
+        # unsigned all-zero SETUP_SIGNING: refused, the key stays
+        unsigned = _client(sitl.url, sysid=248)
+        unsigned.mav.setup_signing_send(1, 1, [0] * 32, 0)
+        time.sleep(1.0)
+        assert key_file.exists()
+        unsigned.close()
+        good.close()
+    finally:
+        summary = sitl.stop()
+    assert summary["gcs_signing"] is True
+    reasons = summary["gcs_refused_by_reason"]
+    assert reasons.get("bad signature", 0) >= 2 and reasons.get("unsigned", 0) >= 4
+    assert reasons.get("replay", 0) == 2
+    assert summary["gcs_refused_messages"] == sum(reasons.values())
+    assert "messages refused" in "".join(sitl.err)
+
+    # restart: the key comes from the store; unsigned still refused
+    sitl = Sitl(tmp_path / "run2", speedup="1", store=store)
+    try:
+        assert f"signing on (key from {key_file})" in "".join(sitl.err)
+        plain = _client(sitl.url, sysid=247)
+        assert _param(plain, "NAVL1_PERIOD") is None
+        good = _client(sitl.url, KEY)
+        assert _param(good, "NAVL1_PERIOD") is not None
+        good.mav.setup_signing_send(1, 1, [0] * 32, 0)          # signed: removes the key
+        good.disable_signing()                                   # as MAVProxy's 'signing remove'
+        assert wait_for(good, "STATUSTEXT", 5, lambda s: "Signing off" in s.text) is not None
+        assert not key_file.exists()
+        assert _param(plain, "NAVL1_PERIOD", 3.0) is not None   # unsigned accepted again
+        plain.close()
+        good.close()
+    finally:
+        summary = sitl.stop()
+    assert summary["gcs_signing"] is False
+
+    # --wipe removes a stored key
+    KeyStore(key_file).save(KEY, 0)
+    r = subprocess.run([sys.executable, "-m", "tools.sitl", "run", "--gcs", "tcpin:127.0.0.1:0",
+                        "--param-store", str(store), "--wipe", "--duration", "0.5", "--json",
+                        "--log-dir", str(tmp_path / "run3")],
+                       cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "signing key" in r.stderr and "removed" in r.stderr and not key_file.exists()
