@@ -131,24 +131,21 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
             break
         d.items.pop()
         leg *= 0.5
-    d.notes.append(f"first waypoint {cls}: {leg:.0f} m from home at bearing "
+    d.notes.append(f"item 2, the first waypoint, {cls}: {leg:.0f} m from home at bearing "
                    f"{math.degrees(bearing) % 360:.0f} deg, {h1:.0f} m")
     course = bearing if leg > 1.0 else psi
 
     ending = str(rng.choice(["rtl", "land", "none"], p=[0.35, 0.35, 0.3]) if not plane
                  else rng.choice(["rtl", "none"], p=[0.6, 0.4]))
     n_body = n_target - (1 if ending != "none" else 0)
-    counts = {"waypoint": 1, "duplicate": 0, "reversal": 0, "steep": 0}
-    turns: list[float] = []
-    legs: list[float] = [leg]
+    item_notes: dict[int, str] = {}      # seq -> what was drawn there
     for _ in range(200):
         if len(d.items) >= n_body:
             break
         kind = str(rng.choice(["waypoint", "duplicate", "loiter_turns", "loiter_time", "speed", "jump"],
                               p=[0.52, 0.07, 0.1, 0.1, 0.1, 0.11]))
         for attempt in range(4):
-            shrink = 0.25 ** attempt
-            cand, note, extra = _draw_item(rng, d, kind, course, shrink)
+            cand, note, extra = _draw_item(rng, d, kind, course, 0.25 ** attempt)
             if cand is None:
                 break
             d.items.append(cand)
@@ -159,18 +156,13 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
             if kind in ("speed", "jump", "duplicate"):
                 break
         if cand is None:
+            if kind in ("waypoint", "loiter_turns", "loiter_time"):
+                break                     # the time budget is spent
             continue
         if note:
-            d.notes.append(note)
-        if extra is not None:
-            course_new, turn, length, steep = extra
-            if length > 1.0:
-                course = course_new
-                legs.append(length)
-                turns.append(turn)
-                counts["reversal"] += abs(turn) > math.radians(179.0)
-            counts["steep"] += steep
-            counts["waypoint" if kind == "waypoint" else "duplicate"] += kind in ("waypoint", "duplicate")
+            item_notes[len(d.items)] = note
+        if extra is not None and extra[2] > 1.0:
+            course = extra[0]
     if ending == "rtl":
         d.items.append((NAV_RETURN_TO_LAUNCH, FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, (0.0, 0.0), 0.0))
     elif ending == "land":
@@ -178,25 +170,51 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
         pos = None if here else _offset(_last_position(d), _leg_length(rng, vehicle) * 0.2,
                                         float(rng.uniform(0.0, 2 * math.pi)))
         d.items.append((NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, pos, 0.0))
-    d.notes.append(f"{counts['waypoint']} waypoints, {counts['duplicate']} duplicates, legs "
-                   f"{min(legs):.0f}-{max(legs):.0f} m, turns "
-                   + (f"{math.degrees(min(map(abs, turns))):.0f}-{math.degrees(max(map(abs, turns))):.0f} deg"
-                      if turns else "none")
-                   + f", {counts['reversal']} reversals, {counts['steep']} steep height steps")
-    d.notes.append({"rtl": "ends in RTL", "land": "ends in NAV_LAND "
-                    + ("here" if ending == "land" and d.items[-1][6] is None else "at a point"),
-                    "none": "ends with no end item"}[ending])
     mission = _to_mission(d, frame)
     while estimate_time_s(mission, vehicle) > budget and len(d.items) > (3 if ending != "none" else 2):
         # the end item took it over: give up the last items before it (jumps only
         # go backwards, so no jump loses its target)
         del d.items[-2 if ending != "none" else -1]
         mission = _to_mission(d, frame)
-        d.notes.append(f"item {len(d.items) + (0 if ending != 'none' else 1)} dropped "
-                       "(over the time budget)")
+    d.notes += [f"item {seq}: {note}" for seq, note in sorted(item_notes.items())
+                if seq < len(mission) - (1 if ending != "none" else 0)]
+    d.notes.append(_geometry_note(mission, vehicle))
+    d.notes.append({"rtl": "ends in RTL", "land": "ends in NAV_LAND "
+                    + ("here" if ending == "land" and d.items[-1][6] is None else "at a point"),
+                    "none": "ends with no end item"}[ending])
     d.notes.append(f"{len(mission) - 1} items; estimated {estimate_time_s(mission, vehicle):.0f} s "
                    f"in still air")
     return mission, d.notes
+
+
+def _geometry_note(mission: Mission, vehicle: str) -> str:
+    """Waypoints, duplicates, leg lengths, turns, reversals and steep height steps of
+    the mission as written (jumps not followed)."""
+    home = mission.home
+    frame = LocalFrame.from_degrees(home.x_lat_deg, home.y_lon_deg, home.z_alt_m)
+    pts = [(0.0, 0.0, 0.0)]
+    n_wp = 0
+    for it in mission.items[1:]:
+        if it.command in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME):
+            n_wp += it.command == NAV_WAYPOINT
+            pts.append(item_ne_h(mission, it.seq, frame) or pts[-1])
+    legs = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(pts, pts[1:])]
+    dup = sum(L < 0.5 for L in legs[1:])
+    slope = PLANE_CLIMB_MPS / PLANE_TRIM_MPS if vehicle == "plane" else 1.0
+    steep = sum(abs(b[2] - a[2]) > slope * max(L, 1.0)
+                for a, b, L in zip(pts[1:], pts[2:], legs[1:]) if L >= 0.5)
+    turns = []
+    real = [(a, b) for a, b, L in zip(pts, pts[1:], legs) if L >= 0.5]
+    for (a1, b1), (a2, b2) in zip(real, real[1:]):
+        c1 = math.atan2(b1[1] - a1[1], b1[0] - a1[0])
+        c2 = math.atan2(b2[1] - a2[1], b2[0] - a2[0])
+        turns.append(abs(math.degrees((c2 - c1 + math.pi) % (2 * math.pi) - math.pi)))
+    nz = [L for L in legs if L >= 0.5]
+    return (f"{n_wp} waypoints, {dup} duplicates, legs "
+            + (f"{min(nz):.0f}-{max(nz):.0f} m" if nz else "none")
+            + (f", turns {min(turns):.0f}-{max(turns):.0f} deg, "
+               f"{sum(t > 179.0 for t in turns)} reversals" if turns else ", no turns")
+            + f", {steep} height steps steeper than the vehicle climbs")
 
 
 # --- drawing ---------------------------------------------------------------------------
@@ -519,3 +537,45 @@ def load_source(spec) -> tuple[Mission, list[str] | None]:
         return mission_for_seed(vehicle, seed)
     from autopilot.mission.files import load_mission
     return load_mission(spec), None
+
+
+# --- flying a sample ---------------------------------------------------------------------
+
+WIND_MAX_MPS = {"plane": 12.0, "quad": 8.0}
+TURBULENCE_LEVELS = ("none", "light", "moderate")
+
+
+def sample_weather(vehicle: str, seed: int) -> tuple[float, float, str]:
+    """Wind (speed m/s, from deg) and turbulence of a sample flight: uniform up to
+    WIND_MAX_MPS of the vehicle, any direction, turbulence none to moderate; a pure
+    function of (vehicle, seed), drawn apart from the mission's own draw."""
+    rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle), 1])
+    speed = float(np.round(rng.uniform(0.0, WIND_MAX_MPS[vehicle]), 1))
+    frm = float(np.round(rng.uniform(0.0, 360.0)))
+    return speed, frm, str(rng.choice(TURBULENCE_LEVELS))
+
+
+def fly_sample(vehicle: str, seed: int, budget_s: float | None = None, weather: bool = True,
+               workdir=None) -> dict:
+    """Fly the (vehicle, seed) random mission (shortened to ``budget_s`` of estimated
+    still-air time) headless in the sample's weather, for at most its time bound plus
+    a minute; the run's summary (with ``invariants``)."""
+    import tempfile
+    from pathlib import Path
+
+    from .invariants import time_bound_s
+    from .runner import RunConfig, Session
+    from .summary import run_summary
+
+    mission, _notes = mission_for_seed(vehicle, seed, budget_s)
+    wind = sample_weather(vehicle, seed) if weather else (0.0, 0.0, "none")
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        path = Path(tmp) / f"random_{vehicle}_{seed}.waypoints"
+        path.write_text(dumps_waypoints(mission))
+        bound = time_bound_s(mission, vehicle, wind[0], None)
+        cfg = RunConfig(vehicle=vehicle, airframe="aerosonde" if vehicle == "plane" else "f450",
+                        mission=path, wind=(wind[0], wind[1]), turbulence=wind[2], seed=seed,
+                        duration_s=bound + 60.0)
+        session = Session(cfg)
+        session.run()
+        return run_summary(session)

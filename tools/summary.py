@@ -10,6 +10,10 @@ Scoring uses truth (HIL_STATE_QUATERNION) in home's NED frame:
   (so a constant navigation altitude offset at arming does not count), over the
   flight after the takeoff item, legs and loiters alike;
 * airspeed error: true airspeed against the commanded airspeed, same samples.
+
+``xtrack_mission_rms_m`` / ``xtrack_mission_max_m`` score the same true position against
+the lines of the mission as written instead of the legs the guidance drew, and
+``invariants`` / ``invariants_passed`` check the flight (both in tools/invariants.py).
 """
 from __future__ import annotations
 
@@ -380,6 +384,13 @@ def run_summary(session) -> dict:
         # the healthy margin: largest detection statistic / threshold per channel while
         # no fault was detected (> 1 would have been a detection)
         s["fdi_peak_ratio"] = {k: round(v, 3) for k, v in sorted(getattr(mon, "peaks", {}).items())}
+    # the cross-track error against the mission as written, and the flight invariants
+    # (tools/invariants.py)
+    from .invariants import run_invariants
+    mission_figs, invariants = run_invariants(session, s, a)
+    s.update(mission_figs)
+    s["invariants"] = invariants
+    s["invariants_passed"] = all(i["passed"] for i in invariants.values())
     return s
 
 
@@ -399,7 +410,8 @@ def _fmt(v):
 def format_summary(s: dict) -> str:
     keys = ["vehicle", "nav_source", "seed", "completed", "mission_items_reached",
             "mission_items_total", "sim_time_s", "wall_time_s", "realtime_factor",
-            "xtrack_rms_m", "xtrack_max_m", "alt_rms_m", "airspeed_rms_mps",
+            "xtrack_rms_m", "xtrack_max_m", "xtrack_mission_rms_m", "xtrack_mission_max_m",
+            "invariants_passed", "alt_rms_m", "airspeed_rms_mps",
             "hold_pos_rms_m", "hold_alt_rms_m", "land_error_m", "max_tilt_deg",
             "nav_pos_h_rms_m", "gps_pos_h_rms_m", "nav_pos_v_rms_m", "nav_vel_rms_mps",
             "nav_roll_pitch_rms_deg", "nav_yaw_rms_deg", "nav_consistency_3sigma"]

@@ -1,0 +1,382 @@
+"""Flight invariants and the cross-track error against the mission as written.
+
+Both are computed from a finished run's flight log (truth in home's NED frame), its
+mission and the vehicle's reached events (``reached_events()``: (t_us, seq) of every
+item the sequencer counted, DO_ items and taken DO_JUMPs included).
+
+The mission's lines (``mission_legs``)
+    The mission as written is resolved into the items it executes
+    (``tools.missions_random.resolve_order``: DO_JUMPs taken as many times as their
+    repeat count). Its navigation items in that order, starting from the take-off point
+    (the NAV_TAKEOFF's position for the fixed-wing when it has one, else home; the quad
+    takes off where it stands, as ArduCopter ignores the take-off's position), give
+    the lines: from each point to the next (a loiter's centre is its point; RTL goes
+    home; latitude and longitude 0 mean "where the previous item was"). Lines shorter
+    than 1 m (duplicates, a landing "here") are left out.
+
+Cross-track against them (``xtrack_mission``)
+    Each line is scored over its leg: from the sequencer's counting of the item before
+    it (the take-off, for the first) to its own counting, the k-th visit of an item
+    matched to the k-th reached event of that item. For a fixed-wing loiter the leg ends
+    earlier, where the vehicle reaches the circle (its radius flown, LOITER_RAD for 0,
+    plus ``CAPTURE_M``). As for the flown legs (tools/summary.py), a leg counts from its
+    first sample within ``CAPTURE_M`` of the line. An item never counted has its leg run
+    to the end of the log.
+
+The invariants (``check_invariants``): each ``{"passed": bool, "figure": number}`` and,
+where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name the item
+concerned, ``"seq"``, or null):
+
+* ``mission_order``: the items reached (DO_JUMPs left out) are exactly the resolved
+  order, and the end of the mission was flown (summary ``completed``). Figure: the
+  number of expected visits not matched in order (the first mismatch onwards).
+* ``time_bound``: done (completed) within ``TIME_FACTOR`` x the mission's time estimate
+  at the worst-wind ground speed (``missions_random.estimate_time_s`` with every speed
+  scaled by (lowest airspeed - wind) / cruise airspeed for the fixed-wing; the quad flies
+  its ground speed) plus ``TIME_SLACK_S``. Figure: seconds from arming to done (to the
+  end of the run if not done).
+* ``no_orbit``: over each stretch of the log flying one item that is not a loiter (and
+  not the loiter over home that ends a fixed-wing mission), the range of the
+  accumulated course change of the true ground velocity (above ``ORBIT_MIN_GS`` m/s)
+  is at most two full turns. Figure: the largest number of turns.
+* ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins to the start
+  of a landing (the quad's land phase), the true height above home stays above
+  ``CONTACT_M``. Figure: the lowest true height in that span [m].
+* ``height_floor``: from the end of the climb-out (the take-off counted) to the start of
+  a landing, the true height above home stays at or above the floor: ``HEIGHT_FLOOR_M``
+  of the vehicle, or half the lowest commanded height above home if that is lower.
+  Figure: the lowest true height [m].
+* ``attitude_limits``: fixed-wing bank within ROLL_LIMIT_DEG and pitch within
+  PTCH_LIM_MIN_DEG..PTCH_LIM_MAX_DEG, quad tilt within ANGLE_MAX_DEG, each plus
+  ``ATTITUDE_MARGIN_DEG`` (gusts), while flying. Figure: the largest bank (tilt) [deg].
+* ``finite_log``: no NaN or inf in the flight log, but in the columns that are NaN by
+  design (truth on rows without truth, GPS on rows without a fix, filter sigmas on
+  truth navigation). Figure: the number of non-finite values.
+* ``no_unexpected_mode``: in a run with no fault injected and no ground station, no
+  mode change after the first AUTO, no failsafe or crash event, no fixed-wing disarm
+  (it only disarms on a crash). Figure: their number (always counted; passes
+  regardless in other runs). The fault monitor's false alarms that change no mode are
+  the summary's ``false_alarms``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from autopilot.geo import LocalFrame
+from autopilot.mission.items import (DO_JUMP, NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TURNS,
+                                     NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
+                                     Mission)
+
+from .missions_random import NAV_FLOWN, estimate_time_s, item_ne_h, resolve_order
+
+CAPTURE_M = 10.0
+TIME_FACTOR = 1.5
+TIME_SLACK_S = 60.0
+ORBIT_MIN_GS = {"plane": 2.0, "quad": 1.0}
+ORBIT_MAX_TURNS = 2.0
+LAUNCH_GRACE_S = 5.0
+CONTACT_M = {"plane": 0.5, "quad": 0.2}
+HEIGHT_FLOOR_M = {"plane": 20.0, "quad": 1.5}
+ATTITUDE_MARGIN_DEG = {"plane": 10.0, "quad": 5.0}
+LOITERS = (NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_UNLIM)
+QUAD_KIND_LAND = 4
+# flight-log columns that are NaN by design on some rows
+NAN_BY_DESIGN_PREFIXES = ("truth_", "gps_", "sig_")
+
+
+# --- the mission's lines -------------------------------------------------------------
+
+def mission_legs(mission: Mission, frame: LocalFrame, vehicle: str, params=None) -> list[dict]:
+    """The lines of the mission as written, in the order they are flown: dicts with
+    ``visit`` (index into the navigation items flown), ``seq`` (the item at the line's
+    end), ``prev_seq``, ``a`` / ``b`` (north, east) and ``loiter_r`` (fixed-wing loiter
+    radius flown, else 0)."""
+    order = [s for s in resolve_order(mission) if mission[s].command in NAV_FLOWN]
+    legs: list[dict] = []
+    point = (0.0, 0.0)
+    prev_seq = None
+    for visit, seq in enumerate(order):
+        it = mission[seq]
+        p = item_ne_h(mission, seq, frame)
+        if it.command == NAV_TAKEOFF:
+            if vehicle == "plane" and p is not None:
+                point = (p[0], p[1])
+            prev_seq = seq
+            continue
+        if it.command == NAV_RETURN_TO_LAUNCH:
+            b = (0.0, 0.0)
+        else:
+            b = point if p is None else (p[0], p[1])
+        r = 0.0
+        if vehicle == "plane" and it.command in LOITERS:
+            r = abs(it.param3) if abs(it.param3) > 1.0 else \
+                (params["LOITER_RAD"] if params is not None else 80.0)
+        if math.hypot(b[0] - point[0], b[1] - point[1]) >= 1.0:
+            legs.append({"visit": visit, "seq": seq, "prev_seq": prev_seq, "a": point, "b": b,
+                         "loiter_r": r})
+        point, prev_seq = b, seq
+    return legs
+
+
+def _nav_events(mission: Mission, events) -> list[tuple[float, int]]:
+    return [(t_us * 1e-6, seq) for t_us, seq in events
+            if 0 < seq < len(mission) and mission[seq].command in NAV_FLOWN]
+
+
+def leg_windows(mission: Mission, legs: list[dict], events, t_end: float) -> list[tuple[float, float] | None]:
+    """(t_start, t_end] of each leg from the reached events (None: its start never came)."""
+    order = [s for s in resolve_order(mission) if mission[s].command in NAV_FLOWN]
+    nav = _nav_events(mission, events)
+    # match the expected visits to the reached events in order
+    times: list[float | None] = []
+    j = 0
+    for seq in order:
+        k = j
+        while k < len(nav) and nav[k][1] != seq:
+            k += 1
+        if k < len(nav):
+            times.append(nav[k][0])
+            j = k + 1
+        else:
+            times.append(None)
+    out = []
+    for leg in legs:
+        v = leg["visit"]
+        start = times[v - 1] if v >= 1 else None
+        if start is None:
+            out.append(None)
+            continue
+        end = times[v] if times[v] is not None else t_end
+        out.append((start, end))
+    return out
+
+
+def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, events,
+                   params=None) -> tuple[float | None, float | None, list[dict]]:
+    """(rms, max) of the true cross-track error against the mission's lines, and the
+    legs with their figures (module docstring)."""
+    legs = mission_legs(mission, frame, vehicle, params)
+    t = a["t_s"]
+    if not len(t):
+        return None, None, legs
+    windows = leg_windows(mission, legs, events, float(t[-1]))
+    tn, te = a["truth_n_m"], a["truth_e_m"]
+    parts = []
+    for leg, win in zip(legs, windows):
+        leg["xtrack_rms_m"] = leg["xtrack_max_m"] = None
+        if win is None:
+            continue
+        m = (t > win[0]) & (t <= win[1]) & np.isfinite(tn)
+        idx = np.flatnonzero(m)
+        if not idx.size:
+            continue
+        (an, ae), (bn, be) = leg["a"], leg["b"]
+        length = math.hypot(bn - an, be - ae)
+        un, ue = (bn - an) / length, (be - ae) / length
+        xt = (tn[idx] - an) * (-ue) + (te[idx] - ae) * un
+        if leg["loiter_r"] > 0.0:
+            near = np.flatnonzero(np.hypot(tn[idx] - bn, te[idx] - be) <= leg["loiter_r"] + CAPTURE_M)
+            if near.size:
+                xt = xt[:near[0]]
+        cap = np.flatnonzero(np.abs(xt) <= CAPTURE_M)
+        if not cap.size:
+            continue
+        xt = xt[cap[0]:]
+        leg["xtrack_rms_m"] = float(np.sqrt(np.mean(xt ** 2)))
+        leg["xtrack_max_m"] = float(np.max(np.abs(xt)))
+        parts.append(xt)
+    if not parts:
+        return None, None, legs
+    allx = np.concatenate(parts)
+    return float(np.sqrt(np.mean(allx ** 2))), float(np.max(np.abs(allx))), legs
+
+
+# --- invariants ------------------------------------------------------------------------
+
+def _inv(passed: bool, figure, limit=None) -> dict:
+    out = {"passed": bool(passed), "figure": None if figure is None else float(figure)}
+    if limit is not None:
+        out["limit"] = float(limit)
+    return out
+
+
+def expected_order(mission: Mission) -> list[int]:
+    return [s for s in resolve_order(mission) if mission[s].command != DO_JUMP]
+
+
+def order_figure(mission: Mission, events) -> tuple[int, int | None]:
+    """Expected visits not matched in order (from the first mismatch on), and the
+    expected item at the first mismatch (None if all matched)."""
+    expected = expected_order(mission)
+    actual = [seq for _t, seq in events if 0 < seq < len(mission) and mission[seq].command != DO_JUMP]
+    n = 0
+    for e, g in zip(expected, actual):
+        if e != g:
+            break
+        n += 1
+    missing = len(expected) - n
+    extra = 0 if len(actual) <= len(expected) or missing else len(actual) - len(expected)
+    return missing + extra, (expected[n] if missing else None)
+
+
+def time_bound_s(mission: Mission, vehicle: str, wind_mps: float, params) -> float:
+    if vehicle == "plane":
+        v_lo = float(params["ARSPD_FBW_MIN"]) if params is not None else 20.0
+        v_trim = float(params["TRIM_ARSPD"]) if params is not None else 25.0
+        k = max(v_lo - wind_mps, 0.2 * v_lo) / v_trim
+    else:
+        k = 1.0
+    return TIME_FACTOR * estimate_time_s(mission, vehicle, ground_speed_factor=k) + TIME_SLACK_S
+
+
+def orbit_turns(a: dict, mission: Mission, vehicle: str) -> tuple[float, int | None]:
+    """Largest range of accumulated course change [turns] over a stretch flying one
+    item that commands no loiter, and that item."""
+    armed = a["armed"] > 0
+    seq = a["seq"]
+    vn, ve = a["truth_vn_mps"], a["truth_ve_mps"]
+    gs = np.hypot(vn, ve)
+    chi = np.arctan2(ve, vn)
+    ok = armed & np.isfinite(gs) & (gs > ORBIT_MIN_GS[vehicle])
+    worst, worst_seq = 0.0, None
+    n = len(seq)
+    i = 0
+    while i < n:
+        j = i
+        while j + 1 < n and seq[j + 1] == seq[i] and armed[j + 1] == armed[i]:
+            j += 1
+        s = int(seq[i])
+        loiter = s >= len(mission) or (s > 0 and mission[s].command in LOITERS)
+        if armed[i] and not loiter:
+            idx = np.flatnonzero(ok[i:j + 1]) + i
+            if idx.size > 1:
+                d = np.diff(chi[idx])
+                d = (d + np.pi) % (2 * np.pi) - np.pi
+                # a gap in the gated samples (slow flight) breaks the accumulation
+                d[np.diff(idx) > 5] = 0.0
+                cum = np.concatenate([[0.0], np.cumsum(d)])
+                turns = float((cum.max() - cum.min()) / (2 * np.pi))
+                if turns > worst:
+                    worst, worst_seq = turns, s
+        i = j + 1
+    return worst, worst_seq
+
+
+def _land_start(a: dict, vehicle: str, after_t: float) -> float:
+    if vehicle != "quad":
+        return math.inf
+    t = a["t_s"]
+    idx = np.flatnonzero((a["kind"] == QUAD_KIND_LAND) & (a["armed"] > 0) & (t > after_t))
+    return float(t[idx[0]]) if idx.size else math.inf
+
+
+def _lowest_commanded_height(mission: Mission) -> float:
+    hs = []
+    for it in mission.items[1:]:
+        if it.command in NAV_FLOWN and it.command not in (NAV_LAND, NAV_RETURN_TO_LAUNCH):
+            rel = it.frame in (3, 6, 11)
+            if rel and it.z_alt_m == 0.0:
+                continue   # "the current altitude"
+            hs.append(it.z_alt_m if rel else it.z_alt_m - mission.home.z_alt_m)
+    return min(hs) if hs else math.inf
+
+
+def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, completed: bool,
+                     done_t_s: float | None, home_truth_alt_m: float | None, params,
+                     wind_mps: float, fault_free: bool, log_events=()) -> dict:
+    """The invariants of one run (module docstring)."""
+    inv: dict = {}
+    t = a["t_s"]
+    armed = a["armed"] > 0
+    # order
+    miss, at = order_figure(mission, events)
+    inv["mission_order"] = _inv(miss == 0 and completed, miss)
+    inv["mission_order"]["seq"] = at
+    # time
+    bound = time_bound_s(mission, vehicle, wind_mps, params)
+    t_arm = float(t[np.flatnonzero(armed)[0]]) if armed.any() else 0.0
+    t_done = (done_t_s if (completed and done_t_s is not None) else (float(t[-1]) if len(t) else 0.0)) - t_arm
+    inv["time_bound"] = _inv(completed and t_done <= bound, t_done, bound)
+    # orbits
+    turns, at = orbit_turns(a, mission, vehicle) if len(t) else (0.0, None)
+    inv["no_orbit"] = _inv(turns <= ORBIT_MAX_TURNS, turns, ORBIT_MAX_TURNS)
+    inv["no_orbit"]["seq"] = at
+    # heights
+    if home_truth_alt_m is not None and armed.any():
+        h = a["truth_alt_m"] - home_truth_alt_m
+        takeoff_t = [tu * 1e-6 for tu, s in events if 0 < s < len(mission) and mission[s].command == NAV_TAKEOFF]
+        climbed = takeoff_t[0] if takeoff_t else math.inf
+        t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm)
+        flying = (a["kind"] != 0) & armed
+        t_launch = float(t[np.flatnonzero(flying)[0]]) if flying.any() else math.inf
+        span = armed & (t >= t_launch + LAUNCH_GRACE_S) & (t < t_land) & np.isfinite(h)
+        low = float(np.min(h[span])) if span.any() else None
+        inv["no_ground_contact"] = _inv(low is None or low > CONTACT_M[vehicle], low, CONTACT_M[vehicle])
+        floor = min(HEIGHT_FLOOR_M[vehicle], 0.5 * _lowest_commanded_height(mission))
+        span = armed & (t >= climbed) & (t < t_land) & np.isfinite(h)
+        low = float(np.min(h[span])) if span.any() else None
+        inv["height_floor"] = _inv(low is None or low >= floor, low, floor)
+    else:
+        inv["no_ground_contact"] = _inv(True, None)
+        inv["height_floor"] = _inv(True, None)
+    # attitude
+    fly = armed & (a["kind"] != 0) & np.isfinite(a["truth_roll_rad"])
+    roll, pitch = a["truth_roll_rad"], a["truth_pitch_rad"]
+    margin = ATTITUDE_MARGIN_DEG[vehicle]
+    if not fly.any():
+        inv["attitude_limits"] = _inv(True, None)
+    elif vehicle == "plane":
+        bank = float(np.degrees(np.max(np.abs(roll[fly]))))
+        p_hi = float(np.degrees(np.max(pitch[fly])))
+        p_lo = float(np.degrees(np.min(pitch[fly])))
+        lim = float(params["ROLL_LIMIT_DEG"]) + margin
+        ok = bank <= lim and p_hi <= float(params["PTCH_LIM_MAX_DEG"]) + margin \
+            and p_lo >= float(params["PTCH_LIM_MIN_DEG"]) - margin
+        inv["attitude_limits"] = _inv(ok, bank, lim)
+    else:
+        c = np.cos(roll[fly]) * np.cos(pitch[fly])
+        tilt = float(np.degrees(np.max(np.arccos(np.clip(c, -1.0, 1.0)))))
+        lim = float(params["ANGLE_MAX_DEG"]) + margin
+        inv["attitude_limits"] = _inv(tilt <= lim, tilt, lim)
+    # finite
+    bad = 0
+    for k, v in a.items():
+        if k.startswith(NAN_BY_DESIGN_PREFIXES) or k.startswith("event") or \
+                not isinstance(v, np.ndarray) or v.dtype.kind != "f":
+            continue
+        bad += int(np.count_nonzero(~np.isfinite(v)))
+    inv["finite_log"] = _inv(bad == 0, bad)
+    # unasked-for mode changes and failsafes
+    n = 0
+    seen_auto = False
+    for _t, text in log_events:
+        if text.startswith("mode "):
+            if text == "mode AUTO" and not seen_auto:
+                seen_auto = True
+                continue
+            n += 1
+        elif "failsafe" in text.lower() or "crash" in text.lower() \
+                or (vehicle == "plane" and text == "disarmed"):
+            n += 1
+    inv["no_unexpected_mode"] = _inv(n == 0 or not fault_free, n)
+    return inv
+
+
+def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
+    """(extra summary figures, invariants) of a finished in-process session."""
+    v = session.vehicle
+    vehicle = session.cfg.vehicle
+    mission = v.mission if v.mission is not None else session.mission
+    events = v.reached_events()
+    figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None}
+    if v.home_frame is not None:
+        rms, mx, _legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
+        figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
+    fault_free = not session.bridge.fault_log and session.gcs is None
+    inv = check_invariants(a, mission, vehicle, events, completed=bool(summary.get("completed")),
+                           done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
+                           params=session.params, wind_mps=float(session.wind.speed_mps),
+                           fault_free=fault_free, log_events=session.log.events)
+    return figs, inv
