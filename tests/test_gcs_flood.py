@@ -1,0 +1,149 @@
+"""A client flooding the ground-station port cannot stall the vehicle.
+
+``sitl run --gcs`` at real time (``--speedup 1``); one client offers 20,000 messages a
+second over TCP (valid PARAM_REQUEST_LIST and COMMAND_LONG, and random bytes between
+them) and reads whatever comes back; another client only listens to ATTITUDE. Measured
+against the seconds before the flood: the vehicle's simulated time keeps within 1 % of
+real time, the listener's ATTITUDE rate within 5 %, and the process's memory grows by
+less than 50 MB. ``FLOOD_S`` (environment) sets the flood's length: 15 s in the suite,
+60 s as the issue's campaign."""
+import os
+import random
+import socket
+import threading
+import time
+
+from pymavlink.dialects.v20 import ardupilotmega as mav2
+
+from test_gcs_support import Sitl, connect
+
+FLOOD_S = float(os.environ.get("FLOOD_S", "15"))
+BASELINE_S = 5.0
+RATE = 20_000                         # messages offered a second
+
+
+def flood_blob(rng: random.Random, n: int) -> bytes:
+    """``n`` valid messages (PARAM_REQUEST_LIST, harmless COMMAND_LONGs) with random
+    bytes between some of them."""
+    tx = mav2.MAVLink(None, srcSystem=200, srcComponent=190)
+    parts = []
+    for k in range(n):
+        if k % 2:
+            msg = mav2.MAVLink_param_request_list_message(1, 1)
+        else:                      # REQUEST_MESSAGE AUTOPILOT_VERSION / GET_MESSAGE_INTERVAL
+            cmd = rng.choice((512, 510))
+            msg = mav2.MAVLink_command_long_message(1, 1, cmd, 0, 148 if cmd == 512 else 30,
+                                                    0, 0, 0, 0, 0, 0)
+        parts.append(bytes(msg.pack(tx)))
+        if k % 5 == 0:
+            parts.append(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 60))))
+    return b"".join(parts)
+
+
+def flood(port: int, seconds: float, stats: dict, stop: threading.Event):
+    rng = random.Random(5)
+    batch_n = RATE // 100                           # every 10 ms
+    blobs = [flood_blob(rng, batch_n) for _ in range(8)]
+    sock = socket.create_connection(("127.0.0.1", port))
+    sock.setblocking(False)
+    t0 = time.monotonic()
+    k = 0
+    pending = b""
+    while not stop.is_set() and time.monotonic() - t0 < seconds:
+        due = t0 + k * 0.01
+        if time.monotonic() < due:
+            time.sleep(max(0.0, due - time.monotonic()))
+        k += 1
+        blob = blobs[k % len(blobs)]
+        stats["offered"] += batch_n
+        stats["offered_bytes"] += len(blob)
+        pending += blob
+        try:
+            sent = sock.send(pending)
+            stats["sent_bytes"] += sent
+            pending = pending[sent:]
+        except BlockingIOError:
+            pass
+        if len(pending) > 4 * len(blob):             # the vehicle does not take more: drop
+            pending = pending[-len(blob):]
+        try:
+            while True:
+                data = sock.recv(65536)
+                if not data:
+                    break
+                stats["received_bytes"] += len(data)
+        except (BlockingIOError, InterruptedError):
+            pass
+    stats["seconds"] = time.monotonic() - t0
+    sock.close()
+
+
+def _rss_mb(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    raise AssertionError("no VmRSS")
+
+
+class Listener(threading.Thread):
+    """Counts ATTITUDE and remembers (wall, simulated) time pairs."""
+
+    def __init__(self, url):
+        super().__init__(daemon=True)
+        self.m = connect(url, sysid=251)
+        self.samples: list[tuple[float, float]] = []
+        self.stop = threading.Event()
+
+    def run(self):
+        while not self.stop.is_set():
+            msg = self.m.recv_match(type="ATTITUDE", blocking=True, timeout=0.2)
+            if msg is not None:
+                self.samples.append((time.monotonic(), msg.time_boot_ms * 1e-3))
+
+    def window(self, t0: float, t1: float) -> tuple[float, float]:
+        """(ATTITUDE per wall second, simulated seconds per wall second) in [t0, t1]."""
+        s = [x for x in self.samples if t0 <= x[0] <= t1]
+        assert len(s) > 10, "no telemetry"
+        rate = (len(s) - 1) / (s[-1][0] - s[0][0])
+        return rate, (s[-1][1] - s[0][1]) / (s[-1][0] - s[0][0])
+
+
+def test_a_flooding_client_slows_neither_the_flight_loop_nor_another_client(tmp_path):
+    sitl = Sitl(tmp_path / "run", speedup="1")
+    listener = Listener(sitl.url)
+    listener.start()
+    stats = {"offered": 0, "offered_bytes": 0, "sent_bytes": 0, "received_bytes": 0, "seconds": 0.0}
+    stop = threading.Event()
+    try:
+        time.sleep(1.0)
+        t_base = time.monotonic()
+        time.sleep(BASELINE_S)
+        rss0 = _rss_mb(sitl.proc.pid)
+        t_flood = time.monotonic()
+        f = threading.Thread(target=flood, args=(sitl.port, FLOOD_S, stats, stop), daemon=True)
+        f.start()
+        f.join(FLOOD_S + 30)
+        t_end = time.monotonic()
+        rss1 = _rss_mb(sitl.proc.pid)
+    finally:
+        stop.set()
+        listener.stop.set()
+        listener.join(5)
+        listener.m.close()
+        summary = sitl.stop()
+    base_rate, base_sim = listener.window(t_base, t_flood)
+    rate, sim = listener.window(t_flood + 0.5, t_end)
+    print(f"flood {FLOOD_S:.0f} s: offered {stats['offered'] / stats['seconds']:.0f} msg/s "
+          f"({stats['offered_bytes'] / stats['seconds'] / 1e3:.0f} kB/s), the vehicle took "
+          f"{stats['sent_bytes'] / stats['seconds'] / 1e3:.1f} kB/s and answered "
+          f"{stats['received_bytes'] / stats['seconds'] / 1e3:.1f} kB/s; sim/real {base_sim:.4f} "
+          f"before, {sim:.4f} during; ATTITUDE {base_rate:.2f} Hz before, {rate:.2f} Hz during; "
+          f"RSS {rss0:.1f} -> {rss1:.1f} MB; {sitl.stats()}")
+    assert stats["offered"] / stats["seconds"] > 0.9 * RATE      # the flood was offered
+    assert stats["sent_bytes"] > 0 and stats["received_bytes"] > 0  # and partly taken, answered
+    assert abs(sim - 1.0) < 0.01                                 # simulated time keeps real time
+    assert abs(rate - base_rate) < 0.05 * base_rate              # the other client's stream
+    assert rss1 - rss0 < 50.0
+    assert sitl.stats()["errors"] == 0
+    assert not summary["crashed"]
