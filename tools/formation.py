@@ -19,12 +19,13 @@ real loopback UDP sockets instead (one per vehicle), with the same latency and l
 applied at the receiver. Each vehicle computes its commands from what it received; no
 vehicle reads another's state.
 
-Quadrotor cost. One quad at its standard 250 Hz lockstep runs at ~14x real time on this
-machine (``sitl bench --vehicle quad``), so five would run below 3x. A formation quad
-therefore runs a 125 Hz lockstep (the plant still integrates at 4 ms, two steps per
-HIL period; its controllers are discretised at 8 ms) and its navigation filter at
-125 / ``nav_div`` Hz (default 25 Hz) with the output predictor between; a stated
-trade, measured in the README of this command (``--json`` prints ``realtime_factor``).
+Quadrotor cost. Five quads share the machine, so five at the standard 250 Hz lockstep
+run at a fifth of one quad's real-time factor (``sitl bench --vehicle quad``), short of
+the 5x real time aimed at. A formation quad therefore runs a 125 Hz lockstep (the plant
+still integrates at 4 ms, two steps per HIL period; its controllers are discretised at
+8 ms) and its navigation filter at 125 / ``nav_div`` Hz (default 25 Hz) with the output
+predictor between: a stated trade, whose speed is measured by ``--json``'s
+``realtime_factor`` (docs/status.md, "Formation flight").
 
 GPS: formation flight at 1 m spacing needs relative positions good to centimetres, which
 a standard GNSS receiver (metres of slowly wandering error per vehicle) cannot give. The

@@ -25,28 +25,27 @@ Stage 1, the quasi-steady pitch-moment balance. With V the airspeed and q the pi
 rate, the pitch moment equation ``Cm_0 + Cm_a alpha + Cm_q cbar q / (2 V) + Cm_d delta +
 (thrust moment) = I_yy q_dot / (qbar S cbar)`` with q_dot ~ 0, solved for the
 deflection, is linear in alpha, q / V and the thrust moment over the dynamic pressure.
-The angle of attack is replaced by the lift it must give: ``C_L = n m g / (qbar S)``
-and ``alpha = alpha_0 + C_L / C_L_a``, so alpha is affine in ``n / V^2`` (n = -f_z / g,
-the normal load factor the accelerometer measures, less its bias estimate; V the pitot's
-equivalent airspeed, for which qbar = rho_0 V^2 / 2). The measured n, not the
-1 / cos(bank) of a coordinated turn, also carries the pull-ups and the phugoid a stuck
-elevator starts (with 1 / cos(bank), stuck 0.17 rad read 0.159-0.211 on seeds 1-10,
-seed 10 24 % high; with -f_z / g 0.160-0.193). The pitch-damping term is left
-out: in a turn q = g tan(bank) sin(bank) / V grows with n as the lift does,
-so a fit cannot tell the two apart, and it is the smaller one (Beard & McLain, Small
-Unmanned Aircraft, 2012, table E.2, the Aerosonde this project flies: Cm_a = -0.38,
-Cm_q = -3.6, cbar = 0.19 m; in a 30 deg turn at 25 m/s, q = 0.11 rad/s gives
+The angle of attack is replaced by the lift it must give: ``C_L = n m g / (qbar S)`` and
+``alpha = alpha_0 + C_L / C_L_a``, so alpha is affine in ``n / V^2`` (n = -f_z / g, the
+normal load factor the accelerometer measures, less its bias estimate; V the pitot's
+equivalent airspeed, for which qbar = rho_0 V^2 / 2). The measured n, not the 1 /
+cos(bank) of a coordinated turn, also carries the pull-ups and the phugoid a stuck
+elevator starts (with 1 / cos(bank) the stuck readings spread wider, one a quarter high:
+docs/status.md, "Why the monitor is built as it is"). The pitch-damping term is left
+out: in a turn q = g tan(bank) sin(bank) / V grows with n as the lift does, so a fit
+cannot tell the two apart, and it is the smaller one (Beard & McLain, Small Unmanned
+Aircraft, 2012, table E.2, the Aerosonde this project flies: Cm_a = -0.38, Cm_q = -3.6,
+cbar = 0.19 m; in a 30 deg turn at 25 m/s, q = 0.11 rad/s gives
 Cm_q cbar q / (2 V) = -0.0016 against Cm_a d_alpha = -0.011)::
 
     delta = c_0 + c_L (n (V_ref / V)^2 - 1) + c_t throttle (V_ref / V)^2          (**)
 
 (c_L = -Cm_a m g / (Cm_d qbar_ref S C_L_a), c_t the thrust moment over dynamic
 pressure). The lift regressor is excited by the turns and by every speed change, and it
-carries the balance to the low airspeeds a stuck nose-up elevator flies at. Before,
-the regressors were the angle of attack from the navigation solution (hardly varying in
-closed-loop cruise: its coefficient came out 0.04 against the airframe's 0.76), q / V
-and a separate n - 1 term for the turns; a stuck elevator was then read 8-23 % low on
-seeds 2-5 (figures below). The balance is learnt by recursive least squares in
+carries the balance to the low airspeeds a stuck nose-up elevator flies at. The angle
+of attack from the navigation solution is not a regressor: it hardly varies in
+closed-loop cruise, so its coefficient came out a small fraction of the airframe's and a
+stuck elevator was read low. The balance is learnt by recursive least squares in
 healthy flight (:class:`MomentBalance`) on low-passed signals (time constant
 BAL_TAU_S = 1 s, the same filter on every signal so the lag cancels), with the
 *commanded* deflection as the dependent variable (healthy: actual = commanded), on
@@ -56,13 +55,13 @@ FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-st
 With the coefficients, (**) gives z, the deflection the aircraft is flying with, every
 0.1 s. The no-fault residual ``r = z - delta_cmd`` is normalised by its own standard
 deviation in healthy flight (learnt FIT_DELAY_S late, exponentially weighted over
-RES_TAU_S; the balance's a-priori fit residuals are 2-3 times smaller than these
+RES_TAU_S; the balance's a-priori fit residuals are several times smaller than these
 prediction residuals, which wander with the manoeuvres: steep turns, descents at idle)
 and goes, every TEST_DIV-th sample (2 Hz), into the window chi-square test of
 :mod:`.stats` (eqs 2.12-2.15), its level from the family-wise false-alarm probability
 per flight hour FDI_PFA as the sensor channels'. The low-passed samples are still
-correlated at 2 Hz (lag-1 about 0.6), which the chi-square law does not allow for: the
-monitor detects at FDI_ACT_THR times the threshold.
+strongly correlated at 2 Hz, which the chi-square law does not allow for: the monitor
+detects at FDI_ACT_THR times the threshold.
 
 Stage 2, the fault parameters: a Kalman filter over the random-walk state gamma =
 [k, s] with the measurement ``z = [delta_cmd, 1] gamma + v`` (R = the healthy residual
@@ -83,38 +82,26 @@ fitted over the window since the detection (from 1 s before it), on the same z::
     stuck:                 z = s                 s = mean of z over the window
 
 A stuck surface leaves the command free to wander: the loop winds it up (usually into
-saturation, often against the side the surface is stuck on), so k outside
-[K_MIN, K_MAX] or a command saturated most of the window -> stuck. So does a stuck fit
-whose residual sum of squares is under RSS_STUCK (1/20) of the loss-of-effectiveness
-fit's: the command moves and z does not (the likelihood ratio of the two hypotheses
-with the same noise). Otherwise loss of effectiveness. (A stuck surface whose command
-happens to stay proportional to it is not distinguishable from a loss of effectiveness
-without excitation; an elevator doublet would tell them apart.) Measured, the residual
-ratio at the readings after detection: 50 % effectiveness, seeds 1-6, never under
-0.147 (0.15-37); stuck nose-down (0.09 rad) or stuck where it is, seeds 1-3, and
-nose-down in moderate turbulence, seeds 1-2, 0.0001-0.11 at the first reading and
-under 0.05 by the third, where k alone read them as a loss of effectiveness (0.3) for
-10-30 s. Once found stuck the classification holds (the monitor passes
-``stuck``): flying the height on the throttle afterwards (control/fixed_wing.py, elevator
-out) keeps the pitch loop's command near its middle and swinging with the phugoid, and
-the loss-of-effectiveness fit then read k = 0.09-0.40 at the end of 8 of 10 flights.
+saturation, often against the side the surface is stuck on), so k outside [K_MIN, K_MAX]
+or a command saturated most of the window -> stuck. So does a stuck fit whose residual
+sum of squares is under RSS_STUCK (1/20) of the loss-of-effectiveness fit's: the command
+moves and z does not (the likelihood ratio of the two hypotheses with the same noise).
+Otherwise loss of effectiveness. (A stuck surface whose command happens to stay
+proportional to it is not distinguishable from a loss of effectiveness without
+excitation; an elevator doublet would tell them apart.) The residual ratio separates the
+two classes by orders of magnitude where k alone read a stuck nose-down elevator as a
+loss of effectiveness for tens of seconds (docs/status.md, "Why the monitor is built as
+it is"). Once found stuck the classification holds (the monitor passes ``stuck``):
+flying the height on the throttle afterwards (control/fixed_wing.py, elevator out) keeps
+the pitch loop's command near its middle and swinging with the phugoid, which the
+loss-of-effectiveness fit would then read as a weak surface.
 
-Measured (default mission, fault at 142 s in a straight climb): stuck at 0.17 rad ->
-detected +1.4-1.7 s; 10 s after the onset, seeds 1-10: 0.161 / 0.158 / 0.163 / 0.164 /
-0.159 / 0.182 / 0.169 / 0.171 / 0.167 / 0.182 rad (all within 8 %; the height flown on
-the throttle from the detection on). Before that change, with the airspeed
-loop climbing away at full throttle: 0.171 / 0.160 / 0.166 / 0.163 / 0.162 / 0.187 /
-0.177 / 0.185 / 0.172 / 0.193. With the lift
-balance on 1 / cos(bank) and q / V, reading the last second: 0.182 / 0.129 / 0.177 /
-0.172 / 0.164 / 0.202 / 0.185 / 0.227 / 0.169 / 0.274; with the angle-of-attack balance
-(seeds 1-5) 0.172 / 0.131 / 0.156 / 0.147 / 0.152. 50 % effectiveness -> detected
-+3.1-4.5 s, 0.526 / 0.526 / 0.517 (seeds 1-3; 0.514 / 0.521 / 0.521 before the
-height was flown on the throttle from the detection). The balance is fitted in cruise and
-extrapolates to the slow, nose-high flight a stuck elevator leads to only as well as
-cruise excited it. Fault-free, ``sitl bench --false-alarms`` (ten 10-minute flights):
-largest statistic 0.17 of the decision level (seed 10; the other nine 0.02-0.11). A
-fault in the first ~100 s of flight is not seen: the balance needs 30 s of fit after
-FIT_WARMUP_S plus FIT_DELAY_S, and the residual variance 20 s more.
+How well it detects and identifies, and how close healthy flight comes to a false alarm
+(``sitl bench --false-alarms``): docs/status.md, "Faults and the monitor". The balance
+is fitted in cruise and extrapolates to the slow, nose-high flight a stuck elevator
+leads to only as well as cruise excited it. A fault in the first ~100 s of flight is not
+seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
+residual variance 20 s more.
 
 Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
 driven by the IMU, not by the control inputs: its gain has no control distribution

@@ -15,19 +15,19 @@ How each is watched:
 
 * Aiding sensors (``gps_pos``, ``gps_vel``, ``baro``, ``mag``, ``airspeed``): their
   normalised innovations (2.13) go through :class:`~.stats.WindowChi2`: the window
-  statistic beta (2.12, threshold chi2_{alpha_det, M s}, see Thresholds below)
-  detects, the per-step statistic chi (2.41-2.43) is logged, the sample-variance
-  statistic gamma (2.16-2.17, threshold chi2_{alpha, M-1}) isolates. The 25 Hz fusions
-  of baro, mag and airspeed enter every FDI_DECIM-th sample, so a window of M samples
-  spans seconds, as the GPS's does (and successive samples are less correlated; the
-  chi-square law assumes a white sequence). The airspeed
-  innovation is divided by sqrt(FDI_ARSP_K) first: the filter's airspeed noise does not
-  include turbulence, and its normalised innovation has a lag-1 autocorrelation of
-  0.96 at 50 Hz in light turbulence (measured), which a raw chi-square window reads as
-  a fault. The synthetic sideslip is a modelling assumption, not a sensor: not watched.
-  A sensor that stops delivering (``off``) gives no innovation at all: a channel that
-  has been updating and falls silent for FDI_TOUT is flagged with the statistic
-  ``age / FDI_TOUT``, so ``gps off`` is detected and isolated by the silence.
+  statistic beta (2.12, threshold chi2_{alpha_det, M s}, see Thresholds below) detects,
+  the per-step statistic chi (2.41-2.43) is logged, the sample-variance statistic gamma
+  (2.16-2.17, threshold chi2_{alpha, M-1}) isolates. The 25 Hz fusions of baro, mag and
+  airspeed enter every FDI_DECIM-th sample, so a window of M samples spans seconds, as
+  the GPS's does (and successive samples are less correlated; the chi-square law assumes
+  a white sequence). The airspeed innovation is divided by sqrt(FDI_ARSP_K) first: the
+  filter's airspeed noise does not include turbulence, and its normalised innovation is
+  strongly autocorrelated in light turbulence (docs/status.md, "Why the monitor is built
+  as it is"), which a raw chi-square window reads as a fault. The synthetic sideslip is
+  a modelling assumption, not a sensor: not watched. A sensor that stops delivering
+  (``off``) gives no innovation at all: a channel that has been updating and falls
+  silent for FDI_TOUT is flagged with the statistic ``age / FDI_TOUT``, so ``gps off``
+  is detected and isolated by the silence.
 * Gyros (``gyro_x|y|z``): a constant gyro fault is a bias step, which the filter's
   gyro-bias states absorb, so the innovations show it only weakly and briefly. The
   monitor watches the bias estimate instead: every 0.1 s it forms, per axis, the change
@@ -40,49 +40,44 @@ How each is watched:
   ``gamma_b = (b(t) - b_a)^2 / (q_bg (t - t_a) + sigma_a^2)``, so the whole change since
   the fault counts and the Q fading below (which inflates the present sigma) does not
   hide it. The bias states keep learning for about a minute after alignment (the
-  statistic reaches 30-50 then), so the gyro channels are armed FDI_BIAS_WU seconds
-  after alignment. FDI_ALPHA_B is smaller than FDI_ALPHA because the filter's bias
-  sigma is optimistic (fault-free maxima of gamma_b after the warm-up: 15-19, measured
-  over three seeds and a GPS outage, at an earlier state of the filter; 1-3.5, i.e.
-  0.05-0.18 of the threshold, over ten 10-minute flights with the present filter,
-  ``sitl bench --false-alarms``).
+  statistic is far over any threshold then), so the gyro channels are armed FDI_BIAS_WU
+  seconds after alignment. FDI_ALPHA_B is smaller than FDI_ALPHA because the filter's
+  bias sigma has been optimistic (fault-free maxima of gamma_b, and how far under the
+  threshold they are now: docs/status.md, "Why the monitor is built as it is";
+  ``sitl bench --false-alarms`` measures them).
 * ``elevator`` (FDI_ACT_ID = 1, the default): the two-stage identifier of
   :mod:`.actuator` gets the commands through ``observe_controls``; its no-fault
   residual (the deflection the learnt pitch-moment balance says the aircraft flies
   with, less the command) over FDI_ACT_THR times its window chi-square threshold while
   every navigation statistic is under its own opens an actuator episode (kind
   "actuator", Q adaptation of the fault parameters on, identification logged once a
-  second). Measured: stuck at 0.17 rad detected +1.4-1.7 s and identified 0.158-0.182
-  rad 10 s after the onset (seeds 1-10), 50 % effectiveness loss +3.1-4.5 s and
-  0.515-0.544 (seeds 1-6); fault-free peak 0.17 of the decision level over ten 10-minute
-  flights. It learns nothing while a sensor fault is detected (its inputs are suspect).
+  second); how soon and how well: docs/status.md, "Faults and the monitor". It learns
+  nothing while a sensor fault is detected (its inputs are suspect).
   ``elevator_fault_s`` keeps the time of the detection (the fixed-wing then flies its
   height on the throttle, control/fixed_wing.py, "elevator out"); once the
   identification says *stuck*, ``elevator_stuck_rad`` holds the estimate (announced
   once, CRITICAL) and the classification holds.
 * ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
 * Accelerometers, other surfaces: names reserved; no statistic yet (the
-  accelerometer bias estimates wander by 10-600 of their sigmas in fault-free flights:
-  not usable as they are).
+  accelerometer bias estimates wander by many of their sigmas in fault-free flights:
+  not usable as they are; docs/status.md, "Why the monitor is built as it is").
 
 Thresholds: the window detection test (2.12-2.15) is repeated at every sample of every
 aiding channel, about 63 000 tests per flight hour (``window_tests_per_hour``: GPS
-position and velocity at 5 Hz, baro, mag and airspeed at 25 Hz / FDI_DECIM). The
-seed's alpha is the false-alarm probability of *one* test, so with alpha = 1e-4 a
-healthy flight alarms every hour or so however well R is modelled -- measured: the
-normalised GPS innovations of fault-free flights are white (lag-1 autocorrelation
-< 0.03) with variances 0.93-1.03, and the alarms (seed 4 at 176 s, seed 7 at 380 s,
-gps_vel) were windows of ordinary 2-3.7 sigma samples, the chi-square tail itself;
-the largest window statistics of ten 10-minute flights were 0.85-1.01 of the 1e-4
-threshold. So the detection level is set per flight, not per test: FDI_PFA is the
-probability of a false alarm in a flight hour from all window tests together, and
-``alpha_det = FDI_PFA / tests per hour`` (Bonferroni, :func:`~.stats.family_alpha`;
-conservative by about 2 since the windows overlap): 1.6e-7 for FDI_PFA = 0.01, a
-threshold of 87.5 instead of 67.6 for the 30 degrees of freedom of GPS (1.3x).
-FDI_ALPHA stays the level of the per-step (2.41-2.43) and isolation (2.16-2.17) tests,
-which decide only within an episode. The gyro bias test has its own FDI_ALPHA_B (its
-fault-free maxima are 0.05-0.18 of the threshold after the warm-up: it is not the one
-that raises false alarms).
+position and velocity at 5 Hz, baro, mag and airspeed at 25 Hz / FDI_DECIM). The seed's
+alpha is the false-alarm probability of *one* test, so with alpha = 1e-4 a healthy
+flight alarms every hour or so however well R is modelled: the normalised GPS
+innovations of fault-free flights are white with unit variance, and the alarms at that
+level were windows of ordinary samples, the chi-square tail itself (docs/status.md, "Why
+the monitor is built as it is"). So the detection level is set per flight, not per test:
+FDI_PFA is the probability of a false alarm in a flight hour from all window tests
+together, and ``alpha_det = FDI_PFA / tests per hour`` (Bonferroni,
+:func:`~.stats.family_alpha`; conservative by about 2 since the windows overlap): 1.6e-7
+for FDI_PFA = 0.01, a threshold of 87.5 instead of 67.6 for the 30 degrees of freedom of
+GPS (1.3x). FDI_ALPHA stays the level of the per-step (2.41-2.43) and isolation
+(2.16-2.17) tests, which decide only within an episode. The gyro bias test has its own
+FDI_ALPHA_B (fault-free it stays well under its threshold after the warm-up: it is not
+the one that raises false alarms).
 
 Decision: a fault is detected at the first step where a channel's detection
 statistic exceeds its threshold (or a channel goes silent); it is isolated to the
@@ -118,8 +113,8 @@ factor (eqs 2.36-2.39, the excess of the real innovation covariance over the
 theoretical one through ``H G``) is degenerate here: no measurement sees a bias state
 within one step (``H G = 0`` for the bias random walks), so a fixed factor is used
 (a fading-memory filter on those states: 1000 turns the bias random walk of 3e-5 into
-1e-3 rad/s/sqrt(s), learnt in seconds; measured, pitch gyro bias 0.01 rad/s, seeds 1-3:
-isolated to gyro_y 4.5-6.8 s after the onset, against 12.6 s without fading). The
+1e-3 rad/s/sqrt(s), learnt in seconds; a pitch gyro bias is isolated about twice as
+fast as without fading: docs/status.md, "Faults and the monitor"). The
 fading ends when the velocity innovations are back under their threshold after the
 isolation to a gyro (the filter has absorbed the bias: accommodation), or at
 clearance. Only the gyro-bias block is faded: in straight flight a forward
@@ -131,7 +126,7 @@ not isolated: see below).
 Failsafe: GPS silent for FDI_DR_TIME seconds (dead reckoning on air data and the wind
 estimate meanwhile) -> ``failsafe`` is set to the action of FDI_GPS_FS (1: "RTL"); the
 vehicle applies it. FDI_DR_TIME = 60 s: an outage of half a minute is flown through on
-the mission (dead-reckoning error about 5 m at its end, measured in 6 m/s wind), a
+the mission (a dead-reckoning error of about ten metres at its end: docs/status.md), a
 longer one turns the aircraft home while the estimate is still good to some tens of
 metres (ArduPlane likewise flies on through a GPS loss on dead reckoning; PX4 fixed-wing
 loiters or returns after its GPS failure timeout).

@@ -31,21 +31,20 @@ the two sides.
 
 Stage 1 (no fault): gamma = c (1, 1, 1, 1), with c a common scale learnt in healthy
 flight (the error of the modelled thrust curve, air density, battery sag: they move all
-four rotors together). Its residual ``r = y - c H 1``. The modelled thrust curve is
-not the rotors' (it is the mixer's MOT_THST_EXPO-style curve; on the F450 its slope
-near hover is about 10 % under the plant's, measured), so a moment residual grows with
-the modelled moment itself in every manoeuvre: each row's variance is the residual's
-variance learnt in healthy flight (exponentially weighted, time constant VAR_TAU_S)
-plus a relative model error, ``sigma_i^2 = var_i + (MODEL_REL (c H 1)_i)^2``. The three
-moment rows, normalised so, enter the window chi-square test of :mod:`.stats` (eqs
-2.12-2.15; 3 degrees of freedom per sample, a sample every 0.2 s, which leaves the
-low-passed samples nearly uncorrelated), threshold from the family-wise false-alarm
-probability per flight hour FDI_PFA as the sensor channels' (:func:`~.stats.family_alpha`).
-The thrust row is left out of the test: its residual is the thrust curve's error
-along the whole flight envelope, slowly varying (lag-1 autocorrelation 0.95 at 0.2 s,
-measured) and common to all rotors, so it tells nothing about one rotor; a rotor
-fault, which the attitude loop compensates with a differential command, shows in the
-moments at once.
+four rotors together). Its residual ``r = y - c H 1``. The modelled thrust curve is not
+the rotors' (it is the mixer's MOT_THST_EXPO-style curve; on the F450 its slope near
+hover is under the plant's), so a moment residual grows with the modelled moment itself
+in every manoeuvre: each row's variance is the residual's variance learnt in healthy
+flight (exponentially weighted, time constant VAR_TAU_S) plus a relative model error,
+``sigma_i^2 = var_i + (MODEL_REL (c H 1)_i)^2``. The three moment rows, normalised so,
+enter the window chi-square test of :mod:`.stats` (eqs 2.12-2.15; 3 degrees of freedom
+per sample, a sample every 0.2 s, which leaves the low-passed samples nearly
+uncorrelated), threshold from the family-wise false-alarm probability per flight hour
+FDI_PFA as the sensor channels' (:func:`~.stats.family_alpha`). The thrust row is left
+out of the test: its residual is the thrust curve's error along the whole flight
+envelope, slowly varying (strongly autocorrelated from sample to sample) and common to
+all rotors, so it tells nothing about one rotor; a rotor fault, which the attitude loop
+compensates with a differential command, shows in the moments at once.
 
 Stage 2 (the fault vector): a Kalman filter over gamma (random walk, process noise
 Q = q^2 dt I) with the measurement ``y / c = H gamma + v``, R the learnt residual
@@ -82,9 +81,8 @@ Reactions. Accommodation (FDI_MOT_COMP = 1): from IDENT_MIN_S after the isolatio
 identified effectiveness goes to the mixer (``accommodation``, applied by the vehicle
 through :meth:`~autopilot.control.mixer.QuadPlusMixer.set_effectiveness`), which then
 asks the weak rotor for T / k: the PDD attitude loops have no integral action, so
-without it the missing moment stands as an attitude offset (measured, rotor 1 at 70 %:
-the true pitch 8 deg short of its reference, 44 deg of tilt in the braking that the
-landing starts with; with it 20 deg). The monitor's own model is unaffected: it
+without it the missing moment stands as an attitude offset (what it changes in flight:
+docs/status.md, "Faults and the monitor"). The monitor's own model is unaffected: it
 compares the thrust the commands should give with what the airframe shows. Failsafe
 (FDI_MOT_FS): a rotor identified below FDI_MOT_MIN of its thrust makes the vehicle land
 where it is (1, LAND; 0: only report).

@@ -34,15 +34,15 @@ sample variance of component i over the last M innovations (mean removed)::
     S_ii = (sigma2_k(i) - (H P H^T)_ii) / R_ii,  s_i = max(1, S_ii)
     single factor: S = (sum_i sigma2_k(i) - tr(H P H^T)) / tr(R)
 
-Why (measured, GPS noise x7 for 30 s, seeds 1-3): the one-sample factor is a chi2(1)
-draw times the true factor, so single fixes with a small draw enter with almost their
-nominal weight; and it counts the filter's own slowly varying error (the mean of the
-innovations) as measurement noise, so while dead reckoning drifts the factor grows with
-the drift and keeps the filter from correcting it -- after the fault ended the drift
-(10 m) held the statistics over their thresholds and the adaptation on (seed 3: the
-robust filter's error during the fault was 1.02 times the plain EKF's). The windowed
-variance measures the noise and leaves the mean, the filter's error, to be corrected;
-its factor returns to about 1 within M samples of the fault's end.
+Why: the one-sample factor is a chi2(1) draw times the true factor, so single fixes
+with a small draw enter with almost their nominal weight; and it counts the filter's own
+slowly varying error (the mean of the innovations) as measurement noise, so while dead
+reckoning drifts the factor grows with the drift and keeps the filter from correcting
+it: after a GPS-noise fault ended, the drift held the statistics over their thresholds
+and the adaptation on, and the robust filter did no better than the plain EKF
+(docs/status.md, "Why the monitor is built as it is"). The windowed variance measures
+the noise and leaves the mean, the filter's error, to be corrected; its factor returns
+to about 1 within M samples of the fault's end.
 
 The navigation filter hook
 --------------------------

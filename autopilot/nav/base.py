@@ -6,11 +6,11 @@ propagate and update the error covariance (``_predict``, ``_gate_stats``,
 IMU samples: HIL_SENSOR delivers point samples. The rotation over a step is integrated
 from the mean of the gyro samples at its two ends (trapezoid), the velocity change from
 the specific-force sample at its end: in the closed loop (JSBSim) this timing fits the
-truth best (measured residuals of the rotation: 0.003 rad/s per axis against 0.009 with
-the end sample alone; a step's worth of roll-rate lead had put 0.3-0.5 deg spikes into
-roll at every turn entry). Point samples err by up to half their change over a step;
-where that exceeds the white process noise -- a catapult's 75 m/s^2 switching on and
-off within one step -- it is added to P along the change (``_set_sampling_noise``).
+truth best (its residuals of the rotation are a third of those with the end sample
+alone: docs/status.md, "Navigation"; a step's worth of roll-rate lead had put spikes
+into roll at every turn entry). Point samples err by up to half their change over a
+step; where that exceeds the white process noise -- a catapult's 75 m/s^2 switching on
+and off within one step -- it is added to P along the change (``_set_sampling_noise``).
 
 Aiding: all measurements of one step are stacked in one :class:`Batch` (rows of
 ``z``, ``h(x)``, ``H = dh/d(dx)``, ``R``; ``y = z - h(x)``), gated one source at a time
@@ -21,7 +21,7 @@ baro and the heading, whose noise is white, as PX4's EKF2 downsamples its aux da
 the same information for a quarter of the updates. Each fusion costs about as much as
 a step's prediction; at 25 Hz they were a third of the fixed-wing loop's navigation
 time, and 12.5 Hz changed the default mission's navigation figures by less than their
-seed-to-seed spread (roll/pitch RMS 0.11 -> 0.14 deg, position and yaw within 1 %). Sources:
+seed-to-seed spread (docs/status.md, "Navigation"). Sources:
 
 * ``gps_pos`` z = NED position of a 3D fix (2D fixes are ignored), valid at
   ``t - EK_GPS_DELAY``. The innovation
@@ -54,11 +54,11 @@ seed-to-seed spread (roll/pitch RMS 0.11 -> 0.14 deg, position and yaw within 1 
   and ``b_baro`` rearranged (``baro = alt0 - p_D + b_baro``), so the innovations, the
   gates and the fault monitor see nothing of the choice. ArduPilot flies the barometer
   by default (EK3_SRC1_POSZ = 1) and PX4 offers it (EKF2_HGT_REF = 0); both take the
-  GPS for RTK receivers (the formation's quadrotors set EK_HGT_REF = 1). Measured on the
-  quadrotor's one-minute hover (seeds 1-10): hold_alt_rms 0.05-0.09 m on the
-  barometer, 0.08-0.37 m on the GPS, whose wander the offset carried into the height
-  flown after arming. The barometer's own drift (the weather's pressure tendency, about
-  1 mm/s) goes into the height instead, as on a real vehicle.
+  GPS for RTK receivers (the formation's quadrotors set EK_HGT_REF = 1). On the GPS the
+  quadrotor's hover altitude followed the receiver's wander, which the offset carried
+  into the height flown after arming (docs/status.md, "Navigation"). The barometer's
+  own drift (the weather's pressure tendency, about 1 mm/s) goes into the height
+  instead, as on a real vehicle.
 * ``mag`` magnetic heading: the measured field rotated into NED by the estimate,
   ``m = R m_b``, must point at the declination. Innovation ``y = wrap(dec - atan2(m_E,
   m_N))``; recorded as a heading observation ``yaw + y`` against ``h = yaw``. With the
@@ -68,8 +68,8 @@ seed-to-seed spread (roll/pitch RMS 0.11 -> 0.14 deg, position and yaw within 1 
   so tilt errors are not mistaken for heading errors. ``m`` in H is a smoothed copy of
   the rotated field (the Earth field is constant in NED; gain 0.01 per sample), not the
   sample itself: noise in H correlates with the noise in y and biased every update
-  (measured: a 4.5 deg pitch / 0.8 m/s^2 accel-bias drift at 6.8 sigma in 20 s of
-  straight flight). Only the field's horizontal direction is fused (no field-strength
+  (it drove a pitch / accelerometer-bias drift of several sigma within 20 s of straight
+  flight). Only the field's horizontal direction is fused (no field-strength
   or inclination model, so a disturbed field magnitude does not pull roll and pitch);
   not fused where the field is within 13 deg of vertical. Start predicate (as PX4's
   tilt alignment): fused only once the roll and pitch sigmas are below 3 deg; before

@@ -16,23 +16,22 @@ the radial horizontal accuracy), so a receiver reporting a worse eph than the mo
 total is weighted down accordingly.
 
 Defaults: the sensor models the filters fly with (``sim_bridge/sensors/params.py``;
-u-blox M8/M9, ICM-20602/BMI088, MS5611, MS4525DO classes), measured in the closed loop
-where the simulation adds to them (default mission, light turbulence, seeds 1-5):
+u-blox M8/M9, ICM-20602/BMI088, MS5611, MS4525DO classes), raised where the closed loop
+adds to them (the measurements: docs/status.md, "Navigation"):
 
 * IMU white noise: the sensors' 1.5e-3 m/s^2/sqrt(Hz) and 0.01 deg/s/sqrt(Hz) are
   0.015 m/s^2 and 1.7e-3 rad/s per 100 Hz sample; integrating point samples through
-  turbulence adds 0.016-0.046 m/s^2 and 0.8-3e-3 rad/s per sample (residuals of the
-  truth's velocity and attitude against the mechanised samples): 0.05 and 0.003.
+  turbulence adds about as much again (residuals of the truth's velocity and attitude
+  against the mechanised samples): 0.05 and 0.003.
 * Bias random walks: the sensors' 1e-3 m/s^3/sqrt(Hz) and 3e-5 rad/s^2/sqrt(Hz).
 * Barometer offset: the sensors' drift is the weather's pressure tendency, a constant
   rate with sigma 0.8 mm/s of altitude; 0.01 m/sqrt(s) is the random walk with the
-  same spread after 2-3 minutes (0.03 before the simulated barometer lost its
-  random-walk drift; with it the GPS's vertical wander leaked into the quadrotor's
-  hover altitude: hold_alt_rms 0.20 m against 0.16 with 0.01, seed 1).
-* Wind: light Dryden turbulence moves the wind 0.44-0.63 m/s in a second (1-s
-  increments of the true wind): 0.5 m/s^2/sqrt(Hz). With less the wind states lag the
-  gusts, the airspeed and sideslip residuals go into velocity and attitude instead
-  (0.2-0.35 m/s velocity errors against a 0.06 m/s sigma in turns).
+  same spread after 2-3 minutes (a larger one lets the GPS's vertical wander leak into
+  the quadrotor's hover altitude).
+* Wind: light Dryden turbulence moves the wind about half a metre per second in a
+  second (1-s increments of the true wind): 0.5 m/s^2/sqrt(Hz). With less the wind
+  states lag the gusts, and the airspeed and sideslip residuals go into velocity and
+  attitude instead (velocity errors of several sigma in turns).
 * GPS: white 0.3 m / 0.6 m (receiver noise, airborne multipath), Gauss-Markov 0.2 m /
   0.4 m with tau 60 s (the minute-scale wander; the hours-scale error, a constant
   offset over a flight, is left out as the sensor model leaves it out), velocity
@@ -43,8 +42,8 @@ where the simulation adds to them (default mission, light turbulence, seeds 1-5)
   (EK_HGT_REF = 0, base.py; the GPS for RTK receivers). Magnetometer: 5 mG per axis
   over the 0.24 G horizontal field at home is 0.021 rad of heading (0.03).
 * Airspeed 0.3 m/s and sideslip 0.5 m/s: not the pitot's 1.5 Pa (0.05 m/s) but what
-  the wind states cannot follow of the turbulence (the residuals' RMS is 0.17 and
-  0.23 m/s, correlated over seconds).
+  the wind states cannot follow of the turbulence (residuals of a few tenths of a metre
+  per second, correlated over seconds).
 """
 from __future__ import annotations
 

@@ -38,7 +38,7 @@ Cost (the closed loop must run >= 30x real time in Python): F is preallocated an
 its 24 dynamic entries are rewritten each step (one ``put``); Q is a constant diagonal
 matrix for a given dt; the gain is solved with LAPACK ``dposv`` (Cholesky) instead of an
 explicit inverse; the aux sensors are fused at 25 Hz as means (base.py), so an update
-runs on every other step at most (50 us per step on average in the closed loop).
+runs on every other step at most (its time per step: ``sitl bench``, docs/status.md).
 
 Covariance rate (``cov_div``, 1 by default; the fixed-wing flies with 4). The nominal
 state is propagated at every IMU step and measurements are fused at the step they
@@ -49,9 +49,9 @@ dynamic entries are the sums of the per-step ones: ``-[sum f_n dt x]``, ``-sum R
 ``F[POS, VEL] = sum dt``, the Gauss-Markov decay the product of the per-step ones) and
 Q the sum of the per-step noises (the Gauss-Markov part decayed exactly), plus the
 sampling errors of every step: the terms left out are second order in the interval
-(40 ms at 100 Hz with 4), as the per-step F already leaves out its own; measured on
-the navigation simulator (tests/test_nav_ekf.py) the figures are those of every-step
-prediction to 0.1 %. With the aux sensors fused every 4th step, the fixed-wing's
+(40 ms at 100 Hz with 4), as the per-step F already leaves out its own; on the
+navigation simulator the figures are those of every-step prediction
+(tests/test_nav_ekf.py). With the aux sensors fused every 4th step, the fixed-wing's
 predictions are in effect those before its fusions. Between two predictions ``P`` is
 the covariance at the last one (at most ``cov_div - 1`` steps old).
 """

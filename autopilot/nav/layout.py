@@ -26,13 +26,13 @@ slice       indices  meaning                                                 uni
 
 * A barometer reads pressure altitude, whose datum differs from the GPS's by metres
   and drifts with the weather. Frozen from one GPS altitude, the offset's error became
-  the vertical error while the covariance claimed centimetres (0 % of samples inside
+  the vertical error while the covariance claimed centimetres (hardly a sample inside
   3 sigma in simulation).
 * A GPS position error is mostly slow (Gauss-Markov, tau ~ a minute), not white. A
-  filter that treats it as white averages successive fixes as if independent and
-  claims a position sigma well below the error it actually has (37-70 % inside
-  3 sigma); inflating R enough to fix that (x600 for tau = 60 s at 5 Hz) makes the
-  re-acquisition after an outage take minutes. Augmenting the state with the
+  filter that treats it as white averages successive fixes as if independent and claims
+  a position sigma well below the error it actually has (far fewer than 99 % of samples
+  inside 3 sigma); inflating R enough to fix that (x600 for tau = 60 s at 5 Hz) makes
+  the re-acquisition after an outage take minutes. Augmenting the state with the
   coloured measurement noise (Bryson & Henrikson 1968, "Estimation using sampled data
   containing sequentially correlated noise") is exact for that model and costs three
   states.

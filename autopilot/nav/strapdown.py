@@ -10,13 +10,13 @@ flat local NED frame; Sola 2017 for the nominal-state kinematics), one step ``dt
     p'    = p + 1/2 (v + v') dt                trapezoidal position
     q'    = q (x) Exp(omega dt)                body-frame rotation increment, renormalised
 
-``w_ie = Omega_E [cos(lat0), 0, -sin(lat0)]`` is the Earth rate in NED at the origin.
-A gyro measures rotation relative to inertial space, so the Earth rate (7.3e-5 rad/s,
-0.004 deg/s) is in every sample: fixed in NED, it turns in the body frame as the
-vehicle turns, and a gyro-bias state cannot follow it (measured in the closed loop:
-the gyro residual's mean fell from 4e-5 to 2e-6 rad/s with it removed). ``2 w_ie x v``
-is the Coriolis acceleration (3 mm/s^2 at 25 m/s). The transport rate (v / R_E,
-4e-6 rad/s) is neglected: the vehicle stays within tens of km of the origin.
+``w_ie = Omega_E [cos(lat0), 0, -sin(lat0)]`` is the Earth rate in NED at the origin. A
+gyro measures rotation relative to inertial space, so the Earth rate (7.3e-5 rad/s,
+0.004 deg/s) is in every sample: fixed in NED, it turns in the body frame as the vehicle
+turns, and a gyro-bias state cannot follow it (removing it took the closed loop's gyro
+residual down by an order of magnitude: docs/status.md, "Navigation"). ``2 w_ie x v`` is
+the Coriolis acceleration (3 mm/s^2 at 25 m/s). The transport rate (v / R_E, 4e-6 rad/s)
+is neglected: the vehicle stays within tens of km of the origin.
 The ``1/2 dt omega x f`` term rotates the specific force to the middle of the step
 (the first-order rotation compensation of Savage 1998), which removes a bias of
 ``|omega| dt / 2 * |f|`` in turns.

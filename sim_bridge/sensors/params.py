@@ -69,7 +69,7 @@ Sources of the defaults (datasheet figures, then the margin we add for an airfra
   board-temperature factor SIM_TEMP_BFACTOR too. A random-walk drift
   (``baro_drift_rw_density``, Pa/sqrt(s)) is kept for studies, default 0: our earlier
   default of 0.3 Pa/sqrt(s) had no source, and with it the quadrotor's altitude hold
-  was set by the simulated sensor's wander (0.17-0.38 m RMS over a one-minute hover).
+  was set by the simulated sensor's wander, not by the autopilot.
 * Magnetometer: Honeywell HMC5883L (noise floor 2 mG) and iSentek IST8310 (0.3 uT =
   3 mG resolution); default 5 mG per axis including airframe currents. Hard-iron
   offset is a parameter, default 0 (a calibrated installation).
