@@ -161,6 +161,21 @@ def test_nothing_refers_to_files_outside_the_repository():
     assert sorted(_PENDING - set(hits)) == [], "gone: drop them from _PENDING"
 
 
+def test_every_sitl_command_and_run_flag_is_documented():
+    # GIVEN the command line as argparse builds it
+    import argparse
+    from tools.sitl import build_parser
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    run_flags = {o for a in sub.choices["run"]._actions for o in a.option_strings
+                 if o.startswith("--") and o != "--help"}
+    running = (ROOT / "docs" / "running.md").read_text()
+    docs = "\n".join(p.read_text() for p in PAGES)
+    # THEN every flag of sitl run is in the table of docs/running.md, and every command
+    # of sitl is shown somewhere in the documentation
+    assert sorted(f for f in run_flags if f"`{f}" not in running) == []
+    assert sorted(c for c in sub.choices if f"sitl {c}" not in docs) == []
+
+
 # --- import rules (docs/architecture.md, "What may import what") ---
 def _imports(path: Path) -> set[str]:
     """Absolute module names ``path`` imports (relative imports resolved)."""
