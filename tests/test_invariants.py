@@ -46,7 +46,7 @@ def test_legs_resolve_jumps_from_the_takeoff_point():
             for leg in legs]
     assert ends == [(2, 0, 0, 1000, 0), (3, 1000, 0, 1000, 1000), (2, 1000, 1000, 1000, 0),
                     (3, 1000, 0, 1000, 1000), (5, 1000, 1000, 0, 0)]
-    assert expected_order(SQUARE) == [1, 2, 3, 2, 3, 5]
+    assert expected_order(SQUARE) == [1, 2, 3, 2, 3, 5]     # navigation items, the jump taken once
 
 
 def _log(points, seqs, dt=0.1, alt=550.0, roll=0.0):

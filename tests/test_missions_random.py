@@ -55,7 +55,7 @@ def test_valid_bounded_and_deterministic(vehicle, planes, quads):
     sample = planes if vehicle == "plane" else quads
     for seed, m in zip(SEEDS, sample):
         text = dumps_waypoints(m)
-        assert loads_waypoints(text) == m                     # the loader accepts it as is
+        assert loads_waypoints(text, vehicle=vehicle) == m    # the loader accepts it for the vehicle
         assert 2 <= len(m) - 1 <= 20
         assert m[1].command == NAV_TAKEOFF
         assert estimate_time_s(m, vehicle) <= TIME_BUDGET_S[vehicle] + 1e-6
@@ -130,6 +130,13 @@ def test_the_distribution_is_broad(planes, quads):
                         seen.add("jump over a jump")
                 if it.command == DO_CHANGE_SPEED and vehicle == "plane" and it.param2 > 0:
                     seen.add("speed within limits" if 20 <= it.param2 <= 30 else "speed outside limits")
+            for it in m.items[1:]:
+                if vehicle == "quad" and it.command in (112, 114, 115, 93, 31):
+                    seen.add(it.command_name)
+                if vehicle == "quad" and it.command == NAV_WAYPOINT and it.x_lat_deg == 0.0:
+                    seen.add("quad waypoint 'here'")
+                if vehicle == "quad" and it.command == DO_CHANGE_SPEED and it.param1 in (2.0, 3.0):
+                    seen.add("quad climb or descent speed")
             last = m.items[-1].command
             end = {NAV_RETURN_TO_LAUNCH: "rtl", NAV_LAND: "land"}.get(last, "none")
             seen.add(f"{vehicle} ends {end}")
@@ -148,7 +155,9 @@ def test_the_distribution_is_broad(planes, quads):
                 "loiter turns", "loiter time", "jump repeat 0", "jump repeat 3",
                 "jump over a jump", "speed within limits", "speed outside limits",
                 "plane ends rtl", "plane ends none", "quad ends rtl", "quad ends land",
-                "quad ends none", "height step steeper than the plane climbs"}
+                "quad ends none", "height step steeper than the plane climbs",
+                "CONDITION_DELAY", "CONDITION_DISTANCE", "CONDITION_YAW", "NAV_DELAY",
+                "NAV_LOITER_TO_ALT", "quad waypoint 'here'", "quad climb or descent speed"}
     assert expected - seen == set()
 
 

@@ -27,8 +27,9 @@ The invariants (``check_invariants``): each ``{"passed": bool, "figure": number}
 where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name the item
 concerned, ``"seq"``, or null):
 
-* ``mission_order``: the items reached (DO_JUMPs left out) are exactly the resolved
-  order, and the end of the mission was flown (summary ``completed``). Figure: the
+* ``mission_order``: the navigation items reached are exactly those of the resolved
+  order (``expected_order``), and the end of the mission was flown (summary
+  ``completed``). Figure: the
   number of expected visits not matched in order (the first mismatch onwards).
 * ``time_bound``: done (completed) within ``TIME_FACTOR`` x the mission's time estimate
   at the worst-wind ground speed (``missions_random.estimate_time_s`` with every speed
@@ -65,7 +66,7 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame
-from autopilot.mission.items import (DO_JUMP, NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TURNS,
+from autopilot.mission.items import (NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TURNS,
                                      NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
                                      Mission)
 
@@ -203,14 +204,17 @@ def _inv(passed: bool, figure, limit=None) -> dict:
 
 
 def expected_order(mission: Mission) -> list[int]:
-    return [s for s in resolve_order(mission) if mission[s].command != DO_JUMP]
+    """The navigation items in the order they are flown (DO_JUMPs resolved). DO_ and
+    CONDITION_ items are left out: a condition may hold back the DO items after it past
+    the start of the next navigation item, or drop them, as AP_Mission does."""
+    return [s for s in resolve_order(mission) if mission[s].command in NAV_FLOWN]
 
 
 def order_figure(mission: Mission, events) -> tuple[int, int | None]:
     """Expected visits not matched in order (from the first mismatch on), and the
     expected item at the first mismatch (None if all matched)."""
     expected = expected_order(mission)
-    actual = [seq for _t, seq in events if 0 < seq < len(mission) and mission[seq].command != DO_JUMP]
+    actual = [seq for _t, seq in events if 0 < seq < len(mission) and mission[seq].command in NAV_FLOWN]
     n = 0
     for e, g in zip(expected, actual):
         if e != g:

@@ -37,11 +37,13 @@ import numpy as np
 
 from autopilot.geo import LocalFrame
 from autopilot.mission.files import dumps_waypoints
-from autopilot.mission.items import (DO_CHANGE_SPEED, DO_JUMP, FRAME_GLOBAL,
+from autopilot.mission.items import (CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW,
+                                     DO_CHANGE_SPEED, DO_JUMP, FRAME_GLOBAL,
                                      FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_RELATIVE_ALT_INT,
-                                     FRAME_MISSION, NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TURNS,
+                                     FRAME_MISSION, NAV_COMMANDS, NAV_DELAY, NAV_LAND,
+                                     NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_LOITER_TURNS,
                                      NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, NAV_WAYPOINT,
-                                     RELATIVE_ALT_FRAMES, Mission, MissionItem)
+                                     POSITION_COMMANDS, RELATIVE_ALT_FRAMES, Mission, MissionItem)
 
 VEHICLES = ("plane", "quad")
 TIME_BUDGET_S = {"plane": 720.0, "quad": 420.0}
@@ -142,8 +144,13 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
     for _ in range(200):
         if len(d.items) >= n_body:
             break
-        kind = str(rng.choice(["waypoint", "duplicate", "loiter_turns", "loiter_time", "speed", "jump"],
-                              p=[0.52, 0.07, 0.1, 0.1, 0.1, 0.11]))
+        if plane:
+            kind = str(rng.choice(["waypoint", "duplicate", "loiter_turns", "loiter_time", "speed",
+                                   "jump"], p=[0.52, 0.07, 0.1, 0.1, 0.1, 0.11]))
+        else:   # the quadrotor also flies what ArduCopter missions carry
+            kind = str(rng.choice(["waypoint", "duplicate", "loiter_turns", "loiter_time", "speed",
+                                   "jump", "condition", "nav_delay", "loiter_to_alt", "vertical"],
+                                  p=[0.4, 0.06, 0.07, 0.07, 0.08, 0.1, 0.08, 0.04, 0.05, 0.05]))
         for attempt in range(4):
             cand, note, extra = _draw_item(rng, d, kind, course, 0.25 ** attempt)
             if cand is None:
@@ -153,10 +160,10 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
                 break
             d.items.pop()
             cand = None
-            if kind in ("speed", "jump", "duplicate"):
+            if kind in ("speed", "jump", "duplicate", "condition", "nav_delay", "vertical"):
                 break
         if cand is None:
-            if kind in ("waypoint", "loiter_turns", "loiter_time"):
+            if kind in ("waypoint", "loiter_turns", "loiter_time", "loiter_to_alt"):
                 break                     # the time budget is spent
             continue
         if note:
@@ -250,14 +257,15 @@ def _offset(ne, dist: float, bearing: float) -> tuple[float, float]:
 def _last_position(d: _Draft) -> tuple[float, float]:
     for it in reversed(d.items):
         if it[6] is not None and it[0] in (NAV_TAKEOFF, NAV_WAYPOINT, NAV_LOITER_TURNS,
-                                           NAV_LOITER_TIME, NAV_LAND):
+                                           NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_LAND):
             return it[6]
     return (0.0, 0.0)
 
 
 def _last_height(d: _Draft) -> float:
     for it in reversed(d.items):
-        if it[0] in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_TAKEOFF):
+        if it[0] in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT,
+                     NAV_TAKEOFF):
             return it[7]
     return 0.0
 
@@ -286,6 +294,11 @@ def _draw_item(rng, d: _Draft, kind: str, course: float, shrink: float):
     plane = d.vehicle == "plane"
     prev = _last_position(d)
     h_prev = _last_height(d)
+    if kind == "speed" and not plane and rng.random() < 0.3:
+        stype = float(rng.choice([2.0, 3.0]))
+        v = float(np.round(rng.uniform(0.2, 12.0), 1))
+        return ((DO_CHANGE_SPEED, FRAME_MISSION, stype, v, -1.0, 0.0, (0.0, 0.0), 0.0),
+                f"DO_CHANGE_SPEED {'climb' if stype == 2 else 'descent'} {v:g} m/s", None)
     if kind == "speed":
         if plane:
             v = float(np.round(rng.uniform(10.0, 40.0), 1))
@@ -302,8 +315,8 @@ def _draw_item(rng, d: _Draft, kind: str, course: float, shrink: float):
     if kind == "jump":
         seq_now = len(d.items) + 1           # the jump's own seq (home is 0)
         targets = [s for s in range(2, seq_now)
-                   if any(it[0] in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME)
-                          for it in d.items[s - 1:])]
+                   if any(it[0] in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME,
+                                    NAV_LOITER_TO_ALT, NAV_DELAY) for it in d.items[s - 1:])]
         if not targets:
             return None, "", None
         target = int(rng.choice(targets))
@@ -312,6 +325,31 @@ def _draw_item(rng, d: _Draft, kind: str, course: float, shrink: float):
         return ((DO_JUMP, FRAME_MISSION, float(target), float(repeat), 0.0, 0.0, (0.0, 0.0), 0.0),
                 f"DO_JUMP at {seq_now} to {target}, repeat {repeat}" + (" (over a jump)" if over else ""),
                 None)
+    if kind == "condition":
+        c = str(rng.choice(["delay", "distance", "yaw"]))
+        if c == "delay":
+            t = float(np.round(rng.uniform(0.0, 10.0), 1))
+            return ((CONDITION_DELAY, FRAME_MISSION, t, 0.0, 0.0, 0.0, (0.0, 0.0), 0.0),
+                    f"CONDITION_DELAY {t:g} s", None)
+        if c == "distance":
+            dist = float(np.round(rng.uniform(1.0, 50.0), 1))
+            return ((CONDITION_DISTANCE, FRAME_MISSION, dist, 0.0, 0.0, 0.0, (0.0, 0.0), 0.0),
+                    f"CONDITION_DISTANCE {dist:g} m", None)
+        angle = float(np.round(rng.uniform(0.0, 359.0)))
+        rate = float(rng.choice([0.0, 10.0, 30.0, 90.0]))
+        direction = float(rng.choice([-1.0, 0.0, 1.0]))
+        relative = float(rng.integers(0, 2))
+        return ((CONDITION_YAW, FRAME_MISSION, angle, rate, direction, relative, (0.0, 0.0), 0.0),
+                f"CONDITION_YAW {angle:g} deg ({'relative' if relative else 'absolute'}, "
+                f"direction {direction:g}, {rate:g} deg/s)", None)
+    if kind == "nav_delay":
+        t = float(np.round(rng.uniform(0.0, 10.0), 1))
+        return ((NAV_DELAY, FRAME_MISSION, t, -1.0, -1.0, -1.0, (0.0, 0.0), 0.0),
+                f"NAV_DELAY {t:g} s", None)
+    if kind == "vertical":
+        h = _height(rng, d.vehicle)
+        return ((NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, None, h),
+                f"waypoint 'here' (latitude and longitude 0) at {h:.0f} m", (course, 0.0, 0.0, 0))
     if kind == "duplicate":
         return ((NAV_WAYPOINT, _frame(rng), 0.0, 0.0, 0.0, 0.0, prev, h_prev),
                 "", (course, 0.0, 0.0, 0))
@@ -341,6 +379,9 @@ def _draw_item(rng, d: _Draft, kind: str, course: float, shrink: float):
         steep = int(abs(h - h_prev) > slope * length)
     if kind == "waypoint":
         return _waypoint(rng, d.vehicle, ne, h), "", (new_course, turn, length, steep)
+    if kind == "loiter_to_alt":
+        return ((NAV_LOITER_TO_ALT, _frame(rng), 0.0, 0.0, 0.0, 0.0, ne, h),
+                f"LOITER_TO_ALT {h:.0f} m", (new_course, turn, length, steep))
     radius = float(math.exp(rng.uniform(math.log(10.0), math.log(1000.0))))
     if not plane:
         radius = float(rng.uniform(2.0, 50.0))
@@ -380,27 +421,29 @@ def _to_mission(d: _Draft, frame: LocalFrame) -> Mission:
 
 # --- the mission as it will be flown --------------------------------------------------
 
-NAV_FLOWN = frozenset({NAV_TAKEOFF, NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME,
-                       NAV_RETURN_TO_LAUNCH, NAV_LAND})
+# the navigation items: one flown at a time (autopilot.mission.items.NAV_COMMANDS)
+NAV_FLOWN = NAV_COMMANDS
 
 
-def resolve_order(mission: Mission) -> list[int]:
+def resolve_order(mission: Mission, limit: int = 10000) -> list[int]:
     """The seqs of the items executed, in order, DO_JUMPs resolved as the sequencers do
-    (a jump is taken while it has been taken fewer than its repeat count times; counts
-    are never reset). DO_JUMP items themselves are left out; everything else (DO_ and
-    NAV_ items) is in. Stops at a NAV_LOITER_UNLIM, which never ends."""
+    (a jump is taken while it has been taken fewer than its repeat count times, for
+    ever with repeat -1; counts are never reset). DO_JUMP items themselves are left out;
+    everything else (DO_, CONDITION_ and NAV_ items) is in. Stops at a NAV_LOITER_UNLIM,
+    which never ends, after an RTL or a landing, and after ``limit`` items (a jump
+    repeated for ever)."""
     from autopilot.mission.items import NAV_LOITER_UNLIM
     out: list[int] = []
     counts: dict[int, int] = {}
     i = 1
     items = mission.items
-    for _ in range(100000):
-        if i >= len(items):
+    for _ in range(100 * limit):
+        if i >= len(items) or len(out) >= limit:
             break
         it = items[i]
         if it.command == DO_JUMP:
             done = counts.get(i, 0)
-            if done < int(it.param2):
+            if int(it.param2) < 0 or done < int(it.param2):
                 counts[i] = done + 1
                 i = int(it.param1)
             else:
@@ -414,13 +457,22 @@ def resolve_order(mission: Mission) -> list[int]:
 
 
 def item_ne_h(mission: Mission, seq: int, frame: LocalFrame) -> tuple[float, float, float] | None:
-    """(north, east, height above home) of an item with a position, None for "here"."""
+    """(north, east, height above home) of an item with a position, None for "here"
+    (latitude and longitude 0, or a command without a position)."""
     it = mission[seq]
-    if it.x_lat_deg == 0.0 and it.y_lon_deg == 0.0:
+    if it.command not in POSITION_COMMANDS or (it.x_lat_deg == 0.0 and it.y_lon_deg == 0.0):
         return None
     p = frame.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), frame.alt0_m)
     h = it.z_alt_m if it.frame in RELATIVE_ALT_FRAMES else it.z_alt_m - mission.home.z_alt_m
     return float(p[0]), float(p[1]), float(h)
+
+
+def _item_height(mission: Mission, it: MissionItem, h_now: float) -> float:
+    """An item's height above home; altitude 0 keeps ``h_now`` (ArduPilot's "this
+    height")."""
+    if it.z_alt_m == 0.0 and it.command != NAV_LAND:
+        return h_now
+    return it.z_alt_m if it.frame in RELATIVE_ALT_FRAMES else it.z_alt_m - mission.home.z_alt_m
 
 
 def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float = 1.0) -> float:
@@ -433,6 +485,7 @@ def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float =
     plane = vehicle == "plane"
     k = ground_speed_factor
     v = PLANE_TRIM_MPS if plane else QUAD_SPEED_MPS
+    v_up, v_dn = QUAD_UP_MPS, QUAD_DN_MPS
     pos, h = (0.0, 0.0), 0.0
     t = 0.0
     ended = False
@@ -440,11 +493,25 @@ def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float =
         it = mission[seq]
         cmd = it.command
         if cmd == DO_CHANGE_SPEED:
-            if it.param2 > 0:
+            if not plane and it.param1 in (2.0, 3.0):      # the quad's climb / descent speed
+                vz = min(max(it.param2, 0.2), 10.0) if it.param2 > 0 else \
+                    (QUAD_UP_MPS if it.param1 == 2.0 else QUAD_DN_MPS)
+                if it.param2 > 0 or it.param2 == -2.0:
+                    v_up, v_dn = (vz, v_dn) if it.param1 == 2.0 else (v_up, vz)
+                continue
+            if it.param2 > 0 and it.param1 in (0.0, 1.0):
                 lo, hi = PLANE_SPEED_LIMITS if plane else QUAD_SPEED_LIMITS
                 v = min(max(it.param2, lo), hi)
+            elif it.param2 == -2.0:
+                v = PLANE_TRIM_MPS if plane else QUAD_SPEED_MPS
+            continue
+        if cmd == CONDITION_DELAY:
+            t += max(it.param1, 0.0)        # gates what follows: counted as time, to be safe
             continue
         if cmd not in NAV_FLOWN:
+            continue
+        if cmd == NAV_DELAY:
+            t += max(it.param1, 0.0) + 2.0
             continue
         vh = min(v, QUAD_SPEED_BUDGET_MAX) * k if not plane else v * k
         p = item_ne_h(mission, seq, frame)
@@ -459,14 +526,14 @@ def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float =
                 if cmd == NAV_RETURN_TO_LAUNCH else h
         else:
             target = pos if p is None else (p[0], p[1])
-            h_new = p[2] if p is not None else h
+            h_new = _item_height(mission, it, h)
         dist = math.hypot(target[0] - pos[0], target[1] - pos[1])
         dh = h_new - h
         if plane:
             t_leg = max(dist / vh, dh / PLANE_CLIMB_MPS, -dh / PLANE_SINK_MPS)
             t_leg += 2 * math.pi * PLANE_R_MIN_M / vh * 0.5   # the turn onto the next leg
         else:
-            t_leg = max(dist / vh, dh / QUAD_UP_MPS, -dh / QUAD_DN_MPS) + 2 * vh / QUAD_ACCEL + 1.0
+            t_leg = max(dist / vh, dh / v_up, -dh / v_dn) + 2 * vh / QUAD_ACCEL + 1.0
         t += t_leg
         pos, h = target, h_new
         if cmd in (NAV_LOITER_TURNS, NAV_LOITER_TIME):
@@ -488,12 +555,12 @@ def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float =
         if plane:
             t += max(dist / vh, abs(PLANE_RTL_ALT_M - h) / PLANE_CLIMB_MPS)
         else:
-            t += dist / vh + max(QUAD_RTL_ALT_M - h, 0.0) / QUAD_UP_MPS + 2 * vh / QUAD_ACCEL
+            t += dist / vh + max(QUAD_RTL_ALT_M - h, 0.0) / v_up + 2 * vh / QUAD_ACCEL
             h = max(h, QUAD_RTL_ALT_M)
     if plane:
         t += 0.5 * math.pi * PLANE_LOITER_RAD_M / (v * k) + 2 * math.pi * PLANE_LOITER_RAD_M / (v * k)
     else:
-        t += max(h - 5.0, 0.0) / QUAD_DN_MPS + min(h, 5.0) / 0.5 + 5.0
+        t += max(h - 5.0, 0.0) / v_dn + min(h, 5.0) / 0.5 + 5.0
     return t
 
 
