@@ -12,6 +12,7 @@
     sitl bench  --false-alarms [--flights N] [--seconds S] [--seed N]
     sitl formation FILE [--seed N] [--duration S] [--loss P] [--latency S] [--rate HZ]
                 [--udp] [--gcs] [--log-dir DIR] [--json]
+    sitl campaign show|run|report|export ...   (tools/campaign: dispersion campaigns)
 """
 from __future__ import annotations
 
@@ -336,6 +337,8 @@ def build_parser() -> argparse.ArgumentParser:
     fm.add_argument("--log-dir", help="run folder (default runs/DATE-TIME-formation-seedN)")
     fm.add_argument("--json", action="store_true", help="print only the summary JSON on stdout")
     fm.set_defaults(func=cmd_formation)
+    from .campaign.cli import add_parser as add_campaign_parser
+    add_campaign_parser(sub)
     return ap
 
 
