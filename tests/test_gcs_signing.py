@@ -170,6 +170,7 @@ def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
     keyfile.chmod(0o600)
     store = tmp_path / "store.parm"
     sitl = Sitl(tmp_path / "run1", "--signing-key", str(keyfile), speedup="1", store=store)
+    t_start = time.monotonic()
     try:
         assert "signing on (key from --signing-key)" in "".join(sitl.err)
         key_file = tmp_path / "store.signing"
@@ -189,6 +190,8 @@ def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
         v1.sock.sendall(bytes(mav2.MAVLink_command_long_message(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
                               .pack(mav2.MAVLink(None, 249, 190), force_mavlink1=True)))
         assert v1.acks(1.5) == []
+        burst = _frame(_pymav(None)) * 3000                      # 3000 refusals at once
+        v1.sock.sendall(burst)
         assert _param(good, "NAVL1_PERIOD") != 33.0
         hb = wait_for(good, "HEARTBEAT", 3, lambda h: h.get_srcSystem() == 1)
         assert not hb.base_mode & 128                            # not armed
@@ -214,12 +217,23 @@ def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
         good.close()
     finally:
         summary = sitl.stop()
+    session_s = time.monotonic() - t_start
     assert summary["gcs_signing"] is True
     reasons = summary["gcs_refused_by_reason"]
-    assert reasons.get("bad signature", 0) >= 2 and reasons.get("unsigned", 0) >= 4
+    assert reasons.get("bad signature", 0) >= 2 and reasons.get("unsigned", 0) >= 3004
     assert reasons.get("replay", 0) == 2
     assert summary["gcs_refused_messages"] == sum(reasons.values())
     assert "messages refused" in "".join(sitl.err)
+    # the refusals were announced, at most once every 10 s; the log holds no signature
+    from pymavlink import mavutil
+    log = mavutil.mavlink_connection(str(tmp_path / "run1" / "gcs.tlog"), dialect="ardupilotmega")
+    said, signed = [], 0
+    while (msg := log.recv_match()) is not None:
+        signed += bool(msg.get_msgbuf()[0] == 0xFD and msg.get_msgbuf()[2] & 1)
+        if msg.get_type() == "STATUSTEXT" and msg.text.startswith("Signing: refused"):
+            said.append(int(msg.text.split()[2]))
+    assert 1 <= len(said) <= 1 + session_s / 10.0 and sum(said) <= summary["gcs_refused_messages"]
+    assert signed == 0
 
     # restart: the key comes from the store; unsigned still refused
     sitl = Sitl(tmp_path / "run2", speedup="1", store=store)
@@ -248,3 +262,74 @@ def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
                        cwd=REPO, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert "signing key" in r.stderr and "removed" in r.stderr and not key_file.exists()
+
+
+# ---------------------------------------------------------------------- MAVProxy ---
+def _mission_count(m) -> int | None:
+    m.mav.mission_request_list_send(1, 1, 0)
+    msg = wait_for(m, "MISSION_COUNT", 3.0)
+    if msg is not None:
+        m.mav.mission_ack_send(1, 1, 0, 0)
+    return None if msg is None else msg.count
+
+
+def test_mavproxy_sets_up_signing_and_flies_while_one_without_the_key_changes_nothing(tmp_path):
+    """MAVProxy A runs ``signing setup PASSPHRASE`` over the wire; MAVProxy B, without
+    the key, then tries to set a parameter, upload another mission, arm, switch to AUTO
+    and inject a GPS failure; the vehicle's state (checked by a signed pymavlink client)
+    is unchanged. Then A -- whose next stage script the test writes only now -- loads the
+    mission, sets a parameter, arms and flies it to the end."""
+    from test_gcs_mavproxy import MavProxy
+    default = (REPO / "missions" / "default.waypoints").read_text()
+    (tmp_path / "mission.waypoints").write_text(default)
+    (tmp_path / "other.waypoints").write_text("\n".join(default.splitlines()[:5]) + "\n")
+    (tmp_path / "a1.scr").write_text("signing setup sesame-7\nrepeat clean\nrepeat add 2 script a2.scr\n")
+    (tmp_path / "b.scr").write_text("param set NAVL1_PERIOD 25\nwp load other.waypoints\narm throttle\n"
+                                    "mode AUTO\nlong INJECT_FAILURE 4 1\n")
+    a2 = ("wp load mission.waypoints\nparam set NAVL1_PERIOD 18.5\nrepeat clean\n"
+          "repeat add 2 script a3.scr\n")
+    (tmp_path / "a3.scr").write_text("mode AUTO\narm throttle\n")
+    key = passphrase_key("sesame-7")
+    sitl = Sitl(tmp_path / "run", speedup="max")
+    watch = _client(sitl.url, sysid=250)                 # listens only: needs no key
+    a = MavProxy(sitl.url, tmp_path, "--daemon", "--non-interactive",
+                 "--default-modules=wp,param,mode,arm,cmdlong,misc,signing",
+                 "--cmd", "repeat add 3 script a1.scr")
+    b = None
+    reached = set()
+    try:
+        assert wait_for(watch, "STATUSTEXT", 30, lambda s: "Signing on" in s.text) is not None
+        s = _client(sitl.url, key, sysid=245)
+        before = (_param(s, "NAVL1_PERIOD"), _mission_count(s))
+        assert before[0] is not None and before[1] == 13
+        b = MavProxy(sitl.url, tmp_path, "--daemon", "--non-interactive",
+                     "--default-modules=wp,param,mode,arm,cmdlong,misc",
+                     "--cmd", "repeat add 2 script b.scr")
+        b.expect(r"Running script b\.scr", 20)
+        b.expect(r"Running script b\.scr", 20)         # twice: every attempt made at least once
+        time.sleep(2.0)
+        b.close()
+        after = (_param(s, "NAVL1_PERIOD"), _mission_count(s))
+        hb = wait_for(s, "HEARTBEAT", 3, lambda h: h.get_srcSystem() == 1)
+        assert after == before and after[0] != 25.0
+        assert not hb.base_mode & 128 and hb.custom_mode == 0          # disarmed, MANUAL
+        assert not any("ACCEPTED" in ln for ln in b.log), "".join(b.log[-20:])
+        # now A flies
+        (tmp_path / "a2.scr").write_text(a2)
+        deadline = time.monotonic() + 150
+        while time.monotonic() < deadline and 12 not in reached:
+            msg = watch.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=0.2)
+            if msg is not None:
+                reached.add(msg.seq)
+        assert _param(s, "NAVL1_PERIOD") == 18.5
+        s.close()
+    finally:
+        a.close()
+        if b is not None:
+            b.close()
+        watch.close()
+        summary = sitl.stop()
+    assert set(range(1, 13)) <= reached
+    assert summary["gcs_signing"] is True and summary["mission_items_reached"] >= 12
+    assert summary["faults_injected"] == []                            # B's failure never relayed
+    assert summary["gcs_refused_by_reason"].get("unsigned", 0) >= 5     # B's attempts, refused

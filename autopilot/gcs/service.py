@@ -240,9 +240,9 @@ class GcsService:
             peer.paused = False
             return
         self._budget[peer.pid][0] -= len(msgs) + codec.bad_frames - bad0
-        # paused while the limit left whole frames in the buffer (an incomplete frame
-        # alone is shorter than the largest frame and waits for the next read)
-        peer.paused = codec.pending > 280
+        # paused while the limit left bytes in the buffer (else what is left is at most
+        # an incomplete frame, waiting for the next read)
+        peer.paused = codec.limited
         signing = self.signing
         accepted = 0
         for msg in msgs:

@@ -127,6 +127,7 @@ class Codec:
         self.received = 0
         self.signing = None     # a Signing with a key: encode() signs every frame
         self.link_id = 0        # our link id in the signatures we make
+        self.limited = False    # the last decode stopped at its limit (more may be pending)
 
     @property
     def pending(self) -> int:
@@ -198,8 +199,10 @@ class Codec:
         find = data.find
         crc16 = _crc16
         stop_at = None if limit is None else self.bad_frames + limit
+        self.limited = False
         while i < n:
             if stop_at is not None and len(out) + self.bad_frames >= stop_at:
+                self.limited = True
                 break
             j = i
             c = data[j]
