@@ -173,3 +173,13 @@ def test_a_real_flight_passes_and_scores_against_the_mission(tmp_path):
     assert summary["completed"] and summary["invariants_passed"], summary["invariants"]
     assert summary["xtrack_mission_rms_m"] == pytest.approx(summary["xtrack_rms_m"], abs=0.05)
     assert summary["xtrack_mission_max_m"] < 1.0
+    # the run folder keeps the mission's lines for sitl report, which draws them
+    from tools.report import make_report
+    from tools.runner import write_run
+    write_run(s, summary, tmp_path)
+    with np.load(tmp_path / "flight.npz") as z:
+        lines = z["mission_lines"]
+    legs = mission_legs(s.mission, s.vehicle.home_frame, "quad")
+    assert lines.shape == (len(legs), 5) and len(legs) >= 3
+    assert np.allclose(lines[:, 3:], [g["b"] for g in legs])
+    assert (tmp_path / "track.png") in make_report(tmp_path)

@@ -1,6 +1,7 @@
 """``sitl report RUN_DIR``: PNG pictures of a run.
 
-* ``track.png``     top view of the true track and the estimate over the waypoints
+* ``track.png``     top view of the true track and the estimate over the waypoints and
+                    the mission's lines as written (what xtrack_mission_* scores)
 * ``alt_speed.png`` altitude and airspeed against their targets
 * ``xtrack.png``    cross-track error on the straight legs (counted part highlighted)
 * ``nav_error.png`` estimate error of each state with its +-3 sigma bound (when the
@@ -22,6 +23,10 @@ import json
 from pathlib import Path
 
 import numpy as np
+
+
+def _num(v) -> str:
+    return f"{v:.2f}" if isinstance(v, (int, float)) else str(v)
 
 
 def _load(run_dir: Path) -> dict:
@@ -49,6 +54,12 @@ def make_report(run_dir: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(8, 8))
     ax.plot(a["truth_e_m"][armed], a["truth_n_m"][armed], lw=1.2, label="true track")
     ax.plot(a["est_e_m"][armed], a["est_n_m"][armed], lw=0.6, ls="--", label="estimate")
+    lines = a.get("mission_lines")
+    if lines is not None and len(lines):
+        # the mission as written: the lines xtrack_mission_* are scored against
+        for k, (_seq, an, ae, bn, be) in enumerate(lines):
+            ax.plot([ae, be], [an, bn], color="k", lw=0.8, ls=":",
+                    label="mission lines (as written)" if k == 0 else None)
     wp = a.get("mission_wp")
     if wp is not None and len(wp):
         ax.plot(wp[:, 2], wp[:, 1], "k^", ms=7, label="mission items")
@@ -96,7 +107,9 @@ def make_report(run_dir: Path) -> list[Path]:
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("cross-track error [m]")
-    ax.set_title(f"xtrack RMS {summary.get('xtrack_rms_m')}, max {summary.get('xtrack_max_m')}")
+    ax.set_title(f"xtrack RMS {_num(summary.get('xtrack_rms_m'))}, max {_num(summary.get('xtrack_max_m'))} m "
+                 f"(flown legs); against the mission's lines RMS "
+                 f"{_num(summary.get('xtrack_mission_rms_m'))}, max {_num(summary.get('xtrack_mission_max_m'))} m")
     ax.legend()
     ax.grid(True, alpha=0.3)
     p = run_dir / "xtrack.png"

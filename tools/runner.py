@@ -258,6 +258,14 @@ def write_run(session: Session, summary: dict, log_dir: Path) -> Path:
                 p = hf.to_ned_fast(math.radians(it.x_lat_deg), math.radians(it.y_lon_deg), hf.alt0_m)
                 mission_xy.append((it.seq, p[0], p[1]))
     extra = {"mission_wp": np.array(mission_xy, dtype=float).reshape(-1, 3)}
+    if hf is not None:
+        # the lines of the mission as written, in flying order (tools/invariants.py):
+        # seq of the line's end, start north/east, end north/east [m]
+        from .invariants import mission_legs
+        flown = session.vehicle.mission if session.vehicle.mission is not None else session.mission
+        legs = mission_legs(flown, hf, session.cfg.vehicle, session.params)
+        extra["mission_lines"] = np.array([(g["seq"], *g["a"], *g["b"]) for g in legs],
+                                          dtype=float).reshape(-1, 5)
     innov = getattr(getattr(session.vehicle, "monitor", None), "innovation_log", None)
     if innov is not None:
         extra.update(innov.arrays())        # innov_* columns: every innovation record
