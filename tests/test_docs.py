@@ -20,8 +20,8 @@ SKIP_DIRS = {".git", ".venv", "runs", "build", "dist", "__pycache__", ".pytest_c
 # ------------------------------------------------------------------ the checker ---
 _FENCE = re.compile(r"^(```|~~~).*?^\1", re.S | re.M)
 _CODE_SPAN = re.compile(r"`[^`\n]*`")
-_LINK = re.compile(r"(?<!!)\[[^\]\n]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
-_IMAGE = re.compile(r"!\[[^\]\n]*\]\(([^)\s]+)\)")
+_LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")   # text may wrap
+_IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
 _REF_DEF = re.compile(r"^\s{0,3}\[[^\]]+\]:\s+(\S+)", re.M)
 _HEADING = re.compile(r"^#{1,6}\s+(.+?)\s*#*\s*$", re.M)
 
@@ -159,6 +159,24 @@ def test_nothing_refers_to_files_outside_the_repository():
                 hits.setdefault(p.relative_to(ROOT).as_posix(), []).append(f"{n}: {line.strip()}")
     assert {k: v for k, v in hits.items() if k not in _PENDING} == {}
     assert sorted(_PENDING - set(hits)) == [], "gone: drop them from _PENDING"
+
+
+_DOC_REF = re.compile(r'docs/([\w.-]+\.md)(?:,\s+"([^"]+)")?')
+
+
+def test_docstrings_name_pages_and_sections_that_exist():
+    # GIVEN every "docs/PAGE.md" or "docs/PAGE.md, "Section"" named in the code
+    bad = []
+    for top in ("autopilot", "sim_bridge", "tools"):
+        for p in _modules(top):
+            for page, section in _DOC_REF.findall(p.read_text()):
+                dest = ROOT / "docs" / page
+                if not dest.exists():
+                    bad.append(f"{p.relative_to(ROOT)}: docs/{page}")
+                elif section and slug(" ".join(section.split())) not in anchors(dest.read_text()):
+                    bad.append(f"{p.relative_to(ROOT)}: docs/{page}, {section!r}")
+    # THEN each names a page, and a heading of it, that exist
+    assert bad == []
 
 
 def test_every_sitl_command_and_run_flag_is_documented():

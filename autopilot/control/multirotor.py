@@ -3,113 +3,25 @@ generator of the seed (ch. 9 sec. 3.6.2.2, eqs 3.30-3.41), for the quadrotor of
 ``sim_bridge/plants/quadrotor.py``.
 
 Our copy of the seed lost the subscripts, the fractions and some brackets of these
-equations. They are rebuilt here from its references (Hoffmann, Huang, Waslander &
-Tomlin, AIAA GNC 2007; Bayezit & Fidan, IEEE TIE 60(12) 2013), and where the text
-still left a choice, the choice was made by checking stability on our airframe; every
-such choice is stated below.
+equations; they are rebuilt from its references (Hoffmann, Huang, Waslander & Tomlin,
+AIAA GNC 2007; Bayezit & Fidan, IEEE TIE 60(12) 2013), and where the text still left a
+choice, the choice was made by checking stability on this airframe:
 
-Plant (eq 3.31, per axis; its numerator was lost)
--------------------------------------------------
-With the mixer of eq 3.30 (control/mixer.py) a roll input u_phi [N per rotor] gives
-the moment 2 l u_phi, a yaw input 4 k_M u_psi, and every rotor's thrust follows its
-command through the first-order lag tau, so
+* attitude (eqs 3.32-3.36): ``U = Cbar(s) [k_P e - F(s) omega]``,
+  ``F(s) = (k_D (s + p_d) + k_DD s) / (s + p_d)^2``, derivative actions on the gyro
+  rates (no kick), discretised by Tustin; the default gains place three closed-loop
+  poles from design inputs (QD_RP_*, QD_YAW_*: :func:`place_pdd`), the seed's set is
+  ``QD_GAIN_SET = 1`` (its yaw set is unstable on an F450);
+* altitude (eq 3.37): PID on height and climb rate plus the nominal thrust
+  ``m (g + zddot_d)``, divided by ``cos phi cos theta``; the seed's gains;
+* reference angles (eqs 3.38-3.41): PID from the position error in the heading frame
+  (derivative on the velocity error, integral rotated with the yaw) plus the reference
+  acceleration over g, the tilt limited to ANGLE_MAX_DEG; the default places the
+  position loop's poles (QD_POS_*).
 
-    Phi(s) / U_phi(s) = K / (s^2 (tau s + 1)),   K_roll = 2 l / I_xx,  K_pitch = 2 l / I_yy,
-                                                K_yaw = 4 k_M / I_zz.
-
-F450 numbers (QD_* parameters): K_roll = K_pitch = 24.6, K_yaw = 3.12 (rad/s^2)/N,
-tau = 0.055 s.
-
-PDD attitude law (eqs 3.32-3.36)
---------------------------------
-Rebuilt as
-
-    U_phi(s) = C_phi(s) [Phi_d(s) - Phi(s)],
-    C_phi(s) = [k_P + k_D s / (s + p_d) + k_DD s^2 / (s + p_d)^2] Cbar(s)
-
-The surviving text, "C(s) = <frac> + <frac> + k Cbar(s)", shows two fractions (the
-derivative and double-derivative actions, p_d "the pole of the filter in the derivative
-and double-derivative actions") and k_P next to the lead term Cbar(s). Two readings of
-the fractions exist: k_D p_d s / (s + p_d) (k_D the derivative gain) and
-k_D s / (s + p_d) (k_D the high-frequency gain, k_D / p_d the derivative gain). With the
-seed's numbers the first reading is unstable on this airframe for every assignment of
-the three coefficients (a closed-loop pair near 32 +- 188j rad/s: k_DD ~ 1 N s^2/rad
-against K ~ 25 leaves a loop gain of ~20 up to 1/tau); the second is stable for every
-assignment. We take the second, and read Cbar(s) as multiplying the whole PDD (a
-cascaded lead, as a root-locus design adds one; the bracket did not survive, and with
-the seed's numbers the two placements of Cbar differ little, the derivative actions
-being small). The seed lists the coefficients "0.99, 1.48, 0.83"
-(roll/pitch) and "0.99, 0.67, 1.11" (yaw) in the order of the text's k_P, k_D, k_DD;
-the root locus gives (roll/pitch, all assignments stable, damping 0.30-0.36; in the
-listed order closed-loop poles -1.27 +- 3.63j, -11.9, ...). The seed's yaw set is
-unstable on this airframe in either reading and any assignment (its Cbar_psi =
-0.0187 (s + 1)/(s + 0.27) is a lag compensator on a double integrator; poles near
-+0.09 +- 0.35j): the yaw effectiveness K_yaw of an F450 is far below what the seed's
-numbers assume. ``SEED_ROLL_PITCH`` / ``SEED_YAW`` keep the seed set (QD_GAIN_SET = 1).
-
-Our design (QD_GAIN_SET = 0, the default) keeps the same law and places three
-closed-loop poles: a pair at natural frequency QD_RP_WN / damping QD_RP_ZETA and a real
-pole at -QD_RP_P3 (yaw: QD_YAW_*). The characteristic polynomial
-
-    den_Cbar(s) (s + p_d)^2 s^2 (tau s + 1) + K num_Cbar(s) [k_P (s + p_d)^2
-                                      + k_D s (s + p_d) + k_DD s^2] = 0
-
-is linear in (k_P, k_D, k_DD), so requiring it to vanish at the three chosen poles is a
-3x3 linear system (:func:`place_pdd`); the remaining poles (from the p_d filters) are
-checked to be stable and faster (:func:`closed_loop_poles`; tests). Placing all three
-dominant poles needs no lead, so our set has Cbar(s) = 1 (the structure keeps it). With
-the defaults (12 rad/s, 0.8, 25 rad/s; yaw 4 rad/s, 0.9, 15 rad/s) the gains are, in
-eq 3.33's parametrisation, roll/pitch k_P = 4.29, k_D = 79.8, k_DD = 287 (derivative
-gain k_D/p_d = 0.80 N s/rad, double-derivative gain k_DD/p_d^2 = 0.029 N s^2/rad) and
-yaw k_P = 3.87, k_D = 200, k_DD = 607; the remaining closed-loop poles are real, at
--40 and -134 (roll/pitch) and -77 and -119 rad/s (yaw). The step response on the
-nonlinear plant, with this set and with the seed's: docs/status.md, "Quadrotor"
-(tests/test_quad_control.py bounds it).
-
-Implementation: derivative actions on the measurement (the gyro rates), not on the
-error, so a step of the reference does not kick (as every control law here):
-
-    u = Cbar(s) [k_P e - F(s) omega],   F(s) = (k_D (s + p_d) + k_DD s) / (s + p_d)^2,
-
-with e the attitude error and omega the body rate; since s Phi = omega this has the
-same characteristic polynomial as eq 3.32. F and Cbar are discretised at the loop rate
-by Tustin (``scipy.signal.cont2discrete``, at construction only) and run as difference
-equations. The attitude error (:func:`attitude_error`) is the body-frame rotation
-vector from the attitude to the reference tilt at the current heading, plus the
-heading error about body z: roll, pitch and yaw errors to first order, with tilt and
-heading decoupled (a heading still turning does not drag the tilt round with it).
-
-Altitude (eq 3.37)
-------------------
-    u_z = [k_D (zdot_d - zdot) + k_P (z_d - z) + k_I int (z_d - z) dt + T_n] / (cos phi cos theta)
-
-z up, T_n = m (g + zddot_d) the nominal thrust (eq 3.37's T_n, with the reference
-acceleration as feed-forward), divided by cos phi cos theta ("feedback linearization
-... to compensate for the gravity offset and thrust deflection"). The seed's "7, 7.5
-and 6" are (k_D, k_P, k_I): of the six assignments all are stable on the plant
-m s^2 (tau s + 1), this one is the best damped (dominant pair -0.55 +- 0.89j, then
--7.1, -10.0). Kept as the default.
-
-Reference-angle generator (eqs 3.38-3.41)
------------------------------------------
-    U(s) = k_P + k_I / s + k_D s                                       (3.38)
-    phi_d   =  U_phi(s) e_y + a_y / g                                  (3.39)
-    theta_d = -U_theta(s) e_x - a_x / g                                (3.40)
-    psi_d   =  the commanded heading (eq 3.41's psi_d = 0, generalised)
-
-e_x, e_y: the north/east position error rotated by the yaw into the heading frame (x
-forward, y right); the sign of eq 3.40 follows eq 3.29 (x'' = -g theta). The derivative
-acts on the velocity error (reference velocity from the trajectory generator minus the
-navigation velocity: no differentiation of noise, no kick), the integral accumulates
-the north/east error and is rotated with the yaw (a wind fixed in the earth frame stays
-compensated while the vehicle turns), a_x, a_y is the reference acceleration fed
-forward. The tilt is limited to QD_ANGLE_MAX (the seed: "limited with 30 deg").
-
-The seed's (P, I, D) = pitch (0.72, 0.72, 0.3), roll (0.6, 0.6, 0.42) [rad/m, rad/(m s),
-rad s/m], read in eq 3.38's order, make with this attitude loop a lightly damped pair
-(pitch -0.52 +- 2.86j: damping 0.18; the other assignments leave a pair at 0.15-0.23
-damping around 6-7 rad/s). Kept as the seed set; the default places the poles of
-s^3 + g k_D s^2 + g k_P s + g k_I at a pair (QD_POS_WN, QD_POS_ZETA) and -QD_POS_P3.
+The reconstruction, the readings the text allows and why each was chosen, the root loci
+and the gains: docs/quadrotor-control.md. The step responses: docs/status.md,
+"Quadrotor".
 """
 from __future__ import annotations
 

@@ -1,119 +1,23 @@
-"""Actuator fault detection and identification for the fixed-wing elevator (seed ch. 8
-sec. 2.2.3, eqs 2.18-2.24, and the Q adaptation of sec. 2.3.2, eqs 2.35-2.40).
+"""Actuator fault detection and identification for the fixed-wing elevator (course text
+ch. 8 sec. 2.2.3, eqs 2.18-2.24, with the Q adaptation of sec. 2.3.2, eqs 2.35-2.40;
+rebuilt from Hajiyev & Caliskan 2003, ch. 7, and the two-stage Kalman filter of
+Friedland 1969 / Keller & Darouach 1997).
 
-The seed's equations lost their subscripts in extraction; they are rebuilt here from
-Hajiyev & Caliskan (2003), "Fault Diagnosis and Reconfiguration in Flight Control
-Systems", ch. 7, and the two-stage Kalman filter of Friedland (1969) / Keller & Darouach
-(1997) that the seed's "adaptive TSKF" builds on. The design model (2.18)::
+For one surface both fault types are one affine map of the command,
+``delta_act = k delta_cmd + s`` (no fault k = 1, s = 0; loss of effectiveness k < 1;
+stuck k = 0, s = beta: eqs 2.22-2.24). Two stages, as the TSKF:
 
-    x_k+1 = A x_k + B u_k + E_k gamma_k + w_k^x
-    gamma_k+1 = gamma_k + w_k^gamma
-    y_k+1 = C x_k+1 + v_k+1
+1. :class:`MomentBalance`: the quasi-steady pitch-moment balance, learnt by recursive
+   least squares in healthy flight, gives z, the deflection the aircraft is flying with,
+   from the measured load factor, the airspeed and the throttle. Its normalised residual
+   ``z - delta_cmd`` goes into the window chi-square test (eqs 2.12-2.15) and detects.
+2. :class:`ElevatorIdentifier`: a Kalman filter over gamma = [k, s] with the measurement
+   ``z = [delta_cmd, 1] gamma + v``, its covariance faded (eqs 2.36-2.39) on a detected
+   fault; the identification chooses stuck or weakened by the two hypotheses' residuals.
 
-with the fault vector entering the actuators. For one surface the two fault types of
-(2.20)-(2.24) are one affine map of the command::
-
-    delta_act = k delta_cmd + s
-    no fault: k = 1, s = 0                                   (2.22)
-    loss of effectiveness: k = 1 - loss, s = 0               (2.23)
-    stuck at beta: k = 0, s = beta                           (2.24)
-
-Two stages, as the TSKF: the first is the bias-free (no-fault) model of the pitch axis,
-the second estimates the fault parameters gamma = [k, s] from it.
-
-Stage 1, the quasi-steady pitch-moment balance. With V the airspeed and q the pitch
-rate, the pitch moment equation ``Cm_0 + Cm_a alpha + Cm_q cbar q / (2 V) + Cm_d delta +
-(thrust moment) = I_yy q_dot / (qbar S cbar)`` with q_dot ~ 0, solved for the
-deflection, is linear in alpha, q / V and the thrust moment over the dynamic pressure.
-The angle of attack is replaced by the lift it must give: ``C_L = n m g / (qbar S)`` and
-``alpha = alpha_0 + C_L / C_L_a``, so alpha is affine in ``n / V^2`` (n = -f_z / g, the
-normal load factor the accelerometer measures, less its bias estimate; V the pitot's
-equivalent airspeed, for which qbar = rho_0 V^2 / 2). The measured n, not the 1 /
-cos(bank) of a coordinated turn, also carries the pull-ups and the phugoid a stuck
-elevator starts (with 1 / cos(bank) the stuck readings spread wider, one a quarter high:
-docs/status.md, "Why the monitor is built as it is"). The pitch-damping term is left
-out: in a turn q = g tan(bank) sin(bank) / V grows with n as the lift does, so a fit
-cannot tell the two apart, and it is the smaller one (Beard & McLain, Small Unmanned
-Aircraft, 2012, table E.2, the Aerosonde this project flies: Cm_a = -0.38, Cm_q = -3.6,
-cbar = 0.19 m; in a 30 deg turn at 25 m/s, q = 0.11 rad/s gives
-Cm_q cbar q / (2 V) = -0.0016 against Cm_a d_alpha = -0.011)::
-
-    delta = c_0 + c_L (n (V_ref / V)^2 - 1) + c_t throttle (V_ref / V)^2          (**)
-
-(c_L = -Cm_a m g / (Cm_d qbar_ref S C_L_a), c_t the thrust moment over dynamic
-pressure). The lift regressor is excited by the turns and by every speed change, and it
-carries the balance to the low airspeeds a stuck nose-up elevator flies at. The angle
-of attack from the navigation solution is not a regressor: it hardly varies in
-closed-loop cruise, so its coefficient came out a small fraction of the airframe's and a
-stuck elevator was read low. The balance is learnt by recursive least squares in
-healthy flight (:class:`MomentBalance`) on low-passed signals (time constant
-BAL_TAU_S = 1 s, the same filter on every signal so the lag cancels), with the
-*commanded* deflection as the dependent variable (healthy: actual = commanded), on
-samples FIT_DELAY_S old, so that the fault is never in the fit when it is detected, and
-not on the first
-FIT_WARMUP_S of flight (take-off and climb-out at full throttle are not quasi-steady).
-With the coefficients, (**) gives z, the deflection the aircraft is flying with, every
-0.1 s. The no-fault residual ``r = z - delta_cmd`` is normalised by its own standard
-deviation in healthy flight (learnt FIT_DELAY_S late, exponentially weighted over
-RES_TAU_S; the balance's a-priori fit residuals are several times smaller than these
-prediction residuals, which wander with the manoeuvres: steep turns, descents at idle)
-and goes, every TEST_DIV-th sample (2 Hz), into the window chi-square test of
-:mod:`.stats` (eqs 2.12-2.15), its level from the family-wise false-alarm probability
-per flight hour FDI_PFA as the sensor channels'. The low-passed samples are still
-strongly correlated at 2 Hz, which the chi-square law does not allow for: the monitor
-detects at FDI_ACT_THR times the threshold.
-
-Stage 2, the fault parameters: a Kalman filter over the random-walk state gamma =
-[k, s] with the measurement ``z = [delta_cmd, 1] gamma + v`` (R = the healthy residual
-variance), at 10 Hz. Q adaptation (2.35-2.40) on a detected actuator fault: the
-covariance is predicted with a fading factor, ``P = P + Lambda Q``, where, with the
-window mean of the squared innovations ``C = 1/M sum e_j^2`` (2.35) and the scalar
-measurement,
-
-    lambda = max(1, (C - H P H^T - R) / (H Q H^T))                           (2.36-2.39)
-
-so the parameters move as fast as the innovations demand, and back to the optimal
-filter (lambda = 1) when the fault has been learnt.
-
-Identification (what ``identified()`` reports): the two hypotheses of (2.22)-(2.24)
-fitted over the window since the detection (from 1 s before it), on the same z::
-
-    loss of effectiveness: z = k delta_cmd       k = sum z delta_cmd / sum delta_cmd^2
-    stuck:                 z = s                 s = mean of z over the window
-
-A stuck surface leaves the command free to wander: the loop winds it up (usually into
-saturation, often against the side the surface is stuck on), so k outside [K_MIN, K_MAX]
-or a command saturated most of the window -> stuck. So does a stuck fit whose residual
-sum of squares is under RSS_STUCK (1/20) of the loss-of-effectiveness fit's: the command
-moves and z does not (the likelihood ratio of the two hypotheses with the same noise).
-Otherwise loss of effectiveness. (A stuck surface whose command happens to stay
-proportional to it is not distinguishable from a loss of effectiveness without
-excitation; an elevator doublet would tell them apart.) The residual ratio separates the
-two classes by orders of magnitude where k alone read a stuck nose-down elevator as a
-loss of effectiveness for tens of seconds (docs/status.md, "Why the monitor is built as
-it is"). Once found stuck the classification holds (the monitor passes ``stuck``):
-flying the height on the throttle afterwards (control/fixed_wing.py, elevator out) keeps
-the pitch loop's command near its middle and swinging with the phugoid, which the
-loss-of-effectiveness fit would then read as a weak surface.
-
-How well it detects and identifies, and how close healthy flight comes to a false alarm
-(``sitl bench --false-alarms``): docs/status.md, "Faults and the monitor". The balance
-is fitted in cruise and extrapolates to the slow, nose-high flight a stuck elevator
-leads to only as well as cruise excited it. A fault in the first ~100 s of flight is not
-seen: the balance needs 30 s of fit after FIT_WARMUP_S plus FIT_DELAY_S, and the
-residual variance 20 s more.
-
-Sensor vs actuator (the RAKF's discrimination, 2.44-2.45): the navigation filter is
-driven by the IMU, not by the control inputs: its gain has no control distribution
-matrix to be sensitive to (the Doyle-Stein condition holds trivially, Bs = 0), so an
-actuator fault leaves its innovations white while a sensor fault does not. An elevator
-residual over its threshold while the navigation innovations are quiet is an actuator
-fault; with a sensor fault running, the stage-1 model's inputs are suspect and the
-actuator test is held.
-
-Limits: the balance (**) holds in coordinated flight at moderate alpha; its fit needs
-the excitation that turbulence and the pitch loop give (light turbulence is enough); the
-estimates of a stuck surface are those of (**) about the conditions it was learnt in.
+The balance's regressors, the filtering, the stuck/weakened decision and the limits,
+each with its reason: docs/monitor.md, "Elevator identification". How well it works:
+docs/status.md, "Faults and the monitor".
 """
 from __future__ import annotations
 

@@ -1,135 +1,31 @@
-"""The onboard fault monitor: detection, isolation, R adaptation and reactions.
+"""The onboard fault monitor: detection, isolation, R and Q adaptation, reactions.
 
-Seed ch. 8 sec. 2.2-2.3 (Hajiyev & Caliskan 2003, "Fault Diagnosis and
-Reconfiguration in Flight Control Systems"; equations rebuilt in :mod:`.stats` and
-:mod:`.radapt`). Runs once per vehicle step, after navigation, on what the navigation
-filter exposes: its innovation records (``nav.innovations``), its bias estimates
-(``nav.gyro_bias``) and covariance (``nav.P``). It is never told about injected faults.
+Course text ch. 8 sec. 2.2-2.3 (Hajiyev & Caliskan 2003, "Fault Diagnosis and
+Reconfiguration in Flight Control Systems"); the statistics are :mod:`.stats`, the R
+adaptation :mod:`.radapt`. Runs once per vehicle step, after navigation, on what the
+navigation filter exposes: its innovation records, bias estimates and covariance. It is
+never told about injected faults.
 
-Channels (names used everywhere: log, STATUSTEXT, summary.json)::
+* Detection: the window chi-square statistic of each aiding sensor's normalised
+  innovations (eqs 2.12-2.15), at a level set per flight hour (FDI_PFA, shared by all
+  the window tests: the course text's per-test alpha alarms every hour or so in healthy
+  flight); a channel fallen silent for FDI_TOUT; the rate of the gyro-bias estimate
+  against its admissible rate (a gyro fault is a bias step the filter absorbs); the
+  elevator's moment-balance residual (:mod:`.actuator`); the rotors' (:mod:`.motors`).
+* Isolation: the channel with the largest sample-variance statistic over its threshold
+  (eqs 2.16-2.17, the max rule). Clearance after FDI_CLR_T with every statistic low.
+* Adaptation: an aiding-sensor fault gets noise scale factors on R (eqs 2.25-2.34,
+  FDI_RADAPT); a drift of the velocity innovations is an IMU fault, met with a fading Q
+  on the gyro-bias states (eq 2.40, FDI_QFADE) instead, since R adaptation would make
+  the filter ignore the GPS that reveals it.
+* Reactions: STATUSTEXT-ready events; GPS silent for FDI_DR_TIME -> RTL
+  (dead reckoning meanwhile); an elevator fault -> the fixed-wing flies its height on
+  the throttle (control/fixed_wing.py, "elevator out").
 
-    gyro_x gyro_y gyro_z accel_x accel_y accel_z mag baro airspeed gps_pos gps_vel
-    aileron elevator rudder throttle motor_1 motor_2 motor_3 motor_4
+Channels (names used everywhere: log, STATUSTEXT, summary.json): ``CHANNELS``.
 
-How each is watched:
-
-* Aiding sensors (``gps_pos``, ``gps_vel``, ``baro``, ``mag``, ``airspeed``): their
-  normalised innovations (2.13) go through :class:`~.stats.WindowChi2`: the window
-  statistic beta (2.12, threshold chi2_{alpha_det, M s}, see Thresholds below) detects,
-  the per-step statistic chi (2.41-2.43) is logged, the sample-variance statistic gamma
-  (2.16-2.17, threshold chi2_{alpha, M-1}) isolates. The 25 Hz fusions of baro, mag and
-  airspeed enter every FDI_DECIM-th sample, so a window of M samples spans seconds, as
-  the GPS's does (and successive samples are less correlated; the chi-square law assumes
-  a white sequence). The airspeed innovation is divided by sqrt(FDI_ARSP_K) first: the
-  filter's airspeed noise does not include turbulence, and its normalised innovation is
-  strongly autocorrelated in light turbulence (docs/status.md, "Why the monitor is built
-  as it is"), which a raw chi-square window reads as a fault. The synthetic sideslip is
-  a modelling assumption, not a sensor: not watched. A sensor that stops delivering
-  (``off``) gives no innovation at all: a channel that has been updating and falls
-  silent for FDI_TOUT is flagged with the statistic ``age / FDI_TOUT``, so ``gps off``
-  is detected and isolated by the silence.
-* Gyros (``gyro_x|y|z``): a constant gyro fault is a bias step, which the filter's
-  gyro-bias states absorb, so the innovations show it only weakly and briefly. The
-  monitor watches the bias estimate instead: every 0.1 s it forms, per axis, the change
-  of the estimate over the last FDI_BIAS_T seconds, ``d = b(t) - b(t - T)``, and
-  normalises it by what a healthy filter allows over T -- the bias random walk of the
-  filter's model plus the estimate's own variance, ``gamma_b = d^2 / (q_bg T +
-  sigma_b(t)^2)`` -- tested against chi2_{FDI_ALPHA_B, 1}. This is the rate of the bias
-  estimate (d / T) tested against its admissible rate. During an episode the reference
-  is fixed instead: the estimate and its variance FDI_BIAS_T before the detection,
-  ``gamma_b = (b(t) - b_a)^2 / (q_bg (t - t_a) + sigma_a^2)``, so the whole change since
-  the fault counts and the Q fading below (which inflates the present sigma) does not
-  hide it. The bias states keep learning for about a minute after alignment (the
-  statistic is far over any threshold then), so the gyro channels are armed FDI_BIAS_WU
-  seconds after alignment. FDI_ALPHA_B is smaller than FDI_ALPHA because the filter's
-  bias sigma has been optimistic (fault-free maxima of gamma_b, and how far under the
-  threshold they are now: docs/status.md, "Why the monitor is built as it is";
-  ``sitl bench --false-alarms`` measures them).
-* ``elevator`` (FDI_ACT_ID = 1, the default): the two-stage identifier of
-  :mod:`.actuator` gets the commands through ``observe_controls``; its no-fault
-  residual (the deflection the learnt pitch-moment balance says the aircraft flies
-  with, less the command) over FDI_ACT_THR times its window chi-square threshold while
-  every navigation statistic is under its own opens an actuator episode (kind
-  "actuator", Q adaptation of the fault parameters on, identification logged once a
-  second); how soon and how well: docs/status.md, "Faults and the monitor". It learns
-  nothing while a sensor fault is detected (its inputs are suspect).
-  ``elevator_fault_s`` keeps the time of the detection (the fixed-wing then flies its
-  height on the throttle, control/fixed_wing.py, "elevator out"); once the
-  identification says *stuck*, ``elevator_stuck_rad`` holds the estimate (announced
-  once, CRITICAL) and the classification holds.
-* ``motor_1`` .. ``motor_4`` (quadrotor): :mod:`.motors`, run by the quadrotor's loop.
-* Accelerometers, other surfaces: names reserved; no statistic yet (the
-  accelerometer bias estimates wander by many of their sigmas in fault-free flights:
-  not usable as they are; docs/status.md, "Why the monitor is built as it is").
-
-Thresholds: the window detection test (2.12-2.15) is repeated at every sample of every
-aiding channel, about 63 000 tests per flight hour (``window_tests_per_hour``: GPS
-position and velocity at 5 Hz, baro, mag and airspeed at 25 Hz / FDI_DECIM). The seed's
-alpha is the false-alarm probability of *one* test, so with alpha = 1e-4 a healthy
-flight alarms every hour or so however well R is modelled: the normalised GPS
-innovations of fault-free flights are white with unit variance, and the alarms at that
-level were windows of ordinary samples, the chi-square tail itself (docs/status.md, "Why
-the monitor is built as it is"). So the detection level is set per flight, not per test:
-FDI_PFA is the probability of a false alarm in a flight hour from all window tests
-together, and ``alpha_det = FDI_PFA / tests per hour`` (Bonferroni,
-:func:`~.stats.family_alpha`; conservative by about 2 since the windows overlap): 1.6e-7
-for FDI_PFA = 0.01, a threshold of 87.5 instead of 67.6 for the 30 degrees of freedom of
-GPS (1.3x). FDI_ALPHA stays the level of the per-step (2.41-2.43) and isolation
-(2.16-2.17) tests, which decide only within an episode. The gyro bias test has its own
-FDI_ALPHA_B (fault-free it stays well under its threshold after the warm-up: it is not
-the one that raises false alarms).
-
-Decision: a fault is detected at the first step where a channel's detection
-statistic exceeds its threshold (or a channel goes silent); it is isolated to the
-channel with the largest isolation statistic over its own threshold (the seed's max
-rule); it clears when every statistic has stayed under its threshold, and every
-silent channel has refilled its window, for FDI_CLR_T seconds. Each of the three
-produces an event ``(t_s, severity, text)`` (MAV_SEVERITY numbers, STATUSTEXT-ready)
-in ``events``; ``episodes`` keeps the running fault log.
-
-R adaptation (robust KF, :mod:`.radapt`, through the filter's ``r_scale_hook``): while a
-fault is detected and isolated to an aiding channel, and not taken for an inertial one,
-every aiding source whose per-step statistic (2.41-2.43) goes over its threshold in
-this episode gets noise scale factors (FDI_RADAPT: 0 off, 1 single, 2
-multiple factors, the default); when the episode clears the filter is the optimal one
-again. The statistics keep using the unscaled R, so they measure the fault, not the
-adapted filter.
-
-Sensor vs inertial fault (the RAKF's discrimination, seed sec. 2.3.3): in this
-INS/GPS filter the IMU is the *input* of the process model (the strapdown
-mechanisation), as the control surfaces are the input of the seed's aircraft model, so
-an IMU fault is the process-side fault that the seed meets with Q adaptation, and an
-aiding-sensor fault the measurement-side one that R adaptation answers. They look
-different in the innovations: an aiding-sensor fault (noise, silence, a jump) shows in
-its own channel, white or as a step; an IMU bias is integrated by the mechanisation and
-shows as a *drift* of the velocity innovations (then of the position ones). The test:
-the share of the gps_vel window statistic held by the window means,
-``sum_i M mean_k(i)^2 / beta_k`` (about 1/M for white innovations), above FDI_DRIFT while
-gps_vel is over its detection threshold -> inertial fault: no R adaptation (it would
-make the filter ignore the GPS that reveals the fault), and Q adaptation instead:
-``P = F P F^T + Lambda Q`` (eq 2.40) through the filter's ``q_scale_hook``, with
-``Lambda = diag(1 .. FDI_QFADE on the gyro-bias states .. 1)``. The seed's adaptive
-factor (eqs 2.36-2.39, the excess of the real innovation covariance over the
-theoretical one through ``H G``) is degenerate here: no measurement sees a bias state
-within one step (``H G = 0`` for the bias random walks), so a fixed factor is used
-(a fading-memory filter on those states: 1000 turns the bias random walk of 3e-5 into
-1e-3 rad/s/sqrt(s), learnt in seconds; a pitch gyro bias is isolated about twice as
-fast as without fading: docs/status.md, "Faults and the monitor"). The
-fading ends when the velocity innovations are back under their threshold after the
-isolation to a gyro (the filter has absorbed the bias: accommodation), or at
-clearance. Only the gyro-bias block is faded: in straight flight a forward
-accelerometer bias and a pitch tilt are the same velocity drift, and fading both let
-the accelerometer-bias states absorb a gyro fault within a second (measured), so an
-accelerometer bias would be taken for a gyro fault here (accelerometer channels are
-not isolated: see below).
-
-Failsafe: GPS silent for FDI_DR_TIME seconds (dead reckoning on air data and the wind
-estimate meanwhile) -> ``failsafe`` is set to the action of FDI_GPS_FS (1: "RTL"); the
-vehicle applies it. FDI_DR_TIME = 60 s: an outage of half a minute is flown through on
-the mission (a dead-reckoning error of about ten metres at its end: docs/status.md), a
-longer one turns the aircraft home while the estimate is still good to some tens of
-metres (ArduPlane likewise flies on through a GPS loss on dead reckoning; PX4 fixed-wing
-loiters or returns after its GPS failure timeout).
+Why each choice, with the thresholds and the derivation: docs/monitor.md, "The monitor".
+How well it works: docs/status.md, "Faults and the monitor".
 """
 from __future__ import annotations
 

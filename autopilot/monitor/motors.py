@@ -1,96 +1,26 @@
-"""Quadrotor motor fault detection, isolation and identification (seed ch. 8 sec. 2.2.3,
-the two-stage filter of eqs 2.18-2.24, with the Q adaptation of sec. 2.3.2, eqs
-2.35-2.40).
+"""Quadrotor motor fault detection, isolation and identification (course text ch. 8
+sec. 2.2.3, the two-stage filter of eqs 2.18-2.24, with the Q adaptation of sec. 2.3.2,
+eqs 2.35-2.40; rebuilt from Hajiyev & Caliskan 2003, ch. 7, and Friedland 1969 /
+Keller & Darouach 1997).
 
-The seed's equations lost their subscripts in extraction; they are rebuilt here from
-Hajiyev & Caliskan (2003), "Fault Diagnosis and Reconfiguration in Flight Control
-Systems", ch. 7, and the two-stage Kalman filter of Friedland (1969) / Keller & Darouach
-(1997): a bias-free (no-fault) filter, and a second stage that estimates the fault
-vector gamma from the first one's residual. Here the fault vector is the effectiveness
-of the four rotors, gamma = [k_1 .. k_4] (k = 1 healthy, 0.7 = thrust reduced to 70 %,
-as eq 2.23's loss of effectiveness).
+The fault vector is the effectiveness of the four rotors, gamma = [k_1 .. k_4] (k = 1
+healthy, 0.7 = thrust reduced to 70 %, eq 2.23's loss of effectiveness). The design
+model is the rotor forces and moments of the course text's quadrotor (eqs 3.23-3.26,
+the "+" layout of control/mixer.py) against what the IMU shows:
 
-Design model. The rotor forces and moments of the seed's quadrotor (eqs 3.23-3.26,
-"+" layout of autopilot/control/mixer.py: rotor 1 aft, 2 left, 3 front, 4 right, 1 and
-3 counter-clockwise) are linear in gamma. With T_j the modelled thrust of rotor j (its
-command through the thrust curve of the mixer and the first-order rotor lag QD_TAU),
-f_z the accelerometer's specific force along body z and omega = (p, q, r) the gyro
-(both less the navigation filter's bias estimates)::
+1. Stage 1, no fault: gamma = c (1, 1, 1, 1), c learnt in healthy flight; the three
+   moment residuals, normalised by their learnt variance plus a relative model error,
+   go into the window chi-square test (eqs 2.12-2.15) and detect.
+2. Stage 2: a Kalman filter over gamma on the residual, faded (eqs 2.36-2.39) after a
+   detection; the rotor farthest below the others is isolated and identified.
 
-    -m f_z                                    = k1 T1 + k2 T2 + k3 T3 + k4 T4
-    (I_xx p' + (I_zz - I_yy) q r) / l         =         k2 T2         - k4 T4
-    (I_yy q' + (I_xx - I_zz) p r) / l         = -k1 T1         + k3 T3
-    (I_zz r' + (I_yy - I_xx) p q) / k_M       =  k1 T1 - k2 T2 + k3 T3 - k4 T4
+Reactions: the identified effectiveness goes to the mixer (FDI_MOT_COMP), a rotor below
+FDI_MOT_MIN of its thrust makes the vehicle land (FDI_MOT_FS). An actuator fault leaves
+the navigation innovations white (the Doyle-Stein condition of eqs 2.44-2.45 holds
+trivially: the filter is driven by the IMU, not by the controls).
 
-i.e. ``y = H(T) gamma + v``, four equations in four unknowns: H is regular whenever
-the rotors turn (at hover det H = 8 T^4). Body drag along z and the rotors' spin-up
-torques are left in v. Every signal goes through the same first-order low-pass (tau
-LP_TAU_S; the angular accelerations are the derivatives of the low-passed rates,
-(omega - omega_f) / tau, exact for that filter), so the filter's lag cancels between
-the two sides.
-
-Stage 1 (no fault): gamma = c (1, 1, 1, 1), with c a common scale learnt in healthy
-flight (the error of the modelled thrust curve, air density, battery sag: they move all
-four rotors together). Its residual ``r = y - c H 1``. The modelled thrust curve is not
-the rotors' (it is the mixer's MOT_THST_EXPO-style curve; on the F450 its slope near
-hover is under the plant's), so a moment residual grows with the modelled moment itself
-in every manoeuvre: each row's variance is the residual's variance learnt in healthy
-flight (exponentially weighted, time constant VAR_TAU_S) plus a relative model error,
-``sigma_i^2 = var_i + (MODEL_REL (c H 1)_i)^2``. The three moment rows, normalised so,
-enter the window chi-square test of :mod:`.stats` (eqs 2.12-2.15; 3 degrees of freedom
-per sample, a sample every 0.2 s, which leaves the low-passed samples nearly
-uncorrelated), threshold from the family-wise false-alarm probability per flight hour
-FDI_PFA as the sensor channels' (:func:`~.stats.family_alpha`). The thrust row is left
-out of the test: its residual is the thrust curve's error along the whole flight
-envelope, slowly varying (strongly autocorrelated from sample to sample) and common to
-all rotors, so it tells nothing about one rotor; a rotor fault, which the attitude loop
-compensates with a differential command, shows in the moments at once.
-
-Stage 2 (the fault vector): a Kalman filter over gamma (random walk, process noise
-Q = q^2 dt I) with the measurement ``y / c = H gamma + v``, R the learnt residual
-variances, run all the time (healthy: gamma stays near 1). On a detection the
-prediction uses the fading factor of eqs 2.35-2.40::
-
-    C_k   = 1/M sum_{j=k-M+1..k} e_j e_j^T                                   (2.35)
-    lambda = max(1, (tr C_k - tr(H P H^T) - tr R) / tr(H Q H^T))              (2.36-2.39)
-    P_k/k-1 = P_k-1 + lambda Q                                                (2.40)
-
-(the traces taken of the innovations whitened by R^-1/2, so that the rows -- newtons of
-thrust and of moment over arm -- weigh alike: tr(R^-1 C) - tr(R^-1 H P H^T) - 4)
-
-so gamma follows the fault within seconds and the filter is the optimal one again
-(lambda = 1) once it has been learnt.
-
-Isolation: the rotor whose effectiveness is farthest below the mean of the other three
-in its own standard deviations, ``(k_j - mean_others)^2 / (4/3 P_jj)`` over
-chi2_{alpha, 1}, named ``motor_1`` .. ``motor_4``.
-Identification: ``{"effectiveness": k_j / mean(k_others)}`` (relative to the healthy
-rotors: the common scale c is frozen at the detection, and what the other rotors drift
-by since is common-mode model error, not the fault).
-
-The balance holds only in free flight: on the ground the ground's reaction carries part
-of the weight. The filter and the tests run only while the vehicle is flying and the
-modelled thrust is at least MIN_THRUST_SHARE of the weight (a touchdown, or the
-idle-thrust end of the curve where the model is farthest from the rotors, is not
-used). Sensor versus actuator: the navigation
-filter does not use the rotor commands (its inputs are the IMU), so a motor fault
-leaves its innovations white (the Doyle-Stein condition of eqs 2.44-2.45 holds
-trivially): a residual here with the navigation quiet is an actuator fault.
-
-Reactions. Accommodation (FDI_MOT_COMP = 1): from IDENT_MIN_S after the isolation the
-identified effectiveness goes to the mixer (``accommodation``, applied by the vehicle
-through :meth:`~autopilot.control.mixer.QuadPlusMixer.set_effectiveness`), which then
-asks the weak rotor for T / k: the PDD attitude loops have no integral action, so
-without it the missing moment stands as an attitude offset (what it changes in flight:
-docs/status.md, "Faults and the monitor"). The monitor's own model is unaffected: it
-compares the thrust the commands should give with what the airframe shows. Failsafe
-(FDI_MOT_FS): a rotor identified below FDI_MOT_MIN of its thrust makes the vehicle land
-where it is (1, LAND; 0: only report).
-
-Cost: the rotor lag model and the low-passes run every ``div``-th vehicle step (2 on
-the quadrotor: 125 Hz, pure Python floats; the commands are sampled there, well inside
-the rotor lag and the 0.1 s low-pass); the Kalman filter and the tests every 0.1 s
-(numpy, 4 x 4).
+The model, the filtering and each choice with its reason: docs/monitor.md, "The
+quadrotor's rotors". How well it works: docs/status.md, "Faults and the monitor".
 """
 from __future__ import annotations
 

@@ -3,115 +3,25 @@ resets, health and the NavState output. The two filters differ only in how they
 propagate and update the error covariance (``_predict``, ``_gate_stats``,
 ``_fuse_rows``).
 
-IMU samples: HIL_SENSOR delivers point samples. The rotation over a step is integrated
-from the mean of the gyro samples at its two ends (trapezoid), the velocity change from
-the specific-force sample at its end: in the closed loop (JSBSim) this timing fits the
-truth best (its residuals of the rotation are a third of those with the end sample
-alone: docs/status.md, "Navigation"; a step's worth of roll-rate lead had put spikes
-into roll at every turn entry). Point samples err by up to half their change over a
-step; where that exceeds the white process noise -- a catapult's 75 m/s^2 switching on
-and off within one step -- it is added to P along the change (``_set_sampling_noise``).
+* IMU: point samples; the rotation over a step from the trapezoid of the gyro samples
+  at its two ends, the velocity change from the specific force at its end; where a
+  sample's change over a step exceeds the process noise (a catapult stroke), the
+  difference is added to P (``_set_sampling_noise``).
+* Aiding: all measurements of one step stacked in one :class:`Batch`, gated one source
+  at a time and fused together; barometer, magnetometer and airspeed as means at
+  EK_AUX_HZ. Sources: ``gps_pos`` and ``gps_vel`` (delayed-state innovations over
+  EK_GPS_DELAY, Larsen et al. 1998; the GPS's slow error a Gauss-Markov state),
+  ``baro`` (with an offset state; the height handed out follows EK_HGT_REF), ``mag``
+  (the horizontal direction of the field only, once roll and pitch are known),
+  ``airspeed`` and synthetic ``sideslip`` (fixed-wing: dead reckoning on air data),
+  ``fake_pos`` (a position hold on the ground before the first fix).
+* Gating on each component's test ratio; position and velocity reset to the GPS after
+  EK_GPS_RST_T of rejection; health from alignment, a fused fix, P and the rejections.
+* Alignment on the ground from stationary samples, or in flight from a GPS fix with
+  ground speed.
 
-Aiding: all measurements of one step are stacked in one :class:`Batch` (rows of
-``z``, ``h(x)``, ``H = dh/d(dx)``, ``R``; ``y = z - h(x)``), gated one source at a time
-and fused together (equivalent to sequential updates for independent noises). The aux
-sensors (barometer, magnetometer, airspeed) are fused as the means of their samples
-over 1 / EK_AUX_HZ (12.5 Hz: 4 samples of the simulator's 50 Hz sensors; R / n for the
-baro and the heading, whose noise is white, as PX4's EKF2 downsamples its aux data):
-the same information for a quarter of the updates. Each fusion costs about as much as
-a step's prediction; at 25 Hz they were a third of the fixed-wing loop's navigation
-time, and 12.5 Hz changed the default mission's navigation figures by less than their
-seed-to-seed spread (docs/status.md, "Navigation"). Sources:
-
-* ``gps_pos`` z = NED position of a 3D fix (2D fixes are ignored), valid at
-  ``t - EK_GPS_DELAY``. The innovation
-  is formed against the nominal state of that instant, kept in a short history (a ring
-  of the last 1.28 s; corrections fused since are added back, so the history is always
-  in the current estimate's frame). The correction is applied to the current error
-  state through the inverse transition over the delay, ``H = H_0 Phi(t, t-L)^-1 ~
-  H_0 (I - F L)``: for position ``H = [I, -L I, 0 ...]``. This is the delayed-state
-  innovation of Larsen et al. 1998 ("Incorporation of time delayed measurements in a
-  discrete-time Kalman filter") without the extra covariance bookkeeping; the process
-  noise over 0.15 s is neglected (its sampling-error part, large only through a
-  catapult stroke, is added to the velocity R instead). The slow part of the GPS error
-  is the Gauss-Markov error state (layout.GPSB): ``h = p(t-L) + b_gps``,
-  ``H[:, GPSB] = I``; R holds the white part only (config.py): ``eph`` is the radial
-  horizontal accuracy, ``eph / sqrt(2)`` per axis.
-* ``gps_vel`` the same for NED velocity: ``H = [0, I, [dv_f x], L R, 0 ...]`` with
-  ``dv_f`` the integral of ``f_n`` over the latency (``~ L f_n``, but right through a
-  launch); vertical variance 1.5^2 times the horizontal (as PX4's EKF2).
-* ``baro`` pressure altitude, ``h = alt0 - p_D + b_baro``: the barometer offset is an
-  error state (layout.BBIAS), initialised from the first GPS altitude with the GPS's
-  vertical variance, then estimated against GPS altitude.
-  Height reference (EK_HGT_REF): the filter is the same either way; what differs is
-  the height it hands out. With the GPS (1) it is ``p_D``, the absolute estimate, which
-  moves as the GPS heights teach the offset state (the GPS's vertical error wanders
-  0.4 m over a minute, and the offset follows it at its random-walk rate). With the
-  barometer (0, the default) it is ``p_D - (b_baro - b_baro0)``: the barometer's height
-  smoothed by the IMU, on the datum fixed when the offset was initialised (one GPS
-  height, so up to a metre off in absolute altitude, constant over the flight). This
-  is ``alt0 - (baro - b_baro0)`` up to the filtering, the same information as ``p_D``
-  and ``b_baro`` rearranged (``baro = alt0 - p_D + b_baro``), so the innovations, the
-  gates and the fault monitor see nothing of the choice. ArduPilot flies the barometer
-  by default (EK3_SRC1_POSZ = 1) and PX4 offers it (EKF2_HGT_REF = 0); both take the
-  GPS for RTK receivers (the formation's quadrotors set EK_HGT_REF = 1). On the GPS the
-  quadrotor's hover altitude followed the receiver's wander, which the offset carried
-  into the height flown after arming (docs/status.md, "Navigation"). The barometer's
-  own drift (the weather's pressure tendency, about 1 mm/s) goes into the height
-  instead, as on a real vehicle.
-* ``mag`` magnetic heading: the measured field rotated into NED by the estimate,
-  ``m = R m_b``, must point at the declination. Innovation ``y = wrap(dec - atan2(m_E,
-  m_N))``; recorded as a heading observation ``yaw + y`` against ``h = yaw``. With the
-  global attitude error, ``R_true m_b = m + dtheta x m``, so
-  ``H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]`` (``B_h^2 = m_N^2 + m_E^2``): the tilt
-  terms carry the inclination (about 2.25 deg of heading per deg of tilt at -66 deg),
-  so tilt errors are not mistaken for heading errors. ``m`` in H is a smoothed copy of
-  the rotated field (the Earth field is constant in NED; gain 0.01 per sample), not the
-  sample itself: noise in H correlates with the noise in y and biased every update
-  (it drove a pitch / accelerometer-bias drift of several sigma within 20 s of straight
-  flight). Only the field's horizontal direction is fused (no field-strength
-  or inclination model, so a disturbed field magnitude does not pull roll and pitch);
-  not fused where the field is within 13 deg of vertical. Start predicate (as PX4's
-  tilt alignment): fused only once the roll and pitch sigmas are below 3 deg; before
-  that a heading innovation (the crab angle after an in-flight alignment) would be
-  taken mostly for a tilt error, which then hides in the tilt / accelerometer-bias
-  combination that straight flight cannot observe.
-* ``airspeed`` (fixed-wing) true airspeed ``h = |v - w|`` with ``w = [w_N, w_E, 0]``.
-  The pitot measures dynamic pressure q; its reported airspeed is the equivalent one,
-  sqrt(2 q / 1.225), 3.5 % below the true airspeed at 700 m: z = sqrt(2 q / rho) with
-  rho = p / (R T) of the barometer. ``sideslip`` (fixed-wing) the synthetic zero body-y
-  air velocity ``h = e_y^T R^T (v - w)``. Together with the heading they make velocity
-  observable without GPS (dead reckoning on air data and the wind estimate). Their
-  error is turbulence, which the wind states follow only as fast as EK_WIND_NSE lets
-  them (config.py), not sensor noise: R is not divided by the samples averaged.
-* ``fake_pos`` position hold (1 m) after a ground alignment until the first GPS fix,
-  so the unaided INS cannot run away on the ground (PX4 does the same).
-
-Gating: every component's test ratio ``y^2 / (gate^2 S)`` must be <= 1, else the whole
-source is rejected for this step. Reset rule: if GPS position (velocity) has been
-rejected continuously for EK_GPS_RST_T seconds, position (velocity) is reset to the GPS
-(latency compensated), its covariance to that of one fix (R plus the GPS error
-state's), cross-covariances zeroed; the record of that fix says ``rejected=True,
-fused=True``. After an outage the dead-reckoning covariance has grown, so a returning
-GPS normally passes the gate and is fused at once; the reset is for the case where it
-does not, so the filter never rejects GPS forever (a GPS that really jumped and stays
-jumped is then followed, as in ArduPilot and PX4).
-
-Health (``NavState.healthy``): aligned, a GPS position has been fused since alignment,
-P finite, horizontal position sigma below EK_HPOS_MAX, and no source rejected
-continuously for longer than EK_REJ_TOUT. ``aligned``: attitude initialised.
-
-Alignment: on the ground, from EK_ALIGN_T seconds of stationary samples (|omega| <
-0.05 rad/s, ||f| - g| < 0.5 m/s^2): roll/pitch from the mean specific force, heading
-from the tilt-compensated mean magnetometer, gyro bias from the mean rate less the
-Earth rate (sigma: the standard error of that mean). The accelerometer bias is in the
-levelled tilt: the tilt covariance is the bias covariance over g, fully correlated with
-it (``_align_on_ground``), so the GPS velocity noise on the ground cannot move the
-tilt along the direction that only a turn observes. In flight
-(or moving), from a 3D GPS fix with ground speed >= EK_ALIGN_GSPD: yaw from the ground
-track, roll and pitch from the low-passed specific force (right in steady flight,
-"level-ish" in a coordinated turn, where it reads wings level), with wide attitude
-covariance (roll 0.3 rad for up to 30 deg of bank, yaw 0.35 rad for the crab angle).
+Each measurement model, its Jacobian and the reason for each choice: docs/navigation.md.
+The state layout: :mod:`.layout`; the parameters: :mod:`.config`.
 """
 from __future__ import annotations
 
