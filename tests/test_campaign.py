@@ -253,3 +253,59 @@ def test_bad_file_on_the_command_line(tmp_path):
     assert r.returncode == 2
     assert f"{p}:7: wind_speed_mps: uniform range [5.0, 1.0] is reversed" in r.stderr
     assert not (tmp_path / "o").exists()       # nothing ran, nothing stored
+
+
+def test_export_parquet_and_csv_one_row_per_trial(small_campaign, tmp_path):
+    import duckdb
+    from tools.campaign.export import export
+    _path, out, _f, _s = small_campaign
+    rows = stored_rows(out)
+    for fmt in ("parquet", "csv"):
+        f = export(out, fmt, tmp_path / f"t.{fmt}")
+        rel = duckdb.sql(f"SELECT * FROM '{f}' ORDER BY trial")
+        cols = rel.columns
+        got = rel.fetchall()
+        assert cols[:4] == ["trial", "seed", "passed", "error"]
+        assert {"criterion.flying", "criterion.tight", "nav_pos_h_err_max_m", "input.wind_speed_mps"} <= set(cols)
+        assert [g[0] for g in got] == [r["trial"] for r in rows]
+        assert [g[2] for g in got] == [r["passed"] for r in rows]
+        assert [g[3] or "" for g in got] == ["" for _ in rows]
+        i = cols.index("nav_pos_h_err_max_m")
+        assert [g[i] for g in got] == pytest.approx([r["nav_pos_h_err_max_m"] for r in rows], rel=1e-12)
+
+
+def _chromium() -> str | None:
+    import shutil
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def test_report_page_renders_in_headless_chromium(small_campaign, tmp_path):
+    # GIVEN the report of the small campaign
+    from tools.campaign.report import make_report, wilson
+    _path, out, _f, _s = small_campaign
+    page = make_report(out)
+    html = page.read_text()
+    rows = stored_rows(out)
+    k = sum(1 for r in rows if r["passed"])
+    lo, hi = wilson(k, len(rows))
+    assert f"<td>{k}</td><td>{len(rows)}</td><td>{100 * k / len(rows):.1f} %</td>" \
+           f"<td>{100 * lo:.1f} - {100 * hi:.1f} %</td>" in html
+    for r in rows:                                  # every trial's command is on the page
+        assert r["command"].split(" --scenario")[0] in html
+    chromium = _chromium()
+    if chromium is None:
+        pytest.skip("Debian's chromium is not installed (.ci/run installs it)")
+    # WHEN Debian's Chromium loads it headless
+    flags = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run(flags + ["--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=60)
+    shot = tmp_path / "report.png"
+    subprocess.run(flags + [f"--screenshot={shot}", "--window-size=1200,2000", page.as_uri()],
+                   capture_output=True, timeout=60)
+    # THEN the page rendered, every picture loaded (the page's own onload check), and
+    # the screenshot is a picture of it
+    n_img = html.count("<img ")
+    assert n_img >= 2
+    assert f'data-images-loaded="{n_img}/{n_img}"' in dom.stdout, dom.stdout[-500:]
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20000

@@ -2,6 +2,7 @@
 
     sitl campaign show FILE [--trial I] [--out DIR]
     sitl campaign run FILE [--workers N] [--scheduler tcp://HOST:PORT] [--out DIR] [--trials N]
+    sitl campaign report DIR
     sitl campaign export DIR --format parquet|csv [-o FILE]
 
 The campaign folder (``--out``, default ``campaigns/NAME``) holds ``campaign.duckdb``,
@@ -31,6 +32,8 @@ def add_parser(sub) -> None:
     r.add_argument("--out", help="campaign folder (default campaigns/NAME)")
     r.add_argument("--trials", type=int, default=None, help="only the first N trials of the file")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    rp = cs.add_parser("report", help="HTML page (and PNGs) of a campaign folder: DIR/report/index.html")
+    rp.add_argument("dir")
     ex = cs.add_parser("export", help="one row per stored trial, as Parquet or CSV")
     ex.add_argument("dir")
     ex.add_argument("--format", choices=["parquet", "csv"], default="parquet")
