@@ -1,0 +1,227 @@
+"""sitl campaign under faults of its own machinery: the driver killed with kill -9 and
+rerun, a worker process killed mid-trial, a cluster started with Dask's own commands
+(``dask scheduler``, ``dask worker``) and a worker of another version refused. Every
+campaign is compared with the same campaign run without trouble: each trial stored
+once, figures equal (timing aside)."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from tools.summary import without_timing
+
+REPO = Path(__file__).resolve().parent.parent
+
+CAMPAIGN = """[campaign]
+name = "faults"
+trials = 6
+seed = 11
+duration_s = 15
+keep_worst = 0
+
+[dispersion]
+wind_speed_mps = { uniform = [0.0, 8.0] }
+wind_from_deg = { uniform = [0.0, 360.0] }
+"param.NAVL1_PERIOD" = { uniform = [15.0, 19.0] }
+
+[criteria]
+navigation = "nav_pos_h_err_max_m < 2.0"
+"""
+
+
+def rows_of(folder: Path) -> list[dict]:
+    from tools.campaign.store import Store
+    s = Store(folder, read_only=True)
+    try:
+        return s.rows()
+    finally:
+        s.close()
+
+
+def figures(rows: list[dict]) -> dict:
+    """trial -> (seed, summary without timing, criteria, passed)"""
+    return {r["trial"]: (r["seed"], without_timing(json.loads(r["summary_json"])), r["criteria_json"],
+                         r["passed"]) for r in rows}
+
+
+@pytest.fixture(scope="module")
+def client():
+    import logging
+    from distributed import Client, LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory, client):
+    """The campaign run once without trouble."""
+    from tools.campaign.execute import run_campaign
+    from tools.campaign.spec import load_campaign
+    d = tmp_path_factory.mktemp("ref")
+    path = d / "faults.toml"
+    path.write_text(CAMPAIGN)
+    res = run_campaign(load_campaign(path), d / "out", progress=False, client=client)
+    assert res["ran"] == 6
+    rows = rows_of(d / "out")
+    assert [r["error"] for r in rows] == [""] * 6
+    return path, figures(rows)
+
+
+def test_driver_killed_with_kill_9_then_rerun_completes_each_trial_once(reference, client, tmp_path):
+    path, ref = reference
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "tools.sitl", "campaign", "run", str(path), "--out", str(out),
+           "--scheduler", client.scheduler.address]
+    # GIVEN a campaign driver that has stored some trials
+    drv = subprocess.Popen(cmd, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    done = 0
+    t_end = time.monotonic() + 90
+    try:
+        for line in drv.stderr:
+            if " done " in line:
+                done = int(line.split("]")[1].split("/")[0])
+                if done >= 2:
+                    break
+            assert time.monotonic() < t_end, "the driver stored nothing"
+        # WHEN it is killed with SIGKILL half-way
+        os.kill(drv.pid, signal.SIGKILL)
+        drv.wait(timeout=10)
+    finally:
+        drv.stderr.close()
+    assert 2 <= done < 6
+    stored_after_kill = rows_of(out)
+    assert 2 <= len(stored_after_kill) < 6
+    # THEN the same command again runs the missing trials only and completes
+    r = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    rows = rows_of(out)
+    assert sorted(x["trial"] for x in rows) == list(range(6))           # each stored once
+    from tools.campaign.store import Store
+    s = Store(out, read_only=True)
+    try:
+        last_run = s.runs()[-1]
+    finally:
+        s.close()
+    assert last_run["trials"] == 6 - len(stored_after_kill)
+    # the rows stored before the kill are untouched, and all figures are the
+    # uninterrupted campaign's
+    assert figures(rows) == ref
+    before = {x["trial"]: x["finished"] for x in stored_after_kill}
+    assert {x["trial"]: x["finished"] for x in rows if x["trial"] in before} == before
+
+
+def test_worker_killed_mid_trial_campaign_completes(reference, client, tmp_path):
+    from tools.campaign.execute import run_campaign
+    from tools.campaign.spec import load_campaign
+    path, ref = reference
+    pids = client.run(os.getpid)                  # worker address -> process id
+    result = {}
+
+    def drive():
+        result["res"] = run_campaign(load_campaign(path), tmp_path / "out", progress=False, client=client)
+
+    th = threading.Thread(target=drive)
+    th.start()
+    # GIVEN a trial running on a worker for half a second
+    victim = None
+    t_end = time.monotonic() + 60
+    while victim is None and time.monotonic() < t_end:
+        busy = {a: ks for a, ks in client.processing().items() if ks}
+        if busy:
+            time.sleep(0.5)
+            busy = {a: ks for a, ks in client.processing().items() if ks and a in pids}
+            if busy:
+                victim = sorted(busy)[0]
+        time.sleep(0.05)
+    assert victim is not None
+    # WHEN that worker process is killed (its nanny starts a new one)
+    os.kill(pids[victim], signal.SIGKILL)
+    th.join(timeout=120)
+    assert not th.is_alive()
+    # THEN every trial is stored once, none of them as an error, with the figures of
+    # the undisturbed campaign; none was stored by the killed worker after its death
+    rows = rows_of(tmp_path / "out")
+    assert sorted(r["trial"] for r in rows) == list(range(6))
+    assert [r["error"] for r in rows] == [""] * 6
+    assert figures(rows) == ref
+    assert result["res"]["ran"] == 6
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _dask(*args, env=None, log=None) -> subprocess.Popen:
+    exe = Path(sys.executable).parent / "dask"
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "dask"]
+    return subprocess.Popen(cmd + list(args), cwd=REPO, env=env, stdout=log, stderr=log)
+
+
+def test_campaign_on_dask_scheduler_and_workers_started_by_hand(reference, tmp_path):
+    path, ref = reference
+    port = _free_port()
+    addr = f"tcp://127.0.0.1:{port}"
+    # a copy of the package where one source file differs: another version
+    other = tmp_path / "other"
+    for pkg in ("autopilot", "sim_bridge", "tools", "missions"):
+        shutil.copytree(REPO / pkg, other / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    with open(other / "tools" / "summary.py", "a") as f:
+        f.write("\n# another version\n")
+    log = open(tmp_path / "dask.log", "w")
+    worker = ("worker", addr, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1")
+    procs = [_dask("scheduler", "--host", "127.0.0.1", "--port", str(port), "--dashboard-address", ":0",
+                   env=dict(os.environ, PYTHONPATH=str(REPO)), log=log)]
+    try:
+        # GIVEN `dask scheduler` and two `dask worker` processes on loopback, and a third
+        # worker that runs another version
+        for _ in range(2):
+            procs.append(_dask(*worker, env=dict(os.environ, PYTHONPATH=str(REPO)), log=log))
+        stranger = _dask(*worker, env=dict(os.environ, PYTHONPATH=str(other)), log=log)
+        procs.append(stranger)
+        from distributed import Client
+        with Client(addr, timeout=30) as c:
+            c.wait_for_workers(3, timeout=60)
+        out = tmp_path / "out"
+        cmd = [sys.executable, "-m", "tools.sitl", "campaign", "run", str(path), "--out", str(out),
+               "--scheduler", addr, "--trials", "3"]
+        # WHEN a campaign runs through --scheduler: the stranger is refused, nothing runs
+        r = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=120)
+        assert r.returncode == 2
+        assert "refusing workers that run another version of pysitl" in r.stderr
+        assert str(other) in r.stderr and r.stderr.count(" runs pysitl ") == 1
+        assert rows_of(out) == []
+        # WHEN the stranger is gone: the first 3 trials run
+        stranger.terminate()
+        stranger.wait(timeout=20)
+        with Client(addr, timeout=30) as c:
+            t_end = time.monotonic() + 30
+            while len(c.scheduler_info()["workers"]) != 2 and time.monotonic() < t_end:
+                time.sleep(0.1)
+        r = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0, r.stderr
+        # THEN they are the campaign's first 3 trials, as the LocalCluster flew them
+        rows = rows_of(out)
+        assert figures(rows) == {i: ref[i] for i in range(3)}
+        assert all(row["worker"].startswith("tcp://127.0.0.1:") for row in rows)
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        log.close()
