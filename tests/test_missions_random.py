@@ -200,7 +200,16 @@ def test_cli_writes_the_mission_and_sitl_run_flies_the_same(tmp_path):
     s = json.loads(r.stdout)
     assert s["mission_items_total"] == len(load_mission(out)) - 1
     # malformed sources and a source for the other vehicle: clear errors
+    # a budget shortens the mission: the same draw as mission_for_seed(..., budget)
+    short = tmp_path / "short.waypoints"
+    r = _sitl("missions", "random", "--vehicle", "quad", "--seed", "11", "--max-time", "90",
+              "-o", str(short), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert load_mission(short) == mission_for_seed("quad", 11, 90.0)[0]
+    assert estimate_time_s(load_mission(short), "quad") <= 90.0 or len(load_mission(short)) <= 4
     for spec, vehicle in (("random:plane", "plane"), ("random:boat:3", "plane"),
-                          ("random:plane:x", "plane"), ("random:plane:3", "quad")):
+                          ("random:plane:x", "plane"), ("random:plane:3", "quad"),
+                          ("random:plane:3:0", "plane"), ("random:plane:3:x", "plane"),
+                          ("random:plane:3:1:2", "plane")):
         r = _sitl("run", "--vehicle", vehicle, "--mission", spec, "--duration", "1", cwd=tmp_path)
         assert r.returncode == 2 and "random" in r.stderr, (spec, r.stderr)

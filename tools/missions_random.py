@@ -566,9 +566,9 @@ def estimate_time_s(mission: Mission, vehicle: str, ground_speed_factor: float =
 
 # --- CLI ------------------------------------------------------------------------------
 
-def write_random(vehicle: str, seed: int, path) -> list[str]:
+def write_random(vehicle: str, seed: int, path, budget_s: float | None = None) -> list[str]:
     """Write the (vehicle, seed) mission as QGC WPL 110; return the notes."""
-    mission, notes = mission_for_seed(vehicle, seed)
+    mission, notes = mission_for_seed(vehicle, seed, budget_s)
     with open(path, "w", encoding="utf-8", newline="\n") as f:
         f.write(dumps_waypoints(mission))
     return notes
@@ -587,21 +587,34 @@ def is_random_source(spec) -> bool:
     return str(spec).startswith(SOURCE_PREFIX)
 
 
-def parse_source(spec) -> tuple[str, int]:
-    """``random:VEHICLE:SEED`` -> (vehicle, seed); MissionFileError if malformed."""
+def parse_source(spec) -> tuple[str, int, float | None]:
+    """``random:VEHICLE:SEED[:BUDGET_S]`` -> (vehicle, seed, budget or None);
+    MissionFileError if malformed."""
     from autopilot.mission.files import MissionFileError
     parts = str(spec).split(":")
-    if len(parts) != 3 or parts[1] not in VEHICLES or not parts[2].isdigit():
-        raise MissionFileError(str(spec), None, "a random mission source is random:VEHICLE:SEED "
-                                                "(VEHICLE plane or quad, SEED an integer >= 0)")
-    return parts[1], int(parts[2])
+    ok = len(parts) in (3, 4) and parts[1] in VEHICLES and parts[2].isdigit()
+    budget = None
+    if ok and len(parts) == 4:
+        try:
+            budget = float(parts[3])
+        except ValueError:
+            ok = False
+        else:
+            ok = math.isfinite(budget) and budget > 0
+    if not ok:
+        raise MissionFileError(str(spec), None, "a random mission source is random:VEHICLE:SEED"
+                                                "[:BUDGET_S] (VEHICLE plane or quad, SEED an "
+                                                "integer >= 0, BUDGET_S seconds > 0)")
+    return parts[1], int(parts[2]), budget
 
 
 def load_source(spec) -> tuple[Mission, list[str] | None]:
-    """A mission file, or ``random:VEHICLE:SEED``: (mission, notes of the draw or None)."""
+    """A mission file, or ``random:VEHICLE:SEED[:BUDGET_S]`` (the mission of
+    ``mission_for_seed``, shortened to BUDGET_S of estimated flight time): (mission,
+    notes of the draw or None)."""
     if is_random_source(spec):
-        vehicle, seed = parse_source(spec)
-        return mission_for_seed(vehicle, seed)
+        vehicle, seed, budget = parse_source(spec)
+        return mission_for_seed(vehicle, seed, budget)
     from autopilot.mission.files import load_mission
     return load_mission(spec), None
 
@@ -622,12 +635,22 @@ def sample_weather(vehicle: str, seed: int) -> tuple[float, float, str]:
     return speed, frm, str(rng.choice(TURBULENCE_LEVELS))
 
 
-def fly_sample(vehicle: str, seed: int, budget_s: float | None = None, weather: bool = True,
-               workdir=None) -> dict:
+def sample_command(vehicle: str, seed: int, budget_s: float | None = None, weather: bool = True) -> str:
+    """The ``sitl run`` command line that flies the sample of ``fly_sample``."""
+    from .invariants import time_bound_s
+    mission, _ = mission_for_seed(vehicle, seed, budget_s)
+    w = sample_weather(vehicle, seed) if weather else (0.0, 0.0, "none")
+    src = f"random:{vehicle}:{seed}" + (f":{budget_s:g}" if budget_s is not None else "")
+    duration = time_bound_s(mission, vehicle, w[0], None) + 60.0
+    return (f"sitl run --vehicle {vehicle} --mission {src} --wind {w[0]:g},{w[1]:g} "
+            f"--turbulence {w[2]} --seed {seed} --duration {duration:.0f}")
+
+
+def fly_sample(vehicle: str, seed: int, budget_s: float | None = None, weather: bool = True) -> dict:
     """Fly the (vehicle, seed) random mission (shortened to ``budget_s`` of estimated
     still-air time) headless in the sample's weather, for at most its time bound plus
-    a minute; the run's summary (with ``invariants``)."""
-    import tempfile
+    a minute (``sample_command`` is the same flight from the command line); the run's
+    summary (with ``invariants``)."""
     from pathlib import Path
 
     from .invariants import time_bound_s
@@ -635,14 +658,11 @@ def fly_sample(vehicle: str, seed: int, budget_s: float | None = None, weather: 
     from .summary import run_summary
 
     mission, _notes = mission_for_seed(vehicle, seed, budget_s)
-    wind = sample_weather(vehicle, seed) if weather else (0.0, 0.0, "none")
-    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        path = Path(tmp) / f"random_{vehicle}_{seed}.waypoints"
-        path.write_text(dumps_waypoints(mission))
-        bound = time_bound_s(mission, vehicle, wind[0], None)
-        cfg = RunConfig(vehicle=vehicle, airframe="aerosonde" if vehicle == "plane" else "f450",
-                        mission=path, wind=(wind[0], wind[1]), turbulence=wind[2], seed=seed,
-                        duration_s=bound + 60.0)
-        session = Session(cfg)
-        session.run()
-        return run_summary(session)
+    w = sample_weather(vehicle, seed) if weather else (0.0, 0.0, "none")
+    src = f"random:{vehicle}:{seed}" + (f":{budget_s:g}" if budget_s is not None else "")
+    cfg = RunConfig(vehicle=vehicle, airframe="aerosonde" if vehicle == "plane" else "f450",
+                    mission=Path(src), wind=(w[0], w[1]), turbulence=w[2], seed=seed,
+                    duration_s=round(time_bound_s(mission, vehicle, w[0], None) + 60.0))
+    session = Session(cfg)
+    session.run()
+    return run_summary(session)

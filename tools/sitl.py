@@ -5,7 +5,7 @@
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
                 [--gcs [URL] ...] [--param-store FILE] [--wipe] [--signing-key FILE]
-    sitl missions random --vehicle plane|quad --seed N -o FILE
+    sitl missions random --vehicle plane|quad --seed N -o FILE [--max-time S]
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
@@ -192,7 +192,9 @@ def cmd_missions(args) -> int:
     if args.seed < 0:
         raise CliError("--seed: must be >= 0")
     try:
-        notes = write_random(args.vehicle, args.seed, args.output)
+        if args.max_time is not None and not args.max_time > 0:
+            raise CliError("--max-time: seconds > 0")
+        notes = write_random(args.vehicle, args.seed, args.output, args.max_time)
     except OSError as e:
         raise CliError(f"-o: {e}") from None
     print(describe(args.vehicle, args.seed, notes))
@@ -259,8 +261,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     r.add_argument("--airframe", default=None,
                    help="plane: aerosonde (default) or c172p; quad: f450 (default)")
-    r.add_argument("--mission", help=f"mission file (.waypoints or .plan), or random:VEHICLE:SEED (the "
-                                     f"mission of 'sitl missions random'); default {DEFAULT_MISSION.name}"
+    r.add_argument("--mission", help=f"mission file (.waypoints or .plan), or random:VEHICLE:SEED[:MAX_TIME_S] "
+                                     f"(the mission of 'sitl missions random'); default {DEFAULT_MISSION.name}"
                                      f" (quad: {QUAD_DEFAULT_MISSION.name})")
     r.add_argument("--scenario", help="scenario TOML: wind, turbulence, timed fault events")
     r.add_argument("--wind", help="steady wind SPEED_MPS,FROM_DEG")
@@ -304,6 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     mr.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     mr.add_argument("--seed", type=int, required=True)
     mr.add_argument("-o", "--output", required=True, help="the .waypoints file to write")
+    mr.add_argument("--max-time", type=float, default=None,
+                    help="estimated still-air flight time to stay under [s] (default: plane 720, quad 420)")
     mr.set_defaults(func=cmd_missions)
     pp = sub.add_parser("params", help="save or load a .parm file (persistent store or a live vehicle)")
     pp.add_argument("action", choices=["save", "load"])
