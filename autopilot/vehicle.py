@@ -13,6 +13,16 @@ that bring truth when the simulator paces it (``autopilot.log.flightlog.RowSched
 Frames: the navigation filter has its own origin (its first GPS fix). Home is set when
 the vehicle arms, from the navigation solution, as ArduPilot does, and guidance works in
 the local NED frame of home (``home_frame``). Mission item 0 is replaced by that home.
+
+Crash detection (AUTO, CRASH_DETECT = 1; after ArduPlane's, which disarms an aircraft
+in AUTO that is not flying when it should be): the launch is the first moment the
+airspeed estimate reaches 0.75 ARSPD_FBW_MIN (ArduPlane's "moving through the air");
+an aircraft not CRASH_ALT above home CRASH_LAUNCH_S seconds later has failed its launch,
+and one that, after that, stays below CRASH_GND_ALT above home without climbing, or
+stops (airspeed under 0.75 ARSPD_FBW_MIN and ground speed under 1.5 m/s), for
+CRASH_DELAY_S seconds while no landing is flown has touched down outside a landing.
+Either way the throttle is cut and the vehicle disarms, saying why (STATUSTEXT
+EMERGENCY "Crash detected: ...", in ``notices``; the reason stays in ``crash``).
 """
 from __future__ import annotations
 
@@ -25,7 +35,7 @@ from .guidance.l1 import G, L1Guidance
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
-from .mission.items import Mission, validate_mission
+from .mission.items import MAV_CMD_NAV_LAND, Mission, validate_mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
@@ -45,6 +55,17 @@ GUIDANCE_PARAMS = (
     Param("TKOFF_LVL_BANK", 10.0, 0.0, 45.0, "deg", "bank limit just after launch"),
     Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
 )
+
+CRASH_PARAMS = (
+    Param("CRASH_DETECT", 1, 0, 1, "", "AUTO: a failed launch or a touchdown outside a landing cuts the throttle and disarms (0: off)", is_int=True),
+    Param("CRASH_LAUNCH_S", 5.0, 1.0, 60.0, "s", "airborne (CRASH_ALT) this long after the launch, else a failed launch"),
+    Param("CRASH_ALT", 3.0, 0.5, 50.0, "m", "height above home that counts as airborne after the launch"),
+    Param("CRASH_GND_ALT", -0.5, -10.0, 20.0, "m", "below this height above home and not climbing: on the ground (home is where the aircraft rested at arming: the Aerosonde's launcher deck is 1.5 m above the ground)"),
+    Param("CRASH_DELAY_S", 1.0, 0.1, 10.0, "s", "on the ground (or stopped) this long before a crash is declared"),
+)
+SEV_EMERGENCY = 0        # MAV_SEVERITY_EMERGENCY (ArduPlane says "Crash detected" so)
+CRASH_STOP_GSPD = 1.5   # ground speed under which a stopped aircraft is not moving [m/s] (ArduPlane)
+CRASH_CLIMB = 1.0       # climbing faster than this [m/s] is not resting on the ground
 
 LOG_COLUMNS = (
     "t_s", "armed", "mode", "seq", "leg_id", "kind",
@@ -72,7 +93,7 @@ NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before ever
 
 
 def plane_param_declarations() -> list[Param]:
-    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(FDI_PARAMS)
+    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(CRASH_PARAMS) + list(FDI_PARAMS)
     try:
         from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
         decls += list(NAV_PARAMS)
@@ -149,6 +170,11 @@ class PlaneVehicle:
         self._gps_this_step = None              # the GPS fix for the next log row
         self._p_home = None                     # (nav state, its position in home's NED)
         self.log_rows = RowSchedule(LOG_DIV)
+        self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
+        self.crash: str | None = None           # why crash detection disarmed the vehicle
+        self._launch_us: int | None = None      # crash detection: the launch ...
+        self._airborne = False                  # ... has been followed by flight
+        self._ground_since_us: int | None = None
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -174,6 +200,9 @@ class PlaneVehicle:
             self.home_truth_alt_m = truth.alt_m
         self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
         self.ctrl.reset()
+        self.crash = None
+        self._launch_us = self._ground_since_us = None
+        self._airborne = False
         self.armed = True
         self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
                                     f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.1f} m")
@@ -323,7 +352,7 @@ class PlaneVehicle:
                 self.set_mode(PlaneMode.RTL, t_us)
 
         # modes
-        if not self.armed and self.autostart:
+        if not self.armed and self.autostart and self.crash is None:  # (no re-arming after a crash)
             if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
                 if self.healthy_since_us is None:
                     self.healthy_since_us = t_us
@@ -333,6 +362,8 @@ class PlaneVehicle:
             else:
                 self.healthy_since_us = None
 
+        if self.armed and self.mode == PlaneMode.AUTO and self.params["CRASH_DETECT"] >= 1:
+            self._crash_check(nav, t_us)
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
@@ -343,6 +374,56 @@ class PlaneVehicle:
         if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
             self._log(t_us, nav, truth, controls)
         return ActuatorOutputs(t_us, controls, self.armed)
+
+    def notice(self, t_s: float, severity: int, text: str) -> None:
+        """Something to tell the ground stations (STATUSTEXT) and the flight log."""
+        self.notices.append((t_s, severity, text))
+        self.log.event(t_s, text)
+
+    def _crash_check(self, nav: NavState, t_us: int) -> None:
+        """Crash detection (module docstring); disarms on a crash."""
+        p = self.params
+        if self.home_frame is None:
+            return
+        h = nav.alt_m - self.home_frame.alt0_m
+        moving_air = nav.airspeed_mps >= 0.75 * p["ARSPD_FBW_MIN"]
+        if self._launch_us is None:
+            if moving_air:
+                self._launch_us = t_us
+            return
+        if not self._airborne:
+            if h >= p["CRASH_ALT"]:
+                self._airborne = True
+            elif (t_us - self._launch_us) * 1e-6 >= p["CRASH_LAUNCH_S"]:
+                self._crashed(t_us, f"not airborne {p['CRASH_LAUNCH_S']:g} s after launch "
+                                    f"(height {h:.1f} m)")
+            return
+        if self._landing():
+            self._ground_since_us = None
+            return
+        vn, ve, vd = nav.v_ned.tolist()
+        on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
+        stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
+        if not (on_ground or stopped):
+            self._ground_since_us = None
+            return
+        if self._ground_since_us is None:
+            self._ground_since_us = t_us
+        elif (t_us - self._ground_since_us) * 1e-6 >= p["CRASH_DELAY_S"]:
+            where = f"height {h:.1f} m" if on_ground else "stopped"
+            self._crashed(t_us, f"on the ground outside a landing ({where})")
+
+    def _landing(self) -> bool:
+        """A landing is being flown (where touching down is the plan)."""
+        seq = self.sequencer
+        if seq is None or seq.finished or not 0 < seq.current < len(seq.items):
+            return False
+        return seq.items[seq.current].command == MAV_CMD_NAV_LAND
+
+    def _crashed(self, t_us: int, why: str) -> None:
+        self.crash = why
+        self.notice(t_us * 1e-6, SEV_EMERGENCY, f"Crash detected: {why}")
+        self.disarm(t_us, force=True)            # throttle cut: nothing flies disarmed
 
     def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
         p = self.params

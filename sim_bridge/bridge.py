@@ -48,6 +48,8 @@ class SimBridge:
         self.vehicle = vehicle
         self.hil_period_us = int(round(1e6 / hil_rate_hz))
         self.substeps = max(1, int(round(self.hil_period_us * 1e-6 / plant.dt_s)))
+        if hasattr(plant, "imu_mean_steps"):
+            plant.imu_mean_steps = self.substeps   # IMU samples: means over the HIL period
         self.controls: tuple = (0.0, 0.0, 0.0, 0.0)
         self.fault_log: list[FaultRecord] = []
         self.state = plant.state()

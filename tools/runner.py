@@ -196,12 +196,18 @@ class Session:
         seq = self.vehicle.sequencer
         if seq is not None and seq.finished and seq.rtl_established:
             return True
+        if getattr(self.vehicle, "crash", None) is not None:
+            self.crashed = True  # the vehicle's crash detection disarmed it
+            return True
         st = self.bridge.state
-        if self.vehicle.armed and st.on_ground and self.vehicle.sequencer is not None \
-                and len(self.vehicle.sequencer.reached) > 0:
+        if not st.on_ground and not self.plant.on_launcher:
+            self._left_ground = True
+        if self.vehicle.armed and st.on_ground and self._left_ground:
             self.crashed = True  # back on the ground after the takeoff: crashed
             return True
         return False
+
+    _left_ground = False     # the aircraft has been off its launcher / runway
 
     def run(self) -> None:
         cfg = self.cfg

@@ -175,11 +175,23 @@ class JSBSimPlane:
         """True until the catapult has fired (or the brakes are released)."""
         return self._phase != _FREE
 
-    def state(self) -> PlantState:
-        """The true state now, in SI units (see base.PlantState)."""
+    # ``step`` reports the body rates and specific force as their mean over its last
+    # ``imu_mean_steps`` steps (the HIL bridge sets its period: an IMU integrates over
+    # its sample interval). On the ground at full throttle JSBSim's contact springs
+    # chatter at the step rate, +-1.7 m/s^2 and +-0.7 deg/s from one step to the next:
+    # a point sample every second step reads that as a steady lateral force and roll
+    # rate the aircraft does not have; the mean is right.
+    imu_mean_steps = 1
+
+    def state(self, imu=None) -> PlantState:
+        """The true state now, in SI units (see base.PlantState). ``imu``: the body
+        rates and specific force (p, q, r, ax, ay, az in JSBSim's units) to report
+        instead of this step's (``step``'s means)."""
         (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
          vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
             get() for get in self._state_getters]
+        if imu is not None:
+            p, q, r, ax, ay, az = imu
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
@@ -221,12 +233,18 @@ class JSBSimPlane:
         # tens to hundreds of metres: 0.25 m of flight per JSBSim step changes nothing)
         if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
             self._gusts.step(self, n_steps)
-        for _ in range(n_steps):
+        imu = self._imu_getters
+        n_mean = min(self.imu_mean_steps, n_steps)
+        acc = [0.0] * 6
+        for k in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
             run()
             self._t_us += self._dt_us
-        return self.state()
+            if k >= n_steps - n_mean:
+                for j, get in enumerate(imu):
+                    acc[j] += get()
+        return self.state(imu=[a / n_mean for a in acc] if n_mean > 1 else None)
 
     def set_wind(self, wind_ned, turbulence: str = "none") -> None:
         """Steady wind, the air's velocity over ground NED [m/s], and turbulence level."""
@@ -437,6 +455,7 @@ class JSBSimPlane:
             "lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
             "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
             "fz_gear", "rho", "pressure", "temperature"))
+        self._imu_getters = tuple(self._n[name] for name in ("p", "q", "r", "ax", "ay", "az"))
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
