@@ -213,3 +213,24 @@ def test_cli_writes_the_mission_and_sitl_run_flies_the_same(tmp_path):
                           ("random:plane:3:1:2", "plane")):
         r = _sitl("run", "--vehicle", vehicle, "--mission", spec, "--duration", "1", cwd=tmp_path)
         assert r.returncode == 2 and "random" in r.stderr, (spec, r.stderr)
+
+
+@pytest.mark.parametrize("vehicle", ["plane", "quad"])
+def test_campaign_files_draw_a_new_valid_mission_per_trial(vehicle):
+    """missions/campaigns/random_VEHICLE.toml: a valid campaign whose trials fly the
+    random mission of their own seed, in the issue's wind, judged by the invariants."""
+    from tools.campaign.spec import load_campaign
+    from tools.campaign.trials import resolve
+    from tools.missions_random import load_source
+    c = load_campaign(REPO / "missions" / "campaigns" / f"random_{vehicle}.toml")
+    assert c.trials >= 500
+    missions = set()
+    for i in range(5):
+        t = resolve(c, i)
+        assert t.inputs["mission"] == f"random:{vehicle}:{t.seed}"
+        assert 0.0 <= t.inputs["wind_speed_mps"] <= (12.0 if vehicle == "plane" else 8.0)
+        m, _ = load_source(t.inputs["mission"])
+        assert loads_waypoints(dumps_waypoints(m), vehicle=vehicle) == m
+        missions.add(dumps_waypoints(m))
+    assert len(missions) == 5
+    assert any("invariants_passed" in cr.keys for cr in c.criteria.values())
