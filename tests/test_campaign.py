@@ -59,6 +59,10 @@ def _error(text: str) -> CampaignError:
     ('[criteria]\nxtrack = "__import__(\'os\').system(\'true\')"\n', 7, "functions are"),
     ('[criteria]\nxtrack = "xtrak_max_m < 30"\n', 7, "did you mean xtrack_max_m"),
     ('[criteria]\nok = "1 < 2"\n', 7, "names no summary key"),
+    ('[criteria]\nid = "faults[0].identified_10s.effectiveness < input.event.0.effectiveness"\n', 7,
+     "'input.event.0.effectiveness', which is no input of this campaign"),
+    ('[[event]]\nafter_s = 10.0\nunit = "gps"\ntype = "off"\n', 7, "no previous event"),
+    ('[[event]]\nunit = "gps"\ntype = "off"\n', 6, "needs one of 'at_s'"),
 ])
 def test_bad_campaign_file_names_the_line(body, line, words):
     e = _error(HEAD + body)
@@ -133,6 +137,48 @@ def test_trial_is_a_function_of_file_and_index():
                                "c.toml", check_keys=False)
     t5 = resolve(more, 5)
     assert {k: v for k, v in t5.inputs.items() if k != "gps"} == trials[5].inputs
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "missions" / "campaigns").glob("*.toml")), ids=lambda p: p.name)
+def test_shipped_campaigns_load_and_resolve(path):
+    from tools.campaign.spec import load_campaign
+    c = load_campaign(path)
+    assert c.criteria and c.trials >= 20
+    for i in (0, c.trials - 1):
+        t = resolve(c, i)
+        assert t.error is None and t.command().startswith("sitl run --vehicle ")
+
+
+def test_event_after_the_previous_one_and_criteria_over_inputs():
+    c = parse_campaign_text(HEAD + """
+[[event]]
+at_s = { uniform = [100.0, 200.0] }
+unit = "servo"
+type = "wrong"
+instance = 1
+effectiveness = { uniform = [0.3, 0.7] }
+
+[[event]]
+after_s = { uniform = [20.0, 90.0] }
+unit = "servo"
+type = "ok"
+instance = 1
+
+[criteria]
+identified = "abs(faults[0].identified_10s.effectiveness - input.event.0.effectiveness) <= 0.2 * input.event.0.effectiveness"
+""", "c.toml")
+    for i in range(c.trials):
+        t = resolve(c, i)
+        x = t.inputs
+        assert x["event.1.at_s"] == x["event.0.at_s"] + x["event.1.after_s"]
+        assert 120.0 <= x["event.1.at_s"] <= 290.0
+        from sim_bridge.scenario import parse_scenario_text
+        sc = parse_scenario_text(t.scenario_text)
+        assert [(e.at_s, e.type) for e in sc.events] == [(x["event.0.at_s"], "wrong"), (x["event.1.at_s"], "ok")]
+        assert sc.events[0].magnitudes == {"effectiveness": x["event.0.effectiveness"]}
+    crit = c.criteria["identified"]
+    flat = {"faults.0.identified_10s.effectiveness": 0.55, "input.event.0.effectiveness": 0.5}
+    assert crit.holds(flat) and not crit.holds({**flat, "faults.0.identified_10s.effectiveness": 0.61})
 
 
 # --- a small campaign end to end ------------------------------------------------------

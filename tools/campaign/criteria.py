@@ -6,7 +6,9 @@ become ``invariants.orbits.passed``, lists their first ``MAX_LIST_ITEMS`` items
 with ``ast`` and evaluated by a small interpreter (no ``eval``): numbers, strings,
 ``True``/``False``/``None``, comparisons (chained too), ``and``/``or``/``not``,
 ``+ - * /``, ``abs``/``min``/``max``; a key is a name, a dotted name, or indexed
-(``faults[0].delay_s`` and ``faults.0.delay_s`` are the same key). A key the trial's summary lacks, or
+(``faults[0].delay_s`` and ``faults.0.delay_s`` are the same key); ``input.KEY`` is
+the trial's input KEY (``input.event.0.effectiveness``, the truth an identified value is
+compared with). A key the trial's summary lacks, or
 that is null (no cross-track figure when no leg was flown), makes the value unknown,
 and an unknown criterion fails.
 """
@@ -37,7 +39,7 @@ OPTIONAL_KEY_PATTERNS = (
     "fdi_episodes.#.start_s", "fdi_episodes.#.trigger", "fdi_episodes.#.isolated",
     "fdi_episodes.#.isolated_s", "fdi_episodes.#.end_s",
     "fdi_peak_ratio.*", "nav_pos_h_rms_during_fault_okf_m",
-    "invariants.*.passed", "invariants.*.figure",
+    "invariants.*.passed", "invariants.*.figure", "invariants.*.limit", "invariants.*.seq",
     "xtrack_mission_rms_m", "xtrack_mission_max_m",
 )
 _PATTERNS = [re.compile("^" + re.escape(p).replace("\\#", r"\d+").replace("\\*", r"[^.]+") + "$")

@@ -153,9 +153,10 @@ def run_trial(task: dict) -> dict:
                 session.close()
             summary = run_summary(session)
             flat = flatten(summary)
+            known = {**flat, **{f"input.{k}": v for k, v in task["inputs"].items()}}
             crits = {}
             for name, expr in task["criteria"].items():
-                crits[name] = parse_criterion(name, expr, "<campaign>", None).holds(flat)
+                crits[name] = parse_criterion(name, expr, "<campaign>", None).holds(known)
             passed = all(crits.values())
             row.update(summary=summary, flat=flat, criteria=crits, passed=passed,
                        sim_s=float(summary.get("sim_time_s") or 0.0))

@@ -21,6 +21,10 @@
     at_s = { uniform = [60.0, 200.0] }
     unit = "gps"
     type = "off"
+    [[event]]
+    after_s = { uniform = [20.0, 90.0] }    # instead of at_s: after the previous event
+    unit = "gps"
+    type = "ok"
 
     [criteria]               # name = expression over summary keys; all must hold to pass
     completed = "completed"
@@ -90,7 +94,7 @@ PARAM_PREFIX = "param."
 
 _META_KEYS = ("name", "trials", "seed", "keep_worst", "figures", "trial_timeout_s", "description")
 _TOP_KEYS = ("campaign", "dispersion", "event", "criteria")
-_EVENT_KEYS = ("at_s", "unit", "type", "instance")
+_EVENT_KEYS = ("at_s", "after_s", "unit", "type", "instance")
 DISTRIBUTIONS = ("uniform", "normal", "loguniform", "choice", "randint")
 
 
@@ -325,13 +329,22 @@ def parse_campaign_text(text: str, path: str = "<string>", check_keys: bool = Tr
 
 def check_summary_keys(c: Campaign) -> None:
     """Every key a criterion or ``figures`` names must be a key of the summary of one of
-    the campaign's vehicles (criteria.known_key)."""
+    the campaign's vehicles (criteria.known_key), or ``input.KEY`` of one of its inputs
+    (``input.event.0.effectiveness``: the truth an identification is compared with)."""
     from .criteria import known_key, summary_keys
     keys = set()
     for v in c.vehicles():
         keys |= summary_keys(v)
+    inputs = set(DEFAULT_WIND) | set(c.values)
+    for i, ev in enumerate(c.events):
+        inputs |= {f"event.{i}.{k}" for k in ev.fields} | {f"event.{i}.at_s"}
     for crit in c.criteria.values():
         for k in crit.keys:
+            if k.startswith("input."):
+                if k[len("input."):] not in inputs:
+                    raise CampaignError(f"criterion {crit.name!r} names {k!r}, which is no input of this "
+                                        f"campaign{_near(k, {'input.' + x for x in inputs})}", c.path, crit.line)
+                continue
             if not known_key(k, keys):
                 raise CampaignError(f"criterion {crit.name!r} names {k!r}, which is no key of the "
                                     f"{'/'.join(c.vehicles())} summary{_near(k, keys)}", c.path, crit.line)
@@ -477,16 +490,22 @@ def _event(ev: dict, table: tuple, fail, lines) -> EventSpec:
             fail(f"unknown key {key!r} in [[event]] (expected: {', '.join(_EVENT_KEYS + ALL_MAGNITUDES)})",
                  table, key)
         fields[key] = _dist(v, key, table, fail)
-    for key in ("at_s", "unit", "type"):
+    for key in ("unit", "type"):
         if key not in fields:
             fail(f"[[event]] needs {key!r}", table)
-    at = fields["at_s"]
+    if ("at_s" in fields) == ("after_s" in fields):
+        fail("[[event]] needs one of 'at_s' (time of the event) and 'after_s' (time after the "
+             "previous event)", table)
+    if "after_s" in fields and table[1] == 0:
+        fail("the first [[event]] has no previous event: give at_s", table, "after_s")
+    tkey = "at_s" if "at_s" in fields else "after_s"
+    at = fields[tkey]
     below, above = at.unbounded()
     if below:
-        fail("at_s: a normal without min can draw a negative time: truncate it", table, "at_s")
+        fail(f"{tkey}: a normal without min can draw a negative time: truncate it", table, tkey)
     for v in at.support():
         if not _num(v) or v < 0:
-            fail(f"at_s must be a number >= 0, not {v!r}", table, "at_s")
+            fail(f"{tkey} must be a number >= 0, not {v!r}", table, tkey)
     for key in ("unit", "type"):
         if fields[key].kind not in ("fixed", "choice"):
             fail(f"{key}: a value or a choice, not a {fields[key].kind} distribution", table, key)

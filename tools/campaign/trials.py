@@ -81,6 +81,9 @@ def resolve(c: Campaign, index: int) -> Trial:
         for key, d in ev.fields.items():
             e[key] = d.draw(_rng(c.seed, index, f"event.{i}.{key}"))
             inputs[f"event.{i}.{key}"] = e[key]
+        if "after_s" in e:                # the time after the previous event
+            inputs[f"event.{i}.at_s"] = events[-1]["at_s"] + e.pop("after_s")
+            e = {"at_s": inputs[f"event.{i}.at_s"], **e}
         events.append(e)
     t = Trial(index, seed, inputs, [], events=events)
     t.argv, t.error = _argv(inputs, seed)
