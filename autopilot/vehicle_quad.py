@@ -455,11 +455,12 @@ class QuadVehicle:
         self._home_nav_p = (self._home_nav_p[0] + d[0], self._home_nav_p[1] + d[1],
                             self._home_nav_p[2] + d[2])
         self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
+        shift = (-float(d[0]), -float(d[1]), -float(d[2]))
         if self.sequencer is not None:
             self.sequencer.frame = self.home_frame
             self.sequencer.home_alt_m = alt_m
-        tr = self.navigator.traj
-        tr.reset((tr.p[0] - d[0], tr.p[1] - d[1], tr.p[2] - d[2]))
+            self.sequencer.shift(shift)
+        self.navigator.shift(shift)          # the reference flies on, in the new frame
         self.log.event(t_us * 1e-6, "home moved")
         return None
 

@@ -212,8 +212,9 @@ def fly(ms, p=None, t_max=400.0, yaw_lag_s=0.0):
             d = frame.to_ned_fast(*req)
             seq.frame, seq.home_alt_m, frame = new, req[2], new
             pos = [pos[0] - d[0], pos[1] - d[1], pos[2] - d[2]]
-            tr = nav.traj
-            tr.reset((tr.p[0] - d[0], tr.p[1] - d[1], tr.p[2] - d[2]))
+            shift = (-d[0], -d[1], -d[2])
+            nav.shift(shift)                                     # as QuadVehicle.set_home
+            seq.shift(shift)
         nav.update(DT, pos, yaw)
         tgt = nav.target(s, hold)
         pos = list(tgt.p_ned)
@@ -361,6 +362,35 @@ def test_do_set_home_moves_home_and_the_landing_there():
     assert log[-1]["pos"][:2] == pytest.approx((0.0, 0.0), abs=0.05)
     assert seq.frame.lat0_rad == pytest.approx(math.radians(HOME[0] + math.degrees(60.0 / 6378137.0)),
                                                abs=1e-8)
+
+
+def test_do_set_home_behind_a_condition_moves_home_mid_leg_and_the_leg_flies_on():
+    ms = mission(item(1, NAV_TAKEOFF, alt=10.0),
+                 item(2, CONDITION_DISTANCE, p1=60.0, frame=0),
+                 item(3, DO_SET_HOME, p1=1.0, frame=0),                  # here, mid-leg
+                 item(4, NAV_WAYPOINT, n=150.0, e=0.0, alt=10.0),
+                 item(5, NAV_RETURN_TO_LAUNCH, frame=0))
+    seq, nav, log = fly(ms)
+    assert seq.landed and [s for _, s in seq.reached] == [1, 2, 3, 4, 5]
+    when = {s: t * 1e-6 for t, s in seq.reached}
+    # the leg went on without a stop (the reference never slowed down around the move)
+    leg = [math.hypot(*r["vel"][:2]) for r in log if when[3] - 1.0 < r["t"] < when[3] + 1.0]
+    assert min(leg) > 4.9
+    # home is where the vehicle was, 60 m before item 4: RTL lands there, 90 m from it
+    at4 = next(r for r in log if r["t"] >= when[4])
+    assert math.hypot(*at4["pos"][:2]) == pytest.approx(60.0, abs=0.5)
+    assert log[-1]["pos"][:2] == pytest.approx((0.0, 0.0), abs=0.05)
+
+
+def test_a_long_run_of_do_items_and_jumps_is_worked_through_over_steps():
+    ms = mission(item(1, NAV_TAKEOFF, alt=5.0),
+                 item(2, DO_CHANGE_SPEED, p1=0, p2=3.0, p3=-1, frame=0),
+                 item(3, DO_JUMP, p1=2, p2=60, frame=0),                  # 60 times over item 2
+                 item(4, NAV_WAYPOINT, n=10.0, e=0.0, alt=5.0),
+                 item(5, NAV_LAND))
+    seq, nav, log = fly(ms)
+    assert seq.landed and seq.jump_counts == {3: 60}
+    assert [s for _, s in seq.reached].count(2) == 61
 
 
 def test_latitude_longitude_zero_is_here_and_altitude_zero_this_height():

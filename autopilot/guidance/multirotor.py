@@ -177,6 +177,16 @@ class Trajectory:
         self._u, self._len, self._s, self._vs = u, length, 0.0, min(vs, vmax)
         self._vmax, self._amax = vmax, amax
 
+    def shift(self, d) -> None:
+        """Move every position by ``d`` (NED) without changing the motion: the same
+        reference in a frame whose origin moved by -d (home moved)."""
+        for v in (self.p, self.raw, self.goal):
+            v[0] += d[0]
+            v[1] += d[1]
+            v[2] += d[2]
+        st = self.start
+        self.start = (st[0] + d[0], st[1] + d[1], st[2] + d[2])
+
     def retune(self, v_h: float, v_up: float, v_dn: float) -> None:
         """New speed limits for the line being flown (a speed change in flight: the
         profile slows down at its acceleration limit or speeds up)."""
@@ -293,6 +303,12 @@ class CopterNavigator:
         self._yaw_goal = None
         self._yaw_left = None
         self.phase = "idle"
+
+    def shift(self, d) -> None:
+        """Home moved: every position by ``d`` (NED), the motion unchanged."""
+        self.traj.shift(d)
+        self.goal_ne = (self.goal_ne[0] + d[0], self.goal_ne[1] + d[1])
+        self.land_ne = (self.land_ne[0] + d[0], self.land_ne[1] + d[1])
 
     def fix_yaw(self, turn_rad: float, rate_rad_s: float) -> None:
         """Turn the heading reference through ``turn_rad`` (signed: + clockwise seen from
@@ -480,6 +496,11 @@ class CopterMissionSequencer:
     def total_items(self) -> int:
         return max(len(self.items) - 1, 0)
 
+    def shift(self, d) -> None:
+        """Home moved: the goal being flown moves by ``d`` (NED) in the new frame."""
+        g = self._goal
+        self._goal = (g[0] + d[0], g[1] + d[1], g[2] + d[2])
+
     def _say(self, t_us: int, severity: int, text: str) -> None:
         self.notices.append((t_us * 1e-6, severity, text))
 
@@ -559,7 +580,7 @@ class CopterMissionSequencer:
                 self._advance(t_us)
                 if self.home_request is not None:
                     return False
-        return True
+        return False            # a long run of DO items and jumps: on at the next step
 
     def _do(self, item: MissionItem, t_us: int, yaw: float) -> None:
         """Execute one DO item (conditions start here)."""
