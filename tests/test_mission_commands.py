@@ -228,6 +228,59 @@ def fly(ms, p=None, t_max=400.0, yaw_lag_s=0.0):
     return seq, nav, log
 
 
+# CANGPSCopterMission's shape: a waypoint at altitude 0 (this height), CONDITION_YAW
+# through 640 deg (relative, clockwise, 20 deg/s), LOITER_TIME 5 s here at 20 m, a box,
+# DO_JUMP back once, a waypoint all zeros (here, this height), RTL
+BOX_LIKE = wpl(
+    (3, NAV_TAKEOFF, 0, 0, 0, 0, HOME[0], HOME[1], 20),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, north(-196.0), east(-157.0), 0),
+    (3, CONDITION_YAW, 640, 20, 1, 1, 0, 0, 0),
+    (3, 19, 5, 0, 0, 1, 0, 0, 20),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, north(-275.0), east(-157.0), 0),
+    (3, NAV_WAYPOINT, 1, 0, 0, 0, north(-275.0), east(-112.0), 40),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, north(-275.0), east(-60.0), 20),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, north(-196.0), east(-63.0), 20),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, north(-196.0), east(-112.0), 20),
+    (3, DO_JUMP, 8, 1, 0, 0, 0, 0, 0),
+    (3, NAV_WAYPOINT, 0, 0, 0, 0, 0, 0, 0),
+    (3, NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0),
+)
+
+
+def test_box_shape_yaw_turns_while_its_loiter_lasts_then_jumps_and_returns():
+    ms = loads_waypoints(BOX_LIKE, vehicle="quad")
+    seq, nav, log = fly(ms, t_max=600.0)
+    assert seq.landed
+    # the 640 deg turn outlasts the 5 s loiter it belongs to: as in AP_Mission the
+    # condition is dropped when that navigation item completes (and said), and the next
+    # leg takes the heading back
+    assert [s for _, s in seq.reached] == [1, 2, 4, 5, 6, 7, 8, 9, 10, 8, 9, 11, 12]
+    assert 10 in seq.reached_seqs and seq.jump_counts == {10: 1}
+    assert [text for _, _, text in seq.notices
+            if "skipped" in text] == ["Mission: item 4 done before its conditions held; "
+                                      "skipped 3 CONDITION_YAW"]
+    when = {}
+    for t, s in seq.reached:
+        when.setdefault(s, t * 1e-6)
+    # item 2 at altitude 0: flown at the takeoff's 20 m
+    at2 = next(r for r in log if r["t"] >= when[2])
+    assert at2["pos"][2] == pytest.approx(-20.0, abs=0.01)
+    # clockwise at 20 deg/s for as long as item 4 held (5 s) where item 2 was
+    turned, last = 0.0, None
+    for r in log:
+        if when[2] <= r["t"] <= when[4]:
+            if last is not None:
+                turned += wrap_pi(r["yaw"] - last)
+            last = r["yaw"]
+    assert when[4] - when[2] == pytest.approx(5.0, abs=0.05)
+    assert math.degrees(turned) == pytest.approx(20.0 * (when[4] - when[2]), abs=0.5)
+    assert next(r for r in log if r["t"] >= when[4])["pos"] == pytest.approx(at2["pos"], abs=0.05)
+    # item 11, all zeros: where the jump's second pass left it (item 9), at its height
+    t9 = max(t for t, s in seq.reached if s == 9) * 1e-6
+    at9 = next(r for r in log if r["t"] >= t9)
+    assert next(r for r in log if r["t"] >= when[11])["pos"] == pytest.approx(at9["pos"], abs=0.05)
+
+
 def test_chiai_shape_condition_yaw_points_the_nose_before_the_landing():
     ms = loads_waypoints(CHIAI_LIKE, vehicle="quad")
     seq, nav, log = fly(ms, yaw_lag_s=0.3)

@@ -361,8 +361,9 @@ def _item_problem(item: MissionItem) -> Problem | None:
             unit = "s" if item.command == CONDITION_DELAY else "m"
             return bad("INVALID_PARAM1", f"{name} {item.param1} {unit} must be >= 0")
     elif item.command == CONDITION_YAW:
-        if not (math.isfinite(item.param1) and 0.0 <= item.param1 <= 360.0):
-            return bad("INVALID_PARAM1", f"CONDITION_YAW angle {item.param1} deg not in [0, 360]")
+        # (relative turns of more than a circle are flown: ArduCopter's autotest turns 640 deg)
+        if not (math.isfinite(item.param1) and 0.0 <= item.param1 <= 3600.0):
+            return bad("INVALID_PARAM1", f"CONDITION_YAW angle {item.param1} deg not in [0, 3600]")
         if not (math.isnan(item.param2) or 0.0 <= item.param2 <= 360.0):
             return bad("INVALID_PARAM2", f"CONDITION_YAW rate {item.param2} deg/s not in [0, 360]")
         if item.param3 not in (-1.0, 0.0, 1.0):
