@@ -13,6 +13,8 @@ import socket
 import threading
 import time
 
+import pytest
+
 from pymavlink.dialects.v20 import ardupilotmega as mav2
 
 from test_gcs_support import Sitl, connect
@@ -175,3 +177,77 @@ def test_a_flooding_client_slows_neither_the_flight_loop_nor_another_client(tmp_
     assert rss1 - rss0 < 50.0
     assert sitl.stats()["errors"] == 0
     assert not summary["crashed"]
+
+
+# ------------------------------------------------------------------- campaign ---
+def _fly(tmp_path, name: str, flood_s: float) -> dict:
+    """The default mission flown by a pilot client at --speedup 1; with ``flood_s``, the
+    flood starts 20 s after AUTO and lasts ``flood_s``. Returns the summary plus what
+    was measured."""
+    from test_gcs_support import arm_and_auto
+    sitl = Sitl(tmp_path / name, speedup="1")
+    listener = Listener(sitl.url)
+    listener.start()
+    stats = {"offered": 0, "offered_bytes": 0, "sent_bytes": 0, "received_bytes": 0, "seconds": 0.0}
+    stop = threading.Event()
+    pilot = connect(sitl.url)
+    out = {}
+    try:
+        arm_and_auto(pilot, timeout_s=120)
+        t_auto = time.monotonic()
+        f = None
+        reached, last_hb, complete_at = set(), 0.0, None
+        while time.monotonic() - t_auto < 600:
+            now = time.monotonic()
+            if now - last_hb > 1.0:
+                pilot.mav.heartbeat_send(6, 8, 0, 0, 0)
+                last_hb = now
+            if flood_s and f is None and now - t_auto > 20.0:
+                out["rss0"] = _rss_mb(sitl.proc.pid)
+                out["t_flood"] = now
+                f = threading.Thread(target=flood, args=(sitl.port, flood_s, stats, stop), daemon=True)
+                f.start()
+            if f is not None and "t_end" not in out and not f.is_alive():
+                out["t_end"] = time.monotonic()
+                out["rss1"] = _rss_mb(sitl.proc.pid)
+            msg = pilot.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=0.2)
+            if msg is not None:
+                reached.add(msg.seq)
+            if 12 in reached and complete_at is None:
+                complete_at = time.monotonic()
+            # the end of the mission: RTL from item 12, the loiter over home established
+            if complete_at and time.monotonic() - complete_at > 45.0 and (f is None or "t_end" in out):
+                break
+    finally:
+        stop.set()
+        listener.stop.set()
+        listener.join(5)
+        listener.m.close()
+        pilot.close()
+        summary = sitl.stop()
+    out["summary"] = summary
+    out["stats"] = stats
+    out["service"] = sitl.stats()
+    out["base"] = listener.window(t_auto, t_auto + 19.0)
+    if flood_s:
+        out["during"] = listener.window(out["t_flood"] + 0.5, out["t_end"])
+    return out
+
+
+@pytest.mark.skipif(not os.environ.get("FLOOD_CAMPAIGN"), reason="campaign: FLOOD_CAMPAIGN=1 (about 10 min)")
+def test_campaign_the_mission_flown_in_real_time_with_and_without_a_60_s_flood(tmp_path):
+    calm = _fly(tmp_path, "calm", 0.0)
+    flooded = _fly(tmp_path, "flooded", 60.0)
+    keys = ("completed", "mission_items_reached", "xtrack_rms_m", "xtrack_max_m", "alt_rms_m",
+            "airspeed_rms_mps", "sim_time_s", "realtime_factor")
+    for name, r in (("calm", calm), ("flooded", flooded)):
+        print(name, {k: r["summary"].get(k) for k in keys}, "ATTITUDE Hz, sim/real:", r["base"],
+              r.get("during"), "RSS", r.get("rss0"), r.get("rss1"), r["stats"], r["service"])
+    s0, s1 = calm["summary"], flooded["summary"]
+    assert s0["completed"] and s1["completed"]
+    assert s1["mission_items_reached"] == s0["mission_items_reached"] == 12
+    rate, sim = flooded["during"]
+    base_rate, _ = flooded["base"]
+    assert abs(sim - 1.0) < 0.01 and abs(rate - base_rate) < 0.05 * base_rate
+    assert flooded["rss1"] - flooded["rss0"] < 50.0
+    assert s1["xtrack_rms_m"] <= s0["xtrack_rms_m"] + 0.5 and s1["alt_rms_m"] <= s0["alt_rms_m"] + 0.5
