@@ -173,6 +173,8 @@ def test_a_real_flight_passes_and_scores_against_the_mission(tmp_path):
     assert summary["completed"] and summary["invariants_passed"], summary["invariants"]
     assert summary["xtrack_mission_rms_m"] == pytest.approx(summary["xtrack_rms_m"], abs=0.05)
     assert summary["xtrack_mission_max_m"] < 1.0
+    worst = summary["xtrack_mission_worst_leg"]
+    assert worst["max_m"] == summary["xtrack_mission_max_m"] and 1 <= worst["from_seq"] < len(s.mission)
     # the run folder keeps the mission's lines for sitl report, which draws them
     from tools.report import make_report
     from tools.runner import write_run

@@ -17,7 +17,7 @@ import pytest
 from tools.missions_random import fly_sample
 
 BUDGET_S = {"plane": 180.0, "quad": 90.0}
-PLANE_SEEDS = range(0, 20)
+PLANE_SEEDS = [*range(0, 20), 34]   # 34: the waypoint circled for ever
 QUAD_SEEDS = range(0, 10)
 
 # (vehicle, seed) -> why it fails today (issue 15's failure classes)
@@ -26,6 +26,8 @@ KNOWN_FAILURES = {
                   "waypoint inside the turn circle; circled before it counts (failure 1)",
     ("plane", 19): "no_orbit 2.2 turns at item 2: the first waypoint near the launch, inside the "
                    "turn circle after the climb-out; circled before it counts (failure 1)",
+    ("plane", 34): "mission_order, time_bound, no_orbit: the climb-out to 138 m passes item 2 "
+                   "(680 m ahead) and the aircraft circles it for ever (failure 1)",
 }
 
 

@@ -23,6 +23,9 @@ Cross-track against them (``xtrack_mission``)
     first sample within ``CAPTURE_M`` of the line. An item never counted has its leg run
     to the end of the log.
 
+``xtrack_mission_worst_leg`` names the line with the largest error (the items at its two
+ends, ``from_seq`` null for the take-off point) with its own rms and max.
+
 The invariants (``check_invariants``): each ``{"passed": bool, "figure": number}`` and,
 where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name the item
 concerned, ``"seq"``, or null):
@@ -374,10 +377,16 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     vehicle = session.cfg.vehicle
     mission = v.mission if v.mission is not None else session.mission
     events = v.reached_events()
-    figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None}
+    figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None,
+                  "xtrack_mission_worst_leg": None}
     if v.home_frame is not None:
-        rms, mx, _legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
+        rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
         figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
+        scored = [g for g in legs if g["xtrack_max_m"] is not None]
+        if scored:
+            w = max(scored, key=lambda g: g["xtrack_max_m"])
+            figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],
+                                                "rms_m": w["xtrack_rms_m"], "max_m": w["xtrack_max_m"]}
     fault_free = not session.bridge.fault_log and session.gcs is None
     inv = check_invariants(a, mission, vehicle, events, completed=bool(summary.get("completed")),
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
