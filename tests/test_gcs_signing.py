@@ -333,3 +333,105 @@ def test_mavproxy_sets_up_signing_and_flies_while_one_without_the_key_changes_no
     assert summary["gcs_signing"] is True and summary["mission_items_reached"] >= 12
     assert summary["faults_injected"] == []                            # B's failure never relayed
     assert summary["gcs_refused_by_reason"].get("unsigned", 0) >= 5     # B's attempts, refused
+
+
+# ------------------------------------------------------------------- campaign ---
+@pytest.mark.skipif(not os.environ.get("FUZZ_SIGNING"), reason="campaign: FUZZ_SIGNING=1 (about 2 min)")
+def test_campaign_the_fuzz_test_with_signing_on(tmp_path):
+    """test_gcs_fuzz.py's flight with a signing key: the pilot signs; the fuzzer signs
+    half of its absurd messages with the key (a trusted but broken ground station) and
+    sends the rest unsigned, truncated or as noise. The same figures must hold."""
+    import random
+    import threading
+    from test_gcs_fuzz import FUZZ_S, SPEEDUP, random_message
+    keyfile = tmp_path / "key"
+    keyfile.write_text(KEY.hex() + "\n")
+    keyfile.chmod(0o600)
+    sitl = Sitl(tmp_path / "run", "--signing-key", str(keyfile), speedup=str(SPEEDUP))
+    counts = {"signed": 0, "unsigned": 0, "noise": 0}
+    tele = {"attitude": 0, "seconds": 0.0}
+    stop = threading.Event()
+
+    def fuzzer():
+        rng = random.Random(11)
+        signed = _pymav(KEY, link_id=3, ts=clock_timestamp(time.time()), sysid=200)
+        plain = _pymav(None, sysid=201)
+        sock = socket.create_connection(("127.0.0.1", sitl.port))
+        sock.setblocking(False)
+        deadline = time.monotonic() + FUZZ_S
+        while time.monotonic() < deadline:
+            try:
+                if rng.random() < 0.2:
+                    sock.send(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 400))))
+                    counts["noise"] += 1
+                else:
+                    msg = random_message(rng)
+                    if msg.get_type() == "SETUP_SIGNING":
+                        continue                    # a real request to change the key
+                    sign = rng.random() < 0.5
+                    try:
+                        buf = bytes(msg.pack(signed if sign else plain))
+                    except Exception:                                # noqa: BLE001
+                        continue
+                    if rng.random() < 0.05:
+                        buf = buf[:rng.randrange(1, len(buf))]
+                    sock.send(buf)
+                    counts["signed" if sign else "unsigned"] += 1
+                try:
+                    while sock.recv(65536):
+                        pass
+                except (BlockingIOError, OSError):
+                    pass
+            except (BlockingIOError, BrokenPipeError, ConnectionResetError):
+                pass
+            time.sleep(0.002)
+        sock.close()
+
+    def watcher():
+        m = _client(sitl.url, sysid=251)
+        t0 = time.monotonic()
+        while not stop.is_set():
+            if m.recv_match(type="ATTITUDE", blocking=True, timeout=0.2) is not None:
+                tele["attitude"] += 1
+        tele["seconds"] = time.monotonic() - t0
+        m.close()
+
+    w = threading.Thread(target=watcher, daemon=True)
+    w.start()
+    f = threading.Thread(target=fuzzer, daemon=True)
+    f.start()
+    from test_gcs_support import arm_and_auto
+    pilot = _client(sitl.url, KEY)
+    try:
+        arm_and_auto(pilot)
+        reached, last_hb, complete_at = set(), 0.0, None
+        deadline = time.monotonic() + 180
+        while time.monotonic() < deadline:
+            if time.monotonic() - last_hb > 1.0:
+                pilot.mav.heartbeat_send(6, 8, 0, 0, 0)
+                last_hb = time.monotonic()
+            msg = pilot.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=0.2)
+            if msg is not None:
+                reached.add(msg.seq)
+            if 12 in reached and complete_at is None:
+                complete_at = time.monotonic()
+            if complete_at and time.monotonic() - complete_at > 6.0 and not f.is_alive():
+                break
+        f.join(5)
+    finally:
+        stop.set()
+        w.join(5)
+        pilot.close()
+        summary = sitl.stop()
+    stats = sitl.stats()
+    print("fuzz with signing:", counts, "service:", stats, "refused:", summary["gcs_refused_by_reason"],
+          "telemetry:", tele, {k: summary[k] for k in ("xtrack_rms_m", "xtrack_max_m", "alt_rms_m",
+                                                       "airspeed_rms_mps")})
+    assert counts["signed"] > 1000 and counts["unsigned"] > 1000
+    assert stats["errors"] == 0
+    assert summary["gcs_refused_by_reason"].get("unsigned", 0) > 500
+    assert summary["completed"] is True and not summary["crashed"]
+    assert summary["mission_items_reached"] == summary["mission_items_total"] == 12
+    assert summary["xtrack_rms_m"] <= 2.0 and summary["xtrack_max_m"] <= 15.0
+    assert summary["alt_rms_m"] <= 3.0 and summary["airspeed_rms_mps"] <= 2.0
+    assert tele["attitude"] / tele["seconds"] >= 0.8 * 10 * SPEEDUP
