@@ -57,7 +57,8 @@ def test_valid_bounded_and_deterministic(vehicle, planes, quads):
         text = dumps_waypoints(m)
         assert loads_waypoints(text, vehicle=vehicle) == m    # the loader accepts it for the vehicle
         assert 2 <= len(m) - 1 <= 20
-        assert m[1].command == NAV_TAKEOFF
+        ground = m[1].command == NAV_WAYPOINT and m[1].z_alt_m == m.home.z_alt_m
+        assert m[2 if ground else 1].command == NAV_TAKEOFF
         assert estimate_time_s(m, vehicle) <= TIME_BUDGET_S[vehicle] + 1e-6
         order = resolve_order(m)
         assert order[0] == 1 and len(order) < 2000             # the jumps end
@@ -106,10 +107,12 @@ def test_the_distribution_is_broad(planes, quads):
                     cos = (u[0] * w[0] + u[1] * w[1]) / (math.hypot(*u) * math.hypot(*w))
                     if cos < -0.999:
                         seen.add("reversal")
-            takeoff = m[1]
+            if m[1].command == NAV_WAYPOINT and m[1].frame == 0 and m[1].z_alt_m == home.z_alt_m:
+                seen.add("ground waypoint before the takeoff")
+            takeoff = [it for it in m if it.command == NAV_TAKEOFF][0]
             if (takeoff.x_lat_deg, takeoff.y_lon_deg) != (0.0, 0.0) and len(pos) > 1:
-                t = [p for p in pos if p[0] == 1][0]
-                first = [p for p in pos if p[0] > 1][0]
+                t = [p for p in pos if p[0] == takeoff.seq][0]
+                first = [p for p in pos if p[0] > takeoff.seq][0]
                 if t[1] * first[1] + t[2] * first[2] < 0:
                     seen.add("first waypoint behind the launch")
             for it in m.items[1:]:
@@ -157,7 +160,8 @@ def test_the_distribution_is_broad(planes, quads):
                 "plane ends rtl", "plane ends none", "quad ends rtl", "quad ends land",
                 "quad ends none", "height step steeper than the plane climbs",
                 "CONDITION_DELAY", "CONDITION_DISTANCE", "CONDITION_YAW", "NAV_DELAY",
-                "NAV_LOITER_TO_ALT", "quad waypoint 'here'", "quad climb or descent speed"}
+                "NAV_LOITER_TO_ALT", "quad waypoint 'here'", "quad climb or descent speed",
+                "ground waypoint before the takeoff"}
     assert expected - seen == set()
 
 

@@ -26,6 +26,9 @@ KNOWN_FAILURES = {
                   "waypoint inside the turn circle; circled before it counts (failure 1)",
     ("plane", 19): "no_orbit 2.2 turns at item 2: the first waypoint near the launch, inside the "
                    "turn circle after the climb-out; circled before it counts (failure 1)",
+    ("plane", 7): "no_ground_contact -1.2 m: item 1 is a waypoint at home on the ground before "
+                  "the take-off; the aircraft flies along the ground towards it after the "
+                  "launch (failure 3)",
     ("plane", 34): "mission_order, time_bound, no_orbit: the climb-out to 138 m passes item 2 "
                    "(680 m ahead) and the aircraft circles it for ever (failure 1)",
 }

@@ -48,7 +48,7 @@ concerned, ``"seq"``, or null):
   ``CONTACT_M``. Figure: the lowest true height in that span [m].
 * ``height_floor``: from the end of the climb-out (the take-off counted) to the start of
   a landing, the true height above home stays at or above the floor: ``HEIGHT_FLOOR_M``
-  of the vehicle, or half the lowest commanded height above home if that is lower.
+  of the vehicle, or half the lowest height commanded after the take-off if that is lower.
   Figure: the lowest true height [m].
 * ``attitude_limits``: fixed-wing bank within ROLL_LIMIT_DEG and pitch within
   PTCH_LIM_MIN_DEG..PTCH_LIM_MAX_DEG, quad tilt within ANGLE_MAX_DEG, each plus
@@ -281,7 +281,8 @@ def _land_start(a: dict, vehicle: str, after_t: float) -> float:
 
 def _lowest_commanded_height(mission: Mission) -> float:
     hs = []
-    for it in mission.items[1:]:
+    takeoff = next((it.seq for it in mission.items[1:] if it.command == NAV_TAKEOFF), 0)
+    for it in mission.items[takeoff + 1:]:
         if it.command in NAV_FLOWN and it.command not in (NAV_LAND, NAV_RETURN_TO_LAUNCH):
             rel = it.frame in (3, 6, 11)
             if rel and it.z_alt_m == 0.0:

@@ -20,7 +20,9 @@ source of ``sitl run``. What is drawn (the classes users' missions fall into):
   radius) to 1 km, both directions (negative radius: counter-clockwise);
 * DO_JUMP backwards with repeat 0-3, jumps over jumps; DO_CHANGE_SPEED in and out of
   the airframe's limits (and -1, no change);
-* the end: RTL, NAV_LAND (quad only: the fixed-wing does not land), or nothing.
+* the end: RTL, NAV_LAND (quad only: the fixed-wing does not land), or nothing;
+* in one mission in twenty, a waypoint at home on the ground before the take-off (a
+  file's home line uploaded as an item, as MAVSDK does for ArduPilot).
 
 Everything drawn is accepted by ``autopilot.mission.files.load_mission`` (the tests load
 every sample). Missions are kept short enough to fly in a campaign: an estimate of the
@@ -50,6 +52,7 @@ TIME_BUDGET_S = {"plane": 720.0, "quad": 420.0}
 LEG_MIN_M = {"plane": 30.0, "quad": 3.0}
 LEG_MAX_M = 3000.0
 ITEMS_MIN, ITEMS_MAX = 2, 20      # items after home
+GROUND_WAYPOINT_P = 0.05          # a waypoint at home on the ground before the take-off
 
 # Performance assumed by the time estimate (the default parameters of the airframes).
 PLANE_TRIM_MPS, PLANE_SPEED_LIMITS = 25.0, (20.0, 30.0)   # TRIM_ARSPD, ARSPD_FBW_MIN/MAX
@@ -80,18 +83,27 @@ def mission_for_seed(vehicle: str, seed: int, budget_s: float | None = None
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle)])
-    return random_mission(vehicle, rng, budget_s)
+    ground_rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle), 2])
+    return random_mission(vehicle, rng, budget_s, ground_rng)
 
 
-def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | None = None
-                   ) -> tuple[Mission, list[str]]:
-    """Draw one valid mission (item 0 = home) and notes saying what was drawn."""
+def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | None = None,
+                   ground_rng: np.random.Generator | None = None) -> tuple[Mission, list[str]]:
+    """Draw one valid mission (item 0 = home) and notes saying what was drawn;
+    ``ground_rng`` draws whether a waypoint at home on the ground comes first (its own
+    stream, so the rest of the mission is the same draw either way)."""
     plane = vehicle == "plane"
     budget = TIME_BUDGET_S[vehicle] if budget_s is None else float(budget_s)
     lat, lon, alt0, home_note = _draw_home(rng)
     frame = LocalFrame.from_degrees(lat, lon, alt0)
     d = _Draft(vehicle, [], [home_note])
     n_target = int(rng.integers(ITEMS_MIN, ITEMS_MAX + 1))
+    if ground_rng is not None and ground_rng.random() < GROUND_WAYPOINT_P:
+        # the file's home line uploaded as an item (MAVSDK puts its own home at 0): a
+        # waypoint at home, on the ground, before the take-off
+        d.items.append((NAV_WAYPOINT, FRAME_GLOBAL, 0.0, 0.0, 0.0, 0.0, (0.0, 0.0), 0.0))
+        d.notes.append("item 1: a waypoint at home on the ground (frame 0, home's altitude) "
+                       "before the take-off")
 
     # take-off, and the launch heading it implies
     h_to = float(rng.uniform(30.0, 150.0) if plane else rng.uniform(3.0, 50.0))
@@ -314,7 +326,8 @@ def _draw_item(rng, d: _Draft, kind: str, course: float, shrink: float):
                 f"DO_CHANGE_SPEED {v:g} m/s ({where})", None)
     if kind == "jump":
         seq_now = len(d.items) + 1           # the jump's own seq (home is 0)
-        targets = [s for s in range(2, seq_now)
+        after_takeoff = next(i for i, it in enumerate(d.items) if it[0] == NAV_TAKEOFF) + 2
+        targets = [s for s in range(after_takeoff, seq_now)
                    if any(it[0] in (NAV_WAYPOINT, NAV_LOITER_TURNS, NAV_LOITER_TIME,
                                     NAV_LOITER_TO_ALT, NAV_DELAY) for it in d.items[s - 1:])]
         if not targets:
