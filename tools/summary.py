@@ -341,11 +341,14 @@ def run_summary(session) -> dict:
     seq = v.sequencer
     reached = len(seq.reached_seqs) if seq else 0
     total = seq.total_items if seq else max(len(session.mission) - 1, 0)
-    # completed: every mission item reached, then the end of the mission flown (the RTL
-    # loiter established; the quad landed) -- an RTL or LAND commanded halfway (a
-    # failsafe, a ground station) is not a completed mission
+    # DO items a condition still held back when their navigation item ended, dropped
+    # as AP_Mission drops them (the quad's sequencer says so in a STATUSTEXT)
+    skipped = len(getattr(seq, "skipped_seqs", set()) - seq.reached_seqs) if seq else 0
+    # completed: every mission item reached (or so skipped), then the end of the mission
+    # flown (the RTL loiter established; the quad landed) -- an RTL or LAND commanded
+    # halfway (a failsafe, a ground station) is not a completed mission
     completed = bool(seq is not None and seq.finished and seq.rtl_established and not session.crashed
-                     and reached >= total)
+                     and reached + skipped >= total)
     home_est = v.home_frame.alt0_m if v.home_frame is not None else None
     if session.cfg.vehicle == "quad":
         figs = quad_figures(a, v.home_truth_alt_m, home_est)

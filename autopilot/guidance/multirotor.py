@@ -470,6 +470,7 @@ class CopterMissionSequencer:
         self.jump_counts: dict[int, int] = {}
         self.reached: list[tuple[int, int]] = []
         self.reached_seqs: set[int] = set()
+        self.skipped_seqs: set[int] = set()   # DO items dropped behind a condition (never run)
         self.current = 1 if len(self.items) > 1 else 0
         self.finished = False
         self.landed = False          # the mission's landing (NAV_LAND / RTL) is done
@@ -536,13 +537,17 @@ class CopterMissionSequencer:
 
     def _nav_done(self, t_us: int) -> None:
         """The current navigation item completed: DO items still gated are dropped."""
+        self._drop_pending(t_us, f"item {self.current} done")
+        self._advance(t_us)
+
+    def _drop_pending(self, t_us: int, why: str) -> None:
+        """DO items a condition still holds back are dropped (AP_Mission), and said."""
         if self.pending:
+            self.skipped_seqs.update(it.seq for it in self.pending)
             names = ", ".join(f"{it.seq} {it.command_name}" for it in self.pending)
-            self._say(t_us, 4, f"Mission: item {self.current} done before its conditions "
-                               f"held; skipped {names}")
+            self._say(t_us, 4, f"Mission: {why} before its conditions held; skipped {names}")
             self.pending = []
             self._cond_start_us = None
-        self._advance(t_us)
 
     def _jump(self, item: MissionItem, t_us: int) -> None:
         target, repeat = int(item.param1), int(item.param2)
@@ -697,6 +702,7 @@ class CopterMissionSequencer:
                 nav.rtl(p_ned)
             if touchdown:
                 nav.touchdown()
+                self._drop_pending(t_us, "landed")
                 self.finished = self.landed = self.rtl_established = True
             return len(self.items), False
         item = self.items[self.current]
@@ -770,8 +776,8 @@ class CopterMissionSequencer:
                     nav.rtl(p_ned)
             if touchdown and nav.phase == "land_descend":
                 nav.touchdown()
+                self._drop_pending(t_us, "landed")
                 self._advance(t_us)
-                self.pending = []
                 self.finished = self.landed = self.rtl_established = True
             return seq, False
         raise AssertionError(f"{item.command_name} at item {seq} is not flown by the quadrotor "
