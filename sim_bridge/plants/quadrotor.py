@@ -1,79 +1,33 @@
 """Quadrotor plant: the seed's nonlinear rigid-body model (ch. 9 sec. 3.6.2.1).
 
-Equations (seed eqs 3.23-3.26; the extraction lost their subscripts, rebuilt here from
-the seed's references, Hoffmann, Huang, Waslander & Tomlin, "Quadrotor helicopter
-flight dynamics and control: theory and experiment", AIAA GNC 2007, eqs 1-2, and
-Bayezit & Fidan, "Distributed cohesive motion control of flight vehicle formations",
-IEEE Trans. Ind. Electron. 60(12), 2013):
+Eqs 3.23-3.26 (rebuilt from the seed's references, Hoffmann, Huang, Waslander & Tomlin,
+AIAA GNC 2007, and Bayezit & Fidan, IEEE TIE 60(12) 2013)::
 
     F = m p''                                                    (3.23)
     M = I omega' + omega x I omega                               (3.24)
     F = -D(V_a) e_V + m g e_D + sum_j (-T_j R e_z)               (3.25)
     M = sum_j (M_j + r_j x (-T_j e_z))                           (3.26)
 
-with p the position (NED), omega the body rate (FRD), R = R(q_nb), e_D the unit down
-vector, e_z the body z axis (rotor planes are the body x-y plane), r_j the position of
-rotor j from the centre of gravity, T_j its thrust and M_j its reaction moment
-(+-k_M T_j about body z). D is the body drag along e_V, the direction of the velocity
-*relative to the air* (wind and turbulence included), as the seed says "a function of
-vehicle and wind speed":
-
-    D(V_a) = c_lin V_a + 1/2 rho CdA V_a^2
-
-The rotors' angular momenta cancel in pairs and are neglected, as in the seed. Each
-rotor's thrust follows its static value T_ss(u_j) through a first-order lag
-(the seed's "time delay in thrust ... approximated as a first-order delay", eq 3.31):
-
-    tau T_j' = T_ss(u_j) - T_j          (exact discretisation: T += (T_ss - T)(1 - e^(-dt/tau)))
-
-Attitude is the quaternion q_nb, propagated by q <- q (x) Exp(omega dt) and
-renormalised (seed eqs 1.13-1.14; the convention of ``autopilot.geo.rotations``,
-written here on plain floats for speed and checked against it in the tests).
-
-Airframe: the F450 class, numbers from JSBSim's F450 aircraft (the ``jsbsim`` wheel's
-``aircraft/F450``, ``engine/DJI_E305.xml``, ``engine/DJI_9450.xml``): mass 1.4 kg,
-I = diag(0.019, 0.019, 0.0252) kg m^2, rotors at 0.1651 m on both body axes of its X
-layout, i.e. 0.2335 m from the centre; DJI E305 motor (960 rpm/V, 0.117 ohm, 0.45 A
-no-load, 14.63 V at full command) with the DJI 9450 propeller (9.4 in; static
-C_T = 0.1288, C_P = 0.0666; rotor inertia 6.05e-5 kg m^2); drag area 0.0161 m^2 (CD 1.0
-on 0.016129 m^2). Derived:
-
-* static thrust: the motor current (V - omega/Kv)/R less the no-load current, times
-  the torque constant 1/Kv, balances the propeller torque C_P rho n^2 D^5 / 2 pi; the
-  resulting omega gives T_ss = C_T rho n^2 D^4 (n = omega / 2 pi). About 15.7 N per
-  rotor at full command at sea level; hover (3.43 N per rotor) at u = 0.41.
-* reaction moment per newton of thrust: k_M = C_P D / (2 pi C_T) = 0.0197 m.
-* thrust time constant: the rotor speed's small-signal time constant at hover,
-  tau = J_rotor / (1/(R Kv^2) + 2 c_Q omega_hover) = 0.055 s (thrust ~ omega^2 has
-  the same time constant).
-* the linear drag c_lin = 0.25 N s/m stands for the rotors' drag (blade flapping and
-  induced drag), which the JSBSim model lacks; it is an estimate for this size of
-  vehicle, not a measured figure.
-
-The seed's mixer (eq 3.30) is written for rotors on the body axes (a "+" layout), so
-the F450 is flown "+": body x along one arm (a symmetric frame; its inertia is the same
-in both layouts). Rotors, numbered as eq 3.30 needs them with FRD signs, and the
-HIL_ACTUATOR_CONTROLS channel that drives each (0..1):
+with the drag along the air-relative velocity, ``D(V_a) = c_lin V_a + 1/2 rho CdA V_a^2``,
+each rotor's thrust following its static value through a first-order lag (eq 3.31,
+discretised exactly), and the attitude quaternion propagated by
+``q <- q (x) Exp(omega dt)`` and renormalised (eqs 1.13-1.14, the convention of
+``autopilot.geo.rotations``). The airframe is the F450 class from JSBSim's F450 data,
+flown "+" (the seed's mixer, eq 3.30)::
 
     channel 0  rotor 1  aft    (x = -l)   spins counter-clockwise seen from above
     channel 1  rotor 2  left   (y = -l)   clockwise
     channel 2  rotor 3  front  (x = +l)   counter-clockwise
     channel 3  rotor 4  right  (y = +l)   clockwise
 
-so that thrust on 2 rolls right, on 3 pitches nose up, and on 1 and 3 (whose drag
-torque on the airframe points down, +z) yaws the nose right:
-
     M = (l (T2 - T4), l (T3 - T1), k_M (T1 + T3 - T2 - T4)).
 
-Ground contact: the terrain is flat at the home altitude; the vehicle rests on its
-skids with the centre of gravity ``gear_height_m`` above it, still (the accelerometer
-reads the ground's reaction) until the rotors' upward thrust exceeds its weight. A
-touchdown (the skids reaching the ground) stops it within the step -- no sinking, no
-bouncing -- and the accelerometer sees that impulse (a one-step spike integrating to
-the lost velocity, so an inertial navigator stops with it); a tilted vehicle then
-levels on its skids through body rates the gyro sees (``LEVEL_RATE``), never by a jump
-of attitude. A touchdown faster than ``CRASH_SPEED_MPS`` or more tilted than
-``CRASH_TILT_RAD`` sets ``crashed``.
+Ground contact: flat terrain at home altitude; the vehicle rests on its skids, a
+touchdown stops it within the step (no sinking, no bouncing) and the IMU sees the
+impulse; too fast or too tilted sets ``crashed``.
+
+The airframe's numbers and how each is derived (static thrust, k_M, tau), the drag, and
+the ground contact: docs/simulator.md, "The quadrotor plant".
 """
 from __future__ import annotations
 

@@ -5,77 +5,17 @@ All values are SI: m, s, rad, Pa, K; magnetic field in gauss (1 G = 100 uT = 1e5
 with the step ``dt``:  white sigma = density / sqrt(dt) (= density * sqrt(rate)),
 random-walk increment sigma = density * sqrt(dt).
 
-Sources of the defaults (datasheet figures, then the margin we add for an airframe):
+The defaults are data-sheet figures of the usual parts (IMU: ICM-20602 / BMI088; GPS:
+u-blox M8N / M9N; barometer: MS5611; magnetometer: HMC5883L / IST8310; airspeed:
+MS4525DO) with a margin for the airframe. The GPS error is told apart by time scale:
+white fix to fix, a first-order Gauss-Markov wander over minutes, and the hours-scale
+offset the data sheet's accuracy measures, left out of the defaults (no filter can
+observe it over a flight) and put back, pessimistically, by :data:`GPS_LONG_HORIZON`.
+The barometer drifts with the weather's pressure tendency, a constant rate per flight.
+``GPS_PRESETS`` names the receiver models ``--gps`` chooses.
 
-* IMU, MEMS class: TDK InvenSense ICM-20602 (gyro 0.004 deg/s/sqrt(Hz), accel
-  100 ug/sqrt(Hz), gyro zero-rate offset +-1 deg/s, accel zero-g offset +-25 mg) and
-  Bosch BMI088 (gyro 0.014 deg/s/sqrt(Hz), accel 175 ug/sqrt(Hz)). The defaults sit
-  between the two. Turn-on biases are the residuals left after the usual level/gyro
-  calibration at boot, not the raw datasheet offsets. Bias random walk densities
-  correspond to a few deg/h of in-run instability, typical of these parts.
-* GPS: u-blox M8N / M9N class receiver, open sky, on an airframe. Its position error
-  has three parts, told apart by their time scales:
-
-  - hours (satellite clock and ephemeris, ionosphere, troposphere): metres. This is
-    what the data sheet's accuracy measures: NEO-M8 data sheet (UBX-15031086), 2.5 m
-    CEP GPS+GLONASS, 2.0 m with SBAS, footnote "CEP, 50 %, 24 hours static, -130 dBm,
-    > 6 SVs". Over a flight of minutes it is an almost constant offset of the whole
-    frame: no GPS/IMU filter can observe it, and waypoints surveyed with the same kind
-    of receiver share it. The defaults leave it out; :data:`GPS_LONG_HORIZON` puts it
-    back (pessimistically: at the minute time scale).
-  - minutes (multipath and satellite-geometry changes): a first-order Gauss-Markov
-    process with tau 60 s -- multi-day static tests of consumer receivers with SA off
-    (D. L. Wilson, "Correlation of errors" and "GPS error when averaging position",
-    users.erols.com/dlwilson/gpscorr.htm and gpsavg.htm) show the error's
-    autocorrelation bending at about 1 min before the long-term part takes over;
-    stationary L1 receivers are fitted better by an Ornstein-Uhlenbeck process than by
-    white noise (Soundy et al., Sensors 20(21) 6050, 2020). Size: a few decimetres,
-    0.2 m per horizontal axis (0.28 m radial RMS, 0.5 m at 95 %), twice that
-    vertically (VDOP about 1.4 HDOP: per axis a factor of about 2).
-  - fix to fix (receiver noise; multipath of a moving antenna, which decorrelates
-    within about a second): white, 0.3 m per horizontal axis and 0.6 m vertically --
-    receiver noise of 0.6 m (1 sigma) per pseudorange (NRC, "The Global Positioning
-    System: A Shared National Asset", 1995, table C-1) times HDOP 0.7 / sqrt(2) per
-    horizontal axis and VDOP 1.0.
-
-  Together 0.36 m per horizontal axis (CEP 0.42 m) over a flight, the size of what the
-  reference autopilots' filters assume of such a receiver on their time scale of
-  seconds to a minute: ArduPilot EK3_POSNE_M_NSE = 0.5 m (AP_NavEKF3.cpp,
-  POSNE_M_NSE_DEFAULT), PX4 EKF2_GPS_P_NOISE = 0.5 m (params_gnss.yaml), both white
-  noise (floors under the receiver's reported accuracy). Velocity:
-  0.05 m/s speed accuracy (50 %) in the data sheet; 0.1 m/s white per horizontal axis
-  with a margin for the airframe. Navigation rate 5-10 Hz, latency ~100-200 ms.
-
-  The reference SITLs simulate less. ArduPilot's (libraries/SITL/SIM_GPS.cpp) adds no
-  horizontal position error by default: SIM_GPS1_NOISE (an altitude sine of that
-  amplitude), _DRFTALT, _GLTCH and _VERR all default to 0. PX4's Gazebo Classic plugin
-  (PX4-SITL_gazebo-classic, src/gazebo_gps_plugin.cpp) runs
-  ``bias += random_walk * dt - bias / gps_corellation_time`` once per 4 ms physics
-  step: the decay is per step, not per second (PX4-SITL_gazebo-classic issue #816), so
-  its "60 s" correlation time is 60 steps = 0.24 s, and with gpsXYRandomWalk = 2
-  (m/s)/sqrt(Hz) the bias settles at 2 * 0.004^1.5 * sqrt(60 / 2) = 3 mm per axis, plus
-  2e-4 m/sqrt(Hz) * sqrt(0.004 s) = 13 um white. Our earlier default took that "60 s"
-  as PX4's value and paired it with the data sheet's 24-hour error (1.2 m per axis
-  wandering at minute rate): the model of neither the receiver nor PX4.
-* Barometer: TE MS5611 (RMS resolution 0.012 mbar = 1.2 Pa at OSR 4096, ~1 cm of
-  altitude per 0.12 Pa); we use 3 Pa (about 0.25 m) to include airframe and propwash
-  pressure noise. Drift: the weather's pressure tendency, a constant rate over a flight
-  drawn once per run with sigma 1 hPa per 3 h (0.0093 Pa/s, 0.8 mm/s of altitude; the
-  Met Office's shipping-forecast terms call 0.1-1.5 hPa in 3 h "rising/falling
-  slowly" and 1.6-3.5 hPa plain "rising/falling"), so about 0.5 m after 10 min at one
-  sigma. The reference SITLs default to no drift at all: PX4's Gazebo Classic
-  barometer (gazebo_barometer_plugin.cpp) adds 1 Pa white noise and a linear drift
-  baroDriftPaPerSec that defaults to 0; ArduPilot's SIM_BARO_DRIFT defaults to 0 and its
-  board-temperature factor SIM_TEMP_BFACTOR too. A random-walk drift
-  (``baro_drift_rw_density``, Pa/sqrt(s)) is kept for studies, default 0: our earlier
-  default of 0.3 Pa/sqrt(s) had no source, and with it the quadrotor's altitude hold
-  was set by the simulated sensor's wander, not by the autopilot.
-* Magnetometer: Honeywell HMC5883L (noise floor 2 mG) and iSentek IST8310 (0.3 uT =
-  3 mG resolution); default 5 mG per axis including airframe currents. Hard-iron
-  offset is a parameter, default 0 (a calibrated installation).
-* Airspeed: TE MS4525DO, +-1 psi differential (14 bit over 13.8 kPa span = 0.84 Pa per
-  count); default 1.5 Pa (about two counts) white noise, zero offset (calibrated at
-  boot, as ArduPilot and PX4 do).
+Each default with its source, and how the reference SITLs (ArduPilot's, PX4's Gazebo
+plugins) model the same sensor: docs/simulator.md, "The sensor models".
 """
 from __future__ import annotations
 
