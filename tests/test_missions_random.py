@@ -238,3 +238,21 @@ def test_campaign_files_draw_a_new_valid_mission_per_trial(vehicle):
         missions.add(dumps_waypoints(m))
     assert len(missions) == 5
     assert any("invariants_passed" in cr.keys for cr in c.criteria.values())
+
+
+def test_sitl_missions_sample_flies_and_counts(tmp_path):
+    """sitl missions sample: one JSON line per flight (figures, each invariant, the command
+    that flies it again), counts and percentiles on stderr, exit 0 when all held."""
+    out = tmp_path / "s.jsonl"
+    r = _sitl("missions", "sample", "--vehicle", "quad", "--seeds", "1-1", "--max-time", "90",
+              "--jsonl", str(out), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout.splitlines()[0])
+    assert json.loads(out.read_text()) == rec
+    assert rec["seed"] == 1 and rec["invariants_passed"] is True
+    assert set(rec["invariants"]) >= {"mission_order", "no_orbit", "time_bound", "finite_log"}
+    assert rec["command"].startswith("sitl run --vehicle quad --mission random:quad:1:90 ")
+    assert "quad: 1 flights, every invariant held on 1" in r.stderr
+    assert "xtrack_mission_rms_m" in r.stderr and "p95" in r.stderr
+    bad = _sitl("missions", "sample", "--seeds", "5-2", cwd=tmp_path)
+    assert bad.returncode == 2 and "--seeds" in bad.stderr

@@ -679,3 +679,47 @@ def fly_sample(vehicle: str, seed: int, budget_s: float | None = None, weather: 
     session = Session(cfg)
     session.run()
     return run_summary(session)
+
+
+# --- a sample of flights, one after the other ------------------------------------------
+
+SAMPLE_FIGURES = ("xtrack_mission_rms_m", "xtrack_mission_max_m", "xtrack_rms_m", "xtrack_max_m")
+
+
+def sample_record(vehicle: str, seed: int, budget_s: float | None, summary: dict) -> dict:
+    """One line of ``sitl missions sample``: the flight's key figures, every invariant as
+    [passed, figure, seq], and the command that flies it again."""
+    rec = {k: summary.get(k) for k in ("vehicle", "seed", "completed", "crashed",
+                                       "invariants_passed", "sim_time_s", "wind_speed_mps",
+                                       "wind_from_deg", "turbulence", "false_alarms",
+                                       "xtrack_mission_worst_leg") + SAMPLE_FIGURES}
+    rec["invariants"] = {k: [v["passed"], v["figure"], v.get("seq")]
+                         for k, v in summary["invariants"].items()}
+    rec["command"] = sample_command(vehicle, seed, budget_s)
+    return rec
+
+
+def sample_statistics(records: list[dict]) -> str:
+    """Pass counts per invariant and p50/p95/p99/max of the cross-track figures."""
+    out = []
+    for vehicle in VEHICLES:
+        rs = [r for r in records if r["vehicle"] == vehicle]
+        if not rs:
+            continue
+        out.append(f"{vehicle}: {len(rs)} flights, every invariant held on "
+                   f"{sum(bool(r['invariants_passed']) for r in rs)}")
+        names = list(rs[0]["invariants"])
+        out.append("  held: " + ", ".join(
+            f"{n} {sum(bool(r['invariants'][n][0]) for r in rs)}" for n in names))
+        for key in SAMPLE_FIGURES:
+            x = np.array([r[key] for r in rs if r[key] is not None], dtype=float)
+            if x.size:
+                p50, p95, p99 = np.percentile(x, [50, 95, 99])
+                out.append(f"  {key:21s} n={x.size:4d}  p50 {p50:8.2f}  p95 {p95:8.2f}  "
+                           f"p99 {p99:8.2f}  max {x.max():8.2f}")
+        failed = [r for r in rs if not r["invariants_passed"]]
+        for r in failed:
+            why = ", ".join(f"{n} {f[1]:.4g}" + (f" at item {f[2]}" if f[2] is not None else "")
+                            for n, f in r["invariants"].items() if not f[0] and f[1] is not None)
+            out.append(f"  FAILED seed {r['seed']}: {why}  ({r['command']})")
+    return "\n".join(out)

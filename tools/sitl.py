@@ -6,6 +6,7 @@
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
                 [--gcs [URL] ...] [--param-store FILE] [--wipe] [--signing-key FILE]
     sitl missions random --vehicle plane|quad --seed N -o FILE [--max-time S]
+    sitl missions sample --vehicle plane|quad --seeds FIRST-LAST [--max-time S] [--jsonl FILE]
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
@@ -202,6 +203,39 @@ def cmd_missions(args) -> int:
     return 0
 
 
+def cmd_missions_sample(args) -> int:
+    """Fly random missions one after the other; a JSON line per flight, then statistics."""
+    import json as _json
+
+    from .missions_random import fly_sample, sample_record, sample_statistics
+    try:
+        lo, hi = (int(x) for x in args.seeds.split("-", 1)) if "-" in args.seeds \
+            else (int(args.seeds), int(args.seeds))
+    except ValueError:
+        raise CliError(f"--seeds: FIRST-LAST or N, got {args.seeds!r}") from None
+    if lo < 0 or hi < lo:
+        raise CliError(f"--seeds: FIRST-LAST with 0 <= FIRST <= LAST, got {args.seeds!r}")
+    if args.max_time is not None and not args.max_time > 0:
+        raise CliError("--max-time: seconds > 0")
+    out = open(args.jsonl, "a", encoding="utf-8") if args.jsonl else None
+    records = []
+    try:
+        for seed in range(lo, hi + 1):
+            rec = sample_record(args.vehicle, seed, args.max_time,
+                                fly_sample(args.vehicle, seed, args.max_time))
+            records.append(rec)
+            line = _json.dumps(rec, sort_keys=True)
+            print(line, flush=True)
+            if out is not None:
+                out.write(line + "\n")
+                out.flush()
+    finally:
+        if out is not None:
+            out.close()
+    print(sample_statistics(records), file=sys.stderr)
+    return 0 if all(r["invariants_passed"] for r in records) else 1
+
+
 def cmd_params(args) -> int:
     from .params_cli import params_command
     try:
@@ -309,6 +343,15 @@ def build_parser() -> argparse.ArgumentParser:
     mr.add_argument("--max-time", type=float, default=None,
                     help="estimated still-air flight time to stay under [s] (default: plane 720, quad 420)")
     mr.set_defaults(func=cmd_missions)
+    msa = ms_sub.add_parser("sample", help="fly random missions one after the other, each in its own "
+                                           "weather; a JSON line per flight, invariant counts and "
+                                           "cross-track percentiles at the end (exit 1 if any failed)")
+    msa.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    msa.add_argument("--seeds", required=True, help="FIRST-LAST (inclusive) or N")
+    msa.add_argument("--max-time", type=float, default=None,
+                     help="shorten each mission to this estimated still-air time [s]")
+    msa.add_argument("--jsonl", help="also append the JSON lines to this file")
+    msa.set_defaults(func=cmd_missions_sample)
     pp = sub.add_parser("params", help="save or load a .parm file (persistent store or a live vehicle)")
     pp.add_argument("action", choices=["save", "load"])
     pp.add_argument("file")
