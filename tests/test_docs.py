@@ -111,6 +111,19 @@ def test_every_relative_link_resolves(page):
 _UP = "." + "./"     # spelt so that a grep of the repository for it finds only real uses
 
 
+def test_every_page_is_in_the_reading_order_and_the_readme_stays_short():
+    # every page of docs/ is reachable from the index a newcomer reads in order
+    index = (ROOT / "docs" / "index.md").read_text()
+    linked = {t.partition("#")[0] for t in _LINK.findall(_prose(index))}
+    pages = {p.name for p in (ROOT / "docs").glob("*.md")} - {"index.md"}
+    assert sorted(pages - linked) == [], "list the page in docs/index.md"
+    readme = (ROOT / "README.md").read_text()
+    in_readme = {t.partition("#")[0].removeprefix("docs/") for t in _LINK.findall(_prose(readme))}
+    assert sorted(pages - in_readme) == [], "list the page in the README's table of contents"
+    # and the README stays the way in, not the manual: new material goes to docs/
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 150
+
+
 def test_the_checker_finds_a_broken_link(tmp_path):
     # GIVEN a page with one good and three broken links, and links the reader never sees
     (tmp_path / "docs").mkdir()
