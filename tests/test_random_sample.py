@@ -47,4 +47,4 @@ def test_random_mission_keeps_every_invariant(vehicle, seed):
     s = fly_sample(vehicle, seed, BUDGET_S[vehicle])
     failed = {k: v for k, v in s["invariants"].items() if not v["passed"]}
     assert not failed, failed
-    assert s["invariants_passed"] and s["completed"] and not s["crashed"]
+    assert s["invariants_passed"] and not s["crashed"]

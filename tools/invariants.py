@@ -31,8 +31,8 @@ where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name
 concerned, ``"seq"``, or null):
 
 * ``mission_order``: the navigation items reached are exactly those of the resolved
-  order (``expected_order``), and the end of the mission was flown (summary
-  ``completed``). Figure: the
+  order (``expected_order``), and the end of the mission was flown (the sequencer
+  finished: the fixed-wing's loiter over home established, the quad landed; not crashed). Figure: the
   number of expected visits not matched in order (the first mismatch onwards).
 * ``time_bound``: done (completed) within ``TIME_FACTOR`` x the mission's time estimate
   at the worst-wind ground speed (``missions_random.estimate_time_s`` with every speed
@@ -389,7 +389,12 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
             figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],
                                                 "rms_m": w["xtrack_rms_m"], "max_m": w["xtrack_max_m"]}
     fault_free = not session.bridge.fault_log and session.gcs is None
-    inv = check_invariants(a, mission, vehicle, events, completed=bool(summary.get("completed")),
+    # the end of the mission flown (the fixed-wing's loiter over home established, the
+    # quad landed), not crashed; which items were reached is mission_order's to judge
+    # (the summary's `completed` also counts DO items, which a condition may drop)
+    seq = v.sequencer
+    ended = bool(seq is not None and seq.finished and seq.rtl_established and not session.crashed)
+    inv = check_invariants(a, mission, vehicle, events, completed=ended,
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),
                            fault_free=fault_free, log_events=session.log.events)
