@@ -18,7 +18,7 @@ from tools.missions_random import fly_sample
 
 BUDGET_S = {"plane": 180.0, "quad": 90.0}
 PLANE_SEEDS = [*range(0, 20), 34]   # 34: the waypoint circled for ever
-QUAD_SEEDS = range(0, 10)
+QUAD_SEEDS = [*range(0, 10), 44]   # 44: CONDITION_YAW / _DISTANCE, NAV_DELAY
 
 # (vehicle, seed) -> why it fails today (issue 15's failure classes)
 KNOWN_FAILURES = {
