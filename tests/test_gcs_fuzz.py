@@ -21,9 +21,11 @@ PARAM_NAMES = (b"NAVL1_PERIOD", b"RTL_ALT", b"FS_GCS_ENABL", b"FS_GCS_TIMEOUT", 
                b"\xff\xfe\x00garbage", b"X" * 16)
 
 
-# every message type, less MISSION_CLEAR_ALL: with any field values it is a legitimate
-# request to clear the mission (mission_type 255 means "all"), not an absurd one
-RANDOM_TYPES = [c for c in mav2.mavlink_map.values() if c.msgname != "MISSION_CLEAR_ALL"]
+# every message type, less MISSION_CLEAR_ALL and SETUP_SIGNING: with any field values they
+# are legitimate requests (clear the mission -- mission_type 255 means "all" -- and, on a
+# vehicle without a key, set up signing with that key), not absurd ones
+RANDOM_TYPES = [c for c in mav2.mavlink_map.values() if c.msgname not in ("MISSION_CLEAR_ALL",
+                                                                            "SETUP_SIGNING")]
 
 
 def _absurd_value(rng: random.Random, fmt: str, name: str):

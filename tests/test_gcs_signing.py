@@ -113,6 +113,32 @@ def test_restart_timestamp_and_key_store(tmp_path):
         read_key_file(tmp_path / "z")
 
 
+def test_setup_signing_refused_while_armed_and_with_an_impossible_timestamp():
+    """The class of SETUP_SIGNING a vehicle must not obey: in flight (ArduPilot refuses
+    it armed), or with an initial timestamp the 48-bit signature cannot carry (it would
+    overflow every signature after it). Refused with a STATUSTEXT; the key unchanged."""
+    from test_gcs_protocol import make_core, take, wire
+    core, v, _, _ = make_core()
+    core.signing = Signing(clock=lambda: NOW)
+    changes = []
+    core.on_signing_change = lambda: changes.append(core.signing.key)
+    for ts in (2**48, 2**64 - 1):
+        core.receive(1, wire(mav2.MAVLink_setup_signing_message(1, 1, list(KEY), ts)), 0)
+        assert [m.text for m in take(core, kind="STATUSTEXT")] == ["Signing: initial timestamp out of range"]
+    assert not core.signing.active and changes == []
+    core.receive(1, wire(mav2.MAVLink_setup_signing_message(1, 1, list(KEY), 2**48 - 1)), 0)
+    assert core.signing.key == KEY and changes == [KEY] and core.signing.timestamp == 2**48 - 1
+    assert [m.text for m in take(core, kind="STATUSTEXT")] == ["Signing on: key set"]
+    c = Codec(1, 1)
+    c.signing = core.signing
+    assert _pymav(KEY, ts=0).decode(bytearray(c.encode(mav2.MAVLink_heartbeat_message(1, 3, 0, 0, 0, 3))))
+    v.armed = True
+    core.receive(1, wire(mav2.MAVLink_setup_signing_message(1, 1, [0] * 32, 0)), 0)
+    assert [m.text for m in take(core, kind="STATUSTEXT")] == ["Won't setup signing when armed"]
+    assert core.signing.key == KEY and changes == [KEY]
+    assert core.errors == 0
+
+
 # ----------------------------------------------------------------- over sockets ---
 def _client(url, key=None, sysid=255, link_id=0, heartbeat=True):
     """pymavlink as a user sets it up: MAVLINK20=1 (mavutil speaks MAVLink 1 without it)

@@ -36,7 +36,9 @@ anything else                           UNSUPPORTED
 =====================================  ===========================================
 
 SETUP_SIGNING (no reply, as in the protocol) sets the signing key, or removes it with an
-all-zero key; the check of every incoming signature is the service's (``service.py``).
+all-zero key; refused while armed (as ArduPilot) and with an initial timestamp that does
+not fit the signature's 48 bits. The check of every incoming signature is the service's
+(``service.py``).
 
 Optional vehicle methods beyond ``VehicleApi`` (used when present, else UNSUPPORTED):
 ``takeoff(alt_m, t_us)``, ``set_speed(speed_mps, t_us)``,
@@ -53,6 +55,7 @@ from __future__ import annotations
 import math
 
 from ..link.codec import MAV
+from ..link.signing import TIMESTAMP_MAX
 from .mission import MissionServer
 from .params import ParamServer
 from .telemetry import MIN_INTERVAL_US, NAME_BY_ID, ONE_SHOT, STREAMS, Telemetry
@@ -251,6 +254,12 @@ class GcsCore:
         link only."""
         if self.signing is None:
             self.ignored += 1
+            return
+        if self.vehicle.armed:                      # as ArduPilot: never in flight
+            self.say(SEV_WARNING, "Won't setup signing when armed")
+            return
+        if not 0 <= int(msg.initial_timestamp) <= TIMESTAMP_MAX:
+            self.say(SEV_WARNING, "Signing: initial timestamp out of range")
             return
         key = bytes(int(b) & 0xFF for b in msg.secret_key)
         if not any(key):

@@ -28,11 +28,13 @@ the key and its timestamp in an owner-only file, the timestamp saved every
 ``TIMESTAMP_SAVE_S`` and at close.
 
 Input budget: every client may have ``INPUT_RATE`` frames a second handled (messages,
-rejected frames and stretches of garbage alike), up to ``INPUT_BURST`` at once. A client
-over its budget is paused: what it sent waits in the codec's buffer (at most one read,
-``links.READ_SIZE`` bytes, plus a frame) and in the kernel, so however fast it sends it
-costs the flight loop at most ``INPUT_RATE`` frames a second and this process at most
-``READ_SIZE`` + ``links.MAX_BACKLOG`` bytes of buffers.
+rejected frames and stretches of garbage alike), up to ``INPUT_BURST`` at once, and all
+clients together ``TOTAL_INPUT_RATE`` (each gets min(INPUT_RATE, TOTAL_INPUT_RATE / n)
+with n clients). A client over its budget is paused: what it sent waits in the codec's
+buffer (at most one read, ``links.READ_SIZE`` bytes, plus a frame) and in the kernel, so
+however fast the clients send they cost the flight loop at most ``TOTAL_INPUT_RATE``
+frames a second, and this process at most ``READ_SIZE`` + ``links.MAX_BACKLOG`` bytes of
+buffers per client.
 """
 from __future__ import annotations
 
@@ -49,6 +51,7 @@ from .tlog import TlogWriter
 _V1_MAX_ID = 255
 _SETUP_SIGNING = 256
 INPUT_RATE = 1000.0        # frames a second a client may have handled
+TOTAL_INPUT_RATE = 2000.0  # ... and every client together: each min(INPUT_RATE, this / clients)
 INPUT_BURST = 200.0        # frames at once
 REFUSAL_REPORT_S = 10.0    # at most one STATUSTEXT about refused messages this often
 TIMESTAMP_SAVE_S = 30.0    # the stored signing timestamp is refreshed this often
@@ -200,7 +203,8 @@ class GcsService:
         if b is None:
             return 0
         now = self.clock()
-        b[0] = min(INPUT_BURST, b[0] + (now - b[1]) * INPUT_RATE)
+        rate = min(INPUT_RATE, TOTAL_INPUT_RATE / len(self._budget))
+        b[0] = min(INPUT_BURST, b[0] + (now - b[1]) * rate)
         b[1] = now
         return int(b[0])
 

@@ -39,6 +39,7 @@ from pathlib import Path
 EPOCH_2015_S = 1420070400          # Unix time of 1 January 2015 00:00 GMT
 UNITS_PER_S = 100_000              # timestamp units: 10 us
 ONE_MINUTE = 60 * UNITS_PER_S      # the new-stream window and the restart margin
+TIMESTAMP_MAX = (1 << 48) - 1      # the signature's 48-bit timestamp
 SIGNATURE_LEN = 13
 IFLAG_SIGNED = 0x01
 KEY_LEN = 32
@@ -173,7 +174,8 @@ class Signing:
             raise ValueError(f"a signing key is {KEY_LEN} bytes, not {len(key)}")
         self.key = bytes(key)
         self.streams.clear()
-        self.timestamp = max(self.timestamp, int(timestamp), clock_timestamp(self.clock()))
+        self.timestamp = min(max(self.timestamp, int(timestamp), clock_timestamp(self.clock())),
+                             TIMESTAMP_MAX)
 
     def restore(self, key: bytes, stored_timestamp: int) -> None:
         """Start-up from the store: just over one minute past the stored timestamp (or
@@ -188,6 +190,8 @@ class Signing:
         now = clock_timestamp(self.clock())
         if now > ts:
             ts = now
+        if ts > TIMESTAMP_MAX:              # 48 bits: about 890 years after 2015
+            ts = TIMESTAMP_MAX
         self.timestamp = ts
         return ts
 
