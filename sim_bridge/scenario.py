@@ -11,6 +11,7 @@
     type = "off"          # ok, off, stuck, garbage, wrong, slow, delayed, intermittent
     instance = 0
     # magnitudes of the fault as further keys: see sim_bridge.faults.catalogue
+    # (a sensor's body axis as axis = "x", "y", "z" or 0, 1, 2)
 
 Everything is checked when the file is loaded, against the fault injector's own
 catalogue: an unknown key, unit or type, a magnitude the fault does not take, a value
@@ -30,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .faults.catalogue import (
-    ALL_MAGNITUDES, SUPPORTED, TYPES, UNITS, FaultSpecError, check_magnitudes,
+    ALL_MAGNITUDES, SUPPORTED, TYPES, UNITS, FaultSpecError, axis_index, check_magnitudes,
 )
 
 TURBULENCE = ("none", "light", "moderate", "severe")
@@ -232,6 +233,8 @@ def _build(data: dict, lines: _Lines, path: str) -> Scenario:
             check_magnitudes(unit, ftype, mags)
         except FaultSpecError as e:
             fail(str(e), table, e.key)
+        if "axis" in mags:   # "x"/"y"/"z" or 0/1/2, kept as the index the injector uses
+            mags["axis"] = axis_index(mags["axis"])
         events.append(Event(at_s, unit, ftype, instance, mags))
     events.sort(key=lambda e: e.at_s)
     return Scenario(wind, tuple(events), path)

@@ -46,7 +46,24 @@ def test_gps_noise_x7_detected_within_2s_isolated_to_gps_pos():
     f = summ["faults"][0]
     assert f["delay_s"] is not None and f["delay_s"] <= 2.0
     assert f["isolated"] == "gps_pos"
+    # AND the velocity channel, whose noise is nominal, is not named
+    assert f["isolated_all"] == ["gps_pos"]
     assert summ["false_alarms"] == 0
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_gps_position_and_velocity_noisy_both_named(seed):
+    # GIVEN GPS position and velocity noise both x7 from 100 s (two faulty channels)
+    s, summ = _fly("fault_gps_noise_pos_vel.toml", 103.0, seed)
+    f = summ["faults"][0]
+    # THEN detected within 2 s, the one most to blame isolated, and both named
+    assert f["delay_s"] is not None and f["delay_s"] <= 2.0
+    assert f["isolated"] in ("gps_pos", "gps_vel")
+    assert sorted(f["isolated_all"]) == ["gps_pos", "gps_vel"]
+    assert f["isolated_all"][0] == f["isolated"]
+    # AND the STATUSTEXT of the isolation names them both
+    texts = [e[1] for e in s.log.events if "fault isolated" in e[1]]
+    assert texts and all(n in texts[0] for n in ("gps_pos", "gps_vel")), texts
 
 
 def test_gps_noise_x7_mmnsf_error_well_under_the_plain_ekf():
@@ -83,6 +100,9 @@ def test_pitch_gyro_bias_isolated_to_gyro_y_within_10s():
     f = summ["faults"][0]
     assert f["delay_s"] is not None and f["delay_s"] <= 10.0
     assert f["isolated"] == "gyro_y"
+    # AND only the gyro is named: the aiding innovations an inertial fault drives are
+    #     its symptoms, not faulty channels
+    assert f["isolated_all"] == ["gyro_y"]
     assert f["isolated_s"] - f["at_s"] <= 10.0
     texts = [e[1] for e in s.log.events]
     # classified as an inertial (process) fault: Q fading, not R adaptation
@@ -135,6 +155,7 @@ def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scena
     summ = run_summary(s)
     f = summ["faults"][0]
     assert f["kind"] == "actuator" and f["isolated"] == "elevator"
+    assert f["isolated_all"] == ["elevator"]
     assert f["delay_s"] is not None and f["delay_s"] <= 5.0
     ident = f["identified_10s"]
     assert ident is not None and key in ident, ident
@@ -156,6 +177,7 @@ def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
     # THEN it is an actuator fault on motor_1, detected and isolated within a second,
     assert (f["unit"], f["type"], f["instance"]) == ("motor", "wrong", 0)
     assert f["kind"] == "actuator" and f["isolated"] == "motor_1"
+    assert f["isolated_all"] == ["motor_1"]
     assert f["delay_s"] is not None and f["delay_s"] <= 1.0
     assert f["isolated_s"] - f["at_s"] <= 1.0
     # identified within 20 % 10 s after the onset (and within 5 % at the end),

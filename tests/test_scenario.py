@@ -151,3 +151,38 @@ def test_gps_outage_scenario_drives_the_injector():
     assert not np.any((arrivals >= 120.0) & (arrivals < 150.0))
     assert np.count_nonzero(arrivals < 120.0) == 600
     assert np.count_nonzero(arrivals >= 150.0) == 100
+
+
+@pytest.mark.parametrize("written, index", [
+    ('"x"', 0), ('"y"', 1), ('"z"', 2), ('"Y"', 1), ("0", 0), ("1", 1), ("2", 2)])
+def test_axis_by_name_or_index(written, index):
+    # GIVEN a gyro 'wrong' event whose axis is written as a name or an index
+    text = f'[[event]]\nat_s = 1.0\nunit = "gyro"\ntype = "wrong"\nbias = 0.05\naxis = {written}\n'
+    # WHEN loaded
+    ev = parse_scenario_text(text, "x.toml").events[0]
+    # THEN the event carries the body axis index
+    assert ev.magnitudes == {"bias": 0.05, "axis": index}
+    # AND the injector biases exactly that axis of the gyro
+    dt = 0.02
+    params = SensorParams()
+    inj = FaultInjector(np.random.default_rng(0), params, dt)
+    assert inj.inject(ev.unit_id, ev.type_id, ev.instance, **ev.magnitudes)
+    truth = PlantState(0, math.radians(47.0), math.radians(8.0), 500.0, np.zeros(3),
+                       np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), np.array([0, 0, -9.81]),
+                       np.zeros(3), 0.0, 0.0, 0.0, True)
+    readings = SensorSuite(params, np.random.default_rng(1), dt).sample(truth)
+    clean = np.array(readings.gyro_b)
+    shift = np.asarray(inj.apply(readings).gyro_b) - clean
+    np.testing.assert_allclose(shift, np.eye(3)[index] * 0.05, atol=1e-12)
+
+
+@pytest.mark.parametrize("written", ['"w"', '"xy"', "3", "-1", "1.0", "true", '""'])
+def test_bad_axis_lists_what_is_accepted(written):
+    # GIVEN an accel 'wrong' event with an axis that is no body axis
+    text = f'[[event]]\nat_s = 1.0\nunit = "accel"\ntype = "wrong"\naxis = {written}\n'
+    # WHEN loaded; THEN the error points at the axis line and lists the accepted forms
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario_text(text, "x.toml")
+    msg = str(err.value)
+    assert msg.startswith("x.toml:5: axis must be"), msg
+    assert '"x", "y", "z" or 0, 1, 2' in msg

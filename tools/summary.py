@@ -172,8 +172,9 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
     """``faults``: one entry per injected event with ``at_s``, ``unit``, ``type``,
     ``instance``, ``detected_s`` (start of the first monitor detection at or after the
     injection and before the fault ended, or one already running; null if none),
-    ``delay_s``, ``isolated`` (channel named by that detection's episode) and
-    ``isolated_s``, ``kind`` (the monitor's classification: sensor, inertial or
+    ``delay_s``, ``isolated`` (channel named by that detection's episode, the most to
+    blame), ``isolated_all`` (every channel the episode found over its isolation
+    threshold, the most to blame first) and ``isolated_s``, ``kind`` (the monitor's classification: sensor, inertial or
     actuator), ``identified`` (actuator fault parameters, latest estimate, e.g.
     ``{"effectiveness": 0.52}`` or ``{"stuck_rad": 0.049}``; null if none) and
     ``identified_10s`` (the estimate 10 s after the injection).
@@ -185,8 +186,8 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
     out = []
     for r in fault_log:
         e = {"at_s": round(r.at_s, 3), "unit": r.unit, "type": r.type, "instance": r.instance,
-             "detected_s": None, "delay_s": None, "isolated": None, "isolated_s": None,
-             "identified": None, "kind": None, "identified_10s": None}
+             "detected_s": None, "delay_s": None, "isolated": None, "isolated_all": None,
+             "isolated_s": None, "identified": None, "kind": None, "identified_10s": None}
         if r.type == "ok":
             e.pop("detected_s"), e.pop("delay_s")
             e["cleared_s"] = None
@@ -201,6 +202,8 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
                     e["detected_s"] = ep.start_s
                     e["delay_s"] = round(max(ep.start_s - r.at_s, 0.0), 3)
                     e["isolated"] = ep.isolated
+                    e["isolated_all"] = list(getattr(ep, "isolated_all", None) or
+                                             ([ep.isolated] if ep.isolated else []))
                     e["isolated_s"] = ep.isolated_s
                     e["kind"] = getattr(ep, "kind", None)
                     e["identified"] = getattr(ep, "identified", None)

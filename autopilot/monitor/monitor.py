@@ -13,7 +13,8 @@ never told about injected faults.
   against its admissible rate (a gyro fault is a bias step the filter absorbs); the
   elevator's moment-balance residual (:mod:`.actuator`); the rotors' (:mod:`.motors`).
 * Isolation: the channel with the largest sample-variance statistic over its threshold
-  (eqs 2.16-2.17, the max rule). Clearance after FDI_CLR_T with every statistic low.
+  (eqs 2.16-2.17, the max rule); every channel over its threshold in the episode is
+  named as well (``Episode.isolated_all``, several faulty channels). Clearance after FDI_CLR_T with every statistic low.
 * Adaptation: an aiding-sensor fault gets noise scale factors on R (eqs 2.25-2.34,
   FDI_RADAPT); a drift of the velocity innovations is an IMU fault, met with a fading Q
   on the gyro-bias states (eq 2.40, FDI_QFADE) instead, since R adaptation would make
@@ -117,6 +118,8 @@ class Episode:
     kind: str | None = None        # "sensor", "inertial" or "actuator"
     identified: dict | None = None  # actuator fault parameters, latest estimate
     ident_log: list | None = None   # (t_s, identified) once a second
+    isolated_all: list | None = None  # every channel over its isolation threshold (the
+                                      # most to blame first)
 
 
 class _Aiding:
@@ -303,7 +306,8 @@ class FaultMonitor:
                 # actuator fault (the INS/GPS filter is insensitive to actuator faults)
                 self.detected = True
                 self._quiet_us = None
-                ep = Episode(round(t_s, 3), "elevator", "elevator", round(t_s, 3), kind="actuator")
+                ep = Episode(round(t_s, 3), "elevator", "elevator", round(t_s, 3), kind="actuator",
+                             isolated_all=["elevator"])
                 ep.ident_log = []
                 self.episodes.append(ep)
                 self.isolated = "elevator"
@@ -381,6 +385,7 @@ class FaultMonitor:
         iso = None
         iso_ratio = 1.0
         iso_max = 0.0
+        iso_over = []                  # (ratio, channel) over the isolation threshold
         for ch in self._aiding_list:
             last = ch.last_us
             if armed and last is not None and t_us - last > tout:
@@ -404,6 +409,8 @@ class FaultMonitor:
                 over, over_ratio = ch.name, ratio
             if ir > iso_max:
                 iso_max = ir
+            if ir > 1.0:
+                iso_over.append((ir, ch.name))
             if ir > iso_ratio:
                 iso, iso_ratio = ch.name, ir
         for i, name in enumerate(_GYROS):
@@ -412,6 +419,8 @@ class FaultMonitor:
                 over, over_ratio = name, r
             if r > iso_max:
                 iso_max = r
+            if r > 1.0:
+                iso_over.append((r, name))
             if r > iso_ratio:
                 iso, iso_ratio = name, r
         self._iso_max = iso_max
@@ -443,12 +452,33 @@ class FaultMonitor:
             ep.isolated, ep.isolated_s = iso, round(t_s, 3)
             ep.kind = "inertial" if (iso in _INERTIAL or self.qfade_on) else "sensor"
             self.isolated = iso
-            self.events.append((t_s, SEV_CRITICAL, f"FDI: {iso} fault isolated"))
+            # the most to blame first, then every other channel over its threshold now;
+            # an inertial fault drives every aiding innovation: those are its symptoms,
+            # not faulty channels, and an earlier isolation to one of them is withdrawn
+            others = [n for _r, n in sorted(iso_over, reverse=True) if n != iso]
+            if iso in _INERTIAL:
+                ep.isolated_all = [iso] + [n for n in others if n in _INERTIAL]
+            else:
+                ep.isolated_all = (ep.isolated_all or []) + [
+                    n for n in [iso] + others if n not in (ep.isolated_all or ())]
+            also = [n for n in ep.isolated_all if n != iso]
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {iso} fault isolated"
+                                + (f"; also {', '.join(also)}" if also else "")))
             if iso in _INERTIAL and self.radapt.active:
                 self.radapt.active.clear()
                 for ch in self._aiding_list:
                     ch.adapted = False
                 self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
+        elif ep.isolated is not None and not self.qfade_on and ep.isolated not in _INERTIAL:
+            # multi-channel isolation: a further channel over its own threshold joins
+            # the episode's list (the most to blame stays ep.isolated). Not in an
+            # inertial episode: the faded gyro-bias states all move then, and the aiding
+            # innovations are the fault's symptoms
+            for _r, name in sorted(iso_over, reverse=True):
+                if name not in ep.isolated_all:
+                    ep.isolated_all.append(name)
+                    self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} fault isolated too "
+                                                           f"({', '.join(ep.isolated_all)})"))
         # sensor or inertial (process) fault: a drift of the velocity innovations
         self._discriminate(t_s)
         # R adaptation: the aiding channels over their threshold in this episode

@@ -261,6 +261,7 @@ class MotorMonitor:
         if self.isolated is None and self.iso_ratio > 1.0 and g[j] < others[j]:
             self.isolated = f"motor_{j + 1}"
             ep.isolated, ep.isolated_s = self.isolated, t_s
+            ep.isolated_all = [self.isolated]
             self._ident_next_s = t_s + IDENT_MIN_S
             self.events.append((t_s, SEV_CRITICAL, f"FDI: {self.isolated} fault isolated"))
         if self.isolated is not None and t_s >= self._ident_next_s:

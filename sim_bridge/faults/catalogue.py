@@ -20,7 +20,8 @@ scale         noise (1: position noise only)
 bias          wrong: constant offset; gyro rad/s, accel   gyro 0.1, accel 1.0,
               m/s^2, mag gauss, baro metres of altitude,  mag 0.2, baro 20,
               airspeed Pa of differential pressure        airspeed 50
-axis          wrong (gyro/accel/mag): body axis 0/1/2     all three axes
+axis          wrong (gyro/accel/mag): body axis "x",     all three axes
+              "y", "z" or 0/1/2
 rate_div      slow: only every rate_div-th update passes  5
 delay_s       delayed: extra delay [s]                    0.5
 drop_prob     intermittent: probability an update drops   0.5
@@ -144,6 +145,21 @@ def _integer(key: str, value) -> int:
     return value
 
 
+AXES = {"x": 0, "y": 1, "z": 2}   # body axis names (forward, right, down) -> index
+
+
+def axis_index(value) -> int:
+    """A body axis given as "x"/"y"/"z" (any case) or 0/1/2 -> 0/1/2; FaultSpecError
+    listing what is accepted for anything else."""
+    if isinstance(value, str) and value.strip().lower() in AXES:
+        return AXES[value.strip().lower()]
+    if not isinstance(value, bool) and isinstance(value, int) and value in (0, 1, 2):
+        return value
+    raise FaultSpecError(
+        f'axis must be "x", "y", "z" or 0, 1, 2 (body forward, right, down), not {value!r}',
+        "axis")
+
+
 def check_magnitudes(unit: str, ftype: str, magnitudes: dict) -> dict:
     """Validate the magnitudes of a supported (unit, type) and fill in the defaults.
 
@@ -163,9 +179,7 @@ def check_magnitudes(unit: str, ftype: str, magnitudes: dict) -> dict:
             out[key] = v
             continue
         if key == "axis":
-            v = _integer(key, v)
-            if v not in (0, 1, 2):
-                raise FaultSpecError(f"axis must be 0, 1 or 2, not {v}", key)
+            v = axis_index(v)
         elif key == "rate_div":
             v = _integer(key, v)
             if v < 1:
