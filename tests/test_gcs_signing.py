@@ -195,9 +195,29 @@ def test_signed_clients_only_over_sockets_restart_and_removal(tmp_path):
     keyfile.write_text("correct horse battery staple\n")
     keyfile.chmod(0o600)
     store = tmp_path / "store.parm"
-    sitl = Sitl(tmp_path / "run1", "--signing-key", str(keyfile), speedup="1", store=store)
+    sitl = Sitl(tmp_path / "run1", "--signing-key", str(keyfile), speedup="1", store=store,
+                gcs=("tcpin:127.0.0.1:0", "udpin:127.0.0.1:0"))
     t_start = time.monotonic()
     try:
+        # udpin answers the last sender it accepted: an unsigned datagram cannot steer it
+        import re
+        udp_port = int(re.search(r"udpin 127\.0\.0\.1:(\d+)", "".join(sitl.err)).group(1))
+        u = _client(f"udpout:127.0.0.1:{udp_port}", KEY, sysid=246, heartbeat=False)
+        u.mav.heartbeat_send(6, 8, 0, 0, 0)
+        assert wait_for(u, "ATTITUDE", 5.0) is not None
+        intruder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        intruder.bind(("127.0.0.1", 0))
+        intruder.settimeout(0.5)
+        intruder.sendto(_frame(_pymav(None, sysid=244), mav2.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3)),
+                        ("127.0.0.1", udp_port))
+        time.sleep(0.5)
+        while u.recv_match(blocking=False) is not None:
+            pass
+        assert wait_for(u, "ATTITUDE", 2.0) is not None
+        with pytest.raises(socket.timeout):
+            intruder.recv(65536)
+        intruder.close()
+        u.close()
         assert "signing on (key from --signing-key)" in "".join(sitl.err)
         key_file = tmp_path / "store.signing"
         assert stat.S_IMODE(os.stat(key_file).st_mode) == 0o600

@@ -7,7 +7,7 @@ codec and the protocol state machines live elsewhere (sans-IO, STYLE.md lesson 1
 
 * ``tcpin:HOST:PORT``   a server for any number of clients at once (port 0: any free port)
 * ``udpout:HOST:PORT``  send to HOST:PORT, receive the replies on an ephemeral port
-* ``udpin:HOST:PORT``   bind, answer the last sender
+* ``udpin:HOST:PORT``   bind, answer the last sender whose message the service accepted
 
 ``--gcs`` alone listens on the loopback interface only (``DEFAULT_URLS``): a link anyone on
 the network can reach is something the user asks for by address (:func:`exposed` names
@@ -143,8 +143,10 @@ class GcsLinks:
         return self.listeners + [p.sock for p in self.peers.values() if not p.closed and not p.paused]
 
     # -------------------------------------------------------------------- input ---
-    def poll(self, timeout_s: float = 0.0) -> list[tuple[Peer, bytes]]:
-        """Accept new clients and read what has arrived: [(peer, bytes)]."""
+    def poll(self, timeout_s: float = 0.0) -> list[tuple[Peer, bytes, tuple | None]]:
+        """Accept new clients and read what has arrived: [(peer, bytes, sender)], the
+        sender's address for ``udpin`` (the service answers it once it has accepted a
+        message from it: an unsigned datagram cannot steer the replies), else None."""
         fds = self.fds()
         if not fds:
             return []
@@ -162,7 +164,8 @@ class GcsLinks:
             if peer is not None:
                 if peer.paused:
                     continue
-                chunks, size = [], 0
+                runs: list[list] = []          # [sender, datagrams] in arrival order
+                size = 0
                 for _ in range(256):
                     try:
                         data, addr = s.recvfrom(65536)
@@ -170,17 +173,20 @@ class GcsLinks:
                         break
                     except OSError:
                         break  # e.g. ICMP port unreachable on udpout: nobody there yet
-                    if peer.kind == "udpin":
-                        peer.addr = addr
-                    elif addr[1] != peer.addr[1]:
-                        continue  # not from the ground station we send to
-                    chunks.append(data)
+                    if peer.kind != "udpin":
+                        if addr[1] != peer.addr[1]:
+                            continue  # not from the ground station we send to
+                        addr = None
+                    if runs and runs[-1][0] == addr:
+                        runs[-1][1].append(data)
+                    else:
+                        runs.append([addr, [data]])
                     size += len(data)
                     if size >= READ_SIZE:
                         break
-                if chunks:
+                if runs:
                     peer.heard = True
-                    got.append((peer, b"".join(chunks)))
+                    got.extend((peer, b"".join(chunks), addr) for addr, chunks in runs)
                 continue
             peer = self._tcp_peer(s)
             if peer is None or peer.paused:
@@ -195,7 +201,7 @@ class GcsLinks:
                 self._close_peer(peer)
                 continue
             peer.heard = True
-            got.append((peer, data))
+            got.append((peer, data, None))
         return got
 
     def _tcp_peer(self, s) -> Peer | None:

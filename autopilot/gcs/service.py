@@ -210,8 +210,8 @@ class GcsService:
 
     def _read(self, got, t_us: int) -> None:
         self._sync()
-        for peer, data in got:
-            self._handle(peer, data, t_us)
+        for peer, data, sender in got:
+            self._handle(peer, data, t_us, sender)
         self._sync()
 
     def _resume(self, t_us: int) -> bool:
@@ -225,7 +225,7 @@ class GcsService:
             self._sync()
         return resumed
 
-    def _handle(self, peer, data: bytes, t_us: int) -> None:
+    def _handle(self, peer, data: bytes, t_us: int, sender=None) -> None:
         codec = self._rx.get(peer.pid)
         if codec is None:
             return
@@ -258,6 +258,8 @@ class GcsService:
                     self.refused[why] = self.refused.get(why, 0) + 1
                     continue
             accepted += 1
+            if sender is not None:
+                peer.addr = sender          # udpin: answer whoever was last accepted
             v1 = bool(buf) and buf[0] == 0xFE
             if self.tlog is not None and buf and msg._header.msgId != _SETUP_SIGNING:
                 self.tlog.write(t_us, Codec.unsigned(buf))   # keys and signatures stay out of logs
