@@ -355,3 +355,35 @@ def test_report_page_renders_in_headless_chromium(small_campaign, tmp_path):
     assert n_img >= 2
     assert f'data-images-loaded="{n_img}/{n_img}"' in dom.stdout, dom.stdout[-500:]
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20000
+
+
+def test_a_trial_that_raises_or_runs_too_long_is_an_error_row(client, tmp_path):
+    from tools.campaign.execute import run_campaign
+    from tools.campaign.spec import load_campaign
+    # GIVEN a campaign whose first trial's mission file does not exist and whose others
+    # run past a wall-time limit of 0.3 s
+    p = tmp_path / "e.toml"
+    p.write_text(HEAD.replace("trials = 10", "trials = 3").replace("seed = 1", "seed = 3") + 'trial_timeout_s = 0.3\n'
+                 '[dispersion]\nmission = { choice = ["missions/default.waypoints", "missions/nope.waypoints"], '
+                 'weights = [1.0, 1.0] }\n')
+    c = load_campaign(p)
+    missions = [resolve(c, i).inputs["mission"] for i in range(3)]
+    assert set(missions) == {"missions/default.waypoints", "missions/nope.waypoints"}
+    # WHEN it runs
+    res = run_campaign(c, tmp_path / "out", progress=False, client=client)
+    # THEN every trial is stored, as an error with its traceback, and the campaign went on
+    rows = stored_rows(tmp_path / "out")
+    assert res["ran"] == 3 and [r["trial"] for r in rows] == [0, 1, 2]
+    for r, m in zip(rows, missions):
+        assert r["passed"] is None and r["summary_json"] is None
+        if m.endswith("nope.waypoints"):
+            assert r["error"].startswith("Traceback") and "nope.waypoints" in r["error"]
+        else:
+            assert r["error"].startswith("TrialTimeout: the trial ran past its wall-time limit of 0.3 s")
+    from tools.campaign.report import pass_rates
+    from tools.campaign.store import Store
+    s = Store(tmp_path / "out", read_only=True)
+    try:
+        assert pass_rates(s)[0][:3] == ("all", 0, 3)
+    finally:
+        s.close()

@@ -191,7 +191,8 @@ def _worker_name() -> str:
 
 class Progress:
     """done / passed / failed / errors, trials per minute, ETA; one line redrawn on a
-    terminal, a line at most every ``every_s`` otherwise."""
+    terminal; otherwise a line per trial for up to 100 trials, else at most one every
+    ``every_s``."""
 
     def __init__(self, total: int, already: int, stream=sys.stderr, every_s: float = 1.0,
                  counts: tuple[int, int, int] = (0, 0, 0)):
@@ -229,7 +230,7 @@ class Progress:
         now = time.perf_counter()
         if self.tty:
             self.stream.write("\r" + self.line())
-        elif force or now - self.last >= self.every_s or self.done == self.total:
+        elif force or self.total <= 100 or now - self.last >= self.every_s or self.done == self.total:
             self.stream.write(self.line() + "\n")
             self.last = now
         else:
