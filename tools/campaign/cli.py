@@ -111,7 +111,9 @@ def _run(args) -> int:
         print(f"sitl campaign: ran {res['ran']} trials in {res['wall_s']:.1f} s on {res['threads']} "
               f"threads: {res['sim_per_wall']:.1f} simulated s per wall s, "
               f"{res['ran'] / res['wall_s'] * 3600:.0f} trials/h; scheduling and storage "
-              f"{100 * res['overhead']:.1f} % of the workers' time (setup {res['setup_s']:.1f} s)",
+              f"{100 * res['overhead']:.1f} % of the workers' time (setup {res['setup_s']:.1f} s); the "
+              f"trials got {100 * res['trial_cpu_s'] / max(res['trial_wall_s'], 1e-9):.0f} % of a CPU each: "
+              f"{res['sim_s'] / max(res['trial_cpu_s'], 1e-9):.1f} simulated s per CPU s",
               file=sys.stderr)
     store = Store(res["folder"], read_only=True)
     try:

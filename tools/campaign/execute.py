@@ -133,7 +133,7 @@ def run_trial(task: dict) -> dict:
     here = package_version()
     if task["version"] != here:
         raise VersionMismatch(f"worker pid {os.getpid()} runs {here}, the campaign {task['version']}")
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     row = {"trial": task["trial"], "seed": task["seed"], "inputs": task["inputs"],
            "command": task["command"], "version": here, "worker": _worker_name(),
            "summary": None, "flat": None, "criteria": {}, "passed": None, "error": "", "sim_s": None,
@@ -176,6 +176,7 @@ def run_trial(task: dict) -> dict:
     except Exception:
         row["error"] = traceback.format_exc()
     row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.process_time() - c0     # the worker's CPU time: wall minus contention
     return row
 
 
@@ -405,7 +406,7 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
         futures = {}
         t0 = time.perf_counter()
         ran = 0
-        trial_wall = sim_s = 0.0
+        trial_wall = trial_cpu = sim_s = 0.0
 
         def submit_next() -> bool:
             for i in pending:
@@ -422,11 +423,12 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
             return False
 
         def _store(row: dict) -> None:
-            nonlocal ran, trial_wall, sim_s
+            nonlocal ran, trial_wall, trial_cpu, sim_s
             row["finished"] = datetime.now(timezone.utc).replace(tzinfo=None)
             if store.insert(row):
                 ran += 1
                 trial_wall += row.get("wall_s") or 0.0
+                trial_cpu += row.get("cpu_s") or 0.0
                 sim_s += row.get("sim_s") or 0.0
                 keeper.add(row)
                 if row.get("kept") or row.get("error") or not row.get("passed"):
@@ -463,10 +465,12 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
             bar.end()
         store.add_run(started=datetime.now(timezone.utc).replace(tzinfo=None), wall_s=wall,
                       workers=len(info), threads=threads, trials=ran, trial_wall_s=trial_wall,
+                      trial_cpu_s=trial_cpu,
                       sim_s=sim_s, scheduler=scheduler or "LocalCluster", version=version)
         overhead = 1.0 - trial_wall / (wall * threads) if wall > 0 and threads else None
         return {"ran": ran, "stored": store.count(), "folder": folder, "wall_s": wall,
-                "setup_s": t_setup, "trial_wall_s": trial_wall, "sim_s": sim_s, "threads": threads,
+                "setup_s": t_setup, "trial_wall_s": trial_wall, "trial_cpu_s": trial_cpu, "sim_s": sim_s,
+                "threads": threads,
                 "workers": len(info), "sim_per_wall": sim_s / wall if wall > 0 else None,
                 "overhead": overhead}
     finally:

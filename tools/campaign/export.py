@@ -1,7 +1,7 @@
 """``sitl campaign export DIR --format parquet|csv``: one row per stored trial.
 
 Columns: ``trial``, ``seed``, ``passed`` (every criterion held, and no error),
-``error`` (empty when none), ``wall_s``, ``sim_s``, ``worker``, ``command``, then one
+``error`` (empty when none), ``wall_s``, ``cpu_s``, ``sim_s``, ``worker``, ``command``, then one
 column per criterion (``criterion.NAME``), per flattened summary figure (its own name)
 and per input (``input.KEY``). DuckDB writes both formats itself (``COPY ... TO``).
 """
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .store import Store, _q
 
-LEADING = ("trial", "seed", "passed", "error", "wall_s", "sim_s", "worker", "command")
+LEADING = ("trial", "seed", "passed", "error", "wall_s", "cpu_s", "sim_s", "worker", "command")
 LEFT_OUT = ("summary_json", "inputs_json", "criteria_json", "version", "finished")
 
 

@@ -126,6 +126,14 @@ window.addEventListener('load', function () {
 </script>"""
 
 
+def _share(cpu, wall) -> str:
+    return f"{100 * cpu / wall:.0f} %" if cpu and wall else "-"
+
+
+def _ratio(sim, cpu) -> str:
+    return f"{sim / cpu:.1f}" if sim and cpu else "-"
+
+
 def make_report(folder: Path) -> Path:
     """Write ``folder/report/index.html`` and its PNGs; the page's path."""
     import json
@@ -284,7 +292,8 @@ def make_report(folder: Path) -> Path:
     if runs:
         h.append("<h2>Throughput</h2><table><tr><th class=l>run</th><th>workers</th><th>threads</th>"
                  "<th>trials</th><th>wall s</th><th>sim s / wall s</th><th>trials / h</th>"
-                 "<th>scheduling + storage</th><th class=l>cluster</th></tr>")
+                 "<th>scheduling + storage</th><th>CPU share of a trial</th><th>sim s / CPU s</th>"
+                 "<th class=l>cluster</th></tr>")
         for r in runs:
             wall = r["wall_s"] or 0.0
             over = 1.0 - r["trial_wall_s"] / (wall * r["threads"]) if wall > 0 and r["threads"] else None
@@ -293,9 +302,12 @@ def make_report(folder: Path) -> Path:
                      f"<td>{(r['sim_s'] or 0) / wall if wall else 0:.1f}</td>"
                      f"<td>{r['trials'] / wall * 3600 if wall else 0:.0f}</td>"
                      f"<td>{'-' if over is None else f'{100 * over:.1f} %'}</td>"
+                     f"<td>{_share(r.get('trial_cpu_s'), r['trial_wall_s'])}</td>"
+                     f"<td>{_ratio(r['sim_s'], r.get('trial_cpu_s'))}</td>"
                      f"<td class=l>{_esc(r['scheduler'])}</td></tr>")
         h.append("</table><p>Scheduling + storage: the share of the workers' time (wall time x threads) "
-                 "not spent inside trials.</p>")
+                 "not spent inside trials. CPU share: the trials' CPU time over their wall time (below "
+                 "100 % when other programs share the cores).</p>")
     h.append(_IMG_CHECK + "</body></html>")
     page = out / "index.html"
     page.write_text("\n".join(x for x in h if x))

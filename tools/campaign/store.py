@@ -22,7 +22,7 @@ from pathlib import Path
 
 DB_NAME = "campaign.duckdb"
 FIXED = {"trial": "INTEGER PRIMARY KEY", "seed": "BIGINT", "passed": "BOOLEAN", "error": "VARCHAR",
-         "wall_s": "DOUBLE", "sim_s": "DOUBLE", "worker": "VARCHAR", "version": "VARCHAR",
+         "wall_s": "DOUBLE", "cpu_s": "DOUBLE", "sim_s": "DOUBLE", "worker": "VARCHAR", "version": "VARCHAR",
          "finished": "TIMESTAMP", "command": "VARCHAR", "summary_json": "VARCHAR",
          "inputs_json": "VARCHAR", "criteria_json": "VARCHAR"}
 
@@ -68,7 +68,10 @@ class Store:
             self.db.execute(f"CREATE TABLE IF NOT EXISTS trials ({cols})")
             self.db.execute("CREATE TABLE IF NOT EXISTS runs (started TIMESTAMP, wall_s DOUBLE, "
                             "workers INTEGER, threads INTEGER, trials INTEGER, trial_wall_s DOUBLE, "
-                            "sim_s DOUBLE, scheduler VARCHAR, version VARCHAR)")
+                            "sim_s DOUBLE, scheduler VARCHAR, version VARCHAR, trial_cpu_s DOUBLE)")
+            # folders of an earlier version of this store: the columns added since
+            self.db.execute("ALTER TABLE trials ADD COLUMN IF NOT EXISTS cpu_s DOUBLE")
+            self.db.execute("ALTER TABLE runs ADD COLUMN IF NOT EXISTS trial_cpu_s DOUBLE")
         self._columns = {r[0]: r[1] for r in self.db.execute(
             "SELECT column_name, data_type FROM information_schema.columns WHERE table_name = 'trials'"
         ).fetchall()}
@@ -134,7 +137,7 @@ class Store:
                     v = str(v)
                 values[k] = v
             fixed = {"trial": row["trial"], "seed": row["seed"], "passed": row.get("passed"),
-                     "error": row.get("error") or "", "wall_s": row.get("wall_s"),
+                     "error": row.get("error") or "", "wall_s": row.get("wall_s"), "cpu_s": row.get("cpu_s"),
                      "sim_s": row.get("sim_s"), "worker": row.get("worker"),
                      "version": row.get("version"), "finished": row.get("finished"),
                      "command": row.get("command"),
@@ -154,9 +157,9 @@ class Store:
         return True
 
     def add_run(self, **r) -> None:
-        self.db.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        self.db.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                         [r["started"], r["wall_s"], r["workers"], r["threads"], r["trials"],
-                         r["trial_wall_s"], r["sim_s"], r["scheduler"], r["version"]])
+                         r["trial_wall_s"], r["sim_s"], r["scheduler"], r["version"], r["trial_cpu_s"]])
 
     # --- reading --------------------------------------------------------------------
     def columns(self) -> list[str]:
