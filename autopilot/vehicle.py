@@ -223,6 +223,8 @@ class PlaneVehicle:
             return f"mode {int(mode)} not implemented"
         if mode != self.mode:
             self.log.event(t_us * 1e-6, f"mode {mode.name}")
+            if mode == PlaneMode.AUTO and self.sequencer is not None:
+                self.sequencer.resume()  # the current leg joined again from where we are
             if mode in (PlaneMode.LOITER, PlaneMode.GUIDED) and self.nav_state is not None:
                 nav = self.nav_state  # circle where we are, at this height
                 self.hold = self._hold_at(nav.lat_rad, nav.lon_rad, nav.alt_m)
@@ -259,10 +261,10 @@ class PlaneVehicle:
     @property
     def landed(self) -> bool:
         """On the launcher or back on the ground: not armed, or armed but not yet
-        launched (no mission item reached and below 2 m above home)."""
+        launched (no mission item reached above the launcher, and below 2 m above home)."""
         if not self.armed or self.home_frame is None or self.nav_state is None:
             return True
-        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.reached
+        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.launched
 
     def current_seq(self) -> int:
         if self.sequencer is None:
@@ -296,8 +298,7 @@ class PlaneVehicle:
     def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
         self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
         if self.sequencer is not None:
-            self.sequencer.frame = self.home_frame
-            self.sequencer.home_alt_m = alt_m
+            self.sequencer.move_home(self.home_frame)
         self.log.event(t_us * 1e-6, "home moved")
         return None
 
@@ -375,6 +376,20 @@ class PlaneVehicle:
             self._log(t_us, nav, truth, controls)
         return ActuatorOutputs(t_us, controls, self.armed)
 
+    def _sequencer_requests(self, t_us: int, nav: NavState) -> None:
+        """What the mission asked of the vehicle this step: its warnings and notes to the
+        log and the ground stations (its notices), a new home (DO_SET_HOME)."""
+        seq = self.sequencer
+        if seq.notices:
+            for t_s, severity, text in seq.notices:
+                self.notice(t_s, severity, text)
+            seq.notices.clear()
+        if seq.home_request is not None:
+            req, seq.home_request = seq.home_request, None
+            if req == "here":
+                req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
+            self.set_home(*req, t_us)
+
     def notice(self, t_s: float, severity: int, text: str) -> None:
         """Something to tell the ground stations (STATUSTEXT) and the flight log."""
         self.notices.append((t_s, severity, text))
@@ -437,7 +452,9 @@ class PlaneVehicle:
         else:
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
-            tgt = self.sequencer.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m)
+            seq = self.sequencer
+            tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2])
+            self._sequencer_requests(t_us, nav)
         self.target = tgt
         vn, ve, _ = nav.v_ned.tolist()
         pn, pe, pd = pl = p_ned.tolist()

@@ -103,8 +103,9 @@ def test_do_jump_repeats_then_continues_and_do_change_speed_applies():
     targets = {2: (1000.0, 0.0), 3: (1000.0, 1000.0)}
     for _ in range(200):
         t = fly(s, pos, v=vel)[0]
-        if t.kind == "direct":               # turning towards the next waypoint first
-            d = np.subtract(t.b_ne, pos[0])
+        if t.kind == "direct":               # the straight of a planned join: fly it
+            d = np.subtract(t.b_ne, t.a_ne)
+            pos = [tuple(np.asarray(t.b_ne) + 0.01 * d)]
             vel = (*(25.0 * d / np.linalg.norm(d)), 0.0)
             continue
         if t.kind == "loiter":               # a turn arc: fly along it
@@ -148,13 +149,52 @@ def test_relative_and_absolute_altitudes():
     assert s.item_alt_m(s.items[2]) == pytest.approx(700.0)
 
 
-def test_joining_a_leg_flying_the_other_way_turns_first_then_starts_the_leg_there():
-    s = seq_for(mission(item(1, NAV_WAYPOINT, 1000, 0)))
+def follow(s, p, chi, steps, ds=2.0, v=25.0):
+    """A perfect kinematic follower of the sequencer's targets: each step moves ``ds``
+    along the commanded arc or line (snapped onto it). Returns [(target, p, chi)]."""
+    out = []
+    for k in range(steps):
+        vel = np.array([v * math.cos(chi), v * math.sin(chi), 0.0])
+        t = s.update(k * 80_000, np.array([p[0], p[1], -100.0]), vel, chi, 600.0)
+        out.append((t, p, chi))
+        if t.kind == "loiter":
+            c, r, d = t.c_ne, t.radius_m, t.direction
+            b = math.atan2(p[1] - c[1], p[0] - c[0]) + d * ds / r
+            p = (c[0] + r * math.cos(b), c[1] + r * math.sin(b))
+            chi = b + d * 0.5 * math.pi
+        elif t.kind in ("line", "direct"):
+            a, bb = np.asarray(t.a_ne), np.asarray(t.b_ne)
+            u = (bb - a) / np.linalg.norm(bb - a)
+            q = a + np.dot(np.asarray(p) - a, u) * u + ds * u
+            p, chi = (float(q[0]), float(q[1])), math.atan2(u[1], u[0])
+        if s.finished:
+            break
+    return out
+
+
+def test_joining_a_leg_flying_the_other_way_is_a_planned_turn_onto_the_leg():
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 1000, 0), item(2, NAV_WAYPOINT, 1000, 800)))
     s._prev_wp_ne = (0.0, 0.0)
-    # GIVEN the vehicle flying south, away from a northbound leg
-    t = fly(s, [(0.0, -50.0)], v=(-25.0, 0.0, 0.0))[0]
-    # THEN it turns towards the waypoint first (not scored as a leg)
-    assert t.kind == "direct" and t.b_ne == pytest.approx(s.item_ne(s.items[1]))
-    # WHEN it points at the waypoint THEN the leg starts where it is, not behind it
-    t = fly(s, [(-100.0, -60.0)], v=(25.0, 1.0, 0.0))[0]
-    assert t.kind == "line" and t.a_ne == pytest.approx((-100.0, -60.0))
+    # GIVEN the vehicle 50 m west of a northbound leg, flying south (away from it)
+    trace = follow(s, (0.0, -50.0), math.pi, 1500)
+    kinds = [t.kind for t, _, _ in trace]
+    # THEN it first flies a planned turn: arcs no wider than the join radius and no
+    # tighter than the bank midway between the nominal and the limit (here 36.5 deg)
+    r_floor = 25.0 ** 2 / (9.80665 * math.tan(math.radians(36.5)))
+    assert kinds[0] == "loiter"
+    assert r_floor - 1e-6 <= trace[0][0].radius_m <= s.turn_radius_m(wind=True) + 1e-6
+    first_line = kinds.index("line")
+    assert "direct" in kinds[:first_line] or kinds[:first_line].count("loiter") >= 2
+    # AND rolls out on the mission's own leg (from the previous waypoint), on its line
+    # and on its course, not captured by L1 from beside it
+    t, p, chi = trace[first_line]
+    assert t.seq == 1 and t.a_ne == pytest.approx((0.0, 0.0))
+    assert abs(p[1]) < 1.0 and abs(wrap(chi)) < math.radians(3.0)
+    # AND never crosses to the far side of the leg (east) on the way
+    assert max(p[1] for _, p, _ in trace[:first_line]) < 1.0
+    # AND reaches the waypoint
+    assert 1 in s.reached_seqs
+
+
+def wrap(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi

@@ -1,0 +1,157 @@
+"""Planned turns for a fixed-wing: Dubins-like joins onto a straight leg.
+
+A fixed-wing cannot stop and turn on the spot, so every transition onto a leg that
+does not start where and how the aircraft already flies (after a takeoff into the
+wind, a loiter, a DO_JUMP, RTL, a mode change back to AUTO) is planned as a path of
+bounded curvature (Dubins 1957): a turn of radius R from the current position and
+course, a straight tangent, and a second turn of radius R that ends tangent to the leg
+at an entry point E on it. Of the four turn-straight-turn words (RSR, LSL, RSL, LSR)
+the shortest is flown, and E is chosen along the leg so that the whole path is
+shortest: the aircraft is back on the mission's line as soon as it can be, rolling out
+on it instead of being left to a tracking law to capture it (which overshoots a line
+joined at a large angle by a good fraction of the turn radius).
+
+Conventions as the rest of the guidance: horizontal (north, east) pairs in metres,
+courses chi from north, clockwise positive (chi = atan2(e, n)), turn direction +1
+clockwise (right), -1 counter-clockwise. A circle of direction d through the aircraft
+at course chi has its centre d R (-sin chi, cos chi) from it.
+
+Segments are plain tuples, flown by the sequencer with the L1 law:
+``("arc", centre, radius, direction, angle, start)`` (angle: the course change, >= 0;
+start: the point the arc begins at) and ``("line", start, end)``.
+"""
+from __future__ import annotations
+
+import math
+
+TWO_PI = 2.0 * math.pi
+_MIN_ARC_RAD = math.radians(3.0)   # arcs smaller than this are flown as straight lines
+_MIN_LINE_M = 1.0
+
+
+def _unit(chi: float) -> tuple[float, float]:
+    return math.cos(chi), math.sin(chi)
+
+
+def _right(chi: float) -> tuple[float, float]:
+    return -math.sin(chi), math.cos(chi)
+
+
+def centre_of(p, chi: float, radius: float, direction: int) -> tuple[float, float]:
+    """Centre of the turn of ``direction`` through p at course chi."""
+    rn = _right(chi)
+    return p[0] + direction * radius * rn[0], p[1] + direction * radius * rn[1]
+
+
+def _arc_angle(chi_from: float, chi_to: float, direction: int) -> float:
+    a = (direction * (chi_to - chi_from)) % TWO_PI
+    return 0.0 if a > TWO_PI - 1e-9 else a
+
+
+def csc_words(p, chi: float, q, psi: float, radius: float):
+    """Every turn-straight-turn path from pose (p, chi) to pose (q, psi) with turns of
+    ``radius``: [(length, segments)] (the same-direction words always exist, the
+    opposite-direction ones when the two circles are at least 2R apart)."""
+    words = []
+    for d1 in (1, -1):
+        c1 = centre_of(p, chi, radius, d1)
+        for d2 in (1, -1):
+            c2 = centre_of(q, psi, radius, d2)
+            vn, ve = c2[0] - c1[0], c2[1] - c1[1]
+            dist = math.hypot(vn, ve)
+            # tangent points t1 = c1 - d1 R rn(sigma), t2 = c2 - d2 R rn(sigma) of the
+            # straight at course sigma: t2 - t1 = v + k rn(sigma) must lie along u(sigma)
+            k = (d1 - d2) * radius
+            if dist < abs(k) - 1e-9:
+                continue
+            length = math.sqrt(max(dist * dist - k * k, 0.0))
+            sigma = chi if dist < 1e-9 else math.atan2(ve, vn) + math.atan2(k, length)
+            a1 = _arc_angle(chi, sigma, d1)
+            a2 = _arc_angle(sigma, psi, d2)
+            rn = _right(sigma)
+            t1 = (c1[0] - d1 * radius * rn[0], c1[1] - d1 * radius * rn[1])
+            t2 = (c2[0] - d2 * radius * rn[0], c2[1] - d2 * radius * rn[1])
+            segs = []
+            if a1 >= _MIN_ARC_RAD:
+                segs.append(("arc", c1, radius, d1, a1, (float(p[0]), float(p[1]))))
+            if length >= _MIN_LINE_M:
+                segs.append(("line", t1, t2))
+            if a2 >= _MIN_ARC_RAD:
+                segs.append(("arc", c2, radius, d2, a2, t2))
+            words.append((radius * (a1 + a2) + length, segs))
+    return words
+
+
+def csc(p, chi: float, q, psi: float, radius: float):
+    """The shortest turn-straight-turn path (length, segments), or None."""
+    words = csc_words(p, chi, q, psi, radius)
+    return min(words, key=lambda w: w[0]) if words else None
+
+
+def _points(segments):
+    """Points along the segments (every 10 degrees of arc, the ends of lines)."""
+    for s in segments:
+        if s[0] == "line":
+            yield s[1]
+            yield s[2]
+        else:
+            _, c, r, d, ang, start = s
+            b0 = math.atan2(start[1] - c[1], start[0] - c[0])
+            n = max(int(ang / math.radians(10.0)), 1)
+            for k in range(n + 1):
+                b = b0 + d * ang * k / n
+                yield c[0] + r * math.cos(b), c[1] + r * math.sin(b)
+
+
+def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: float = 2.0):
+    """Plan the join onto the leg A->B from pose (p, chi).
+
+    Returns (s_entry, length, segments, crossing): the entry point's distance along the
+    leg's line from A, the path's length, its segments and how far it crosses the line. The entry is chosen on a grid along the
+    line (a quarter turn radius apart, at most ~40 points) from A to ``s_max`` (where
+    the turn onto the next leg starts) and on, past B, up to two turn radii beyond it
+    (where the leg is too short to be joined before its end without a loop, taken only
+    where that saves more than a full circle); and the word among the four, as the
+    shortest path that does not cross to the far side of
+    the line by more than ``cross_tol_m`` before rolling out on it (a shorter path that
+    loops across the line would overshoot it by up to a turn diameter); if every path
+    crosses, the one crossing least."""
+    ln = math.hypot(b[0] - a[0], b[1] - a[1])
+    if ln < 1e-6:
+        return None
+    u = ((b[0] - a[0]) / ln, (b[1] - a[1]) / ln)
+    psi = math.atan2(u[1], u[0])
+    xt0 = (p[0] - a[0]) * -u[1] + (p[1] - a[1]) * u[0]
+    side = 0.0 if abs(xt0) < cross_tol_m else math.copysign(1.0, xt0)
+    s_max = min(max(s_max, 0.0), ln)
+    s_far = ln + 2.0 * radius
+    step = max(0.25 * radius, s_far / 40.0, 1.0)
+    grid = sorted({min(k * step, s_max) for k in range(int(s_max / step) + 2)}
+                  | {s_max + k * step for k in range(1, int((s_far - s_max) / step) + 1)})
+    best = None
+    for s in grid:
+        q = (a[0] + s * u[0], a[1] + s * u[1])
+        for length, segs in csc_words(p, chi, q, psi, radius):
+            cross = 0.0
+            if side != 0.0:
+                cross = max((-side * ((x - a[0]) * -u[1] + (y - a[1]) * u[0])
+                             for x, y in _points(segs)), default=0.0)
+            # an entry past the next turn's start skips that turn: taken only where it
+            # saves more than a full circle
+            cost = (max(cross - cross_tol_m, 0.0), length + (TWO_PI * radius if s > s_max else 0.0))
+            if best is None or cost < best[0]:
+                best = (cost, s, length, segs, cross)
+    return best[1], best[2], best[3], best[4]
+
+
+def on_leg(p, chi: float, a, b, xtrack_tol_m: float, course_tol_rad: float) -> bool:
+    """Already flying the leg: within ``xtrack_tol_m`` of its line and within
+    ``course_tol_rad`` of its course (no join needed)."""
+    ln = math.hypot(b[0] - a[0], b[1] - a[1])
+    if ln < 1e-6:
+        return True
+    tn, te = (b[0] - a[0]) / ln, (b[1] - a[1]) / ln
+    xt = (p[0] - a[0]) * -te + (p[1] - a[1]) * tn
+    chi_leg = math.atan2(te, tn)
+    d = (chi - chi_leg + math.pi) % TWO_PI - math.pi
+    return abs(xt) <= xtrack_tol_m and abs(d) <= course_tol_rad

@@ -1,0 +1,164 @@
+"""Fixed-wing guidance on missions the repository does not carry (issue 15's classes):
+
+1. a waypoint inside the turn circle (behind the end of the climb-out, or beside the
+   previous waypoint) is reached, not circled for ever;
+2. a leg joined at a large angle (after a takeoff into the wind, a DO_JUMP) is rolled
+   out on like a filleted turn: the overshoot past the mission's own line after a join
+   is no bigger than after the mission's fillets;
+3. a waypoint the vehicle is already within its acceptance radius of counts at once
+   (a NAV_WAYPOINT at home at ground level before the takeoff, frame 0).
+
+Flown headless in the simulator as a user flies them (navigation filter, light
+turbulence), several geometries and winds per class.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.geo import LocalFrame
+from tools.runner import RunConfig, Session
+from tools.summary import run_summary
+
+HOME = (-35.36, 149.16, 410.0)
+TAKEOFF, WAYPOINT, RTL, JUMP = 22, 16, 20, 177
+
+
+def wpl(rows, home=HOME):
+    """QGC WPL 110 text; rows (cmd, north, east, alt, frame, p1..p4), north None: lat/lon 0."""
+    f = LocalFrame.from_degrees(*home)
+    out = ["QGC WPL 110", f"0\t1\t0\t16\t0\t0\t0\t0\t{home[0]:.8f}\t{home[1]:.8f}\t{home[2]}\t1"]
+    for k, r in enumerate(rows, 1):
+        cmd, n, e, alt, frame = r[:5]
+        p = list(r[5:]) + [0] * (4 - len(r[5:]))
+        lat = lon = 0.0
+        if n is not None:
+            la, lo, _ = f.to_geodetic_fast(np.array([n, e, 0.0]))
+            lat, lon = math.degrees(la), math.degrees(lo)
+        out.append("\t".join(str(x) for x in [k, 0, frame, cmd, *p, f"{lat:.8f}", f"{lon:.8f}", alt, 1]))
+    return "\n".join(out) + "\n"
+
+
+def fly(tmp_path, rows, **kw):
+    path = tmp_path / "m.waypoints"
+    path.write_text(wpl(rows))
+    kw.setdefault("turbulence", "light")
+    kw.setdefault("seed", 1)
+    s = Session(RunConfig(mission=path, **kw))
+    s.run()
+    return s, run_summary(s)
+
+
+def overshoots(s):
+    """Per visit of a leg (a run of one item flown as a line at some point): how the leg
+    was entered (the sequencer's planned 'join' or 'fillet') and the overshoot past the
+    leg's line: after the vehicle first comes within 10 m of the line within 30 degrees
+    of its course, the largest |cross-track| once it has crossed to the other side
+    (0 when it converges from one side)."""
+    a = s.log.arrays()
+    tr = s.vehicle.sequencer.transitions
+    t, kind, sq = a["t_s"], a["kind"], a["seq"]
+    idx = np.flatnonzero(a["armed"] > 0)
+    cuts = [idx[0]] + [i for i in range(idx[0] + 1, idx[-1] + 1) if sq[i] != sq[i - 1]] + [idx[-1] + 1]
+    out = []
+    for i0, i1 in zip(cuts[:-1], cuts[1:]):
+        line = np.flatnonzero(kind[i0:i1] == 2) + i0
+        if line.size == 0:
+            continue
+        an, ae, bn, be = (a[c][line[0]] for c in ("leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m"))
+        ln = math.hypot(bn - an, be - ae)
+        if ln < 1.0:
+            continue
+        tn, te = (bn - an) / ln, (be - ae) / ln
+        xt = -(a["truth_n_m"][i0:i1] - an) * te + (a["truth_e_m"][i0:i1] - ae) * tn
+        chi = np.arctan2(a["truth_ve_mps"][i0:i1], a["truth_vn_mps"][i0:i1])
+        dchi = np.abs((chi - math.atan2(te, tn) + np.pi) % (2 * np.pi) - np.pi)
+        cap = np.flatnonzero((np.abs(xt) <= 10.0) & (dchi <= math.radians(30.0)))
+        if cap.size == 0:
+            continue
+        x = xt[cap[0]:]
+        cross = np.flatnonzero(np.sign(x) != np.sign(x[0]))
+        over = float(np.max(np.abs(x[cross[0]:]))) if cross.size else 0.0
+        how = [k for (tu, q, k) in tr if q == int(sq[i0]) and t[i0] - 0.05 <= tu * 1e-6 <= t[i1 - 1] + 0.05]
+        out.append((int(sq[i0]), how[0] if how else "none", over))
+    return out
+
+
+def most_turns_per_item(s):
+    """The most the ground course turned (in full turns) while one item was current
+    (the loiter over home that ends the mission aside)."""
+    a = s.log.arrays()
+    fly = (a["armed"] > 0) & (a["kind"] != 1) & (a["seq"] < len(s.vehicle.sequencer.items))
+    chi = np.unwrap(np.arctan2(a["truth_ve_mps"], a["truth_vn_mps"]))
+    worst = 0.0
+    for q in np.unique(a["seq"][fly]):
+        m = np.flatnonzero(fly & (a["seq"] == q))
+        worst = max(worst, float(np.max(chi[m]) - np.min(chi[m])) / (2 * math.pi))
+    return worst
+
+
+@pytest.mark.parametrize("rows, wind", [
+    # the first waypoint 25 m behind the end of the climb-out (inside the turn circle)
+    ([(TAKEOFF, None, None, 60, 3), (WAYPOINT, 450, 0, 60, 3), (WAYPOINT, 450, 400, 70, 3),
+      (WAYPOINT, 0, 400, 60, 3), (RTL, None, None, 0, 2)], None),
+    ([(TAKEOFF, None, None, 60, 3), (WAYPOINT, 450, 0, 60, 3), (WAYPOINT, 450, -400, 70, 3),
+      (WAYPOINT, 0, -400, 60, 3), (RTL, None, None, 0, 2)], (4.0, 90.0)),
+    # a waypoint 60 m beside the previous one, a right angle: inside the turn circle
+    ([(TAKEOFF, None, None, 60, 3), (WAYPOINT, 900, 0, 60, 3), (WAYPOINT, 900, 60, 60, 3),
+      (WAYPOINT, 300, 300, 60, 3), (RTL, None, None, 0, 2)], None),
+])
+def test_a_waypoint_inside_the_turn_circle_is_reached_not_circled(tmp_path, rows, wind):
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=500.0)
+    assert summary["completed"] is True
+    assert summary["mission_items_reached"] == summary["mission_items_total"]
+    assert most_turns_per_item(s) < 1.5           # a planned turn, not an orbit
+    assert summary["sim_time_s"] < 300.0
+
+
+def zigzag(legs=5, length=400.0, first=-39.0, turn=127.0):
+    pts, n, e, h = [], 0.0, 0.0, first
+    for k in range(legs):
+        n += length * math.cos(math.radians(h))
+        e += length * math.sin(math.radians(h))
+        pts.append((n, e))
+        h += turn if k % 2 == 0 else -turn
+    return pts
+
+
+@pytest.mark.parametrize("wind", [(8.0, 45.0), None])
+def test_joins_after_a_takeoff_into_the_wind_and_a_jump_overshoot_no_more_than_fillets(tmp_path, wind):
+    # the issue's zig-zag: 127 degree turns, a DO_JUMP back over three of them, RTL; in
+    # wind the launcher points into it, so the climb-out ends heading away from the legs
+    rows = [(TAKEOFF, None, None, 60, 3)] + [(WAYPOINT, n, e, 60, 3) for n, e in zigzag()] \
+        + [(JUMP, None, None, 0, 2, 3, 1), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=600.0)
+    assert summary["completed"] is True
+    assert summary["mission_items_reached"] == summary["mission_items_total"]
+    visits = overshoots(s)
+    joins = [o for _, how, o in visits if how == "join"]
+    fillets = [o for _, how, o in visits if how == "fillet"]
+    assert len(joins) >= 2 and len(fillets) >= 4
+    assert max(joins) <= max(max(fillets), 4.0) + 1.0
+
+
+@pytest.mark.parametrize("wind", [None, (6.0, 200.0)])
+def test_a_waypoint_at_the_launcher_before_the_takeoff_counts_at_once(tmp_path, wind):
+    # MAVSDK's upload of default.waypoints: the home line arrives as item 1, a
+    # NAV_WAYPOINT at home at ground level (frame 0), before the takeoff
+    rows = [(WAYPOINT, 0.0, 0.0, HOME[2], 0), (TAKEOFF, None, None, 60, 3),
+            (WAYPOINT, 600, 0, 60, 3), (WAYPOINT, 600, 500, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=500.0)
+    reached = s.vehicle.sequencer.reached
+    t_arm = s.log.arrays()["t_s"][np.flatnonzero(s.log.arrays()["armed"] > 0)[0]]
+    assert reached[0][1] == 1 and reached[0][0] * 1e-6 - t_arm < 0.1
+    assert summary["completed"] is True and not summary["crashed"]
+    assert summary["mission_items_reached"] == summary["mission_items_total"]
+
+
+def test_consecutive_duplicate_waypoints_count_the_second_at_once(tmp_path):
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 700, 0, 60, 3), (WAYPOINT, 700, 0, 60, 3),
+            (WAYPOINT, 700, 600, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, duration_s=400.0)
+    t = dict((q, tu) for tu, q in s.vehicle.sequencer.reached)
+    assert t[3] - t[2] < 100_000
+    assert summary["completed"] is True
