@@ -140,6 +140,9 @@ def test_heights_attitude_nan_and_modes():
     inv = _check(b, ev)
     assert not inv["no_ground_contact"]["passed"] and not inv["height_floor"]["passed"]
     assert inv["no_ground_contact"]["figure"] == pytest.approx(0.2)
+    # a crash (the crash detection disarmed it on the ground) is a ground contact
+    inv = _check(a, ev, crashed=True, completed=False)
+    assert not inv["no_ground_contact"]["passed"] and inv["height_floor"]["passed"]
     # banked beyond the limit
     inv = _check(_log(pts, [2, 3, 2, 3, 5], roll=math.radians(60)), ev)
     assert not inv["attitude_limits"]["passed"] and inv["attitude_limits"]["figure"] == pytest.approx(60.0)

@@ -45,7 +45,9 @@ concerned, ``"seq"``, or null):
   is at most two full turns. Figure: the largest number of turns.
 * ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins to the start
   of a landing (the quad's land phase), the true height above home stays above
-  ``CONTACT_M``. Figure: the lowest true height in that span [m].
+  ``CONTACT_M``, and the run did not end in a crash (the runner's ``crashed``: the
+  fixed-wing's crash detection, or back on the ground). Figure: the lowest true height
+  in that span (from the launch, for a crash before its end) [m].
 * ``height_floor``: from the end of the climb-out (the take-off counted) to the start of
   a landing, the true height above home stays at or above the floor: ``HEIGHT_FLOOR_M``
   of the vehicle, or half the lowest height commanded after the take-off if that is lower.
@@ -293,7 +295,7 @@ def _lowest_commanded_height(mission: Mission) -> float:
 
 def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, completed: bool,
                      done_t_s: float | None, home_truth_alt_m: float | None, params,
-                     wind_mps: float, fault_free: bool, log_events=()) -> dict:
+                     wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False) -> dict:
     """The invariants of one run (module docstring)."""
     inv: dict = {}
     t = a["t_s"]
@@ -319,9 +321,14 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
         t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm)
         flying = (a["kind"] != 0) & armed
         t_launch = float(t[np.flatnonzero(flying)[0]]) if flying.any() else math.inf
-        span = armed & (t >= t_launch + LAUNCH_GRACE_S) & (t < t_land) & np.isfinite(h)
+        # armed or not: an aircraft disarmed by its crash detection is on the ground
+        after = (t >= t_launch) & (t < t_land) & np.isfinite(h)
+        span = after & (t >= t_launch + LAUNCH_GRACE_S)
+        if not span.any() and crashed:
+            span = after                     # never got going: from the launch on
         low = float(np.min(h[span])) if span.any() else None
-        inv["no_ground_contact"] = _inv(low is None or low > CONTACT_M[vehicle], low, CONTACT_M[vehicle])
+        inv["no_ground_contact"] = _inv(not crashed and (low is None or low > CONTACT_M[vehicle]),
+                                        low, CONTACT_M[vehicle])
         floor = min(HEIGHT_FLOOR_M[vehicle], 0.5 * _lowest_commanded_height(mission))
         span = armed & (t >= climbed) & (t < t_land) & np.isfinite(h)
         low = float(np.min(h[span])) if span.any() else None
@@ -397,5 +404,6 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     inv = check_invariants(a, mission, vehicle, events, completed=ended,
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),
-                           fault_free=fault_free, log_events=session.log.events)
+                           fault_free=fault_free, log_events=session.log.events,
+                           crashed=bool(session.crashed))
     return figs, inv
