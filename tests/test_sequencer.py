@@ -198,3 +198,142 @@ def test_joining_a_leg_flying_the_other_way_is_a_planned_turn_onto_the_leg():
 
 def wrap(a):
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+# --- the commands ArduPilot missions carry, and what cannot be flown as written ------
+
+from autopilot.mission.items import (CONDITION_DELAY, CONDITION_DISTANCE,  # noqa: E402
+                                     CONDITION_YAW, DO_SET_HOME, NAV_DELAY, NAV_LOITER_TO_ALT)
+
+
+def texts(s):
+    return [t for _, _, t in s.notices]
+
+
+def straight_north(s, n0, n1, step=5.0, t0_s=0.0, v=25.0, alt=600.0):
+    """Feed a vehicle flying north along e = 0 from n0 to n1 at v; the targets."""
+    out = []
+    for k, n in enumerate(np.arange(n0, n1, step)):
+        t_us = int((t0_s + k * step / v) * 1e6)
+        out.append((t_us, s.update(t_us, np.array([n, 0.0, -100.0]), np.array([v, 0.0, 0.0]),
+                                   0.0, alt)))
+    return out
+
+
+def test_condition_delay_holds_back_the_do_items_after_it_while_the_next_leg_is_flown():
+    # WP1, CONDITION_DELAY 6 s, DO_CHANGE_SPEED 22, WP2 (all northbound)
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 300, 0), item(2, CONDITION_DELAY, p=(6, 0, 0, 0), frame=FRAME_MISSION),
+                        item(3, DO_CHANGE_SPEED, p=(0, 22, -1, 0), frame=FRAME_MISSION),
+                        item(4, NAV_WAYPOINT, 2000, 0), item(5, NAV_WAYPOINT, 2000, 900)), WP_RADIUS=10.0)
+    s._prev_wp_ne = (0.0, 0.0)
+    trace = straight_north(s, 0.0, 800.0)
+    t_wp1 = dict((q, t) for t, q in s.reached)[1]
+    t_speed = next(t for t, tgt in trace if tgt.airspeed_mps == pytest.approx(22.0))
+    assert (t_speed - t_wp1) * 1e-6 == pytest.approx(6.0, abs=0.25)
+    assert all(tgt.seq == 4 for t, tgt in trace if t > t_wp1)   # WP2 flown meanwhile
+
+
+def test_condition_distance_and_yaw():
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 300, 0),
+                        item(2, CONDITION_YAW, p=(90, 10, 1, 0), frame=FRAME_MISSION),
+                        item(3, CONDITION_DISTANCE, p=(400, 0, 0, 0), frame=FRAME_MISSION),
+                        item(4, DO_CHANGE_SPEED, p=(0, 28, -1, 0), frame=FRAME_MISSION),
+                        item(5, NAV_WAYPOINT, 2000, 0), item(6, NAV_WAYPOINT, 2000, 900)), WP_RADIUS=10.0)
+    s._prev_wp_ne = (0.0, 0.0)
+    trace = straight_north(s, 0.0, 1900.0)
+    # CONDITION_YAW: a plane flies its course; said, not flown (as ArduPlane)
+    assert any("CONDITION_YAW #2 ignored" in t for t in texts(s))
+    # CONDITION_DISTANCE 400 m: the speed changes 400 m before WP2
+    n_speed = next(tgt for t, tgt in trace if tgt.airspeed_mps == pytest.approx(28.0))
+    i = next(k for k, (t, tgt) in enumerate(trace) if tgt.airspeed_mps == pytest.approx(28.0))
+    assert 5.0 * i == pytest.approx(2000.0 - 400.0, abs=5.0)
+    assert {2, 3, 4} <= s.reached_seqs and n_speed.seq == 5
+
+
+def test_nav_delay_in_flight_completes_at_once_with_a_note():
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 300, 0), item(2, NAV_DELAY, p=(30, -1, -1, -1), frame=FRAME_MISSION),
+                        item(3, NAV_WAYPOINT, 2000, 0)), WP_RADIUS=10.0)
+    s._prev_wp_ne = (0.0, 0.0)
+    trace = straight_north(s, 0.0, 600.0)
+    assert 2 in s.reached_seqs and trace[-1][1].seq == 3
+    assert any("NAV_DELAY #2: no delay in flight" in t for t in texts(s))
+
+
+def test_change_speed_of_every_type_clamped_with_a_warning():
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 3000, 0)))
+    lo, hi = s.params["ARSPD_FBW_MIN"], s.params["ARSPD_FBW_MAX"]
+    s.change_speed(0, 0, hi + 10.0)
+    assert s.airspeed_mps == hi and "outside" in texts(s)[-1]
+    s.change_speed(0, 0, lo - 5.0)
+    assert s.airspeed_mps == lo
+    s.change_speed(0, 0, -2.0)                     # back to the default
+    assert s.airspeed_mps == s.params["TRIM_ARSPD"]
+    n = len(s.notices)
+    s.change_speed(0, 0, 23.0)                     # within the limits: no warning
+    assert s.airspeed_mps == 23.0 and len(s.notices) == n
+    # ground speed: the airspeed is raised so the ground speed along the course holds it
+    s.change_speed(0, 1, 20.0)
+    s._wind_ne = (-8.0, 0.0)                       # 8 m/s headwind flying north
+    assert s.commanded_airspeed_mps(0.0) == pytest.approx(28.0)
+    assert s.commanded_airspeed_mps(math.pi) == pytest.approx(23.0)   # tailwind: no change
+    # climb / sink rate: the slopes flown, no more than the airframe's
+    s.change_speed(0, 2, 1.0)
+    assert s.climb_rate_mps == 1.0
+    s.change_speed(0, 3, 50.0)
+    top = s.params["DEM_CLMB_FRAC"] * s.params["SINK_MAX"]
+    assert s.sink_rate_mps == pytest.approx(top) and "Sink rate" in texts(s)[-1]
+
+
+def test_loiter_radius_below_the_minimum_turn_radius_is_flown_at_the_minimum_said_once():
+    s = seq_for(mission(item(1, NAV_LOITER_TURNS, 0, 0, p=(2, 0, 15, 0)), item(2, NAV_WAYPOINT, 1000, 0)))
+    r_min = 25.0 ** 2 / (9.80665 * math.tan(math.radians(s.params["ROLL_LIMIT_DEG"])))
+    for k in range(5):
+        t = s.update(k * 10_000, np.array([100.0, 0.0, -100.0]), np.array([0.0, 25.0, 0.0]), 0.0, 600.0)
+    assert t.kind == "loiter" and t.radius_m == pytest.approx(r_min)
+    warnings = [x for x in texts(s) if "below the minimum turn radius" in x]
+    assert len(warnings) == 1 and "radius 15 m" in warnings[0]
+
+
+def test_loiter_to_alt_holds_until_the_altitude_is_reached():
+    s = seq_for(mission(item(1, NAV_LOITER_TO_ALT, 0, 0, alt=200.0, p=(0, 90, 0, 0)), item(2, NAV_WAYPOINT, 1000, 0)))
+    ang = np.linspace(0, 8 * math.pi, 800)
+    alts = np.linspace(600.0, 700.0, 800)          # climbing to 700 m MSL (200 m above home)
+    seqs = []
+    for k, (a, h) in enumerate(zip(ang, alts)):
+        t = s.update(k * 50_000, np.array([90 * math.cos(a), 90 * math.sin(a), -100.0]),
+                     np.array([-25 * math.sin(a), 25 * math.cos(a), 0.0]), 0.0, float(h))
+        seqs.append(t.seq)
+    first_leg = seqs.index(2)
+    # done the first time within 5 m of 700 m (LOITER_ALT_TOL_M), not before
+    assert 695.0 <= alts[first_leg] <= 695.2
+    assert all(q == 1 for q in seqs[:first_leg]) and seqs[-1] == 2
+
+
+def test_set_home_and_here():
+    # DO_SET_HOME (use current) asks the vehicle for a new home; a waypoint at lat/lon 0
+    # is where the vehicle is when it starts, and its altitude 0 the current altitude
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 300, 0), item(2, DO_SET_HOME, p=(1, 0, 0, 0), frame=FRAME_MISSION),
+                        MissionItem(3, FRAME_GLOBAL_RELATIVE_ALT, NAV_WAYPOINT, 0, 1, 0, 0, 0, 0, 0.0, 0.0, 0.0),
+                        item(4, NAV_WAYPOINT, 2000, 0)), WP_RADIUS=10.0)
+    s._prev_wp_ne = (0.0, 0.0)
+    straight_north(s, 0.0, 310.0, alt=612.0)
+    assert s.home_request == "here"
+    # item 3 started at the vehicle's position: already there, counted at once
+    assert 3 in s.reached_seqs
+    assert s._prev_alt == pytest.approx(612.0)
+
+
+def test_a_step_too_steep_for_its_leg_is_flown_at_the_steepest_slope_said_once():
+    # 200 m climb over a 600 m leg: far steeper than 0.9 x 1.75 m/s at 25 m/s (6.3 %)
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 600, 0, alt=300.0), item(2, NAV_WAYPOINT, 3000, 0, alt=300.0)),
+                WP_RADIUS=10.0)
+    s._prev_wp_ne, s._prev_alt = (0.0, 0.0), 600.0
+    trace = straight_north(s, 0.0, 590.0)
+    slope = 0.9 * s.params["DEM_CLMB_FRAC"] * s.params["CLMB_MAX"] / 25.0
+    t = trace[-1][1]
+    assert t.alt_m == pytest.approx(600.0 + slope * 585.0, abs=1.0)
+    assert len([x for x in texts(s) if "too steep" in x]) == 1
+    # the height still missing carries over to the next leg
+    trace = straight_north(s, 600.0, 1000.0, t0_s=30.0)
+    assert trace[0][1].seq == 2 and trace[0][1].alt_m < 700.0
+    assert trace[-1][1].alt_m > trace[0][1].alt_m

@@ -27,6 +27,7 @@ import math
 TWO_PI = 2.0 * math.pi
 _MIN_ARC_RAD = math.radians(3.0)   # arcs smaller than this are flown as straight lines
 _MIN_LINE_M = 1.0
+CAPTURE_M = 10.0    # on the line from this close (as the mission's cross-track is scored)
 
 
 def _unit(chi: float) -> tuple[float, float]:
@@ -89,11 +90,13 @@ def csc(p, chi: float, q, psi: float, radius: float):
 
 
 def _points(segments):
-    """Points along the segments (every 10 degrees of arc, the ends of lines)."""
+    """Points along the segments (every 10 degrees of arc, every 25 m of line)."""
     for s in segments:
         if s[0] == "line":
-            yield s[1]
-            yield s[2]
+            _, (n0, e0), (n1, e1) = s
+            n = max(int(math.hypot(n1 - n0, e1 - e0) / 25.0), 1)
+            for k in range(n + 1):
+                yield n0 + (n1 - n0) * k / n, e0 + (e1 - e0) * k / n
         else:
             _, c, r, d, ang, start = s
             b0 = math.atan2(start[1] - c[1], start[0] - c[0])
@@ -106,16 +109,18 @@ def _points(segments):
 def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: float = 2.0):
     """Plan the join onto the leg A->B from pose (p, chi).
 
-    Returns (s_entry, length, segments, crossing): the entry point's distance along the
-    leg's line from A, the path's length, its segments and how far it crosses the line. The entry is chosen on a grid along the
-    line (a quarter turn radius apart, at most ~40 points) from A to ``s_max`` (where
+    Returns (s_entry, length, segments, strays): the entry point's distance along the
+    leg's line from A, the path's length, its segments and how far it strays beyond the
+    limits below [m]. The entry is chosen on a grid along the line (a quarter turn
+    radius apart, at most ~40 points) from A to ``s_max`` (where
     the turn onto the next leg starts) and on, past B, up to two turn radii beyond it
     (where the leg is too short to be joined before its end without a loop, taken only
     where that saves more than a full circle); and the word among the four, as the
-    shortest path that does not cross to the far side of
-    the line by more than ``cross_tol_m`` before rolling out on it (a shorter path that
-    loops across the line would overshoot it by up to a turn diameter); if every path
-    crosses, the one crossing least."""
+    shortest path that neither crosses to the far side of the line by more than
+    ``cross_tol_m`` before rolling out on it nor, once within CAPTURE_M of the line,
+    strays further from it again (a shorter path that loops across the line overshoots
+    it by up to a turn diameter; from a pose on the line, a loop on one side strays
+    further than a turn across it); if every path does, the one that does least."""
     ln = math.hypot(b[0] - a[0], b[1] - a[1])
     if ln < 1e-6:
         return None
@@ -132,10 +137,14 @@ def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: floa
     for s in grid:
         q = (a[0] + s * u[0], a[1] + s * u[1])
         for length, segs in csc_words(p, chi, q, psi, radius):
-            cross = 0.0
-            if side != 0.0:
-                cross = max((-side * ((x - a[0]) * -u[1] + (y - a[1]) * u[0])
-                             for x, y in _points(segs)), default=0.0)
+            xts = [(x - a[0]) * -u[1] + (y - a[1]) * u[0] for x, y in _points(segs)]
+            cross = max((-side * x for x in xts), default=0.0) if side != 0.0 else 0.0
+            # once within CAPTURE_M of the line, how far the path strays from it again
+            # (a turn across the line from a pose on it: a loop on one side strays more
+            # than a turn across)
+            cap = next((k for k, x in enumerate(xts) if abs(x) <= CAPTURE_M), None)
+            if cap is not None:
+                cross = max(cross, max(abs(x) for x in xts[cap:]) - CAPTURE_M)
             # an entry past the next turn's start skips that turn: taken only where it
             # saves more than a full circle
             cost = (max(cross - cross_tol_m, 0.0), length + (TWO_PI * radius if s > s_max else 0.0))

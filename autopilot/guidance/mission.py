@@ -495,6 +495,15 @@ class MissionSequencer:
         item = self.items[self.current]
         cmd = item.command
         chi = self._course(v_ned, heading_rad)
+        if self._do_pending:
+            # the DO items before this navigation item run first (a condition holds back
+            # those after it): CONDITION_DISTANCE measures to this item's place
+            b = None
+            if cmd == MAV_CMD_NAV_WAYPOINT or cmd in LOITER_COMMANDS:
+                b = self._resolve(item, p_ne, alt_m)[0]
+            elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+                b = (0.0, 0.0)
+            self._service_do(t_us, p_ne, b)
         if cmd == MAV_CMD_NAV_TAKEOFF:
             tgt = self._takeoff(t_us, item, p_ne, heading_rad, alt_m)
         elif cmd == MAV_CMD_NAV_WAYPOINT:
@@ -515,10 +524,6 @@ class MissionSequencer:
             return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
         if tgt is None:   # the item completed: go on with the next
             return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
-        if self._do_pending:
-            b = self._nav_pos[0] if self._nav_pos is not None else \
-                ((0.0, 0.0) if cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH else None)
-            self._service_do(t_us, p_ne, b)
         return tgt
 
     def _takeoff(self, t_us, item, p_ne, heading_rad, alt_m) -> NavTarget | None:
