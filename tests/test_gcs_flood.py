@@ -154,6 +154,17 @@ def test_a_flooding_client_slows_neither_the_flight_loop_nor_another_client(tmp_
         rss1 = _rss_mb(sitl.proc.pid)
         # a client over its budget is slowed, never loses a message (3000 at once)
         acks, last_s = burst_answered(sitl.port, 3000)
+        # at most 16 TCP clients: with the listener, 15 more are served, the next closed
+        time.sleep(0.5)                          # (the burst's connection closed and reaped)
+        extra = [socket.create_connection(("127.0.0.1", sitl.port)) for _ in range(16)]
+        served = []
+        for k, sock in enumerate(extra):
+            sock.settimeout(3.0)
+            try:
+                served.append(len(sock.recv(4096)) > 0)      # a heartbeat, or closed (b"")
+            except OSError:
+                served.append(False)
+            sock.close()
     finally:
         stop.set()
         listener.stop.set()
@@ -170,6 +181,8 @@ def test_a_flooding_client_slows_neither_the_flight_loop_nor_another_client(tmp_
           f"RSS {rss0:.1f} -> {rss1:.1f} MB; {sitl.stats()}")
     print(f"burst of 3000 commands: {acks} acknowledged, the last after {last_s:.2f} s")
     assert acks == 3000 and last_s > 1.5                         # all answered, at the budget's pace
+    assert served == [True] * 15 + [False]
+    assert "1 connections over the limit closed" in "".join(sitl.err)
     assert stats["offered"] / stats["seconds"] > 0.9 * RATE      # the flood was offered
     assert stats["sent_bytes"] > 0 and stats["received_bytes"] > 0  # and partly taken, answered
     assert abs(sim - 1.0) < 0.01                                 # simulated time keeps real time

@@ -124,6 +124,7 @@ class GcsService:
         return (f"{self.received} messages received, {self.decode_errors} undecodable chunks, "
                 f"{c.ignored} ignored, {c.errors} handler errors, "
                 f"{c.missions.uploads_accepted} missions accepted, {c.missions.uploads_refused} refused, "
+                f"{self.links.refused_connections} connections over the limit closed, "
                 f"signing {'on' if self.signing.active else 'off'}, "
                 f"{self.refused_total} messages refused" + (f" ({why})" if why else ""))
 
