@@ -348,6 +348,8 @@ class PlaneVehicle:
                 self.ctrl.set_elevator_out(eout)
                 mon.announce(t_us * 1e-6, SEV_WARNING, "elevator out: height flown on the throttle"
                               if eout else "elevator out: off")
+            if eout and mon.elevator_trim_mps != self.ctrl.eout_trim_mps:
+                self.ctrl.set_elevator_trim(mon.elevator_trim_mps)   # the model's trim speed
             if mon.failsafe == "RTL" and self.armed and self.mode not in (PlaneMode.RTL, PlaneMode.MANUAL):
                 mon.failsafe = None
                 self.set_mode(PlaneMode.RTL, t_us)

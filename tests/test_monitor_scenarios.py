@@ -278,3 +278,35 @@ def test_weakened_elevator_flies_on_with_elevator_out():
     a = s.log.arrays()
     v = a["truth_airspeed_mps"][a["t_s"] >= 142.0]
     assert err_max <= 10.0 and v.min() >= 19.0 and v.max() <= 32.0
+
+
+def _stuck_scenario(tmp_path, value_rad: float, at_s: float) -> Path:
+    scen = tmp_path / f"stuck_{value_rad}_{at_s}.toml"
+    scen.write_text('[wind]\nspeed_mps = 5.0\nfrom_deg = 270.0\nturbulence = "light"\n\n'
+                    f'[[event]]\nat_s = {at_s}\nunit = "servo"\ntype = "stuck"\ninstance = 1\n'
+                    f'value_rad = {value_rad}\n')
+    return scen
+
+
+def test_elevator_stuck_in_the_climb_out_found_from_the_airframe_model(tmp_path):
+    # GIVEN the elevator stuck at 0.15 rad 20 s after launch, in the climb-out (the
+    #       balance learnt in flight alone is armed ~100 s after launch: never seen)
+    scen = _stuck_scenario(tmp_path, 0.15, 20.0)
+    s = Session(RunConfig(scenario=scen, duration_s=45.0, seed=1))
+    s.run()
+    f = run_summary(s)["faults"][0]
+    # WHEN the identifier starts from the Aerosonde's model (FDI_EL_MODEL = 1, default)
+    # THEN detected within 3 s, identified stuck within 0.02 rad 10 s after the onset
+    #      (measured 1.71 s, 0.165 rad), the level trim announced, still flying
+    assert f["kind"] == "actuator" and f["isolated"] == "elevator"
+    assert f["delay_s"] is not None and f["delay_s"] <= 3.0
+    assert "stuck_rad" in f["identified_10s"], f
+    assert abs(f["identified_10s"]["stuck_rad"] - 0.15) <= 0.02, f
+    assert any("level trim" in e[1] for e in s.log.events)
+    assert s.vehicle.ctrl.eout_trim_mps is not None and 18.0 < s.vehicle.ctrl.eout_trim_mps < 25.0
+    assert not s.crashed
+    # AND without the model the same flight sees nothing
+    s0 = Session(RunConfig(scenario=scen, duration_s=35.0, seed=1,
+                           param_overrides={"FDI_EL_MODEL": 0}))
+    s0.run()
+    assert run_summary(s0)["faults"][0]["delay_s"] is None

@@ -30,7 +30,14 @@ Loops are named by what they close:
                           EOUT_SPD_TAU (phugoid damping: thrust against the speed swing),
                           and the height demand slewed at EOUT_DEM_RATE. It engages at the
                           detection, before the monitor has told a stuck surface from a
-                          weakened one (seconds, tens of seconds in turbulence). Where the
+                          weakened one (seconds, tens of seconds in turbulence). Once the
+                          monitor has identified the surface stuck, V_mean is the airspeed
+                          the airframe's model says that deflection trims to
+                          (``set_elevator_trim``): the low-passed mean lags the speed change
+                          the fault starts, and a nose-down stuck elevator's dive then read
+                          as a speed swing to damp with less throttle, where the least height
+                          loss needs the most (with the angle of attack fixed, the flight-
+                          path angle grows with the thrust at that speed). Where the
                           elevator still acts (weakened, or working again after ``ok``) the
                           pitch loop holds the height as before and the speed priority,
                           now only outside ARSPD_FBW_MIN..MAX, guards the airspeed.
@@ -146,13 +153,22 @@ class FixedWingController:
         self.elevator_out = False
         self.eout_pid = Pid(p["EOUT_THR_KP"], p["EOUT_THR_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.5)
         self._eout_v_mean: float | None = None  # airspeed low-passed while the elevator is out
+        self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
         if out and not self.elevator_out:
             self.eout_pid.reset()
             self._eout_v_mean = None
+        if not out:
+            self.eout_trim_mps = None
         self.elevator_out = out
+
+    def set_elevator_trim(self, trim_mps: float | None) -> None:
+        """The airspeed the airframe's model says the stuck elevator trims to (level
+        flight): the phugoid damping acts about it instead of about the low-passed
+        airspeed, which lags the speed change the fault starts (module docstring)."""
+        self.eout_trim_mps = trim_mps
 
     def reset(self) -> None:
         self.alt_dem_m = None
@@ -216,6 +232,8 @@ class FixedWingController:
             if self._eout_v_mean is None:
                 self._eout_v_mean = v_air
             self._eout_v_mean += (v_air - self._eout_v_mean) * min(dt / p["EOUT_SPD_TAU"], 1.0)
+            if self.eout_trim_mps is not None:
+                self._eout_v_mean = self.eout_trim_mps
             thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, rate=0.0,
                                        feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
         else:

@@ -36,9 +36,12 @@ FIT_WARMUP_S = 30.0             # ... and not on the first seconds of flight (ta
 K_MIN, K_MAX = 0.05, 1.2        # a loss-of-effectiveness k outside this: stuck
 SAT_SHARE = 0.5                 # command saturated this share of the window: stuck
 RSS_STUCK = 0.05                # stuck fit's residual under this share of the other's: stuck
+IDENT_WIN_S = 4.0               # identification over the last seconds of the fault [s]
 TEST_DIV = 5                    # detection test on every 5th balance sample (2 Hz)
 RES_TAU_S = 60.0                # healthy residual variance, exponential weighting [s]
 RES_WARMUP_N = 200              # residual samples (20 s) learnt before the test runs
+PRIOR_SD = (0.02, 0.03, 0.05)   # trust in the model's c_0, c_L, c_t [rad]
+BAL_NOISE_RAD = 0.01            # the balance's fit noise the prior is weighed against [rad]
 RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad] (0.01 let the
                                 # steep idle descending turns of the default mission after a
                                 # GPS fault read 6 sigma: a false alarm)
@@ -54,9 +57,17 @@ class MomentBalance:
     N = 3
     V_REF = 25.0                      # [m/s]
 
-    def __init__(self):
-        self.c = np.zeros(self.N)
-        self.P = np.eye(self.N) * 1e4
+    def __init__(self, prior: np.ndarray | None = None):
+        # with the airframe's model (airframe.py) the fit starts from its prediction,
+        # trusted to PRIOR_SD (in units of the fit's own noise, BAL_NOISE_RAD), and z is
+        # available from the first sample; without it, from nothing after 30 s of fit
+        self.prior = prior is not None
+        if prior is not None:
+            self.c = np.array(prior, dtype=float)
+            self.P = np.diag((np.array(PRIOR_SD) / BAL_NOISE_RAD) ** 2)
+        else:
+            self.c = np.zeros(self.N)
+            self.P = np.eye(self.N) * 1e4
         self.n = 0
         self._lp = None
         self._t_us = None
@@ -69,7 +80,7 @@ class MomentBalance:
 
     @property
     def ready(self) -> bool:
-        return self.n >= 300          # 30 s of fitted samples
+        return self.prior or self.n >= 300   # the model, or 30 s of fitted samples
 
     def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
              n: float = 1.0) -> tuple[float, float] | None:
@@ -159,17 +170,23 @@ class ElevatorIdentifier:
     """
 
     def __init__(self, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
-                 q_gamma: float = 1e-6):
+                 q_gamma: float = 1e-6, prior: np.ndarray | None = None):
         # the window test runs every TEST_DIV-th balance sample of a whole flight: its
         # level from the family-wise false-alarm probability per hour (stats.family_alpha)
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         self.win = WindowChi2(1, window, alpha, family_alpha(p_fa, tests_per_hour))
         self.q_gamma = q_gamma
+        self.prior = prior
         self.reset()
 
     def reset(self) -> None:
         self.r_var = None             # healthy residual variance of the balance [rad^2]
         self._n_var = 0
+        if self.prior is not None:
+            # the model's residual is trusted at the floor from the first sample: the
+            # test is armed at once, the variance learnt on as without it
+            self.r_var = RES_FLOOR_RAD * RES_FLOOR_RAD
+            self._n_var = RES_WARMUP_N
         self._r_queue: list[float] = []
         self._r_delay_n = int(FIT_DELAY_S * 1e6 / BAL_PERIOD_US)
         self.gamma = np.array([1.0, 0.0])
@@ -182,7 +199,7 @@ class ElevatorIdentifier:
         self.lam = 1.0
         self._k = 0
         self.ready = False
-        self.balance = MomentBalance()
+        self.balance = MomentBalance(self.prior)
         self._fault_us = None
 
     @property
@@ -279,7 +296,13 @@ class ElevatorIdentifier:
         stage-2 [k, s] otherwise. ``stuck``: the surface was found stuck before, report
         the stuck hypothesis only."""
         if self._fault_us is not None and self.balance.ready:
-            r = self.balance.identify(self._fault_us, stuck)
+            # over the last IDENT_WIN_S once that many seconds have passed since the
+            # detection: the balance's low-passed z settles on a stuck position a few
+            # BAL_TAU_S after the onset, and its transient biased the estimate
+            since = self._fault_us
+            if self.balance._t_us is not None:
+                since = max(since, self.balance._t_us - int(IDENT_WIN_S * 1e6))
+            r = self.balance.identify(since, stuck)
             if r is not None:
                 return r
         if self.k < stuck_below:

@@ -74,6 +74,9 @@ FDI_PARAMS = (
           "statistic are a drift (inertial fault)"),
     Param("FDI_ACT_ID", 1.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
           "(moment balance and two-stage KF)", is_int=True),
+    Param("FDI_EL_MODEL", 1.0, 0.0, 1.0, "", "elevator identifier's prior: 0 none (the pitch balance "
+          "learnt in flight, armed ~100 s after launch), 1 the Aerosonde's model (armed from launch)",
+          is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
@@ -194,12 +197,18 @@ class FaultMonitor:
             nav.q_scale_hook = self._q_hook
         # actuator (elevator) identification, autopilot/monitor/actuator.py
         self.elevator = None
+        self.airframe = None
         if p["FDI_ACT_ID"] >= 1:
-            from .actuator import ElevatorIdentifier
-            self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+            from .actuator import ElevatorIdentifier, MomentBalance
+            from .airframe import MODELS
+            model = self.airframe = MODELS.get(int(p["FDI_EL_MODEL"]))
+            self.elevator = ElevatorIdentifier(
+                alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
+                prior=None if model is None else model.balance(MomentBalance.V_REF))
         self._ident_next_s = 0.0
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
+        self.elevator_trim_mps: float | None = None    # level trim airspeed of that (model)
         self._el_k = 0                        # vehicle steps seen by observe_controls
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
@@ -329,6 +338,26 @@ class FaultMonitor:
                     self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator identified stuck at "
                                                            f"{stuck:.3f} rad"))
                 self.elevator_stuck_rad = stuck
+                self._elevator_trim(t_s, stuck)
+
+    def _elevator_trim(self, t_s: float, stuck: float) -> None:
+        """The level flight the airframe's model gives the stuck elevator: its trim
+        airspeed, and whether full throttle holds it (else the aircraft descends
+        whatever the throttle: said once)."""
+        m = self.airframe
+        if m is None:
+            return
+        v = m.trim_airspeed(stuck)
+        first = self.elevator_trim_mps is None
+        self.elevator_trim_mps = v
+        if not first:
+            return
+        if v is None or v > m.v_level_max_mps or v < m.v_level_min_mps:
+            what = "none" if v is None else f"{v:.0f} m/s"
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator stuck: no level trim ({what}): "
+                                                   f"full throttle, descending"))
+        else:
+            self.events.append((t_s, SEV_WARNING, f"FDI: elevator stuck: level trim {v:.0f} m/s"))
 
     def announce(self, t_s: float, severity: int, text: str) -> None:
         """A reaction of the vehicle to a finding of the monitor (e.g. its controller

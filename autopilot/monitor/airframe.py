@@ -1,0 +1,101 @@
+"""The airframe as the fault monitor knows it: the pitch-axis coefficients of the
+shipped aircraft, and the moment balance (B) of :mod:`.actuator` they predict.
+
+The elevator identifier learns its balance online; with the airframe's own model as the
+prior it is armed from launch instead of after a minute and a half of healthy flight.
+The coefficients are those of the aircraft's JSBSim file (the Aerosonde of Beard &
+McLain, Small Unmanned Aircraft, 2012, table E.2, in
+``sim_bridge/aircraft/aerosonde/aerosonde.xml``; tests/test_monitor_airframe.py reads
+the file and checks they agree). The autopilot does not read the simulator's file: a
+real aircraft's autopilot carries its airframe's model, it does not open the wind
+tunnel's.
+
+Derivation (book sign convention: ``de > 0`` trailing edge down, nose down; the
+autopilot's elevator is nose-up positive, ``delta = -de``). Quasi-steady pitch (q ~ 0,
+q_dot ~ 0) and lift in the linear range::
+
+    Cm0 + Cma alpha + Cmde de = -(thrust moment) / (qbar S cbar)
+    CL0 + CLa alpha + CLde de = CL_req = n m g / (qbar S)
+
+Eliminating alpha, with ``qbar = rho0 V^2 / 2`` (V the equivalent airspeed) so that
+``CL_req = CL_ref n (V_ref / V)^2``, ``CL_ref = m g / (qbar_ref S)``::
+
+    delta = [Cm0 + (Cma / CLa) (CL_req - CL0) + C_T] / (Cmde - Cma CLde / CLa)
+
+which is (B), ``delta = c_0 + c_L (n (V_ref / V)^2 - 1) + c_t throttle (V_ref / V)^2``,
+with::
+
+    c_0 = [Cm0 + (Cma / CLa) (CL_ref - CL0)] / D,    c_L = (Cma / CLa) CL_ref / D,
+    c_t = T_max z_T / (qbar_ref S cbar) / D,         D = Cmde - Cma CLde / CLa
+
+(z_T: the thrust line's distance below the CG; a thrust T_max at full throttle,
+``throttle (V_ref / V)^2`` approximating the thrust over the dynamic pressure). The
+Aerosonde's thrust line passes through its CG (z_T = 0): c_t = 0, learnt online if the
+aircraft disagrees.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+G0 = 9.80665          # [m/s^2]
+RHO0 = 1.225          # sea-level ISA density [kg/m^3]
+
+
+@dataclass(frozen=True)
+class PitchAero:
+    """Pitch-axis model of an airframe (book sign convention, per rad)."""
+
+    name: str
+    mass_kg: float
+    wing_area_m2: float
+    chord_m: float
+    Cm0: float
+    Cma: float
+    Cmde: float
+    CL0: float
+    CLa: float
+    CLde: float
+    thrust_max_n: float = 0.0      # static thrust at full throttle [N]
+    thrust_z_m: float = 0.0        # thrust line below the CG [m]
+    v_level_min_mps: float = 0.0   # slowest level flight (stall) [m/s, equivalent]
+    v_level_max_mps: float = 1e9   # fastest level flight at full throttle [m/s, equivalent]
+
+    def balance(self, v_ref: float) -> np.ndarray:
+        """[c_0, c_L, c_t] of the balance (B) at the reference airspeed (module doc)."""
+        qbar = 0.5 * RHO0 * v_ref * v_ref
+        cl_ref = self.mass_kg * G0 / (qbar * self.wing_area_m2)
+        k = self.Cma / self.CLa
+        D = self.Cmde - k * self.CLde
+        c0 = (self.Cm0 + k * (cl_ref - self.CL0)) / D
+        cL = k * cl_ref / D
+        ct = self.thrust_max_n * self.thrust_z_m / (qbar * self.wing_area_m2 * self.chord_m) / D
+        return np.array([c0, cL, ct])
+
+    def trim_airspeed(self, delta: float, n: float = 1.0, v_ref: float = 25.0) -> float | None:
+        """The equivalent airspeed at which an elevator held at ``delta`` (nose-up
+        positive, rad) balances load factor n (c_t = 0: the throttle does not enter);
+        None where no airspeed does (the lift would have to be negative)."""
+        c = self.balance(v_ref)
+        r2 = (delta - c[0] + c[1]) / (c[1] * n)     # (V_ref / V)^2
+        if r2 <= 0.0:
+            return None
+        return v_ref / r2 ** 0.5
+
+    def elevator_for(self, n: float, v_mps: float) -> float:
+        """Elevator (nose-up positive, rad) that balances load factor n at airspeed V."""
+        c = self.balance(v_mps)
+        return float(c[0] + c[1] * (n - 1.0))
+
+
+# the Aerosonde (sim_bridge/aircraft/aerosonde/aerosonde.xml: metrics, mass_balance,
+# aero/aerosonde/CL-linear, lift-elevator, pitch-basic, pitch-elevator; the thruster at
+# z = 0 with the CG)
+AEROSONDE = PitchAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, chord_m=0.18994,
+                      Cm0=-0.02338, Cma=-0.38, Cmde=-0.5, CL0=0.28, CLa=3.45, CLde=-0.36,
+                      v_level_min_mps=15.3, v_level_max_mps=34.5)
+
+# FDI_EL_MODEL -> the airframe whose model is the elevator identifier's prior (0: none,
+# the balance is learnt in flight from nothing)
+MODELS = {1: AEROSONDE}
