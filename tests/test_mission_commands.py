@@ -70,8 +70,8 @@ def test_copter_autotest_shapes_load_for_the_quad_and_name_what_the_plane_does_n
     loads_waypoints(CIRCUIT_LIKE, "circuit.waypoints", vehicle="quad")
     with pytest.raises(MissionFileError) as info:
         loads_waypoints(CHIAI_LIKE, "chiai.waypoints", vehicle="plane")
-    assert info.value.where == 5                              # the file's line of item 3
-    assert "item 3: CONDITION_YAW is not flown by the fixed-wing (MAV_MISSION_UNSUPPORTED)" \
+    assert info.value.where == 6                              # the file's line of item 4
+    assert "item 4: NAV_LAND is not flown by the fixed-wing (MAV_MISSION_UNSUPPORTED)" \
         in str(info.value)
     with pytest.raises(MissionFileError, match=r"item 6: NAV_LAND is not flown by the fixed-wing"):
         loads_waypoints(CIRCUIT_LIKE, "circuit.waypoints", vehicle="plane")
@@ -90,12 +90,19 @@ def test_copter_autotest_shapes_load_for_the_quad_and_name_what_the_plane_does_n
     (3, DO_SET_HOME, 0, 0, 0, 0, north(10), east(10), 0),
     (3, NAV_WAYPOINT, 0, 0, 0, 0, 0, 0, 0),                  # here, at this height
 ])
-def test_each_command_is_accepted_for_the_quad_and_refused_by_name_for_the_plane(row):
+def test_each_command_is_accepted_for_both_vehicles(row):
     text = wpl((3, NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10), row,
                (3, NAV_WAYPOINT, 0, 0, 0, 0, north(30), east(0), 10))
+    for vehicle in ("quad", "plane"):
+        assert [it.command for it in loads_waypoints(text, vehicle=vehicle)][2] == row[1]
+
+
+def test_a_throttle_change_is_refused_by_name_for_the_plane():
+    text = wpl((3, NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10), (0, DO_CHANGE_SPEED, 0, 22, 60, 0, 0, 0, 0),
+               (3, NAV_WAYPOINT, 0, 0, 0, 0, north(30), east(0), 10))
     loads_waypoints(text, vehicle="quad")
-    with pytest.raises(MissionFileError, match=r":4: item 2: .* is not flown by the fixed-wing "
-                                               r"\(MAV_MISSION_UNSUPPORTED\)"):
+    with pytest.raises(MissionFileError, match=r":4: item 2: DO_CHANGE_SPEED throttle 60 % is not "
+                                               r"flown by the fixed-wing \(MAV_MISSION_UNSUPPORTED\)"):
         loads_waypoints(text, vehicle="plane")
 
 
@@ -167,7 +174,7 @@ def test_upload_of_a_command_the_plane_does_not_fly_is_unsupported_and_named():
     said = recording_statustexts(core)
     acks = upload(core, items)
     assert [a.type for a in acks] == [MAV.MAV_MISSION_UNSUPPORTED]
-    assert said == ["Mission refused: item 3: CONDITION_YAW is not flown by the fixed-wing"]
+    assert said == ["Mission refused: item 4: NAV_LAND is not flown by the fixed-wing"]
     assert v.mission is old
     core, v, _, _ = make_core(make_quad())                    # the quadrotor flies it
     assert [a.type for a in upload(core, items)] == [MAV.MAV_MISSION_ACCEPTED]

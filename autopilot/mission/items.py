@@ -98,7 +98,9 @@ CONDITION_COMMANDS = frozenset({CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_Y
 VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
     "quad": SUPPORTED_COMMANDS,
     "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
-                        NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF, DO_JUMP, DO_CHANGE_SPEED}),
+                        NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
+                        DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
+                        CONDITION_DISTANCE, CONDITION_YAW}),
 }
 VEHICLE_NAMES = {"plane": "the fixed-wing", "quad": "the quadrotor"}
 # DO_CHANGE_SPEED speed types (MAV_SPEED_TYPE)
@@ -375,19 +377,9 @@ def _item_problem(item: MissionItem) -> Problem | None:
 
 def _plane_problem(item: MissionItem) -> str | None:
     """What the fixed-wing does not fly yet within the commands it flies, or None."""
-    if item.command == DO_CHANGE_SPEED:
-        # types 0 and 1 set the airspeed flown (ArduPlane's type 1 sets its minimum
-        # ground speed instead, which this fixed-wing does not have)
-        if item.param1 not in (0.0, 1.0):
-            kind = SPEED_TYPE_NAMES.get(int(item.param1), item.param1)
-            return f"DO_CHANGE_SPEED of the {kind} (speed type {item.param1:g})"
-        if item.param2 == -2.0:
-            return "DO_CHANGE_SPEED back to the default (speed -2)"
-        if math.isfinite(item.param3) and item.param3 > 0.0:
-            return f"DO_CHANGE_SPEED throttle {item.param3:g} %"
-    if (item.command in POSITION_COMMANDS and item.command != NAV_TAKEOFF
-            and item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0):
-        return f"{item.command_name} at latitude and longitude 0 ('here')"
+    if item.command == DO_CHANGE_SPEED and math.isfinite(item.param3) and item.param3 > 0.0:
+        # (ArduPlane sets its cruise throttle; here the airspeed loop sets the throttle)
+        return f"DO_CHANGE_SPEED throttle {item.param3:g} %"
     return None
 
 
