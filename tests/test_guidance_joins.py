@@ -162,3 +162,38 @@ def test_consecutive_duplicate_waypoints_count_the_second_at_once(tmp_path):
     t = dict((q, tu) for tu, q in s.vehicle.sequencer.reached)
     assert t[3] - t[2] < 100_000
     assert summary["completed"] is True
+
+
+def test_the_commands_arduplane_missions_carry_are_flown_end_to_end(tmp_path):
+    # CONDITION_DELAY gating a speed change (out of the limits), CONDITION_YAW (noted),
+    # a loiter of a radius under the minimum, NAV_LOITER_TO_ALT, NAV_DELAY, a waypoint
+    # 'here' at 'this height', DO_SET_HOME at a place, a climb too steep for its leg,
+    # then RTL to the new home
+    LTA, NDELAY, CDELAY, CYAW, SPEED, SETHOME, TURNS = 31, 93, 112, 115, 178, 179, 18
+    rows = [(TAKEOFF, None, None, 50, 3), (WAYPOINT, 500, 0, 50, 3),
+            (CDELAY, None, None, 0, 2, 5), (SPEED, None, None, 0, 2, 0, 40, -1),
+            (CYAW, None, None, 0, 2, 90, 10, 1, 1),
+            (TURNS, 700, 300, 50, 3, 1, 0, 20),
+            (LTA, 700, 300, 90, 3, 0, 120),
+            (NDELAY, None, None, 0, 2, 10, -1, -1, -1),
+            (WAYPOINT, None, None, 0, 3), (SETHOME, -300, 600, HOME[2], 0, 0),
+            (WAYPOINT, 200, 900, 200, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, duration_s=900.0)
+    assert summary["completed"] is True and not summary["crashed"]
+    assert summary["mission_items_reached"] == summary["mission_items_total"]
+    said = [t for _, _, t in s.vehicle.notices]
+    for text in ("Airspeed 40 m/s outside 20-30: 30 m/s flown", "CONDITION_YAW #5 ignored",
+                 "Loiter #6: radius 20 m below the minimum turn radius", "NAV_DELAY #8",
+                 "Item #11: "):
+        assert sum(text in t for t in said) == 1, text
+    # the speed change waited for its condition: 5 s after waypoint 2
+    a = s.log.arrays()
+    t_wp2 = dict((q, t) for t, q in s.vehicle.sequencer.reached)[2] * 1e-6
+    t_fast = a["t_s"][np.flatnonzero(a["tgt_airspeed_mps"] > 29.0)[0]]
+    assert 4.5 <= t_fast - t_wp2 <= 5.5
+    # home moved to the item's place; the mission ends circling it
+    h = LocalFrame.from_degrees(*HOME).to_ned_fast(s.vehicle.home_frame.lat0_rad,
+                                                   s.vehicle.home_frame.lon0_rad, HOME[2])
+    assert float(h[0]) == pytest.approx(-300.0, abs=1.0) and float(h[1]) == pytest.approx(600.0, abs=1.0)
+    r = math.hypot(a["truth_n_m"][-1], a["truth_e_m"][-1])       # the log is in home's frame
+    assert abs(r - s.vehicle.params["LOITER_RAD"]) < 0.25 * s.vehicle.params["LOITER_RAD"]

@@ -142,6 +142,8 @@ class MissionSequencer:
         self._joined = False           # the leg's join has been planned (or needs none)
         self._skip_join = False        # a fillet has just put the vehicle on this leg
         self._join_past = False        # the join rolls out past the start of the next turn
+        self._join_run, self._join_last_p = 0.0, None   # distance flown on the join
+        self._join_alt_now: float | None = None          # its altitude demand
         self._nav_pos: tuple | None = None     # (b_ne, alt) resolved for the current item
         self._loiter_angle = 0.0
         self._loiter_last_bearing: float | None = None
@@ -600,22 +602,53 @@ class MissionSequencer:
                 plan = self._plan_join(p_ne, chi, a_ne, b_ne, s_max)
                 if plan is not None:
                     self._start_path(plan[2], "join", t_us)
+                    self._join_run, self._join_last_p = 0.0, None
                     # rolling out past where the next turn starts: B is passed on the
                     # way, and counted there (within its radius)
                     self._join_past = plan[0] > s_max + 1e-6
         if self._path:
-            if self._join_past and dist <= accept:
-                return None
-            tgt = self._fly_path(p_ne, self._leg_start_alt, seq)
+            alt = self._leg_start_alt
+            if self._path_kind == "join":
+                alt = self._join_alt(t_us, seq, p_ne, a_ne, b_ne, alt_b)
+                if self._join_past and dist <= accept:
+                    return None
+            tgt = self._fly_path(p_ne, alt, seq)
             if tgt is not None:
                 return tgt
+            if self._path_kind == "join":
+                self._leg_start_alt = alt    # the leg's slope goes on from here
         return "leg"
+
+    def _steepest_slope(self, dh: float, a_ne, b_ne) -> float:
+        """The steepest slope the vehicle flies along A->B: its demand slew rate (or the
+        DO_CHANGE_SPEED climb / sink rate) over the ground speed along the leg."""
+        p = self.params
+        rate = (self.climb_rate_mps or p["DEM_CLMB_FRAC"] * p["CLMB_MAX"]) if dh > 0 \
+            else (self.sink_rate_mps or p["DEM_CLMB_FRAC"] * p["SINK_MAX"])
+        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
+        return SLOPE_MARGIN * rate / max(self._groundspeed_along(u), 1.0)
+
+    def _join_alt(self, t_us, seq, p_ne, a_ne, b_ne, alt_b) -> float:
+        """The altitude demand on a join: towards the waypoint's at the steepest slope,
+        by the distance flown since the join began (a plane climbs while it turns)."""
+        last = self._join_last_p
+        self._join_last_p = p_ne
+        if last is not None:
+            self._join_run += math.hypot(p_ne[0] - last[0], p_ne[1] - last[1])
+        dh = alt_b - self._leg_start_alt
+        if abs(dh) < 1e-3:
+            return alt_b
+        slope = self._steepest_slope(dh, a_ne, b_ne)
+        self._join_alt_now = self._leg_start_alt + math.copysign(min(abs(dh), slope * self._join_run), dh)
+        return self._join_alt_now
 
     def _plan_join(self, p_ne, chi, a_ne, b_ne, s_max):
         """The join onto A->B, planned at radii from the join radius (the nominal bank at
         the airspeed plus the wind) down to the radius of the bank midway between the
-        nominal and the limit at that speed (as a fillet shrinks where legs are short). Of the joins that roll out on the leg
-        before the next turn starts without crossing it, the widest no more than a
+        nominal and the limit at that speed (as a fillet shrinks where legs are short).
+        Of the joins that roll out on the leg before the next turn starts without
+        crossing it, the widest no more than a
         quarter longer than the shortest (a wide turn is tracked more closely; a tight
         one saves a long loop where the leg must be joined the other way round); if none
         does, the best at the tightest radius (which may roll out past that point)."""
@@ -650,7 +683,15 @@ class MissionSequencer:
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, chi, accept, length - d_turn, alt_b)
         if r is None:
-            self._reach(t_us, b_ne, alt_b)
+            alt = alt_b
+            if self._join_alt_now is not None and abs(alt_b - self._join_alt_now) > 0.5:
+                # counted on the way onto its leg, short of its height: the rest of the
+                # step carries over to the next leg, flown at the steepest slope
+                alt = self._join_alt_now
+                self.say(t_us, SEV_WARNING, f"Item #{item.seq}: {abs(alt_b - alt):.0f} m of its "
+                                            f"height step still to fly at the steepest slope",
+                         key=("slope", item.seq))
+            self._reach(t_us, b_ne, alt)
             return None
         if r != "leg":
             return r
@@ -694,11 +735,7 @@ class MissionSequencer:
         frac = min(max((along - self._leg_along0) / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
         alt = self._leg_start_alt + dh * frac
         if abs(dh) > 0.5 and length > 1e-3:
-            u = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length)
-            p = self.params
-            rate = (self.climb_rate_mps or p["DEM_CLMB_FRAC"] * p["CLMB_MAX"]) if dh > 0 \
-                else (self.sink_rate_mps or p["DEM_CLMB_FRAC"] * p["SINK_MAX"])
-            slope = SLOPE_MARGIN * rate / max(self._groundspeed_along(u), 1.0)
+            slope = self._steepest_slope(dh, a_ne, b_ne)
             if abs(dh) > slope * length:
                 self.say(t_us, SEV_WARNING,
                          f"Item #{seq}: {abs(dh):.0f} m {'climb' if dh > 0 else 'descent'} over "
