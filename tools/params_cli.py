@@ -32,9 +32,21 @@ def _store(args):
     return store, path
 
 
-def _connect(url: str):
+PARAMS_LINK_ID = 250
+
+
+def _connect(url: str, key: bytes | None = None):
+    """A pymavlink connection; with a signing key, MAVLink 2 (mavutil speaks MAVLink 1
+    unless MAVLINK20 is set when the connection is made) and every message signed."""
+    import os
+    if key is not None:
+        os.environ["MAVLINK20"] = "1"
     from pymavlink import mavutil
     m = mavutil.mavlink_connection(url, source_system=255, source_component=190, dialect="ardupilotmega")
+    if key is not None:
+        # a link id of its own: a ground station signing as 255/190 on link 0 at the same
+        # time is another stream (its timestamps would otherwise look like replays)
+        m.setup_signing(key, sign_outgoing=True, link_id=PARAMS_LINK_ID)
     hb = m.wait_heartbeat(timeout=10)
     if hb is None:
         raise OSError(f"no heartbeat from {url}")
@@ -90,7 +102,11 @@ def params_command(args) -> int:
             store.save(store_path)        # atomic
             print(f"{len(names)} parameters from {path} -> {store_path}")
         return 0
-    m = _connect(args.connect)
+    key = None
+    if getattr(args, "signing_key", None) is not None:
+        from autopilot.link.signing import read_key_file
+        key = read_key_file(args.signing_key)       # KeyFileError is a ValueError
+    m = _connect(args.connect, key)
     try:
         if args.action == "save":
             values = _download(m)

@@ -8,6 +8,7 @@
     sitl missions random --vehicle plane|quad --seed N -o FILE [--max-time S]
     sitl missions sample --vehicle plane|quad --seeds FIRST-LAST [--max-time S] [--jsonl FILE]
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
+                [--signing-key FILE]
     sitl report RUN_DIR
     sitl bench  [--vehicle plane|quad] [--seconds S]
     sitl bench  --false-alarms [--flights N] [--seconds S] [--seed N]
@@ -358,6 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     pp.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
     pp.add_argument("--param-store", help="the persistent store (default sitl-params-VEHICLE.parm)")
     pp.add_argument("--connect", help="a running vehicle instead, e.g. tcp:127.0.0.1:5760")
+    pp.add_argument("--signing-key", metavar="FILE",
+                    help="with --connect: sign with this key (the vehicle's --signing-key file)")
     pp.set_defaults(func=cmd_params)
     rp = sub.add_parser("report", help="draw PNG pictures of a run folder")
     rp.add_argument("run_dir")
