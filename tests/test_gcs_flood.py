@@ -264,3 +264,59 @@ def test_campaign_the_mission_flown_in_real_time_with_and_without_a_60_s_flood(t
     assert abs(sim - 1.0) < 0.01 and abs(rate - base_rate) < 0.05 * base_rate
     assert flooded["rss1"] - flooded["rss0"] < 50.0
     assert s1["xtrack_rms_m"] <= s0["xtrack_rms_m"] + 0.5 and s1["alt_rms_m"] <= s0["alt_rms_m"] + 0.5
+
+
+def test_connections_that_send_nothing_acceptable_cannot_keep_a_ground_station_out():
+    """All 16 TCP places taken by connections sending only unsigned traffic to a vehicle
+    with a key: a newcomer is refused while they are fresh, and once they have had
+    nothing accepted for STALE_S it takes the place of the stalest; the signed client
+    among them keeps its place. In-process service, real sockets, a fake wall clock."""
+    from autopilot.gcs.links import MAX_TCP_CLIENTS
+    from autopilot.gcs.service import STALE_S, GcsService
+    from autopilot.link.signing import passphrase_key
+    from test_gcs_protocol import Clock, make_plane
+    key = passphrase_key("k")
+    clock = Clock()
+    svc = GcsService(make_plane(), ["tcpin:127.0.0.1:0"], clock=clock, signing_key=key)
+    port = svc.tcp_port
+    signed = mav2.MAVLink(None, srcSystem=255, srcComponent=190)
+    signed.signing.secret_key, signed.signing.sign_outgoing = key, True
+    signed.signing.timestamp = int((time.time() - 1420070400) * 1e5)
+    plain = mav2.MAVLink(None, srcSystem=200, srcComponent=190)
+    hb = mav2.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3)
+    socks = []
+
+    def pump(n=20):
+        for _ in range(n):
+            svc.step(0)
+            time.sleep(0.002)
+
+    def heartbeats():
+        socks[0].sendall(bytes(hb.pack(signed)))
+        for s in socks[1:]:
+            s.sendall(bytes(hb.pack(plain)))
+        pump()
+
+    try:
+        for _ in range(MAX_TCP_CLIENTS):
+            socks.append(socket.create_connection(("127.0.0.1", port)))
+            pump(5)
+        heartbeats()
+        late = socket.create_connection(("127.0.0.1", port))
+        pump()
+        assert svc.links.refused_connections == 1 and svc.links.evicted == 0
+        late.close()
+        clock.t += STALE_S + 1
+        heartbeats()
+        newcomer = socket.create_connection(("127.0.0.1", port))
+        pump()
+        assert svc.links.evicted == 1 and len(svc.links._tcp) == MAX_TCP_CLIENTS
+        names = [p.name for p in svc.links.peers.values()]
+        assert f"tcp 127.0.0.1:{socks[0].getsockname()[1]}" in names          # the signed one stays
+        assert f"tcp 127.0.0.1:{newcomer.getsockname()[1]}" in names
+        assert svc.refused["unsigned"] >= 2 * (MAX_TCP_CLIENTS - 1)
+        newcomer.close()
+    finally:
+        for s in socks:
+            s.close()
+        svc.close()

@@ -16,8 +16,9 @@ them, so the caller can warn when no signing key guards them).
 Input is read only from peers the service has not paused (``Peer.paused``: a client over
 its input budget, see ``service.py``), at most ``READ_SIZE`` bytes per TCP client per
 poll; a paused client's bytes wait in the kernel, and TCP flow control slows the sender.
-At most ``MAX_TCP_CLIENTS`` TCP clients at once: a connection beyond them is closed at
-once (``refused_connections``).
+At most ``MAX_TCP_CLIENTS`` TCP clients at once: a connection beyond them makes room by
+closing the client the service names (``evictable``: one that has had nothing accepted
+for a while, ``evicted``), or else is closed at once (``refused_connections``).
 
 Output to a TCP client is written without blocking. What the kernel will not take at
 once waits in a per-peer buffer; telemetry is dropped for a peer whose buffer holds more
@@ -99,6 +100,8 @@ class GcsLinks:
         self.new_peers: list[Peer] = []      # opened since the last poll
         self.gone_peers: list[Peer] = []     # closed since the last poll
         self.refused_connections = 0         # TCP clients beyond MAX_TCP_CLIENTS
+        self.evicted = 0                     # ... and stale ones closed to make room
+        self.evictable = None                # () -> a Peer to close for a newcomer, or None
         try:
             for url in urls:
                 self._open(*parse_url(url))
@@ -217,9 +220,13 @@ class GcsLinks:
             except OSError:
                 return
             if len(self._tcp) >= MAX_TCP_CLIENTS:
-                self.refused_connections += 1
-                conn.close()
-                continue
+                victim = self.evictable() if self.evictable is not None else None
+                if victim is None or victim.closed:
+                    self.refused_connections += 1
+                    conn.close()
+                    continue
+                self._close_peer(victim)
+                self.evicted += 1
             conn.setblocking(False)
             try:
                 conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)

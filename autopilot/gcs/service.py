@@ -30,7 +30,11 @@ the key and its timestamp in an owner-only file, the timestamp saved every
 Input budget: every client may have ``INPUT_RATE`` frames a second handled (messages,
 rejected frames and stretches of garbage alike), up to ``INPUT_BURST`` at once, and all
 clients together ``TOTAL_INPUT_RATE`` (each gets min(INPUT_RATE, TOTAL_INPUT_RATE / n)
-with n clients). A client over its budget is paused: what it sent waits in the codec's
+with n clients that sent something in the last ``ACTIVE_S``: idle connections do not
+dilute the others' budgets). With signing on, when every TCP place is taken, a newcomer
+closes the client that has had nothing accepted for longest, if that is over ``STALE_S``:
+connections that only send unsigned traffic cannot keep a ground station out (nor can a
+client without the key that only listens keep its place). A client over its budget is paused: what it sent waits in the codec's
 buffer (at most one read, ``links.READ_SIZE`` bytes, plus a frame) and in the kernel, so
 however fast the clients send they cost the flight loop at most ``TOTAL_INPUT_RATE``
 frames a second, and this process at most ``READ_SIZE`` + ``links.MAX_BACKLOG`` bytes of
@@ -53,6 +57,8 @@ _SETUP_SIGNING = 256
 INPUT_RATE = 1000.0        # frames a second a client may have handled
 TOTAL_INPUT_RATE = 2000.0  # ... and every client together: each min(INPUT_RATE, this / clients)
 INPUT_BURST = 200.0        # frames at once
+ACTIVE_S = 1.0             # a client that sent something this recently shares the total
+STALE_S = 10.0             # a TCP client with nothing accepted this long may make room
 REFUSAL_REPORT_S = 10.0    # at most one STATUSTEXT about refused messages this often
 TIMESTAMP_SAVE_S = 30.0    # the stored signing timestamp is refreshed this often
 
@@ -77,7 +83,8 @@ class GcsService:
         self._log_codec = Codec(system_id, component_id)
         self._rx: dict[int, Codec] = {}
         self._tx: dict[int, Codec] = {}
-        self._budget: dict[int, list[float]] = {}   # pid -> [frames allowed now, when]
+        # pid -> [frames allowed now, when refilled, last input, last message accepted]
+        self._budget: dict[int, list[float]] = {}
         self.clock = clock
         self.t_us = 0
         self.received = 0
@@ -99,6 +106,7 @@ class GcsService:
             self.signing.set_key(signing_key, self.signing.timestamp)
             self.key_source = "--signing-key"
             self._save_key()
+        self.links.evictable = self._stale_peer
         self.core.signing = self.signing
         self.core.on_signing_change = self._signing_changed
         self.refused: dict[str, int] = {}
@@ -125,6 +133,7 @@ class GcsService:
                 f"{c.ignored} ignored, {c.errors} handler errors, "
                 f"{c.missions.uploads_accepted} missions accepted, {c.missions.uploads_refused} refused, "
                 f"{self.links.refused_connections} connections over the limit closed, "
+                f"{self.links.evicted} stale ones closed for newcomers, "
                 f"signing {'on' if self.signing.active else 'off'}, "
                 f"{self.refused_total} messages refused" + (f" ({why})" if why else ""))
 
@@ -196,7 +205,21 @@ class GcsService:
             tx = self._tx[p.pid] = Codec(self.system_id, self.component_id)
             tx.signing = self.signing
             tx.link_id = p.pid & 0xFF
-            self._budget[p.pid] = [INPUT_BURST, self.clock()]
+            now = self.clock()
+            self._budget[p.pid] = [INPUT_BURST, now, -1e9, now]
+
+    def _stale_peer(self):
+        """With signing on, the TCP client to close for a newcomer when all places are
+        taken: the one with nothing accepted for longest (since it connected), if over
+        STALE_S. Without a key nothing tells an idle intruder from a ground station that
+        only listens: the newcomer is refused."""
+        if not self.signing.active:
+            return None
+        now = self.clock()
+        stale = [(b[3], pid) for pid, b in self._budget.items()
+                 if now - b[3] > STALE_S and self.links.peers.get(pid) is not None
+                 and self.links.peers[pid].kind == "tcp"]
+        return self.links.peers[min(stale)[1]] if stale else None
 
     def _allowance(self, pid: int) -> int:
         """Frames client ``pid`` may have handled now (its budget, refilled)."""
@@ -204,7 +227,9 @@ class GcsService:
         if b is None:
             return 0
         now = self.clock()
-        rate = min(INPUT_RATE, TOTAL_INPUT_RATE / len(self._budget))
+        b[2] = now
+        active = sum(1 for x in self._budget.values() if now - x[2] < ACTIVE_S)
+        rate = min(INPUT_RATE, TOTAL_INPUT_RATE / max(active, 1))
         b[0] = min(INPUT_BURST, b[0] + (now - b[1]) * rate)
         b[1] = now
         return int(b[0])
@@ -259,6 +284,7 @@ class GcsService:
                     self.refused[why] = self.refused.get(why, 0) + 1
                     continue
             accepted += 1
+            self._budget[peer.pid][3] = self.clock()
             if sender is not None:
                 peer.addr = sender          # udpin: answer whoever was last accepted
             v1 = bool(buf) and buf[0] == 0xFE
