@@ -49,16 +49,16 @@ def fly(tmp_path, rows, **kw):
     return s, run_summary(s)
 
 
-def overshoots(s):
+def overshoots(s, t_from=0.0):
     """Per visit of a leg (a run of one item flown as a line at some point): how the leg
     was entered (the sequencer's planned 'join' or 'fillet') and the overshoot past the
     leg's line: after the vehicle first comes within 10 m of the line within 30 degrees
     of its course, the largest |cross-track| once it has crossed to the other side
-    (0 when it converges from one side)."""
+    (0 when it converges from one side). Samples from ``t_from`` [s] on."""
     a = s.log.arrays()
     tr = s.vehicle.sequencer.transitions
     t, kind, sq = a["t_s"], a["kind"], a["seq"]
-    idx = np.flatnonzero(a["armed"] > 0)
+    idx = np.flatnonzero((a["armed"] > 0) & (t >= t_from))
     cuts = [idx[0]] + [i for i in range(idx[0] + 1, idx[-1] + 1) if sq[i] != sq[i - 1]] + [idx[-1] + 1]
     out = []
     for i0, i1 in zip(cuts[:-1], cuts[1:]):
@@ -197,3 +197,29 @@ def test_the_commands_arduplane_missions_carry_are_flown_end_to_end(tmp_path):
     assert float(h[0]) == pytest.approx(-300.0, abs=1.0) and float(h[1]) == pytest.approx(600.0, abs=1.0)
     r = math.hypot(a["truth_n_m"][-1], a["truth_e_m"][-1])       # the log is in home's frame
     assert abs(r - s.vehicle.params["LOITER_RAD"]) < 0.25 * s.vehicle.params["LOITER_RAD"]
+
+
+@pytest.mark.parametrize("hold_mode", ["LOITER", "GUIDED"])
+def test_back_to_auto_the_leg_is_joined_by_a_planned_turn(tmp_path, hold_mode):
+    from autopilot.modes.plane import PlaneMode
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 300, 0, 60, 3), (WAYPOINT, 1500, 0, 60, 3),
+            (WAYPOINT, 1500, 800, 60, 3), (RTL, None, None, 0, 2)]
+    path = tmp_path / "m.waypoints"
+    path.write_text(wpl(rows))
+    s = Session(RunConfig(mission=path, turbulence="light", seed=2, wind=(5.0, 300.0), duration_s=500.0))
+    v = s.vehicle
+    while s.t_s < 500.0 and not (v.sequencer and v.sequencer.current == 3 and s.t_s > 40.0):
+        s.step()
+    v.set_mode(PlaneMode[hold_mode], int(s.t_s * 1e6))       # off the leg, circling
+    t_back = s.t_s + 40.0
+    while s.t_s < t_back:
+        s.step()
+    v.set_mode(PlaneMode.AUTO, int(s.t_s * 1e6))             # back onto the leg to WP3
+    while s.t_s < 500.0 and not s.done():
+        s.step()
+    assert v.sequencer.finished and v.sequencer.reached_seqs >= {1, 2, 3, 4}
+    joins = [(tu, q) for tu, q, k in v.sequencer.transitions if k == "join" and tu * 1e-6 >= t_back - 0.1]
+    assert joins and joins[0][1] == 3
+    resumed = [o for q, how, o in overshoots(s, t_back) if q == 3 and how == "join"]
+    fillets = [o for _, how, o in overshoots(s) if how == "fillet"]
+    assert resumed and resumed[0] <= max(max(fillets, default=0.0), 4.0) + 1.0

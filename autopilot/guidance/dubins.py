@@ -28,6 +28,7 @@ TWO_PI = 2.0 * math.pi
 _MIN_ARC_RAD = math.radians(3.0)   # arcs smaller than this are flown as straight lines
 _MIN_LINE_M = 1.0
 CAPTURE_M = 10.0    # on the line from this close (as the mission's cross-track is scored)
+STRAY_WEIGHT = 10.0  # metres of path worth one metre strayed from the line
 
 
 def _unit(chi: float) -> tuple[float, float]:
@@ -120,7 +121,8 @@ def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: floa
     ``cross_tol_m`` before rolling out on it nor, once within CAPTURE_M of the line,
     strays further from it again (a shorter path that loops across the line overshoots
     it by up to a turn diameter; from a pose on the line, a loop on one side strays
-    further than a turn across it); if every path does, the one that does least."""
+    further than a turn across it); where every path does, a metre strayed counts as
+    STRAY_WEIGHT metres of path."""
     ln = math.hypot(b[0] - a[0], b[1] - a[1])
     if ln < 1e-6:
         return None
@@ -147,7 +149,8 @@ def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: floa
                 cross = max(cross, max(abs(x) for x in xts[cap:]) - CAPTURE_M)
             # an entry past the next turn's start skips that turn: taken only where it
             # saves more than a full circle
-            cost = (max(cross - cross_tol_m, 0.0), length + (TWO_PI * radius if s > s_max else 0.0))
+            cost = (STRAY_WEIGHT * max(cross - cross_tol_m, 0.0) + length
+                    + (TWO_PI * radius if s > s_max else 0.0))
             if best is None or cost < best[0]:
                 best = (cost, s, length, segs, cross)
     return best[1], best[2], best[3], best[4]
