@@ -18,6 +18,10 @@ from test_gcs_protocol import make_core, make_plane
 HOME = "0\t1\t0\t16\t0\t0\t0\t0\t-35.363262\t149.165237\t584\t1\n"
 
 
+# the first item a waypoint 1.1 km ahead at home's height (no takeoff), then RTL
+NO_CLIMB = ((3, 16, 0, 0, 0, 0, -35.353262, 149.165237, 0), (3, 20, 0, 0, 0, 0, 0, 0, 0))
+
+
 def mission_file(tmp_path, *rows):
     path = tmp_path / "m.waypoints"
     path.write_text("QGC WPL 110\n" + HOME + "".join(
@@ -49,8 +53,7 @@ def fly(path, t_end, stop_at_crash=True, **params):
 def test_a_launch_that_does_not_climb_is_a_crash_five_seconds_later(tmp_path):
     # the first item a waypoint 1.1 km ahead at home's height (no takeoff): the catapult
     # fires, the aircraft holds the launcher's height and settles onto the ground
-    path = mission_file(tmp_path, (3, 16, 0, 0, 0, 0, -35.353262, 149.165237, 0),
-                        (3, 20, 0, 0, 0, 0, 0, 0, 0))
+    path = mission_file(tmp_path, *NO_CLIMB)
     s, contact, after = fly(path, 40.0)
     v = s.vehicle
     assert v.crash is not None and v.crash.startswith("not airborne 5 s after launch")
@@ -115,11 +118,10 @@ def _rest_errors(s, t0):
 
 @pytest.mark.parametrize("engine", ["running", "cut"])
 def test_the_filter_stays_consistent_at_rest_on_the_ground(tmp_path, engine):
-    # flown into the ground (as above); then 60 s at rest, at full throttle (crash
-    # detection off: the issue's flight) or with the throttle cut (crash detection on)
-    path = mission_file(tmp_path, (3, 22, 12, 0, 0, 0, -35.3605841, 149.1648338, 30),
-                        (0, 16, 0, 0, 0, 0, -35.3505841, 149.1648338, 582),
-                        (3, 20, 0, 0, 0, 0, 0, 0, 0))
+    # launched towards a waypoint at the launcher's height (as above: it slides along the
+    # ground to a stop, the issue's flight); then 60 s at rest, at full throttle (crash
+    # detection off) or with the throttle cut (crash detection on)
+    path = mission_file(tmp_path, *NO_CLIMB)
     s, contact, _ = fly(path, 150.0, stop_at_crash=False,
                         CRASH_DETECT=0 if engine == "running" else 1)
     assert contact is not None
@@ -141,9 +143,7 @@ def test_the_imu_at_rest_on_the_ground_at_full_throttle_reads_gravity_only(tmp_p
     the IMU sample is the mean over the HIL period, as an IMU integrates, so at rest it
     reads -g in body axes and no rotation (a point sample read 1.8 m/s^2 sideways and
     0.64 deg/s of roll: the filter's -10 deg of roll)."""
-    path = mission_file(tmp_path, (3, 22, 12, 0, 0, 0, -35.3605841, 149.1648338, 30),
-                        (0, 16, 0, 0, 0, 0, -35.3505841, 149.1648338, 582),
-                        (3, 20, 0, 0, 0, 0, 0, 0, 0))
+    path = mission_file(tmp_path, *NO_CLIMB)
     s, _, _ = fly(path, 95.0, stop_at_crash=False, CRASH_DETECT=0)
     f, w = [], []
     for _ in range(200):                                          # 2 s
