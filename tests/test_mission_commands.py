@@ -411,6 +411,16 @@ def test_do_change_speed_sets_the_speed_of_its_type_clamps_and_restores():
     assert max(back) == pytest.approx(p["WPNAV_SPEED"], abs=0.05)
 
 
+def test_a_throttle_in_do_change_speed_is_said_to_be_unused_by_the_quad():
+    ms = mission(item(1, NAV_TAKEOFF, alt=5.0),
+                 item(2, DO_CHANGE_SPEED, p1=0, p2=4.0, p3=60.0, frame=0),
+                 item(3, NAV_WAYPOINT, n=10.0, e=0.0, alt=5.0), item(4, NAV_LAND))
+    seq, nav, log = fly(ms)
+    assert seq.landed and [r["v_h"] for r in log][-1] == 4.0
+    assert [text for _, _, text in seq.notices] == [
+        "Mission: item 2 throttle 60 % not used: the quadrotor's loops set the thrust"]
+
+
 def test_do_set_home_moves_home_and_the_landing_there():
     ms = mission(item(1, NAV_TAKEOFF, alt=10.0),
                  item(2, DO_SET_HOME, p1=0, n=60.0, e=-20.0, alt=0.0),

@@ -597,6 +597,10 @@ class CopterMissionSequencer:
             v = item.param2
             name, attr = {2: ("WPNAV_SPEED_UP", "speed_up_mps"),
                           3: ("WPNAV_SPEED_DN", "speed_dn_mps")}.get(kind, ("WPNAV_SPEED", "speed_mps"))
+            if math.isfinite(item.param3) and item.param3 > 0.0:
+                # ArduCopter ignores it too; said, not silently dropped
+                self._say(t_us, 4, f"Mission: item {item.seq} throttle {item.param3:g} % not "
+                                   "used: the quadrotor's loops set the thrust")
             if v == -2.0:
                 setattr(nav, attr, None)        # back to the parameter
             elif v > 0.0:
