@@ -96,6 +96,22 @@ def test_xtrack_mission_sees_what_the_flown_legs_do_not():
     assert 10.0 < rms < 60.0
 
 
+def test_a_reversal_is_captured_when_flown_along_the_line():
+    """Out to A, on 400 m past it, a 200 m wide turn back, home: the leg A -> home is
+    scored from where the aircraft is back on the line flying home, not from A, where it
+    passes flying away (the turn-around is the join)."""
+    out_back = _mission([(22, 3, 0, 0, 0, None, None, 50), (16, 3, 0, 0, 0, 1000.0, 0.0, 50),
+                         (20, 2, 0, 0, 0, None, None, 0)])
+    pts = [(0, 0), (1000, 0), (1400, 0), (1400, 200), (1200, 5), (1000, 2), (0, 0)]
+    a = _log(pts, [2, 3, 3, 3, 3, 3])
+    t = a["t_s"]
+    i_a = int(np.flatnonzero(a["seq"] == 3)[0]) - 1
+    ev = [(0, 1), (int(round(t[i_a] * 1e6)), 2), (int(round(t[-1] * 1e6)), 3)]
+    rms, mx, legs = xtrack_mission(a, out_back, HOME, "plane", ev, PARAMS)
+    assert legs[1]["seq"] == 3 and legs[1]["xtrack_max_m"] < 10.0
+    assert mx < 10.0
+
+
 def test_order_figure():
     ev = [(0, 1), (1, 2), (2, 3), (3, 4), (4, 2), (5, 3), (6, 5)]
     assert order_figure(SQUARE, ev) == (0, None)

@@ -20,8 +20,12 @@ Cross-track against them (``xtrack_mission``)
     matched to the k-th reached event of that item. For a fixed-wing loiter the leg ends
     earlier, where the vehicle reaches the circle (its radius flown, LOITER_RAD for 0,
     plus ``CAPTURE_M``). As for the flown legs (tools/summary.py), a leg counts from its
-    first sample within ``CAPTURE_M`` of the line. An item never counted has its leg run
-    to the end of the log.
+    capture: its first sample within ``CAPTURE_M`` of the line flying along it (true
+    ground velocity less than 90 degrees from the line's direction). The direction
+    matters for the mission's lines as it does not for the legs guidance draws: after a
+    reversal the aircraft is at the new line's start, but flying the other way, and the
+    turn back is the join, not tracking. An item never counted has its leg run to the
+    end of the log.
 
 ``xtrack_mission_worst_leg`` names the line with the largest error (the items at its two
 ends, ``from_seq`` null for the take-off point) with its own rms and max.
@@ -182,11 +186,12 @@ def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, e
         length = math.hypot(bn - an, be - ae)
         un, ue = (bn - an) / length, (be - ae) / length
         xt = (tn[idx] - an) * (-ue) + (te[idx] - ae) * un
+        along_v = a["truth_vn_mps"][idx] * un + a["truth_ve_mps"][idx] * ue
         if leg["loiter_r"] > 0.0:
             near = np.flatnonzero(np.hypot(tn[idx] - bn, te[idx] - be) <= leg["loiter_r"] + CAPTURE_M)
             if near.size:
-                xt = xt[:near[0]]
-        cap = np.flatnonzero(np.abs(xt) <= CAPTURE_M)
+                xt, along_v = xt[:near[0]], along_v[:near[0]]
+        cap = np.flatnonzero((np.abs(xt) <= CAPTURE_M) & (along_v > 0.0))
         if not cap.size:
             continue
         xt = xt[cap[0]:]
