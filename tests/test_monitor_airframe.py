@@ -33,6 +33,8 @@ def test_coefficients_are_those_of_the_jsbsim_file():
     assert _function_values(root, "aero/force/lift-elevator") == [AEROSONDE.CLde]
     assert _function_values(root, "aero/moment/pitch-basic") == [AEROSONDE.Cm0, AEROSONDE.Cma]
     assert _function_values(root, "aero/moment/pitch-elevator") == [AEROSONDE.Cmde]
+    assert _function_values(root, "aero/moment/pitch-q") == [AEROSONDE.Cmq]
+    assert float(root.find("mass_balance/iyy").text) == AEROSONDE.Iyy
     # AND the thrust line passes through the CG (no thrust moment: c_t = 0)
     thr = root.find(".//thruster/location")
     cg = root.find("mass_balance/location")
@@ -77,3 +79,17 @@ def test_level_flight_limits_are_the_plants():
     for v in (AEROSONDE.v_level_max_mps + 1.0, AEROSONDE.v_level_min_mps - 1.0):
         with pytest.raises(RuntimeError):
             plant.trim(airspeed_mps=v * tas, height_m=100.0)
+
+
+def test_pitch_rate_terms():
+    # GIVEN a steady pull-up at 0.2 rad/s, 25 m/s; THEN the damping asks for more nose-up
+    # elevator, Cmq cbar q / (2 V) / D (D = Cmde - Cma CLde / CLa)
+    D = AEROSONDE.Cmde - AEROSONDE.Cma / AEROSONDE.CLa * AEROSONDE.CLde
+    damping = AEROSONDE.Cmq * AEROSONDE.chord_m * 0.2 / (2.0 * 25.0) / D
+    assert AEROSONDE.dynamic_elevator(0.2, 0.0, 25.0) == pytest.approx(damping)
+    assert damping > 0.0
+    # AND a nose-up pitch acceleration too, Iyy q_dot / (qbar S cbar) / -D
+    qbar = 0.5 * 1.225 * 25.0 ** 2
+    inertia = AEROSONDE.Iyy * 1.0 / (qbar * AEROSONDE.wing_area_m2 * AEROSONDE.chord_m) / -D
+    assert AEROSONDE.dynamic_elevator(0.0, 1.0, 25.0) == pytest.approx(inertia)
+    assert inertia > 0.0

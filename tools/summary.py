@@ -168,7 +168,7 @@ def _fault_spans(fault_log, end_s: float) -> list[tuple]:
     return spans
 
 
-def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
+def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None) -> dict:
     """``faults``: one entry per injected event with ``at_s``, ``unit``, ``type``,
     ``instance``, ``detected_s`` (start of the first monitor detection at or after the
     injection and before the fault ended, or one already running; null if none),
@@ -181,7 +181,10 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
     ``ok`` events get ``cleared_s`` (end of the episode running at the ok, if any).
     ``false_alarms``: detections that start while no fault is active and not within
     FAULT_GRACE_S after one ended. With ``t_s``/``eh`` (horizontal estimate error per
-    log sample): ``nav_pos_h_rms_during_fault_m`` over the sensor-fault spans."""
+    log sample): ``nav_pos_h_rms_during_fault_m`` over the sensor-fault spans. With
+    ``h`` (true height above home per log sample) an actuator fault (servo, motor) gets
+    ``height_at_onset_m`` and ``height_lost_m`` (that height less the lowest one until
+    the fault ended or the flight did)."""
     spans = _fault_spans(fault_log, end_s)
     out = []
     for r in fault_log:
@@ -211,6 +214,14 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None) -> dict:
                         if t_id <= r.at_s + 10.0 + 1e-9:
                             e["identified_10s"] = ident
                     break
+            if h is not None and t_s is not None and r.unit in ("servo", "motor") and len(t_s):
+                i0 = int(np.searchsorted(t_s, r.at_s))
+                i1 = int(np.searchsorted(t_s, stop, side="right"))
+                seg = h[i0:i1]
+                seg = seg[np.isfinite(seg)]
+                if len(seg):
+                    e["height_at_onset_m"] = round(float(seg[0]), 2)
+                    e["height_lost_m"] = round(float(seg[0] - seg.min()), 2)
         out.append(e)
     false_alarms = 0
     for ep in episodes:
@@ -386,7 +397,9 @@ def run_summary(session) -> dict:
     mon = getattr(v, "monitor", None)
     if mon is not None and len(a["t_s"]):
         eh = np.hypot(a["est_n_m"] - a["truth_n_m"], a["est_e_m"] - a["truth_e_m"])
-        s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh))
+        home = getattr(v, "home_truth_alt_m", None)
+        h = a["truth_alt_m"] - home if home is not None else None
+        s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh, h))
         # the healthy margin: largest detection statistic / threshold per channel while
         # no fault was detected (> 1 would have been a detection)
         s["fdi_peak_ratio"] = {k: round(v, 3) for k, v in sorted(getattr(mon, "peaks", {}).items())}

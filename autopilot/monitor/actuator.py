@@ -57,7 +57,7 @@ class MomentBalance:
     N = 3
     V_REF = 25.0                      # [m/s]
 
-    def __init__(self, prior: np.ndarray | None = None):
+    def __init__(self, prior: np.ndarray | None = None, model=None):
         # with the airframe's model (airframe.py) the fit starts from its prediction,
         # trusted to PRIOR_SD (in units of the fit's own noise, BAL_NOISE_RAD), and z is
         # available from the first sample; without it, from nothing after 30 s of fit
@@ -68,6 +68,7 @@ class MomentBalance:
         else:
             self.c = np.zeros(self.N)
             self.P = np.eye(self.N) * 1e4
+        self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
         self._lp = None
         self._t_us = None
@@ -83,11 +84,14 @@ class MomentBalance:
         return self.prior or self.n >= 300   # the model, or 30 s of fitted samples
 
     def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
-             n: float = 1.0) -> tuple[float, float] | None:
+             n: float = 1.0, q: float = 0.0) -> tuple[float, float] | None:
         """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
-        z the deflection the balance says the aircraft flies with."""
+        z the deflection the balance says the aircraft flies with. With the airframe's
+        model the pitch rate q adds its damping and, through the derivative of its
+        low-passed value ((q - q_lp) / BAL_TAU_S, exact for the first-order filter), its
+        inertia: known terms, not fitted."""
         r = self.V_REF / V
-        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd)
+        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q)
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             if self._t0_us is None:
@@ -99,16 +103,19 @@ class MomentBalance:
             return None
         a = dt / (BAL_TAU_S + dt)
         lp = self._lp
-        for i in range(4):
+        for i in range(5):
             lp[i] += a * (x[i] - lp[i])
         if t_us < self._next_us:
             return None
         self._next_us = t_us + BAL_PERIOD_US
         phi = np.array(lp[:3])
         d = lp[3]
+        z_dyn = 0.0
+        if self.model is not None:
+            z_dyn = self.model.dynamic_elevator(lp[4], (q - lp[4]) / BAL_TAU_S, V)
         if not self.frozen and not self.suspended and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
-            q_.append((t_us, phi, d))
+            q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, dd = q_.pop(0)
                 P = self.P
@@ -118,7 +125,7 @@ class MomentBalance:
                 self.P = P - np.outer(g, Pp)
                 self.n += 1
         if self.ready:
-            z = float(phi @ self.c)
+            z = float(phi @ self.c) + z_dyn
             h = self.hist
             h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:
@@ -138,9 +145,11 @@ class MomentBalance:
             self._queue.clear()
         self.suspended = on
 
-    def identify(self, since_us: int, stuck: bool = False) -> dict | None:
+    def identify(self, since_us: int, stuck: bool = False, recent_us: int | None = None) -> dict | None:
         """The two hypotheses (2.23, 2.24) over the samples since ``since_us``; only the
-        stuck one with ``stuck`` (a surface already found stuck)."""
+        stuck one with ``stuck`` (a surface already found stuck). The stuck position is
+        the mean of z since ``recent_us`` (the samples after the onset's transient) when
+        given and at least 10 samples hold it."""
         h = [r for r in self.hist if r[0] >= since_us]
         if len(h) < 10:
             return None
@@ -150,13 +159,15 @@ class MomentBalance:
         k = float(z @ d) / dd if dd > 0.0 else 0.0
         sat = float(np.mean(np.abs(d) >= 0.98 * MAX_DEFLECTION_RAD))
         s_now = float(np.mean(z))
+        recent = [r[1] for r in h if recent_us is not None and r[0] >= recent_us]
+        s_pos = float(np.mean(recent)) if len(recent) >= 10 else s_now
         # the two fits' residual sums of squares: a stuck surface explains z far better
         # than a loss of effectiveness when the command moves and z does not
         rss_stuck = float(np.sum((z - s_now) ** 2))
         rss_loe = float(np.sum((z - k * d) ** 2))
         if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
                 or rss_stuck < RSS_STUCK * rss_loe):
-            return {"stuck_rad": round(s_now, 4)}
+            return {"stuck_rad": round(s_pos, 4)}
         return {"effectiveness": round(k, 3)}
 
 
@@ -170,13 +181,16 @@ class ElevatorIdentifier:
     """
 
     def __init__(self, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
-                 q_gamma: float = 1e-6, prior: np.ndarray | None = None):
+                 q_gamma: float = 1e-6, model=None):
         # the window test runs every TEST_DIV-th balance sample of a whole flight: its
         # level from the family-wise false-alarm probability per hour (stats.family_alpha)
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         self.win = WindowChi2(1, window, alpha, family_alpha(p_fa, tests_per_hour))
         self.q_gamma = q_gamma
-        self.prior = prior
+        # the airframe's model (airframe.PitchAero): the balance's prior and its pitch-
+        # rate terms; None: the balance is learnt in flight from nothing
+        self.model = model
+        self.prior = None if model is None else model.balance(MomentBalance.V_REF)
         self.reset()
 
     def reset(self) -> None:
@@ -199,7 +213,7 @@ class ElevatorIdentifier:
         self.lam = 1.0
         self._k = 0
         self.ready = False
-        self.balance = MomentBalance(self.prior)
+        self.balance = MomentBalance(self.prior, self.model)
         self._fault_us = None
 
     @property
@@ -227,7 +241,7 @@ class ElevatorIdentifier:
         self._fault_us = t_us - 1_000_000
 
     def step(self, t_us: int, nav, elevator_cmd: float, flying: bool, throttle: float = 0.0,
-             n_meas: float | None = None) -> None:
+             n_meas: float | None = None, q: float | None = None) -> None:
         V = nav.airspeed_mps
         if not flying or V < 10.0:
             return
@@ -239,7 +253,9 @@ class ElevatorIdentifier:
             qw, qx, qy, qz = (float(c) for c in nav.q_nb)
             c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
             n = 1.0 / max(c_bank, 0.5)
-        sample = self.balance.step(t_us, V, throttle, d, n)
+        if q is None:
+            q = float(nav.omega_b[1])  # pitch rate (bias-corrected)
+        sample = self.balance.step(t_us, V, throttle, d, n, q)
         if sample is None:
             return
         z, dcmd = sample
@@ -296,13 +312,14 @@ class ElevatorIdentifier:
         stage-2 [k, s] otherwise. ``stuck``: the surface was found stuck before, report
         the stuck hypothesis only."""
         if self._fault_us is not None and self.balance.ready:
-            # over the last IDENT_WIN_S once that many seconds have passed since the
-            # detection: the balance's low-passed z settles on a stuck position a few
-            # BAL_TAU_S after the onset, and its transient biased the estimate
-            since = self._fault_us
+            # the stuck position over the last IDENT_WIN_S once that many seconds have
+            # passed since the detection: the balance's low-passed z settles on it a few
+            # BAL_TAU_S after the onset, and its transient biased the estimate; stuck or
+            # weakened is decided on every sample since the detection
+            recent = None
             if self.balance._t_us is not None:
-                since = max(since, self.balance._t_us - int(IDENT_WIN_S * 1e6))
-            r = self.balance.identify(since, stuck)
+                recent = self.balance._t_us - int(IDENT_WIN_S * 1e6)
+            r = self.balance.identify(self._fault_us, stuck, recent)
             if r is not None:
                 return r
         if self.k < stuck_below:

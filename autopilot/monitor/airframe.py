@@ -57,6 +57,8 @@ class PitchAero:
     CL0: float
     CLa: float
     CLde: float
+    Iyy: float = 0.0               # pitch moment of inertia [kg m^2]
+    Cmq: float = 0.0               # pitch damping [1/rad]
     thrust_max_n: float = 0.0      # static thrust at full throttle [N]
     thrust_z_m: float = 0.0        # thrust line below the CG [m]
     v_level_min_mps: float = 0.0   # slowest level flight (stall) [m/s, equivalent]
@@ -72,6 +74,20 @@ class PitchAero:
         cL = k * cl_ref / D
         ct = self.thrust_max_n * self.thrust_z_m / (qbar * self.wing_area_m2 * self.chord_m) / D
         return np.array([c0, cL, ct])
+
+    def dynamic_elevator(self, q: float, q_dot: float, v_mps: float) -> float:
+        """The elevator (nose-up positive, rad) a pitch rate q and pitch acceleration
+        q_dot add to the quasi-steady balance: the pitch moment equation with its
+        inertia and damping terms, ``Cm0 + Cma alpha + Cmde de = Iyy q_dot / (qbar S
+        cbar) - Cmq cbar q / (2 V)``, through the same elimination of alpha (the lift
+        of the pull-up is in the measured load factor already)."""
+        if self.Iyy <= 0.0:
+            return 0.0
+        qbar = 0.5 * RHO0 * v_mps * v_mps
+        m_dyn = (self.Iyy * q_dot / (qbar * self.wing_area_m2 * self.chord_m)
+                 - self.Cmq * self.chord_m * q / (2.0 * v_mps))
+        D = self.Cmde - self.Cma / self.CLa * self.CLde
+        return -m_dyn / D
 
     def trim_airspeed(self, delta: float, n: float = 1.0, v_ref: float = 25.0) -> float | None:
         """The equivalent airspeed at which an elevator held at ``delta`` (nose-up
@@ -94,6 +110,7 @@ class PitchAero:
 # z = 0 with the CG)
 AEROSONDE = PitchAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, chord_m=0.18994,
                       Cm0=-0.02338, Cma=-0.38, Cmde=-0.5, CL0=0.28, CLa=3.45, CLde=-0.36,
+                      Iyy=1.135, Cmq=-3.6,
                       v_level_min_mps=15.3, v_level_max_mps=34.5)
 
 # FDI_EL_MODEL -> the airframe whose model is the elevator identifier's prior (0: none,

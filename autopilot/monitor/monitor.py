@@ -199,12 +199,11 @@ class FaultMonitor:
         self.elevator = None
         self.airframe = None
         if p["FDI_ACT_ID"] >= 1:
-            from .actuator import ElevatorIdentifier, MomentBalance
+            from .actuator import ElevatorIdentifier
             from .airframe import MODELS
             model = self.airframe = MODELS.get(int(p["FDI_EL_MODEL"]))
-            self.elevator = ElevatorIdentifier(
-                alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
-                prior=None if model is None else model.balance(MomentBalance.V_REF))
+            self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
+                                               model=model)
         self._ident_next_s = 0.0
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
