@@ -236,9 +236,13 @@ class PlaneVehicle:
             return None
         p = self.home_frame.to_ned_fast(lat_rad, lon_rad, alt_m)
         seq = self.sequencer
+        radius = self.params["LOITER_RAD"]
+        if seq is not None and self.nav_state is not None:
+            # no tighter than the vehicle can hold in this wind (as a mission's loiter)
+            radius = max(radius, seq.min_turn_radius_m(self.nav_state.wind_ned[:2]))
         return NavTarget("loiter", self.current_seq(), (seq.leg_id + 1) if seq else 0, alt_m,
                          seq.airspeed_mps if seq else self.params["TRIM_ARSPD"],
-                         c_ne=(float(p[0]), float(p[1])), radius_m=self.params["LOITER_RAD"], direction=1)
+                         c_ne=(float(p[0]), float(p[1])), radius_m=radius, direction=1)
 
     def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
         """GUIDED: circle (lat, lon) at alt_m MSL (ArduPlane's guided waypoint)."""

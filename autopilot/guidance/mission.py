@@ -115,6 +115,7 @@ class MissionSequencer:
         self.sink_rate_mps: float | None = None    # type 3
         self.finished = False          # past the last item
         self.rtl_established = False
+        self._rtl_radius: float | None = None
         self.launched = False          # left the ground (an item counted on the launcher is not)
         self._on_circle_since_us = None
         self._prev_wp_ne: tuple | None = None
@@ -249,11 +250,24 @@ class MissionSequencer:
             v = max(v, self.airspeed_mps + math.hypot(*self._wind_ne))
         return v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
 
-    def min_turn_radius_m(self) -> float:
+    def min_turn_radius_m(self, wind_ne=None) -> float:
         """The tightest circle the vehicle can hold over the ground: the bank limit at
-        the highest ground speed."""
-        v = self.airspeed_mps + math.hypot(*self._wind_ne)
+        the highest ground speed (the airspeed plus the wind)."""
+        w = self._wind_ne if wind_ne is None else wind_ne
+        v = self.airspeed_mps + math.hypot(float(w[0]), float(w[1]))
         return v * v / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+
+    def home_loiter_radius_m(self, t_us: int) -> float:
+        """The loiter over home (RTL): LOITER_RAD, or the minimum turn radius if that is
+        more (said once), fixed when first flown."""
+        if self._rtl_radius is None:
+            r, r_min = self.params["LOITER_RAD"], self.min_turn_radius_m()
+            if r < r_min:
+                self.say(t_us, SEV_WARNING, f"RTL loiter: LOITER_RAD {r:.0f} m below the minimum "
+                                            f"turn radius; flown at {r_min:.0f} m")
+                r = r_min
+            self._rtl_radius = r
+        return self._rtl_radius
 
     def _groundspeed_along(self, u) -> float:
         """Ground speed along the unit direction u at the commanded airspeed in the
@@ -797,7 +811,7 @@ class MissionSequencer:
             self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
             self._leg_start_alt = self._prev_alt
         b_ne = (0.0, 0.0)
-        radius = self.params["LOITER_RAD"]
+        radius = self.home_loiter_radius_m(t_us)
         alt_b = self.rtl_alt_m()
         a0 = self._leg_start
         length0 = math.hypot(a0[0], a0[1])
@@ -818,7 +832,7 @@ class MissionSequencer:
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 
     def _rtl_loiter(self, t_us, p_ne, alt_m) -> NavTarget:
-        radius = self.params["LOITER_RAD"]
+        radius = self.home_loiter_radius_m(t_us)
         r = math.hypot(p_ne[0], p_ne[1])
         # established: on the circle (within 20 % of its radius) for the time a quarter
         # turn takes, so the summary and the end of a run see the loiter actually flown
