@@ -61,6 +61,8 @@ FDI_PARAMS = (
     Param("FDI_TOUT", 0.5, 0.1, 10.0, "s", "a channel silent this long is flagged (sensor off)"),
     Param("FDI_BIAS_T", 4.0, 1.0, 60.0, "s", "window of the gyro bias-estimate change test"),
     Param("FDI_ALPHA_B", 1e-5, 1e-12, 0.1, "", "level of significance of the gyro bias test"),
+    Param("FDI_ACC_STAT", 1.0, 0.0, 1.0, "bool", "accelerometer bias-change test (as the gyros')",
+          is_int=True),
     Param("FDI_BIAS_WU", 60.0, 0.0, 600.0, "s", "gyro bias test armed this long after alignment"),
     Param("FDI_START_T", 10.0, 0.0, 600.0, "s", "monitor starts this long after navigation is healthy"),
     Param("FDI_CLR_T", 2.0, 0.0, 60.0, "s", "a fault clears after this long with all statistics low"),
@@ -88,6 +90,7 @@ _DEFAULTS = {p.name: float(p.default) for p in FDI_PARAMS}
 _AIDING = {"gps_pos": (3, False, None), "gps_vel": (3, False, None), "baro": (1, True, None),
            "mag": (1, True, None), "airspeed": (1, True, "FDI_ARSP_K")}
 _GYROS = ("gyro_x", "gyro_y", "gyro_z")
+_BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
 _GPS_HZ = 5.0                   # GPS fix rate (SensorParams.gps_rate_hz, u-blox M8N) [Hz]
@@ -178,6 +181,12 @@ class FaultMonitor:
         if params is not None and "EK_GYRB_NSE" in params:
             q = float(params["EK_GYRB_NSE"])
         self.q_bias_T = q * q * p["FDI_BIAS_T"]
+        qa = 1e-3
+        if params is not None and "EK_ACCB_NSE" in params:
+            qa = float(params["EK_ACCB_NSE"])
+        self._q_T = [self.q_bias_T] * 3 + [qa * qa * p["FDI_BIAS_T"]] * 3
+        self._acc_on = p["FDI_ACC_STAT"] >= 1
+        self.accel_ratio = [0.0, 0.0, 0.0]
         self._bias_ring: list = []            # (t_us, bias estimate, its variance) every 0.1 s
         self._anchor = None                   # the ring's oldest entry at detection
         self._bias_next_us = 0
@@ -305,7 +314,8 @@ class FaultMonitor:
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
         if not self.detected:
-            quiet = all(ch.ratio < 1.0 for ch in self._aiding_list) and max(self.bias_ratio) < 1.0
+            quiet = (all(ch.ratio < 1.0 for ch in self._aiding_list) and max(self.bias_ratio) < 1.0
+                     and max(self.accel_ratio) < 1.0)
             r_el = el.ratio / self.p["FDI_ACT_THR"]
             if r_el > self.peaks.get("elevator", 0.0):
                 self.peaks["elevator"] = r_el
@@ -370,16 +380,21 @@ class FaultMonitor:
 
     # ------------------------------------------------------------- statistics ---
     def _bias_stats(self, t_us: int) -> None:
+        """The bias-estimate change test of the gyros and, with FDI_ACC_STAT, the
+        accelerometers (a fault of either is a bias step the filter absorbs): per axis,
+        gamma_b = d^2 / (q_b^2 T + sigma_b^2) against chi2_{FDI_ALPHA_B, 1}."""
         if t_us < self._bias_next_us:
             return
         self._bias_next_us = t_us + _BIAS_PERIOD_US
         nav = self.nav
         if not hasattr(nav, "gyro_bias"):
             return
-        b = nav.gyro_bias.tolist()
+        acc = self._acc_on and hasattr(nav, "accel_bias")
+        b = nav.gyro_bias.tolist() + (nav.accel_bias.tolist() if acc else [])
         P = nav.P
-        i0 = 12  # layout.GBIAS.start (kept here to read P without importing nav)
-        var = [float(P[i0 + i, i0 + i]) for i in range(3)]
+        # layout.GBIAS.start, layout.ABIAS.start (kept here to read P without importing nav)
+        idx = (12, 13, 14, 9, 10, 11)[:len(b)]
+        var = [float(P[i, i]) for i in idx]
         ring = self._bias_ring
         ring.append((t_us, b, var))
         if len(ring) <= self.bias_n:
@@ -387,22 +402,24 @@ class FaultMonitor:
         old = ring.pop(0)
         if (t_us - self._aligned_us) < self.p["FDI_BIAS_WU"] * 1e6:
             return
+        ratios = [0.0] * len(b)
         anchor = self._anchor
-        if anchor is not None:
+        if anchor is not None and len(anchor[1]) == len(b):
             # during an episode: the change since FDI_BIAS_T before the detection,
             # against what a healthy filter allows over that time from the sigma it had
             # then (the fading of Q inflates the present sigma, not this one)
             t_a, b_a, v_a = anchor
-            qT = self.q_bias_T / self.p["FDI_BIAS_T"] * (t_us - t_a) * 1e-6
-            for i in range(3):
+            span = (t_us - t_a) * 1e-6 / self.p["FDI_BIAS_T"]
+            for i in range(len(b)):
                 d = b[i] - b_a[i]
-                self.bias_ratio[i] = d * d / (qT + v_a[i]) / self.thr_bias
-            return
-        q = self.q_bias_T
-        for i in range(3):
-            d = b[i] - old[1][i]
-            # gamma_b = d^2 / (q_bg T + sigma_b^2)
-            self.bias_ratio[i] = d * d / (q + var[i]) / self.thr_bias
+                ratios[i] = d * d / (self._q_T[i] * span + v_a[i]) / self.thr_bias
+        else:
+            for i in range(len(b)):
+                d = b[i] - old[1][i]
+                # gamma_b = d^2 / (q_b T + sigma_b^2)
+                ratios[i] = d * d / (self._q_T[i] + var[i]) / self.thr_bias
+        self.bias_ratio = ratios[:3]
+        self.accel_ratio = ratios[3:6] if acc else [0.0, 0.0, 0.0]
 
     def _evaluate(self, t_us: int, armed: bool) -> None:
         self._bias_stats(t_us)
@@ -441,8 +458,7 @@ class FaultMonitor:
                 iso_over.append((ir, ch.name))
             if ir > iso_ratio:
                 iso, iso_ratio = ch.name, ir
-        for i, name in enumerate(_GYROS):
-            r = self.bias_ratio[i]
+        for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
             if r > 1.0 and r > over_ratio:
                 over, over_ratio = name, r
             if r > iso_max:
@@ -457,9 +473,9 @@ class FaultMonitor:
             for ch in self._aiding_list:
                 if ch.ratio > peaks.get(ch.name, 0.0):
                     peaks[ch.name] = ch.ratio
-            for i, name in enumerate(_GYROS):
-                if self.bias_ratio[i] > peaks.get(name, 0.0):
-                    peaks[name] = self.bias_ratio[i]
+            for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
+                if r > peaks.get(name, 0.0):
+                    peaks[name] = r
         t_s = t_us * 1e-6
         if over is not None and not self.detected:
             self.detected = True
@@ -594,6 +610,6 @@ class FaultMonitor:
         """The chi-square thresholds in use (for the summary and the report)."""
         out = {name: {"detect": ch.win.thr_det, "step": ch.win.thr_step, "isolate": ch.win.thr_iso}
                for name, ch in self.aiding.items()}
-        for name in _GYROS:
+        for name in _BIASED if self._acc_on else _GYROS:
             out[name] = {"bias": self.thr_bias}
         return out
