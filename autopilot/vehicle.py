@@ -17,8 +17,9 @@ the local NED frame of home (``home_frame``). Mission item 0 is replaced by that
 Crash detection (AUTO, CRASH_DETECT = 1; after ArduPlane's, which disarms an aircraft
 in AUTO that is not flying when it should be): the launch is the first moment the
 airspeed estimate reaches 0.75 ARSPD_FBW_MIN (ArduPlane's "moving through the air");
-an aircraft not CRASH_ALT above home CRASH_LAUNCH_S seconds later has failed its launch,
-and one that, after that, stays below CRASH_GND_ALT above home without climbing, or
+an aircraft not CRASH_ALT above the point where it rested at arming CRASH_LAUNCH_S
+seconds later has failed its launch, and one that, after that, stays below CRASH_GND_ALT
+above that point without climbing (not above home, which DO_SET_HOME may move), or
 stops (airspeed under 0.75 ARSPD_FBW_MIN and ground speed under 1.5 m/s), for
 CRASH_DELAY_S seconds while no landing is flown has touched down outside a landing.
 Either way the throttle is cut and the vehicle disarms, saying why (STATUSTEXT
@@ -59,8 +60,8 @@ GUIDANCE_PARAMS = (
 CRASH_PARAMS = (
     Param("CRASH_DETECT", 1, 0, 1, "", "AUTO: a failed launch or a touchdown outside a landing cuts the throttle and disarms (0: off)", is_int=True),
     Param("CRASH_LAUNCH_S", 5.0, 1.0, 60.0, "s", "airborne (CRASH_ALT) this long after the launch, else a failed launch"),
-    Param("CRASH_ALT", 3.0, 0.5, 50.0, "m", "height above home that counts as airborne after the launch"),
-    Param("CRASH_GND_ALT", -0.5, -10.0, 20.0, "m", "below this height above home and not climbing: on the ground (home is where the aircraft rested at arming: the Aerosonde's launcher deck is 1.5 m above the ground)"),
+    Param("CRASH_ALT", 3.0, 0.5, 50.0, "m", "height above the arming point that counts as airborne after the launch"),
+    Param("CRASH_GND_ALT", -0.5, -10.0, 20.0, "m", "below this height above the arming point and not climbing: on the ground (the Aerosonde's launcher deck is 1.5 m above the ground)"),
     Param("CRASH_DELAY_S", 1.0, 0.1, 10.0, "s", "on the ground (or stopped) this long before a crash is declared"),
 )
 SEV_EMERGENCY = 0        # MAV_SEVERITY_EMERGENCY (ArduPlane says "Crash detected" so)
@@ -175,6 +176,7 @@ class PlaneVehicle:
         self._launch_us: int | None = None      # crash detection: the launch ...
         self._airborne = False                  # ... has been followed by flight
         self._ground_since_us: int | None = None
+        self._launch_alt_m: float | None = None  # where the aircraft rested at arming (MSL)
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -202,6 +204,7 @@ class PlaneVehicle:
         self.ctrl.reset()
         self.crash = None
         self._launch_us = self._ground_since_us = None
+        self._launch_alt_m = nav.alt_m
         self._airborne = False
         self.armed = True
         self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
@@ -404,9 +407,12 @@ class PlaneVehicle:
     def _crash_check(self, nav: NavState, t_us: int) -> None:
         """Crash detection (module docstring); disarms on a crash."""
         p = self.params
-        if self.home_frame is None:
+        if self._launch_alt_m is None:
             return
-        h = nav.alt_m - self.home_frame.alt0_m
+        # height above where the aircraft rested at arming, not above home: a home moved
+        # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
+        # nothing of where the ground is
+        h = nav.alt_m - self._launch_alt_m
         moving_air = nav.airspeed_mps >= 0.75 * p["ARSPD_FBW_MIN"]
         if self._launch_us is None:
             if moving_air:

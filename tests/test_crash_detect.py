@@ -158,3 +158,23 @@ def test_the_imu_at_rest_on_the_ground_at_full_throttle_reads_gravity_only(tmp_p
     # propeller's torque: that one is real)
     assert np.degrees(np.max(np.abs(np.mean(w, axis=0)[:2]))) < 0.05
 
+
+
+# --- home moved in flight -----------------------------------------------------------
+
+@pytest.mark.parametrize("below_new_home_m", [0.0, 20.0])
+def test_home_moved_in_flight_is_not_the_ground(tmp_path, below_new_home_m):
+    # DO_SET_HOME 'here' in flight sets home's altitude to the aircraft's (as ArduPilot
+    # does); the legs after it at or below that new home are still far above the ground
+    path = mission_file(tmp_path, (3, 22, 12, 0, 0, 0, -35.3605841, 149.1648338, 60),
+                        (3, 16, 0, 0, 0, 0, -35.3565171, 149.1642445, 60),
+                        (3, 179, 1, 0, 0, 0, 0, 0, 0),
+                        (3, 16, 0, 0, 0, 0, -35.3565171, 149.1698685, -below_new_home_m),
+                        (3, 16, 0, 0, 0, 0, -35.3601144, 149.1698686, -below_new_home_m),
+                        (3, 20, 0, 0, 0, 0, 0, 0, 0))
+    s, contact, after = fly(path, 150.0)
+    v = s.vehicle
+    assert v.crash is None and v.armed and contact is None
+    assert v.sequencer.current >= 5                               # past both legs after it
+    # the new home is where the aircraft was: well above the launch point
+    assert v.home_frame.alt0_m - v._launch_alt_m > 40.0
