@@ -1,5 +1,5 @@
-"""sitl campaign under faults of its own machinery: the driver killed with kill -9 and
-rerun, a worker process killed mid-trial, a cluster started with Dask's own commands
+"""sitl campaign under faults of its own machinery: the driver killed with kill -9,
+then interrupted with Ctrl-C, then rerun, a worker process killed mid-trial, a cluster started with Dask's own commands
 (``dask scheduler``, ``dask worker``) and a worker of another version refused. Every
 campaign is compared with the same campaign run without trouble: each trial stored
 once, figures equal (timing aside)."""
@@ -78,7 +78,7 @@ def reference(tmp_path_factory, client):
     return path, figures(rows)
 
 
-def test_driver_killed_with_kill_9_then_rerun_completes_each_trial_once(reference, client, tmp_path):
+def test_driver_killed_with_kill_9_or_ctrl_c_then_rerun_completes_each_trial_once(reference, client, tmp_path):
     path, ref = reference
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "tools.sitl", "campaign", "run", str(path), "--out", str(out),
@@ -101,7 +101,33 @@ def test_driver_killed_with_kill_9_then_rerun_completes_each_trial_once(referenc
         drv.stderr.close()
     assert 2 <= done < 6
     stored_after_kill = rows_of(out)
-    assert 2 <= len(stored_after_kill) < 6
+    assert 2 <= len(stored_after_kill) < 5
+    # WHEN the same command (on its own local cluster) is interrupted by Ctrl-C, which
+    # reaches its worker processes too
+    local = cmd[:-2] + ["--workers", "2"]
+    # (in a session of its own, with SIGINT's default action: a shell starts background
+    # jobs with SIGINT ignored, and the test may be one)
+    drv = subprocess.Popen(local, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                           start_new_session=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        for line in drv.stderr:
+            if " done " in line and int(line.split("]")[1].split("/")[0]) > len(stored_after_kill):
+                break
+        os.killpg(drv.pid, signal.SIGINT)             # what a terminal's Ctrl-C does
+        rest = drv.stderr.read()
+        assert drv.wait(timeout=30) == 130
+    finally:
+        drv.stderr.close()
+        try:
+            os.killpg(drv.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert "interrupted;" in rest and "the same command resumes" in rest
+    stored_after_ctrl_c = rows_of(out)
+    assert len(stored_after_kill) < len(stored_after_ctrl_c) < 6
+    # no flight cut short by the interruption was stored
+    assert all(r["error"] == "" and abs(r["sim_s"] - 15.0) < 0.02 for r in stored_after_ctrl_c)
     # THEN the same command again runs the missing trials only and completes
     r = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
@@ -113,11 +139,11 @@ def test_driver_killed_with_kill_9_then_rerun_completes_each_trial_once(referenc
         last_run = s.runs()[-1]
     finally:
         s.close()
-    assert last_run["trials"] == 6 - len(stored_after_kill)
-    # the rows stored before the kill are untouched, and all figures are the
-    # uninterrupted campaign's
+    assert last_run["trials"] == 6 - len(stored_after_ctrl_c)
+    # the rows stored before are untouched, and all figures are the uninterrupted
+    # campaign's
     assert figures(rows) == ref
-    before = {x["trial"]: x["finished"] for x in stored_after_kill}
+    before = {x["trial"]: x["finished"] for x in stored_after_ctrl_c}
     assert {x["trial"]: x["finished"] for x in rows if x["trial"] in before} == before
 
 

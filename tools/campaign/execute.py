@@ -47,6 +47,12 @@ class TrialTimeout(RuntimeError):
     pass
 
 
+class TrialInterrupted(RuntimeError):
+    """The worker was interrupted (Ctrl-C reaches the worker processes of a local
+    cluster too): the flight is incomplete, so the trial is not stored and a rerun flies
+    it again."""
+
+
 # --- the package's version -------------------------------------------------------------
 _VERSION: str | None = None
 
@@ -151,6 +157,8 @@ def run_trial(task: dict) -> dict:
                 session.run()
             finally:
                 session.close()
+            if session.interrupted:       # Session.run stops quietly on Ctrl-C
+                raise TrialInterrupted(f"trial {task['trial']} interrupted at {session.t_s:.1f} s")
             summary = run_summary(session)
             flat = flatten(summary)
             known = {**flat, **{f"input.{k}": v for k, v in task["inputs"].items()}}
@@ -171,6 +179,8 @@ def run_trial(task: dict) -> dict:
                 if scenario is not None:
                     (log_dir / "scenario.toml").write_text(task["scenario_text"])
                 row["kept"] = True
+    except TrialInterrupted:
+        raise
     except TrialTimeout as e:
         row["error"] = f"TrialTimeout: {e}"
     except Exception:
@@ -415,12 +425,15 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 if t.error:
                     _store(_error_row(c, t, folder, t.error, version))
                     continue
-                task = trial_task(c, t, folder, version, keeper.thresholds())
-                f = client.submit(run_trial, task, pure=False, key=f"sitl-trial-{i}-{os.urandom(4).hex()}")
-                futures[f] = t
-                ac.add(f)
+                submit(t)
                 return True
             return False
+
+        def submit(t: Trial) -> None:
+            task = trial_task(c, t, folder, version, keeper.thresholds())
+            f = client.submit(run_trial, task, pure=False, key=f"sitl-trial-{t.index}-{os.urandom(4).hex()}")
+            futures[f] = t
+            ac.add(f)
 
         def _store(row: dict) -> None:
             nonlocal ran, trial_wall, trial_cpu, sim_s
@@ -446,6 +459,9 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                     row = f.result()
                 except VersionMismatch as e:
                     raise CampaignRunError(f"refusing a worker of another version: {e}") from None
+                except TrialInterrupted:
+                    submit(t)             # not stored: flown again
+                    continue
                 except (KilledWorker, FutureCancelledError) as e:
                     row = _error_row(c, t, folder, f"{type(e).__name__}: {e}", version)
                 except Exception:
