@@ -41,7 +41,10 @@ TEST_DIV = 5                    # detection test on every 5th balance sample (2 
 RES_TAU_S = 60.0                # healthy residual variance, exponential weighting [s]
 RES_WARMUP_N = 200              # residual samples (20 s) learnt before the test runs
 PRIOR_SD = (0.02, 0.03, 0.05)   # trust in the model's c_0, c_L, c_t [rad]
-BAL_NOISE_RAD = 0.01            # the balance's fit noise the prior is weighed against [rad]
+BAL_NOISE_RAD = 0.1             # the noise each 10 Hz sample of the fit is weighed with against
+                                # the prior [rad]: the low-passed samples are correlated and the
+                                # model's own errors systematic (with 0.01 the fit chased a
+                                # climb-out and read a steep turn as an elevator fault)
 RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad] (0.01 let the
                                 # steep idle descending turns of the default mission after a
                                 # GPS fault read 6 sigma: a false alarm)
