@@ -1,6 +1,6 @@
 """Ground-station service: heartbeat, streams, commands, missions, parameters, arming,
 modes and the ground-station failsafe, over TCP / UDP to MAVProxy, MAVSDK, QGC and
-pymavlink scripts (DESIGN.md section 2: the vehicle looks like ArduPilot on the wire).
+pymavlink scripts (the vehicle looks like ArduPilot on the wire: docs/ground-stations.md).
 
     links.py      sockets: TCP server for many clients, udpout, udpin (bytes only)
     core.py       the protocol core, sans-IO: commands, status, failsafe, stream schedule

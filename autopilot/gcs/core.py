@@ -7,7 +7,7 @@ Time comes in two kinds: simulation time ``t_us`` (streams, log entries) passed 
 every call, and the wall clock ``clock()`` (protocol timeouts, the heartbeat-loss
 failsafe), injectable so tests run on a fake one.
 
-Identity on the wire follows DESIGN.md section 2 (an ArduPilot vehicle): HEARTBEAT with
+Identity on the wire is an ArduPilot vehicle's (docs/ground-stations.md): HEARTBEAT with
 MAV_AUTOPILOT_ARDUPILOTMEGA and ArduPlane / ArduCopter mode numbers, item 0 = home,
 COMMAND_ACK for every COMMAND_LONG / COMMAND_INT addressed to us (target system 0 or
 ours, target component 0 or ours), exactly one each, and silence towards anything

@@ -2,8 +2,9 @@
 
 A :class:`GcsLinks` owns every endpoint named by the ``--gcs`` URLs and turns them into
 *peers*: one per TCP client, one per ``udpout`` destination, one per ``udpin`` socket
-(answering whoever spoke last, as ArduPilot and MAVProxy do). It moves bytes only; the
-codec and the protocol state machines live elsewhere (sans-IO, STYLE.md lesson 10).
+(answering the last sender whose message was accepted). It moves bytes only; the
+codec and the protocol state machines live elsewhere (sans-IO: they never touch a socket,
+so tests drive them with bytes).
 
 * ``tcpin:HOST:PORT``   a server for any number of clients at once (port 0: any free port)
 * ``udpout:HOST:PORT``  send to HOST:PORT, receive the replies on an ephemeral port
