@@ -18,6 +18,7 @@ import numpy as np
 from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.mission.files import MissionFileError, save_waypoints
+from autopilot.mission.home import mission_home  # noqa: F401 - also this module's API
 from autopilot.mission.items import POSITION_COMMANDS, Mission, validate_mission
 from autopilot.nav.config import NAV_GPS_PRESETS
 from autopilot.params import ParamStore
@@ -58,24 +59,6 @@ class RunConfig:
     gcs: tuple[str, ...] | None = None
     param_store: Path | None = None                # parameters persisted across runs (gcs)
     signing_key: bytes | None = None               # MAVLink 2 signing key (gcs)
-
-
-def mission_home(mission: Mission) -> tuple[float, float, float, float]:
-    """Home from item 0; heading towards the first item with a position (the launch
-    direction), else north."""
-    h = mission.home
-    heading = 0.0
-    for it in list(mission)[1:]:
-        if it.command in POSITION_COMMANDS and (it.x_lat_deg, it.y_lon_deg) != (h.x_lat_deg, h.y_lon_deg):
-            if it.x_lat_deg == 0 and it.y_lon_deg == 0:
-                continue
-            lat1, lat2 = math.radians(h.x_lat_deg), math.radians(it.x_lat_deg)
-            dlon = math.radians(it.y_lon_deg - h.y_lon_deg)
-            y = math.sin(dlon) * math.cos(lat2)
-            x = math.cos(lat1) * math.sin(lat2) - math.sin(lat1) * math.cos(lat2) * math.cos(dlon)
-            heading = math.degrees(math.atan2(y, x)) % 360.0
-            break
-    return h.x_lat_deg, h.y_lon_deg, h.z_alt_m, heading
 
 
 class Session:
