@@ -87,7 +87,7 @@ def test_too_sharp_for_the_legs_means_no_arc():
     s = seq_for(mission(item(1, NAV_WAYPOINT, 150, 0),
                         item(2, NAV_WAYPOINT, 150 - 150 * math.cos(math.radians(30)), 150 * math.sin(math.radians(30)))))
     s._prev_wp_ne = (0.0, 0.0)
-    d, arc = s._fillet((0.0, 0.0), s.item_ne(s.items[1]))
+    d, arc, _skip = s._fillet((0.0, 0.0), s.item_ne(s.items[1]))
     assert arc is None and d == 0.0
 
 

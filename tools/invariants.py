@@ -18,7 +18,8 @@ Cross-track against them (``xtrack_mission``)
     Each line is scored over its leg: from the sequencer's counting of the item before
     it (the take-off, for the first) to its own counting, the k-th visit of an item
     matched to the k-th reached event of that item. For a fixed-wing loiter the leg ends
-    earlier, where the vehicle reaches the circle (its radius flown, LOITER_RAD for 0,
+    earlier, where the vehicle reaches the circle (the radius it flew, which is wider
+    than the one written where that is under the minimum turn radius; LOITER_RAD for 0;
     plus ``CAPTURE_M``). As for the flown legs (tools/summary.py), a leg counts from its
     capture: its first sample within ``CAPTURE_M`` of the line flying along it (true
     ground velocity less than 90 degrees from the line's direction). The direction
@@ -75,9 +76,9 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame
-from autopilot.mission.items import (NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TURNS,
-                                     NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
-                                     Mission)
+from autopilot.mission.items import (NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TO_ALT,
+                                     NAV_LOITER_TURNS, NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH,
+                                     NAV_TAKEOFF, Mission)
 
 from .missions_random import NAV_FLOWN, estimate_time_s, item_ne_h, resolve_order
 
@@ -90,7 +91,7 @@ LAUNCH_GRACE_S = 5.0
 CONTACT_M = {"plane": 0.5, "quad": 0.2}
 HEIGHT_FLOOR_M = {"plane": 20.0, "quad": 1.5}
 ATTITUDE_MARGIN_DEG = {"plane": 10.0, "quad": 5.0}
-LOITERS = (NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_UNLIM)
+LOITERS = (NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_UNLIM, NAV_LOITER_TO_ALT)
 QUAD_KIND_LAND = 4
 # flight-log columns that are NaN by design on some rows
 NAN_BY_DESIGN_PREFIXES = ("truth_", "gps_", "sig_")
@@ -98,12 +99,18 @@ NAN_BY_DESIGN_PREFIXES = ("truth_", "gps_", "sig_")
 
 # --- the mission's lines -------------------------------------------------------------
 
-def mission_legs(mission: Mission, frame: LocalFrame, vehicle: str, params=None) -> list[dict]:
+def mission_legs(mission: Mission, frame: LocalFrame, vehicle: str, params=None,
+                 loiter_radii=()) -> list[dict]:
     """The lines of the mission as written, in the order they are flown: dicts with
     ``visit`` (index into the navigation items flown), ``seq`` (the item at the line's
     end), ``prev_seq``, ``a`` / ``b`` (north, east) and ``loiter_r`` (fixed-wing loiter
-    radius flown, else 0)."""
+    radius flown, else 0). ``loiter_radii``: the sequencer's (seq, radius flown) of
+    every loiter in the order flown (a radius under the minimum turn radius is flown
+    wider); a visit it does not cover takes the radius as written (LOITER_RAD for 0)."""
     order = [s for s in resolve_order(mission) if mission[s].command in NAV_FLOWN]
+    flown: dict[int, list[float]] = {}
+    for seq, r in loiter_radii:
+        flown.setdefault(int(seq), []).append(float(r))
     legs: list[dict] = []
     point = (0.0, 0.0)
     prev_seq = None
@@ -121,8 +128,12 @@ def mission_legs(mission: Mission, frame: LocalFrame, vehicle: str, params=None)
             b = point if p is None else (p[0], p[1])
         r = 0.0
         if vehicle == "plane" and it.command in LOITERS:
-            r = abs(it.param3) if abs(it.param3) > 1.0 else \
-                (params["LOITER_RAD"] if params is not None else 80.0)
+            if flown.get(seq):
+                r = flown[seq].pop(0)
+            else:
+                written = it.param2 if it.command == NAV_LOITER_TO_ALT else it.param3
+                r = abs(written) if abs(written) > 1.0 else \
+                    (params["LOITER_RAD"] if params is not None else 80.0)
         if math.hypot(b[0] - point[0], b[1] - point[1]) >= 1.0:
             legs.append({"visit": visit, "seq": seq, "prev_seq": prev_seq, "a": point, "b": b,
                          "loiter_r": r})
@@ -164,10 +175,10 @@ def leg_windows(mission: Mission, legs: list[dict], events, t_end: float) -> lis
 
 
 def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, events,
-                   params=None) -> tuple[float | None, float | None, list[dict]]:
+                   params=None, loiter_radii=()) -> tuple[float | None, float | None, list[dict]]:
     """(rms, max) of the true cross-track error against the mission's lines, and the
     legs with their figures (module docstring)."""
-    legs = mission_legs(mission, frame, vehicle, params)
+    legs = mission_legs(mission, frame, vehicle, params, loiter_radii)
     t = a["t_s"]
     if not len(t):
         return None, None, legs
@@ -393,7 +404,9 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None,
                   "xtrack_mission_worst_leg": None}
     if v.home_frame is not None:
-        rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
+        radii = getattr(v.sequencer, "loiter_radii", ()) if vehicle == "plane" else ()
+        rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params,
+                                       radii)
         figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
         scored = [g for g in legs if g["xtrack_max_m"] is not None]
         if scored:

@@ -28,7 +28,12 @@ TWO_PI = 2.0 * math.pi
 _MIN_ARC_RAD = math.radians(3.0)   # arcs smaller than this are flown as straight lines
 _MIN_LINE_M = 1.0
 CAPTURE_M = 10.0    # on the line from this close (as the mission's cross-track is scored)
-STRAY_WEIGHT = 10.0  # metres of path worth one metre strayed from the line
+STRAY_WEIGHT = 100.0  # metres of path worth one metre strayed from the line (a loop,
+                      # 2 pi R, is worth less than a stray of a few metres)
+XT2_WEIGHT = 0.05   # metres of path worth 1 m^3 of squared cross-track flown on the line
+                    # (20 m of path beside the line at 10 m: 100 m of path)
+SAMPLE_M = 5.0      # the path's sampling for its cost
+LOOP_PENALTY_M = 1e5  # a path turning more than a full circle (the no-orbit invariant's half)
 
 
 def _unit(chi: float) -> tuple[float, float]:
@@ -90,39 +95,73 @@ def csc(p, chi: float, q, psi: float, radius: float):
     return min(words, key=lambda w: w[0]) if words else None
 
 
-def _points(segments):
-    """Points along the segments (every 10 degrees of arc, every 25 m of line)."""
-    for s in segments:
-        if s[0] == "line":
-            _, (n0, e0), (n1, e1) = s
-            n = max(int(math.hypot(n1 - n0, e1 - e0) / 25.0), 1)
+def _samples(segments, ds: float = SAMPLE_M):
+    """(north, east, course) every ``ds`` metres along the segments (their ends
+    included)."""
+    for sg in segments:
+        if sg[0] == "line":
+            _, (n0, e0), (n1, e1) = sg
+            ln = math.hypot(n1 - n0, e1 - e0)
+            chi = math.atan2(e1 - e0, n1 - n0)
+            n = max(int(ln / ds), 1)
             for k in range(n + 1):
-                yield n0 + (n1 - n0) * k / n, e0 + (e1 - e0) * k / n
+                yield n0 + (n1 - n0) * k / n, e0 + (e1 - e0) * k / n, chi
         else:
-            _, c, r, d, ang, start = s
+            _, c, r, d, ang, start = sg
             b0 = math.atan2(start[1] - c[1], start[0] - c[0])
-            n = max(int(ang / math.radians(10.0)), 1)
+            n = max(int(r * ang / ds), 1)
             for k in range(n + 1):
                 b = b0 + d * ang * k / n
-                yield c[0] + r * math.cos(b), c[1] + r * math.sin(b)
+                yield c[0] + r * math.cos(b), c[1] + r * math.sin(b), b + d * 0.5 * math.pi
+
+
+def path_cost(segments, a, u, side: float, cross_tol_m: float) -> tuple[float, float]:
+    """(cost beyond the path's length, metres strayed) of a join onto the line through
+    A along u, as the mission's cross-track is scored: from the path's first point
+    within CAPTURE_M of the line moving along it (its capture), the squared cross-track
+    flown (XT2_WEIGHT per m^3) and any straying beyond CAPTURE_M again (STRAY_WEIGHT per
+    metre); before it, crossing to the far side of the line by more than
+    ``cross_tol_m`` (when the path starts on one side: ``side`` +-1, else 0) also counts
+    as straying."""
+    psi = math.atan2(u[1], u[0])
+    cross = 0.0
+    captured = False
+    after = 0.0       # furthest from the line after the capture
+    xt2 = 0.0
+    for n, e, chi in _samples(segments):
+        x = (n - a[0]) * -u[1] + (e - a[1]) * u[0]
+        if not captured:
+            if side != 0.0:
+                cross = max(cross, -side * x)
+            if abs(x) <= CAPTURE_M and math.cos(chi - psi) > 0.0:
+                captured = True
+        if captured:
+            after = max(after, abs(x))
+            xt2 += x * x * SAMPLE_M
+    stray = max(max(cross - cross_tol_m, 0.0), after - CAPTURE_M)
+    return STRAY_WEIGHT * stray + XT2_WEIGHT * xt2, stray
+
+
+def turning(segments) -> float:
+    """The total course change of a path's arcs [rad]."""
+    return sum(sg[4] for sg in segments if sg[0] == "arc")
 
 
 def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: float = 2.0):
     """Plan the join onto the leg A->B from pose (p, chi).
 
-    Returns (s_entry, length, segments, strays): the entry point's distance along the
-    leg's line from A, the path's length, its segments and how far it strays beyond the
-    limits below [m]. The entry is chosen on a grid along the line (a quarter turn
-    radius apart, at most ~40 points) from A to ``s_max`` (where
+    Returns (s_entry, length, segments, strays, cost): the entry point's distance along
+    the leg's line from A, the path's length, its segments, how far it strays [m] and
+    its cost (``path_cost`` plus the length). The entry is chosen on a grid along the
+    line (a quarter turn radius apart, at most ~40 points) from A to ``s_max`` (where
     the turn onto the next leg starts) and on, past B, up to two turn radii beyond it
     (where the leg is too short to be joined before its end without a loop, taken only
-    where that saves more than a full circle); and the word among the four, as the
-    shortest path that neither crosses to the far side of the line by more than
-    ``cross_tol_m`` before rolling out on it nor, once within CAPTURE_M of the line,
-    strays further from it again (a shorter path that loops across the line overshoots
-    it by up to a turn diameter; from a pose on the line, a loop on one side strays
-    further than a turn across it); where every path does, a metre strayed counts as
-    STRAY_WEIGHT metres of path."""
+    where that saves more than a full circle), and the word among the four, as the
+    path of least cost: the shortest path is not the best one, since a path that
+    reaches the line at a shallow angle far down the leg is short but flies beside the
+    line all the way, and one that loops across the line overshoots it by up to a turn
+    diameter; the cost weighs the cross-track the path itself flies once it is on the
+    line as the mission's cross-track is scored."""
     ln = math.hypot(b[0] - a[0], b[1] - a[1])
     if ln < 1e-6:
         return None
@@ -139,21 +178,16 @@ def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: floa
     for s in grid:
         q = (a[0] + s * u[0], a[1] + s * u[1])
         for length, segs in csc_words(p, chi, q, psi, radius):
-            xts = [(x - a[0]) * -u[1] + (y - a[1]) * u[0] for x, y in _points(segs)]
-            cross = max((-side * x for x in xts), default=0.0) if side != 0.0 else 0.0
-            # once within CAPTURE_M of the line, how far the path strays from it again
-            # (a turn across the line from a pose on it: a loop on one side strays more
-            # than a turn across)
-            cap = next((k for k, x in enumerate(xts) if abs(x) <= CAPTURE_M), None)
-            if cap is not None:
-                cross = max(cross, max(abs(x) for x in xts[cap:]) - CAPTURE_M)
+            extra, stray = path_cost(segs, a, u, side, cross_tol_m)
             # an entry past the next turn's start skips that turn: taken only where it
             # saves more than a full circle
-            cost = (STRAY_WEIGHT * max(cross - cross_tol_m, 0.0) + length
-                    + (TWO_PI * radius if s > s_max else 0.0))
+            cost = extra + length + (TWO_PI * radius if s > s_max else 0.0)
+            if turning(segs) > TWO_PI:
+                cost += LOOP_PENALTY_M    # more than a full circle: kept only if nothing else
+
             if best is None or cost < best[0]:
-                best = (cost, s, length, segs, cross)
-    return best[1], best[2], best[3], best[4]
+                best = (cost, s, length, segs, stray)
+    return best[1], best[2], best[3], best[4], best[0]
 
 
 def on_leg(p, chi: float, a, b, xtrack_tol_m: float, course_tol_rad: float) -> bool:

@@ -72,6 +72,7 @@ JOIN_XTRACK_M = 10.0
 JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
+LOITER_ENTRY_M = 10.0           # the line into a loiter is flown to this far outside its circle
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +108,7 @@ class MissionSequencer:
         self.reached: list[tuple[int, int]] = []   # (t_us, seq) of every item reached
         self.reached_seqs: set[int] = set()
         self.transitions: list[tuple[int, int, str]] = []  # (t_us, seq, "join"|"fillet") planned
+        self.loiter_radii: list[tuple[int, float]] = []     # (seq, radius flown) of every loiter
         self.current = 1 if len(self.items) > 1 else 0
         self.leg_id = 0
         self.airspeed_mps = self.params["TRIM_ARSPD"]
@@ -142,6 +144,9 @@ class MissionSequencer:
         self._leg_along0: float | None = None
         self._joined = False           # the leg's join has been planned (or needs none)
         self._skip_join = False        # a fillet has just put the vehicle on this leg
+        self._carry_path = False       # the fillet flies on past the next item (_fillet's skip)
+        self._through_tried = False    # a join through B onto the next leg was planned
+        self._fillet_at = None         # ((A, B), _fillet's answer) for the current leg
         self._join_past = False        # the join rolls out past the start of the next turn
         self._join_run, self._join_last_p = 0.0, None   # distance flown on the join
         self._join_alt_now: float | None = None          # its altitude demand
@@ -151,6 +156,7 @@ class MissionSequencer:
         self._loiter_start_us: int | None = None
         self._loiter_captured = False
         self._loiter_radius: float | None = None
+        self._loiter_entered = False   # the line into the loiter flown to its circle
         self._alt_reached = False
 
     def set_current(self, seq: int) -> None:
@@ -172,7 +178,10 @@ class MissionSequencer:
         self._skip_join = False
         self._leg_along0 = None
         self._loiter_captured = False
+        self._loiter_entered = False
         self._loiter_last_bearing = None
+        self._carry_path = self._through_tried = False
+        self._fillet_at = None
         self.leg_id += 1
 
     def move_home(self, frame: LocalFrame) -> None:
@@ -192,6 +201,7 @@ class MissionSequencer:
             self._nav_pos = (mv(self._nav_pos[0]), self._nav_pos[1])
         self._path = []
         self._joined = False
+        self._fillet_at = None
         self.frame = frame
         self.home_alt_m = frame.alt0_m
 
@@ -280,33 +290,97 @@ class MissionSequencer:
 
     # ---------------------------------------------------------------- stepping ---
     def _fillet(self, a_ne, b_ne):
-        """The turn arc at B towards the next leg: (d, arc) with arc a path segment, or
-        (0, None) when no turn is to be filleted."""
-        nxt = self._next_nav_point()
-        if nxt is None:
-            return 0.0, None
+        """The turn arc at B towards the next leg: (d, arc, skip) with arc a path
+        segment starting d before B along A->B, or (0, None, False) when no turn is to
+        be filleted. Where the next leg B->C is too short for an arc and C lies within
+        its acceptance radius of where the arc would start (so C counts the moment B
+        does), the arc is the one between A->B and the leg after, C->D, at the corner
+        where their lines meet (``skip``): the vehicle turns once onto the line it will
+        fly instead of arriving at B along A->B and joining C->D from there, which
+        overshoots C->D wherever the short leg turns sharply."""
+        lines = self._lines_after(b_ne, 2)
+        if not lines:
+            return 0.0, None, False
+        ups = [it for it, _ in lines]
+        (cn, ce), short = lines[0][1]
         l1 = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        l2 = math.hypot(nxt[0] - b_ne[0], nxt[1] - b_ne[1])
-        if l1 < 1.0 or l2 < 1.0:
-            return 0.0, None
+        l2 = math.hypot(cn - b_ne[0], ce - b_ne[1])
+        if l1 < 1.0 or l2 - short < 1.0:
+            return 0.0, None, False
         u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1)
-        u2 = ((nxt[0] - b_ne[0]) / l2, (nxt[1] - b_ne[1]) / l2)
+        u2 = ((cn - b_ne[0]) / l2, (ce - b_ne[1]) / l2)
+        if ups[0] is not None and ups[0].command == MAV_CMD_NAV_WAYPOINT and len(ups) > 1 \
+                and l2 <= self._accept_radius(ups[0]):
+            # C counts the moment B does: the turn that matters is onto C->D
+            skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1])
+            if skip is not None:
+                return skip
+        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short))
+        if arc is not None:
+            # past waypoints on B (counted at once, with B), the arc flies on
+            return arc[0], arc[1], ups[0] is not self._upcoming(1)[0]
+        return 0.0, None, False
+
+    def _skip_arc(self, a_ne, u1, l1, c_ne, item_c, line_d):
+        """The arc from A->B onto C->D at the corner where their lines meet, starting
+        where C is within its acceptance radius (so C counts with B): (d, arc, True)
+        with d measured back from B, or None where the lines do not meet near B and C
+        or no arc fits."""
+        cn, ce = c_ne
+        (dn, de), short_d = line_d
+        l3 = math.hypot(dn - cn, de - ce)
+        if l3 - short_d < 1.0:
+            return None
+        u3 = ((dn - cn) / l3, (de - ce) / l3)
+        den = u1[0] * u3[1] - u1[1] * u3[0]
+        if abs(den) < math.sin(math.radians(10.0)):
+            return None
+        # the corner X = A + t u1 = C + s u3
+        wn, we = cn - a_ne[0], ce - a_ne[1]
+        t = (wn * u3[1] - we * u3[0]) / den
+        sc = (wn * u1[1] - we * u1[0]) / den
+        x = (a_ne[0] + t * u1[0], a_ne[1] + t * u1[1])
+        accept = self._accept_radius(item_c)
+        if t > l1 + accept or sc < -accept:
+            return None
+        # the arc starts where C is within (0.9 of) its radius: |C - X + d u1| <= R_c
+        rc = 0.9 * accept
+        c13 = u1[0] * u3[0] + u1[1] * u3[1]
+        disc = sc * sc * c13 * c13 - sc * sc + rc * rc
+        if disc <= 0.0:
+            return None
+        d_max = sc * c13 + math.sqrt(disc)
+        arc = self._corner_arc(x, u1, u3, min(t, d_max), 0.5 * (l3 - short_d - max(sc, 0.0)))
+        if arc is None:
+            return None
+        d, seg = arc
+        start = seg[5]
+        if t - d > l1 or math.hypot(cn - start[0], ce - start[1]) > rc + 1e-6:
+            return None
+        return l1 - (t - d), seg, True
+
+    def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float):
+        """The fillet at corner X from direction u1 to u2: (d, arc) with d its tangent
+        length (at most room1 before X and room2 after it, the radius shrunk to fit),
+        or None for a turn under 5 degrees or one with no room at the minimum
+        radius."""
         cross = u1[0] * u2[1] - u1[1] * u2[0]
         dchi = math.atan2(cross, u1[0] * u2[0] + u1[1] * u2[1])
         if abs(dchi) < math.radians(5.0):
-            return 0.0, None
+            return None
         r = self.turn_radius_m()
         t = math.tan(0.5 * abs(dchi))
-        d = min(r * t, 0.5 * l2, 0.5 * l1)  # each leg shares its length between its two turns
+        d = min(r * t, room1, room2)  # each leg shares its length between its two turns
+        if d <= 0.0:
+            return None
         r = d / t
         v_air = self.airspeed_mps
         r_min = v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
         if r < r_min:
-            # legs too short for a turn this sharp: no arc can be flown; the next leg is
-            # joined by a planned turn once the waypoint is reached
-            return 0.0, None
+            # legs too short for a turn this sharp: no arc can be flown
+            return None
         direction = 1 if dchi > 0 else -1
-        t1 = (b_ne[0] - d * u1[0], b_ne[1] - d * u1[1])
+        t1 = (x_ne[0] - d * u1[0], x_ne[1] - d * u1[1])
         centre = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
         return d, ("arc", centre, r, direction, abs(dchi), t1)
 
@@ -351,6 +425,8 @@ class MissionSequencer:
         self._path.pop(0)
         self._seg_start = True
         self.leg_id += 1
+        if not self._path:
+            self._carry_path = False
 
     def _advance(self, t_us: int, to_seq: int | None = None) -> None:
         seq = self.current
@@ -560,14 +636,19 @@ class MissionSequencer:
         return NavTarget("takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
                          pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
 
-    def _next_nav_point(self):
-        """Where the leg after the current waypoint goes, following a DO_JUMP that
-        will still be taken."""
+    def _upcoming(self, n: int = 2) -> list:
+        """The next ``n`` navigation items after the current one in flying order
+        (following the DO_JUMPs that will still be taken); None stands for the end of
+        the mission (RTL home), after which nothing follows."""
+        out: list = []
         i = self.current + 1
         counts = dict(self.jump_counts)
-        for _ in range(len(self.items) + 4):
+        for _ in range(n * (len(self.items) + 4)):
+            if len(out) >= n:
+                break
             if i >= len(self.items):
-                return (0.0, 0.0)  # end of mission: RTL to home
+                out.append(None)
+                break
             it = self.items[i]
             if it.command == MAV_CMD_DO_JUMP:
                 done = counts.get(it.seq, 0)
@@ -580,18 +661,54 @@ class MissionSequencer:
             if it.command not in NAV_ITEMS:
                 i += 1
                 continue
+            out.append(it)
             if it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
-                return (0.0, 0.0)
-            if it.command == MAV_CMD_NAV_WAYPOINT and not self._here(it):
-                return self.item_ne(it)
-            return None  # loiters etc.: no anticipation
-        return None
+                break
+            i += 1
+        return out
+
+    def _lines_after(self, b_ne, n: int = 2) -> list:
+        """The next ``n`` navigation items that draw a line from the one before (the
+        first from B), as (item, line end) with ``_line_end``'s line end; waypoints on
+        the point before them (duplicates, a DO_JUMP back to B: zero-length legs, counted
+        at once) are passed over. The list stops at an item with no anticipation."""
+        out = []
+        prev = b_ne
+        for it in self._upcoming(n + 4):
+            end = self._line_end(it)
+            if end is None:
+                break
+            (pn, pe), short = end
+            if it is not None and it.command == MAV_CMD_NAV_WAYPOINT \
+                    and math.hypot(pn - prev[0], pe - prev[1]) < 1.0:
+                continue
+            out.append((it, end))
+            if len(out) >= n or it is None or it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+                break
+            prev = (pn, pe)
+        return out
+
+    def _line_end(self, it):
+        """(point, short) where the line to navigation item ``it`` goes (None: the end
+        of the mission, RTL home) and how far before that point it ends (a loiter's
+        line ends outside its circle); None where no turn onto it is anticipated."""
+        if it is None or it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return (0.0, 0.0), 0.0
+        if it.command == MAV_CMD_NAV_WAYPOINT and not self._here(it):
+            return self.item_ne(it), 0.0
+        if it.command in LOITER_COMMANDS and not self._here(it):
+            # the line into a loiter is flown to its circle (_loiter_approach): the
+            # turn onto it is filleted like any other, on the part outside the circle
+            r = it.param2 if it.command == MAV_CMD_NAV_LOITER_TO_ALT else it.param3
+            r = abs(r) if abs(r) > 1.0 else self.params["LOITER_RAD"]
+            return self.item_ne(it), max(r, self.min_turn_radius_m()) + LOITER_ENTRY_M
+        return None   # a point "here", a takeoff, a delay: no anticipation
 
     def _accept_radius(self, item) -> float:
         acc = item.param2 if item.command == MAV_CMD_NAV_WAYPOINT else 0.0
         return acc if acc > 0 else self.params["WP_RADIUS"]
 
-    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, chi, accept, s_max, alt_b):
+    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, chi, accept, s_max, alt_b, through=False):
         """Fly the leg A->B: plan its join, fly the join, then the leg; None once B is
         reached (within ``accept`` of it in any phase)."""
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
@@ -607,14 +724,30 @@ class MissionSequencer:
         if not self._joined:
             self._joined = True
             if length <= 1e-3:
-                a_ne = p_ne   # a point, not a leg: the leg from here
-                self._leg_start = a_ne
+                # a point on the one before (a duplicate, a jump back to it): its finish
+                # line is passed at once, as ArduPlane's is
+                return None
             elif along >= length and abs(xt) <= accept:
                 return None   # already past it, within its radius of its line: passed
             elif not self._skip_join and not dubins.on_leg(p_ne, chi, a_ne, b_ne, JOIN_XTRACK_M,
                                                            JOIN_COURSE_RAD):
                 plan = self._plan_join(p_ne, chi, a_ne, b_ne, s_max)
-                if plan is not None:
+                alt_plan = None
+                if plan is not None and plan[0] > s_max + 1e-6 and through:
+                    # no room left for B's turn: B would be passed on A->B's course and
+                    # the next leg joined from there (a loop where it turns sharply,
+                    # and the next join starts as badly: a cascade); through B onto the
+                    # next leg instead where that costs less
+                    alt_plan = self._plan_through(p_ne, chi, a_ne, b_ne)
+                    if alt_plan is not None and alt_plan[0] < plan[4]:
+                        self._through_tried = self._carry_path = True
+                    else:
+                        alt_plan = None
+                if alt_plan is not None:
+                    self._start_path(alt_plan[1], "join", t_us)
+                    self._join_run, self._join_last_p = 0.0, None
+                    self._join_past = True
+                elif plan is not None:
                     self._start_path(plan[2], "join", t_us)
                     self._join_run, self._join_last_p = 0.0, None
                     # rolling out past where the next turn starts: B is passed on the
@@ -657,34 +790,68 @@ class MissionSequencer:
         self._join_alt_now = self._leg_start_alt + math.copysign(min(abs(dh), slope * self._join_run), dh)
         return self._join_alt_now
 
-    def _plan_join(self, p_ne, chi, a_ne, b_ne, s_max):
-        """The join onto A->B, planned at radii from the join radius (the nominal bank at
-        the airspeed plus the wind) down to the radius of the bank midway between the
-        nominal and the limit at that speed (as a fillet shrinks where legs are short).
-        Of the joins that roll out on the leg before the next turn starts without
-        crossing it, the widest no more than a
-        quarter longer than the shortest (a wide turn is tracked more closely; a tight
-        one saves a long loop where the leg must be joined the other way round); if none
-        does, the best at the tightest radius (which may roll out past that point)."""
+    def _join_radii(self):
+        """The radii a join is planned at: from the join radius (the nominal bank at the
+        airspeed plus the wind) down to the radius of the bank midway between the
+        nominal and the limit at that speed (as a fillet shrinks where legs are short)."""
         r = self.turn_radius_m(wind=True)
         p = self.params
         v = self.airspeed_mps + math.hypot(*self._wind_ne)
         bank = math.radians(0.5 * (p["TURN_BANK_DEG"] + p["ROLL_LIMIT_DEG"]))
         r_floor = min(v * v / (G * math.tan(bank)), r)
-        valid, plan = [], None
         while True:
+            yield r
+            if r <= r_floor:
+                return
+            r = max(0.8 * r, r_floor)
+
+    def _plan_join(self, p_ne, chi, a_ne, b_ne, s_max):
+        """The join onto A->B at the radius of least cost (``dubins.join_leg``: its
+        length, the cross-track it flies once on the line, how far it strays): a tight
+        turn saves a long loop or a long run beside the line, a wide one is tracked
+        more closely."""
+        best = None
+        for r in self._join_radii():
             plan = dubins.join_leg(p_ne, chi, a_ne, b_ne, r, s_max)
             if plan is None:
                 return None
-            if plan[0] <= s_max + 1e-6 and plan[3] <= 2.0:
-                valid.append(plan)             # widest first
-            if r <= r_floor:
-                break
-            r = max(0.8 * r, r_floor)
-        if not valid:
-            return plan
-        shortest = min(p[1] for p in valid)
-        return next(p for p in valid if p[1] <= 1.25 * shortest)
+            if best is None or plan[4] < best[4]:
+                best = plan
+        return best
+
+    def _plan_through(self, p_ne, chi, a_ne, b_ne):
+        """A join through B onto the next leg B->C (for a leg A->B too short to be
+        joined and turned off again): the path of least cost (``dubins.path_cost``
+        against both lines, A->B's scored until B counts and B->C's after) from here to
+        B on B->C's course, as (cost, segments), or None where no line follows."""
+        lines = self._lines_after(b_ne, 1)
+        if not lines:
+            return None
+        (cn, ce), short = lines[0][1]
+        l2 = math.hypot(cn - b_ne[0], ce - b_ne[1])
+        if l2 - short < 1.0:
+            return None
+        u = ((cn - b_ne[0]) / l2, (ce - b_ne[1]) / l2)
+        psi = math.atan2(u[1], u[0])
+        l1 = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1) if l1 > 1e-3 else u
+
+        def side_of(a, v):
+            xt0 = (p_ne[0] - a[0]) * -v[1] + (p_ne[1] - a[1]) * v[0]
+            return 0.0 if abs(xt0) < 2.0 else math.copysign(1.0, xt0)
+
+        s1, s2 = side_of(a_ne, u1), side_of(b_ne, u)
+        best = None
+        for r in self._join_radii():
+            for length, segs in dubins.csc_words(p_ne, chi, b_ne, psi, r):
+                cost = length + dubins.path_cost(segs, b_ne, u, s2, 2.0)[0]
+                if l1 > 1e-3:
+                    cost += dubins.path_cost(segs, a_ne, u1, s1, 2.0)[0]
+                if dubins.turning(segs) > 2.0 * math.pi:
+                    continue    # a loop and more: the ordinary join does better
+                if best is None or cost < best[0]:
+                    best = (cost, segs)
+        return best
 
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         b_ne, alt_b = self._resolve(item, p_ne, alt_m)
@@ -693,9 +860,33 @@ class MissionSequencer:
             self._leg_start_alt = self._prev_alt
         a_ne = self._leg_start
         accept = self._accept_radius(item)
-        d_turn, arc = self._fillet(a_ne, b_ne)
+        key = (a_ne, b_ne)
+        if self._fillet_at is None or self._fillet_at[0] != key:
+            # planned once a leg (a fillet depends on the next items, not on the step)
+            self._fillet_at = (key, self._fillet(a_ne, b_ne))
+        d_turn, arc, skip = self._fillet_at[1]
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, chi, accept, length - d_turn, alt_b)
+        r_join = self.turn_radius_m(wind=True)
+        # (a leg within the acceptance radius: B would count the moment A did)
+        if not self._through_tried and arc is None and length <= accept \
+                and accept < math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]) < 4.0 * r_join \
+                and not (self._skip_join or dubins.on_leg(p_ne, chi, a_ne, b_ne, JOIN_XTRACK_M,
+                                                          JOIN_COURSE_RAD)):
+            # (once per item: from as far as 4 join radii; a join planned from further
+            # away onto A->B is replaced by this one when the vehicle comes that close)
+            self._through_tried = True
+            # a leg too short to be joined and turned off again: joined through B onto
+            # the leg after it (B counts on the way, within its radius), the path flown
+            # on past B
+            through = self._plan_through(p_ne, chi, a_ne, b_ne)
+            if through is not None:
+                self._joined = True
+                self._start_path(through[1], "join", t_us)
+                self._join_run, self._join_last_p = 0.0, None
+                self._join_past = True
+                self._carry_path = True
+        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, chi, accept, length - d_turn, alt_b,
+                      through=True)
         if r is None:
             alt = alt_b
             if self._join_alt_now is not None and abs(alt_b - self._join_alt_now) > 0.5:
@@ -726,14 +917,22 @@ class MissionSequencer:
                 # from the wrong place: the next leg is joined by a planned turn instead)
                 self._start_path([arc], "fillet", t_us)
                 self._skip_join = True
+                self._carry_path = skip   # onto C->D: kept when C counts at once
             return None
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 
     def _reach(self, t_us, b_ne, alt) -> None:
+        carry = self._path if self._carry_path else []
         self._prev_wp_ne = b_ne
         self._prev_alt = alt
         self._path = []
         self._advance(t_us)
+        if carry:
+            # the arc from A->B onto C->D flies on past C (counted with B), and on past
+            # any item counted at once on the way (a duplicate, a jump back to B)
+            self._path = carry
+            self._skip_join = True
+            self._carry_path = True
 
     def _slope_alt(self, t_us, seq, a_ne, b_ne, along, length, d_turn, alt_b) -> tuple[float, bool]:
         """The altitude demand on the leg and whether the step is too steep: a straight
@@ -770,11 +969,17 @@ class MissionSequencer:
                                             f"minimum turn radius; flown at {r_min:.0f} m")
                 radius = r_min
             self._loiter_radius = radius
+            self.loiter_radii.append((item.seq, radius))
         return self._loiter_radius, direction
 
     def _loiter(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         c_ne, alt = self._resolve(item, p_ne, alt_m)
         radius, direction = self._loiter_params(t_us, item)
+        if not self._loiter_entered and not self._loiter_captured:
+            tgt = self._loiter_approach(t_us, item, c_ne, radius, p_ne, chi, alt)
+            if tgt is not None:
+                return tgt
+            self._loiter_entered = True
         r = math.hypot(p_ne[0] - c_ne[0], p_ne[1] - c_ne[1])
         bearing = math.atan2(p_ne[1] - c_ne[1], p_ne[0] - c_ne[0])
         if not self._loiter_captured and abs(r - radius) < 0.25 * radius + 10.0:
@@ -800,6 +1005,36 @@ class MissionSequencer:
                 return None
         return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
                          c_ne=c_ne, radius_m=radius, direction=direction)
+
+    def _loiter_approach(self, t_us, item, c_ne, radius, p_ne, chi, alt) -> NavTarget | None:
+        """The line into a loiter: from the previous item to the loiter's centre, joined
+        and flown like a leg until the vehicle is within LOITER_ENTRY_M of the circle it
+        will fly (the mission's line is the author's path to the loiter, and leaving it
+        early for the circle's tangent strays from it by up to a radius); None once
+        there (or when the line is shorter than the circle's radius), and the circle is
+        then captured by the L1 loiter law."""
+        if self._prev_wp_ne is None:
+            return None     # no line drawn to it: the circle from here
+        if self._leg_start is None:
+            self._leg_start = self._prev_wp_ne
+            self._leg_start_alt = self._prev_alt
+        a_ne = self._leg_start
+        reach = radius + LOITER_ENTRY_M
+        length = math.hypot(c_ne[0] - a_ne[0], c_ne[1] - a_ne[1])
+        if length <= reach or math.hypot(c_ne[0] - p_ne[0], c_ne[1] - p_ne[1]) <= reach:
+            return None
+        r = self._leg(t_us, item.seq, a_ne, c_ne, p_ne, chi, reach, length - reach, alt)
+        if r is None:
+            return None
+        if r != "leg":
+            return r
+        a_ne = self._leg_start
+        length = math.hypot(c_ne[0] - a_ne[0], c_ne[1] - a_ne[1])
+        along = ((p_ne[0] - a_ne[0]) * (c_ne[0] - a_ne[0]) + (p_ne[1] - a_ne[1]) * (c_ne[1] - a_ne[1])) \
+            / max(length, 1e-3)
+        if along >= length - reach:
+            return None
+        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=c_ne)
 
     def rtl_alt_m(self) -> float:
         rtl = self.params["RTL_ALT"]

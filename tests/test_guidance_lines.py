@@ -1,0 +1,96 @@
+"""Fixed-wing guidance against the mission's own lines (issue 15's cross-track classes,
+found by the random-mission sample and fixed as classes):
+
+1. a line into a loiter is flown to the circle the vehicle will fly (its radius widened
+   to the minimum turn radius where the mission asks for less), not left early for the
+   circle's tangent, and it is scored to that circle, not through the loiter itself;
+2. a turn onto a line that ends in a loiter is filleted like any other (without it the
+   vehicle arrives at the waypoint on the old course and swings wide of the new line);
+3. a leg too short for a fillet, followed by a sharp turn, is turned once, from the line
+   before it onto the line after it (not arrived at on the old course, then overshot);
+4. a first leg too short to be joined and turned off again is joined through its
+   waypoint onto the leg after it.
+
+Each flown headless in the simulator in light turbulence and a moderate wind; the figure
+asserted is the cross-track against the line concerned (``tools.invariants``), with
+what the guidance did before the change noted beside each bound.
+"""
+import math
+
+import pytest
+
+from tools.invariants import mission_legs, xtrack_mission
+from test_guidance_joins import RTL, TAKEOFF, WAYPOINT, fly
+
+LOITER_TIME = 19
+
+
+def legs_of(s):
+    a = s.log.arrays()
+    v = s.vehicle
+    mission = v.mission if v.mission is not None else s.mission
+    _, _, legs = xtrack_mission(a, mission, v.home_frame, "plane", v.reached_events(), s.params,
+                                v.sequencer.loiter_radii)
+    return {g["seq"]: g for g in legs}
+
+
+@pytest.mark.parametrize("wind", [(6.0, 200.0), (6.0, 20.0)])
+def test_a_line_into_a_loiter_is_flown_to_its_circle(tmp_path, wind):
+    # a 72 deg turn at item 2 onto a 630 m line into a loiter of radius 30 m (under the
+    # minimum turn radius: flown wider), then home
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 700, 0, 60, 3),
+            (LOITER_TIME, 900, 600, 60, 3, 20, 0, 30, 0), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    (seq, r_flown), = s.vehicle.sequencer.loiter_radii
+    r_min = s.vehicle.sequencer.min_turn_radius_m()
+    assert seq == 3 and r_flown > 30.0 and r_flown == pytest.approx(r_min, rel=0.2)
+    leg = legs_of(s)[3]
+    assert leg["loiter_r"] == r_flown
+    # before: left the line for the tangent and scored through the loiter, 60-120 m
+    assert leg["xtrack_max_m"] < 12.0 and leg["xtrack_rms_m"] < 4.0
+    assert summary["xtrack_mission_max_m"] < 12.0
+
+
+def test_the_scored_loiter_leg_ends_at_the_radius_flown():
+    from autopilot.geo import LocalFrame
+    from autopilot.mission.files import loads_waypoints
+    from test_guidance_joins import HOME, wpl
+    m = loads_waypoints(wpl([(TAKEOFF, None, None, 60, 3), (WAYPOINT, 700, 0, 60, 3),
+                             (LOITER_TIME, 900, 600, 60, 3, 20, 0, 30, 0), (LOITER_TIME, 900, 600, 60, 3, 20, 0, 0, 0)]))
+    f = LocalFrame.from_degrees(*HOME)
+    written = {g["seq"]: g["loiter_r"] for g in mission_legs(m, f, "plane", None)}
+    flown = {g["seq"]: g["loiter_r"] for g in mission_legs(m, f, "plane", None, [(3, 71.5)])}
+    assert written[3] == 30.0 and flown[3] == 71.5
+    # a visit the sequencer did not report keeps the radius as written (LOITER_RAD for 0)
+    assert flown.get(4, 80.0) == 80.0
+
+
+@pytest.mark.parametrize("wind", [(6.0, 200.0), (6.0, 300.0)])
+def test_a_short_leg_before_a_sharp_turn_is_turned_once(tmp_path, wind):
+    # north 800 m, then 35 m back to the left (bearing -136 deg: within the waypoint
+    # radius, counted with item 2), then a 400 m line at -69 deg
+    c = (800 + 35 * math.cos(math.radians(-136)), 35 * math.sin(math.radians(-136)))
+    d = (c[0] + 400 * math.cos(math.radians(-69)), c[1] + 400 * math.sin(math.radians(-69)))
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 800, 0, 60, 3), (WAYPOINT, *c, 60, 3),
+            (WAYPOINT, *d, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    assert any(k == "fillet" and q == 3 for _t, q, k in s.vehicle.sequencer.transitions)
+    leg = legs_of(s)[4]
+    # before: on the old course at item 3, 27 m beside the new line, overshot by 30-40 m
+    assert leg["xtrack_max_m"] < 12.0
+
+
+@pytest.mark.parametrize("wind", [(5.0, 140.0), (8.0, 320.0)])
+def test_a_first_leg_too_short_to_join_is_joined_through(tmp_path, wind):
+    # the takeoff point 190 m out, the first waypoint 12 m past it (inside the climb-out),
+    # then an 82 deg turn onto a 570 m line
+    rows = [(TAKEOFF, 190, 0, 80, 3), (WAYPOINT, 200, 5, 80, 3),
+            (WAYPOINT, 200 + 570 * math.cos(math.radians(85)), 5 + 570 * math.sin(math.radians(85)), 80, 3),
+            (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=500.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    leg = legs_of(s)[3]
+    # before: item 2 reached on the old course, the 570 m line overshot by 40-65 m
+    assert leg["xtrack_max_m"] < 12.0
