@@ -387,6 +387,8 @@ def run_summary(session) -> dict:
         "wind_from_deg": session.wind.from_deg,
         "turbulence": session.wind.turbulence,
         "lockstep_missed": session.sim_end.missed,
+        # geofence breaches (autopilot/fence): when, which fence, the action, when cleared
+        "fence_breaches": [dict(b) for b in getattr(getattr(v, "geofence", None), "breaches", ())],
         "faults_injected": [
             {"at_s": round(r.at_s, 3), "unit": r.unit, "type": r.type, "instance": r.instance,
              "accepted": r.accepted, "source": r.source} for r in session.bridge.fault_log],

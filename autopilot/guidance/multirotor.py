@@ -309,6 +309,7 @@ class CopterNavigator:
         self.traj.shift(d)
         self.goal_ne = (self.goal_ne[0] + d[0], self.goal_ne[1] + d[1])
         self.land_ne = (self.land_ne[0] + d[0], self.land_ne[1] + d[1])
+        self.rtl_ne = (self.rtl_ne[0] + d[0], self.rtl_ne[1] + d[1])
 
     def fix_yaw(self, turn_rad: float, rate_rad_s: float) -> None:
         """Turn the heading reference through ``turn_rad`` (signed: + clockwise seen from
@@ -380,19 +381,27 @@ class CopterNavigator:
         self._line((ne[0], ne[1], p[2]))
         self.phase = "land_approach"
 
-    def rtl(self, p_vehicle) -> None:
-        """Climb to Q_RTL_ALT (if lower), return home, land."""
+    def rtl(self, p_vehicle, rally=None) -> None:
+        """Climb to Q_RTL_ALT (if lower), return home, land. ``rally``: (north, east,
+        height above home) of the rally point to return to instead of home (at its
+        height, then the same landing: ArduCopter's RTL to a rally point)."""
         h_rtl = self.params["Q_RTL_ALT"]
         p = self.traj.raw
         h = -p[2]
-        self.land_ne = (0.0, 0.0)
-        if h_rtl > 0.0 and h < h_rtl - 0.2 and math.hypot(p[0], p[1]) > self.params["WPNAV_RADIUS"]:
+        ne = (0.0, 0.0) if rally is None else (rally[0], rally[1])
+        if rally is not None and rally[2] > 0.0:
+            h_rtl = max(h_rtl, rally[2])
+        self.land_ne = self.rtl_ne = ne
+        far = math.hypot(p[0] - ne[0], p[1] - ne[1]) > self.params["WPNAV_RADIUS"]
+        if h_rtl > 0.0 and h < h_rtl - 0.2 and far:
             self._line((p[0], p[1], -h_rtl))
             self._yaw_goal = None
             self.phase = "rtl_climb"
         else:
-            self._line((0.0, 0.0, -max(h, h_rtl) if h_rtl > 0.0 else p[2]))
+            self._line((ne[0], ne[1], -max(h, h_rtl) if h_rtl > 0.0 else p[2]))
             self.phase = "rtl_return"
+
+    rtl_ne = (0.0, 0.0)        # where RTL returns to (home, or a rally point)
 
     def touchdown(self) -> None:
         """The land detector saw the touchdown."""
@@ -406,7 +415,7 @@ class CopterNavigator:
         traj = self.traj
         ph = self.phase
         if ph in ("rtl_climb",) and traj.arrived:
-            self._line((0.0, 0.0, traj.p[2]))
+            self._line((self.rtl_ne[0], self.rtl_ne[1], traj.p[2]))
             self.phase = ph = "rtl_return"
         if ph in ("rtl_return", "land_approach") and traj.arrived:
             traj.descend(prm["WPNAV_SPEED_DN"], prm["WPNAV_ACCEL_Z"])
