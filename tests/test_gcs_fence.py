@@ -190,3 +190,25 @@ def test_fence_action_values_the_vehicle_cannot_fly_are_refused():
     assert plane.params["FENCE_ACTION"] == 1
     assert quad.set_param("FENCE_ACTION", 2) is None
     assert "not available" in quad.set_param("FENCE_ACTION", 4)
+
+
+def test_fence_and_rally_uploads_may_overlap_as_mavproxy_sends_them():
+    # GIVEN one client that starts the rally upload while its fence upload is under way
+    core, v, _, _ = make_core(make_quad())
+    fence = fence_items()
+    rally = [MissionItem(k, 3, 5100, 0, 1, 0, 0, 0, 0, -35.36 - 0.001 * k, 149.17, 80, RALLY) for k in range(2)]
+    take(core)
+    core.receive(1, wire(MAV.MAVLink_mission_count_message(1, 1, len(fence), FENCE)), 0)
+    core.receive(1, wire(MAV.MAVLink_mission_count_message(1, 1, len(rally), RALLY)), 0)
+    acks = []
+    for _ in range(len(fence) + len(rally) + 2):
+        out = take(core, 1)
+        acks += [(a.type, a.mission_type) for a in out if a.get_type() == "MISSION_ACK"]
+        reqs = [m for m in out if m.get_type() == "MISSION_REQUEST_INT"]
+        if not reqs:
+            break
+        for r in reqs:
+            core.receive(1, wire(item_msg((fence if r.mission_type == FENCE else rally)[r.seq])), 0)
+    # THEN both complete, each acknowledged with its type
+    assert sorted(acks) == [(MAV.MAV_MISSION_ACCEPTED, FENCE), (MAV.MAV_MISSION_ACCEPTED, RALLY)]
+    assert v.geofence.fence_items == tuple(fence) and v.geofence.rally_items == tuple(rally)

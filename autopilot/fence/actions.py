@@ -21,6 +21,8 @@ def home_ll(v) -> tuple[float, float, float] | None:
 def fence_step(v, t_us: int, flying: bool, landing: bool = False) -> None:
     """Check the fence on ``v.nav_state``; on a breach take the action, on its end say so."""
     g = v.geofence
+    if not g.breached and g.params["FENCE_ENABLE"] < 1:
+        return                                   # (off: nothing to do, every step)
     nav = v.nav_state
     home = home_ll(v)
     if nav is None or (home is None and not g.breached):

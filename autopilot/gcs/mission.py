@@ -7,8 +7,9 @@ Upload (GCS -> vehicle)::
 
     MISSION_COUNT(n) -> MISSION_REQUEST_INT(0) -> MISSION_ITEM_INT(0) -> ... -> MISSION_ACK
 
-One upload at a time: a second client's MISSION_COUNT during an upload is answered
-MAV_MISSION_DENIED; the same client's restarts it. An item request unanswered for
+One upload at a time per mission type (mission, fence and rally uploads may overlap,
+as MAVProxy sends them and ArduPilot takes them): a second client's MISSION_COUNT during
+an upload is answered MAV_MISSION_DENIED; the same client's restarts it. An item request unanswered for
 ``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
 (MAV_MISSION_OPERATION_CANCELLED). Items are checked one by one as they arrive
 (``item_problem``) and the whole mission at the end (``validate_mission``), both for the
@@ -90,7 +91,7 @@ class MissionServer:
         self.timeout_s = timeout_s
         self.retries = retries
         self.max_items = max_items
-        self.upload: _Upload | None = None
+        self.uploads: dict[int, _Upload] = {}   # by mission_type: each type has its own
         self.legacy_clients: set[int] = set()
         self._wire: tuple[MissionItem, ...] = ()
         self._flown: Mission | None = None       # the Mission object _wire belongs to
@@ -98,6 +99,11 @@ class MissionServer:
         self.uploads_refused = 0
 
     # ------------------------------------------------------------------- state ---
+    @property
+    def upload(self) -> _Upload | None:
+        """The plain mission's upload in progress, else any (None: none)."""
+        return self.uploads.get(MISSION_TYPE_MISSION) or next(iter(self.uploads.values()), None)
+
     @property
     def wire_items(self) -> tuple[MissionItem, ...]:
         """The mission as a ground station downloads it (item 0 = home)."""
@@ -123,19 +129,21 @@ class MissionServer:
 
     def client_gone(self, cid: int) -> None:
         self.legacy_clients.discard(cid)
-        if self.upload is not None and self.upload.cid == cid:
-            self.upload = None  # the old mission stays
+        for t, up in list(self.uploads.items()):
+            if up.cid == cid:
+                del self.uploads[t]  # the old mission stays
 
     def tick(self) -> None:
         """Timeouts and retries of the upload in progress."""
-        up = self.upload
-        if up is None:
-            return
+        for up in list(self.uploads.values()):
+            self._tick(up)
+
+    def _tick(self, up: _Upload) -> None:
         now = self.clock()
         if now < up.deadline:
             return
         if up.tries >= self.retries:
-            self.upload = None
+            self.uploads.pop(up.mtype, None)
             self.uploads_refused += 1
             self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_OPERATION_CANCELLED", up.mtype)
             self.say(4, f"{_TYPE_WORD[up.mtype]} upload timed out at item {up.expected} of {up.count}")
@@ -162,36 +170,35 @@ class MissionServer:
         if not self._supported(mtype):
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
-        if self.upload is not None and self.upload.cid != cid:
+        current = self.uploads.get(mtype)
+        if current is not None and current.cid != cid:
             self._ack(cid, sysid, compid, "MAV_MISSION_DENIED", mtype)
             self.say(4, f"{_TYPE_WORD[mtype]} upload refused: another upload in progress")
             return
         count = int(msg.count)
         if count > self.max_items:
-            self.upload = None
+            self.uploads.pop(mtype, None)
             self._ack(cid, sysid, compid, "MAV_MISSION_NO_SPACE", mtype)
             self.say(4, f"{_TYPE_WORD[mtype]} upload refused: {count} items, at most {self.max_items}")
             return
         if count == 0:
-            self.upload = None
+            self.uploads.pop(mtype, None)
             self._clear_type(mtype, t_us)
             self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED", mtype)
             return
         now = self.clock()
-        self.upload = _Upload(cid, sysid, compid, count, now, self.timeout_s,
-                              cid in self.legacy_clients, mtype)
-        self._request(self.upload, now)
+        up = self.uploads[mtype] = _Upload(cid, sysid, compid, count, now, self.timeout_s,
+                                           cid in self.legacy_clients, mtype)
+        self._request(up, now)
 
     def _on_item(self, cid, msg, t_us) -> None:
-        up = self.upload
         legacy = msg.get_type() == "MISSION_ITEM"
         if legacy:
             self.legacy_clients.add(cid)
+        mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
+        up = self.uploads.get(mtype)
         if up is None or up.cid != cid:
             return  # nothing asked for it: ignore (a late duplicate)
-        mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
-        if mtype != up.mtype:
-            return
         seq = int(msg.seq)
         if seq < up.expected:
             return  # a duplicate of an item we already have
@@ -230,7 +237,7 @@ class MissionServer:
         self._finish(up, t_us)
 
     def _fail(self, up: _Upload, code: str, text: str) -> None:
-        self.upload = None
+        self.uploads.pop(up.mtype, None)
         self.uploads_refused += 1
         self._ack(up.cid, up.sysid, up.compid, code, up.mtype)
         self.say(4, f"{_TYPE_WORD[up.mtype]} refused: {text}")
@@ -250,7 +257,7 @@ class MissionServer:
         if reason is not None:
             self._fail(up, "MAV_MISSION_DENIED", reason)
             return
-        self.upload = None
+        self.uploads.pop(up.mtype, None)
         self._wire, self._flown = wire, mission
         self.uploads_accepted += 1
         self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_ACCEPTED")
@@ -268,7 +275,7 @@ class MissionServer:
         if reason is not None:
             self._fail(up, "MAV_MISSION_DENIED", reason)
             return
-        self.upload = None
+        self.uploads.pop(up.mtype, None)
         self.uploads_accepted += 1
         self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_ACCEPTED", up.mtype)
         self.say(6, f"{_TYPE_WORD[up.mtype]}: {len(wire)} items received")
@@ -332,7 +339,7 @@ class MissionServer:
         else:
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
-        if self.upload is not None:
+        if any(t in self.uploads for t in types):
             self._ack(cid, sysid, compid, "MAV_MISSION_DENIED", mtype)
             return
         for t in types:
@@ -340,9 +347,9 @@ class MissionServer:
         self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED", mtype)
 
     def _on_ack(self, cid, msg, t_us) -> None:
-        up = self.upload
+        up = self.uploads.get(getattr(msg, "mission_type", MISSION_TYPE_MISSION))
         if up is not None and up.cid == cid and msg.type != MAV.MAV_MISSION_ACCEPTED:
-            self.upload = None  # the ground station gave up: the old mission stays
+            del self.uploads[up.mtype]  # the ground station gave up: the old mission stays
 
     # ---------------------------------------------------------------- download ---
     def _on_request_list(self, cid, msg, t_us) -> None:

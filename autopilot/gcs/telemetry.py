@@ -194,10 +194,12 @@ class Telemetry:
             enabled &= ~MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
         enabled |= MAV.MAV_SYS_STATUS_PREARM_CHECK if not v.armed else 0
         g = getattr(v, "geofence", None)
-        if g is not None and (g.enabled or g.fence_items):
-            # the geofence: present once configured, enabled by FENCE_ENABLE, unhealthy
-            # while breached (as ArduPilot reports it)
-            present |= MAV.MAV_SYS_STATUS_GEOFENCE
+        if g is not None:
+            # the geofence: present once configured, enabled by FENCE_ENABLE, healthy
+            # unless breached (as ArduPilot reports it: MAVProxy says "fence breach" when
+            # the health bit drops, present or not)
+            if g.enabled or g.fence_items:
+                present |= MAV.MAV_SYS_STATUS_GEOFENCE
             if g.enabled:
                 enabled |= MAV.MAV_SYS_STATUS_GEOFENCE
             if not g.breached:
