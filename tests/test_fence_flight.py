@@ -54,6 +54,10 @@ def _check_exclusion_breach(tmp_path, vehicle, zone):
     # acted on within 0.5 s of the crossing on truth
     assert len(b) == 1 and b[0]["type"] == "polygon" and b[0]["action"] == "RTL"
     assert abs(b[0]["at_s"] - t_cross) <= 0.5, (b[0]["at_s"], t_cross)
+    # the summary's own score agrees, to a log row (its projection is the fence's own)
+    assert abs(b[0]["truth_at_s"] - t_cross) <= 0.021
+    print(f"{vehicle}: crossing (truth) {t_cross:.3f} s, breach {b[0]['at_s']:.3f} s, "
+          f"cleared {b[0]['cleared_s']:.3f} s")
     # ... the vehicle was out again (on truth) when it cleared, and did not come back in
     assert b[0]["cleared_s"] is not None
     after = t > b[0]["cleared_s"]
@@ -102,6 +106,8 @@ def test_plane_altitude_fence_breach_descends_and_clears(tmp_path):
     b = summary["fence_breaches"]
     assert len(b) == 1 and b[0]["type"] == "max_alt" and b[0]["action"] == "RTL"
     assert abs(b[0]["at_s"] - t_cross) <= 0.5, (b[0]["at_s"], t_cross)
+    print(f"altitude: crossing (truth) {t_cross:.3f} s, breach {b[0]['at_s']:.3f} s, "
+          f"cleared {b[0]['cleared_s']:.3f} s, peak {h.max():.1f} m")
     # back under the ceiling (RTL_ALT 100 m): cleared, and never above it again
     assert b[0]["cleared_s"] is not None
     assert np.all(h[t > b[0]["cleared_s"]] < 105.0)
@@ -123,6 +129,7 @@ def test_plane_rtl_goes_to_the_nearest_rally_point_and_loiters_there(tmp_path):
     r = v.rtl_hold.radius_m
     # THEN it circles the near rally point (not home, not the far one) at its height
     assert np.all(np.abs(d - r) < 25.0), (d.min(), d.max(), r)
+    print(f"plane rally loiter: radius {r:.0f} m, distance to the point {d.min():.1f}-{d.max():.1f} m")
     h = a["truth_alt_m"][np.isfinite(a["truth_alt_m"])][-50:] - v.home_truth_alt_m
     assert np.all(np.abs(h - 90.0) < 5.0)
 
@@ -138,6 +145,7 @@ def test_quad_rtl_lands_at_the_nearest_rally_point(tmp_path):
     t, dn, de, a = _truth_ne(s, *rp)
     assert v.mission_landed and not v.armed
     assert math.hypot(dn[-1], de[-1]) < 2.0, (dn[-1], de[-1])
+    print(f"quad rally landing: {math.hypot(dn[-1], de[-1]):.2f} m from the point")
 
 
 def test_fence_files_and_refusals():
@@ -154,3 +162,55 @@ def test_fence_files_and_refusals():
             f"{k}\t0\t0\t5001\t4\t0\t0\t0\t-35.3{k}\t149.1{k}\t0\t1\n" for k in range(3)))
     with pytest.raises(MissionFileError, match="at least 3 vertices"):
         loads_fence(_wpl(5001, 2, -35.3, 149.1))
+
+
+def _plan_with_fence(tmp_path, circles):
+    import json
+    doc = json.loads((MISSIONS_DIR / "default.plan").read_text())
+    doc["geoFence"] = {"version": 2, "circles": circles, "polygons": [
+        {"inclusion": True, "version": 1,
+         "polygon": [[-35.348, 149.158], [-35.348, 149.183], [-35.376, 149.183], [-35.376, 149.158]]}],
+        "breachReturn": [-35.3600, 149.1700, 90]}
+    doc["rallyPoints"] = {"version": 2, "points": [[-35.3655, 149.1765, 90], [-35.3500, 149.1600, 80]]}
+    p = tmp_path / "fenced.plan"
+    p.write_text(json.dumps(doc))
+    return p
+
+
+def test_a_plan_brings_its_fence_and_rally_points_and_an_outside_mission_is_refused(tmp_path):
+    import pytest
+    from autopilot.mission.files import MissionFileError
+    excl = {"inclusion": False, "version": 1, "circle": {"center": [-35.3583, 149.16987], "radius": 60}}
+    plan = _plan_with_fence(tmp_path, [excl])
+    s = Session(RunConfig(mission=plan, seed=1, duration_s=1.0))
+    g = s.vehicle.geofence
+    assert [it.command for it in g.fence_items] == [5001] * 4 + [5004, 5000]
+    assert g.fence_items[4].param1 == 60 and g.return_point(584.0) == (-35.36, 149.17, 674.0)
+    assert [(it.command, it.z_alt_m, it.frame) for it in g.rally_items] == [(5100, 90, 3), (5100, 80, 3)]
+    # an enabled fence with a waypoint (WP4) inside its exclusion circle: refused, named
+    excl["circle"]["center"] = [-35.3565171, 149.1698685]
+    plan = _plan_with_fence(tmp_path, [excl])
+    with pytest.raises(MissionFileError, match="item 4 outside the fence"):
+        Session(RunConfig(mission=plan, seed=1, param_overrides={"FENCE_ENABLE": "1", "FENCE_TYPE": "4"}))
+
+
+def test_plane_fence_action_guided_loiters_at_the_return_point(tmp_path):
+    # GIVEN the exclusion circle on leg 4 -> 5 and a return point, FENCE_ACTION 6
+    lat, lon, r = PLANE_EXCL
+    rp = (-35.3620, 149.1600)
+    fence = _wpl(5004, r, lat, lon) + f"1\t0\t3\t5000\t0\t0\t0\t0\t{rp[0]}\t{rp[1]}\t80\t1\n"
+    s = _session(tmp_path, "plane", fence=fence, FENCE_ENABLE=1, FENCE_TYPE=4, FENCE_ACTION=6)
+    s.cfg.duration_s = 200.0
+    s.run()
+    summary = run_summary(s)
+    (b,) = summary["fence_breaches"]
+    assert b["action"] == "GUIDED" and b["cleared_s"] is not None
+    # THEN it circles the return point at its altitude, in GUIDED, until told otherwise
+    assert s.vehicle.mode.name == "GUIDED"
+    t, dn, de, a = _truth_ne(s, *rp)
+    d = np.hypot(dn, de)[t > s.t_s - 30.0]
+    assert np.all(np.abs(d - s.vehicle.hold.radius_m) < 25.0), (d.min(), d.max())
+    print(f"guided: radius {s.vehicle.hold.radius_m:.0f} m, distance to the return point "
+          f"{d.min():.1f}-{d.max():.1f} m")
+    h = a["truth_alt_m"][np.isfinite(a["truth_alt_m"])][-50:] - s.vehicle.home_truth_alt_m
+    assert np.all(np.abs(h - 80.0) < 5.0)

@@ -52,7 +52,7 @@ def _item(seq, frame, command, p1, lat, lon, alt, mtype, p2=0.0, p3=0.0, p4=0.0)
 def _wpl(text: str, path: PathLike, mtype: int) -> tuple[MissionItem, ...]:
     items = []
     for lineno, line in enumerate(text.splitlines(), 1):
-        if lineno == 1 or not line.strip() or line.lstrip().startswith("#"):
+        if not line.strip() or line.lstrip().startswith(("#", "QGC WPL")):
             continue
         f = line.split()
         if len(f) != 12:
