@@ -148,6 +148,26 @@ def test_quad_rtl_lands_at_the_nearest_rally_point(tmp_path):
     print(f"quad rally landing: {math.hypot(dn[-1], de[-1]):.2f} m from the point")
 
 
+def test_quad_rtl_with_landing_disabled_holds_over_the_rally_point(tmp_path):
+    # GIVEN RTL_ALT_FINAL 8 m (ArduCopter's: no landing at the end of RTL)
+    rp = (-35.3636213, 149.1668)
+    s = _session(tmp_path, "quad", rally=_wpl(5100, 0, rp[0], rp[1], 12.0, frame=3), RTL_ALT_FINAL=8)
+    v = s.vehicle
+    while not (v.sequencer is not None and v.sequencer.current >= 5):
+        s.step()
+    assert v.set_mode(v.modes.RTL, 0) is None
+    t_rtl = s.t_s
+    while s.t_s < t_rtl + 55.0:
+        s.step()
+    t, dn, de, a = _truth_ne(s, *rp)
+    late = t > t_rtl + 45.0
+    h = a["truth_alt_m"][np.isfinite(a["truth_n_m"])] - v.home_truth_alt_m
+    # THEN still armed and flying, over the rally point at 8 m
+    assert v.armed and not v.mission_landed
+    assert np.all(np.hypot(dn, de)[late] < 1.0)
+    assert np.all(np.abs(h[late] - 8.0) < 0.5)
+
+
 def test_fence_files_and_refusals():
     # the legacy MAVProxy list: return point, vertices, closing point
     items = loads_fence("-35.36 149.16\n-35.35 149.15\n-35.35 149.18\n-35.37 149.18\n-35.35 149.15\n")

@@ -26,7 +26,8 @@ Landing: the reference flies to the land point at the current height, then desce
 WPNAV_SPEED_DN down to LAND_ALT_LOW above home, then at LAND_SPEED, and keeps descending
 until the vehicle's land detector reports the touchdown (vehicle_quad.py), so the
 touchdown is a gentle, constant-rate contact wherever the ground is. Return to launch:
-climb to Q_RTL_ALT above home (if lower), fly home, land.
+climb to Q_RTL_ALT above home (if lower), fly home (or to the rally point the vehicle
+chose, autopilot/fence), land; with RTL_ALT_FINAL > 0 hold that height over it instead.
 
 Mission items (item 0 is home): NAV_TAKEOFF (vertical, param7 altitude; its lat/lon are
 ignored, as ArduCopter does), NAV_WAYPOINT (param1 hold time [s], param2 acceptance
@@ -75,6 +76,8 @@ COPTER_GUIDANCE_PARAMS = (
     Param("WPNAV_LEASH", 8.0, 0.5, 50.0, "m", "raw reference brakes beyond this distance from the vehicle"),
     Param("WPNAV_SMOOTH", 4.0, 0.5, 20.0, "rad/s", "natural frequency of the reference model (jerk limit)"),
     Param("Q_RTL_ALT", 15.0, 0.0, 300.0, "m", "return-to-launch height above home (0: current)"),
+    Param("RTL_ALT_FINAL", 0.0, 0.0, 300.0, "m", "RTL (home or a rally point) ends holding this height "
+          "above home instead of landing (0: land; ArduCopter's, in metres)"),
     Param("LAND_SPEED", 0.5, 0.1, 3.0, "m/s", "final descent speed"),
     Param("LAND_ALT_LOW", 5.0, 0.0, 50.0, "m", "height above home where the final descent starts"),
     Param("WPNAV_TKOFF_TOL", 0.5, 0.05, 5.0, "m", "takeoff complete this close to its height"),
@@ -417,6 +420,12 @@ class CopterNavigator:
         if ph in ("rtl_climb",) and traj.arrived:
             self._line((self.rtl_ne[0], self.rtl_ne[1], traj.p[2]))
             self.phase = ph = "rtl_return"
+        if ph == "rtl_return" and traj.arrived and prm["RTL_ALT_FINAL"] > 0.0:
+            # landing disabled: hold over the return point at RTL_ALT_FINAL
+            self._line((self.rtl_ne[0], self.rtl_ne[1], -prm["RTL_ALT_FINAL"]))
+            self._yaw_goal = None
+            self.hold_scored = False
+            self.phase = ph = "hold"
         if ph in ("rtl_return", "land_approach") and traj.arrived:
             traj.descend(prm["WPNAV_SPEED_DN"], prm["WPNAV_ACCEL_Z"])
             self.leg_id += 1
