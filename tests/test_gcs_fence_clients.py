@@ -87,6 +87,49 @@ async def _mavsdk_geofence(port):
         return back
 
 
+async def _mavsdk_plan(port, plan):
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
+    cfg = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with Mavsdk(cfg) as sdk:
+        await sdk.add_any_connection(f"tcpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=20)
+        raw = MissionRawAsync(system)
+        data = await raw.import_qgroundcontrol_mission(str(plan))
+        await raw.upload_mission(data.mission_items)
+        await raw.upload_geofence(data.geofence_items)
+        await raw.upload_rally_points(data.rally_items)
+        return (data, await raw.download_mission(), await raw.download_geofence(),
+                await raw.download_rallypoints())
+
+
+def test_mavsdk_uploads_a_plans_mission_fence_and_rally_points(tmp_path):
+    # GIVEN a QGroundControl plan with a mission, an inclusion polygon, an exclusion
+    # circle, a breach return point and two rally points, imported by MAVSDK's mission_raw
+    from test_fence_flight import _plan_with_fence
+    plan = _plan_with_fence(tmp_path, [{"inclusion": False, "version": 1,
+                                        "circle": {"center": [-35.3583, 149.16987], "radius": 60}}])
+    sitl = Sitl(tmp_path / "run", speedup="1")
+    try:
+        data, mission, fence, rally = asyncio.run(asyncio.wait_for(_mavsdk_plan(sitl.port, plan), 90))
+        m = connect(sitl.url, sysid=250)
+        try:
+            on_vehicle = download(m, FENCE), download(m, RALLY)
+        finally:
+            m.close()
+    finally:
+        summary = sitl.stop()
+    # THEN the vehicle holds all three as sent, and gives them back the same
+    assert len(mission) == len(data.mission_items)
+    assert [f.command for f in fence] == [f.command for f in data.geofence_items]
+    # (MAVSDK's import leaves the plan's breachReturn out: polygon and circle only)
+    assert [c for c, *_ in on_vehicle[0]] == [f.command for f in data.geofence_items] == [5001] * 4 + [5004]
+    assert [(c, round(la, 4), round(lo, 4)) for c, la, lo, _ in on_vehicle[1]] == \
+        [(5100, -35.3655, 149.1765), (5100, -35.35, 149.16)]
+    assert [r.z for r in rally] == [90.0, 80.0]
+    assert summary["fence_breaches"] == []
+
+
 def test_mavsdk_upload_geofence_reaches_the_vehicle(tmp_path):
     sitl = Sitl(tmp_path / "run", "--vehicle", "quad", speedup="1")
     try:
