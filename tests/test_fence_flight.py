@@ -113,6 +113,29 @@ def test_plane_altitude_fence_breach_descends_and_clears(tmp_path):
     assert np.all(h[t > b[0]["cleared_s"]] < 105.0)
 
 
+def test_quad_altitude_fence_breach_returns_and_clears(tmp_path):
+    # GIVEN quad_default (WP3 at 15 m, WP4 at 20 m) and a ceiling of 18 m set in flight
+    s = _session(tmp_path, "quad", FENCE_TYPE=1, FENCE_ALT_MAX=18)
+    v = s.vehicle
+    while not (v.sequencer is not None and v.sequencer.current >= 3):
+        s.step()
+    assert v.set_param("FENCE_ENABLE", 1) is None
+    s.run()
+    summary = run_summary(s)
+    a = s.log.arrays()
+    ok = np.isfinite(a["truth_alt_m"])
+    t, h = a["t_s"][ok], a["truth_alt_m"][ok] - v.home_truth_alt_m
+    t_cross = t[np.argmax(h > 18.0)]
+    (b,) = summary["fence_breaches"]
+    assert b["type"] == "max_alt" and b["action"] == "RTL"
+    assert abs(b["at_s"] - t_cross) <= 0.5, (b["at_s"], t_cross)
+    print(f"quad altitude: crossing (truth) {t_cross:.3f} s, breach {b['at_s']:.3f} s, "
+          f"cleared {b['cleared_s']:.3f} s, peak {h.max():.2f} m")
+    # the RTL brings it home and down: cleared on the way, landed at home
+    assert b["cleared_s"] is not None and v.mission_landed and not v.armed
+    assert h.max() < 19.0
+
+
 def test_plane_rtl_goes_to_the_nearest_rally_point_and_loiters_there(tmp_path):
     near, far = (-35.3655, 149.1765), (-35.3500, 149.1500)
     rally = "".join(f"RALLY {la} {lo} 90 0 0 0\n" for la, lo in (far, near))
