@@ -212,3 +212,25 @@ def test_fence_and_rally_uploads_may_overlap_as_mavproxy_sends_them():
     # THEN both complete, each acknowledged with its type
     assert sorted(acks) == [(MAV.MAV_MISSION_ACCEPTED, FENCE), (MAV.MAV_MISSION_ACCEPTED, RALLY)]
     assert v.geofence.fence_items == tuple(fence) and v.geofence.rally_items == tuple(rally)
+
+
+def test_fence_status_streams_while_enabled_and_the_breach_is_announced():
+    core, v, _, _ = make_core(make_quad())
+    upload(core, fence_items(), FENCE)
+    core.tick(1_000_000)
+    core.tick(2_100_000)
+    assert take(core, 1, "FENCE_STATUS") == []                 # fence off: not sent
+    v.set_param("FENCE_ENABLE", 1)
+    v.set_param("FENCE_TYPE", 4)
+    give_nav(v)
+    assert v.arm(0) is None
+    v.on_ground = False
+    give_nav(v, lat=-35.357, lon=149.170, alt=604.0)
+    from autopilot.fence.actions import fence_step
+    fence_step(v, 3_000_000, flying=True)
+    core.tick(3_200_000)
+    out = take(core, 1)
+    (fs,) = [m for m in out if m.get_type() == "FENCE_STATUS"]
+    assert (fs.breach_status, fs.breach_count) == (1, 1)
+    texts = [m.text for m in out if m.get_type() == "STATUSTEXT"]
+    assert "Fence breach: polygon, RTL" in texts and "Mode RTL" in texts
