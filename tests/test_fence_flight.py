@@ -63,6 +63,8 @@ def _check_exclusion_breach(tmp_path, vehicle, zone):
     after = t > b[0]["cleared_s"]
     assert np.all(np.hypot(dn, de)[after] > r)
     assert not s.crashed
+    # the breach explains the mode change (tools/invariants.py no_unexpected_mode)
+    assert summary["invariants"]["no_unexpected_mode"]["passed"]
     return s, summary, b[0]
 
 
