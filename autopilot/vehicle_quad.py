@@ -330,6 +330,7 @@ class QuadVehicle:
         self._motors = (0.0, 0.0, 0.0, 0.0)     # the commands flown since the last step
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.geofence = Geofence(params, "quad")  # fence and rally points (autopilot/fence)
+        self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -409,7 +410,7 @@ class QuadVehicle:
         elif mode in (CopterMode.GUIDED, CopterMode.LOITER):
             nv.hold(None)
         elif mode == CopterMode.RTL:
-            nv.rtl(self.p_home, self._rally_dest())
+            nv.rtl(self.p_home)
         elif mode == CopterMode.LAND:
             nv.land(None)
         elif mode == CopterMode.ALT_HOLD:

@@ -193,6 +193,26 @@ def test_quad_rtl_with_landing_disabled_holds_over_the_rally_point(tmp_path):
     assert np.all(np.abs(h[late] - 8.0) < 0.5)
 
 
+def test_quad_missions_rtl_item_lands_at_the_nearest_rally_point(tmp_path):
+    # GIVEN a short mission ending in NAV_RETURN_TO_LAUNCH, a rally point beside its waypoint
+    wp = (-35.3632620, 149.1659)            # about 60 m east of home
+    rp = (-35.3634, 149.1657)
+    (tmp_path / "m.waypoints").write_text(
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t-35.363262\t149.165237\t584\t1\n"
+        "1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1\n"
+        f"2\t0\t3\t16\t0\t0\t0\t0\t{wp[0]}\t{wp[1]}\t10\t1\n"
+        "3\t0\t3\t20\t0\t0\t0\t0\t0\t0\t0\t1\n")
+    (tmp_path / "r.rally").write_text(f"RALLY {rp[0]} {rp[1]} 10 0 0 0\n")
+    s = Session(RunConfig(vehicle="quad", mission=tmp_path / "m.waypoints", rally=tmp_path / "r.rally",
+                          seed=2, duration_s=120.0))
+    s.run()
+    summary = run_summary(s)
+    t, dn, de, a = _truth_ne(s, *rp)
+    # THEN the mission completes with its landing at the rally point (ArduCopter's RTL)
+    assert summary["completed"] is True and s.vehicle.mission_landed
+    assert math.hypot(dn[-1], de[-1]) < 1.0, (dn[-1], de[-1])
+
+
 def test_fence_files_and_refusals():
     # the legacy MAVProxy list: return point, vertices, closing point
     items = loads_fence("-35.36 149.16\n-35.35 149.15\n-35.35 149.18\n-35.37 149.18\n-35.35 149.15\n")

@@ -387,10 +387,13 @@ class CopterNavigator:
     def rtl(self, p_vehicle, rally=None) -> None:
         """Climb to Q_RTL_ALT (if lower), return home, land. ``rally``: (north, east,
         height above home) of the rally point to return to instead of home (at its
-        height, then the same landing: ArduCopter's RTL to a rally point)."""
+        height, then the same landing: ArduCopter's RTL to a rally point); None: what
+        ``rally_source`` (the vehicle) chooses, home when it chooses none."""
         h_rtl = self.params["Q_RTL_ALT"]
         p = self.traj.raw
         h = -p[2]
+        if rally is None and self.rally_source is not None:
+            rally = self.rally_source()       # the vehicle's choice (autopilot/fence)
         ne = (0.0, 0.0) if rally is None else (rally[0], rally[1])
         if rally is not None and rally[2] > 0.0:
             h_rtl = max(h_rtl, rally[2])
@@ -405,6 +408,7 @@ class CopterNavigator:
             self.phase = "rtl_return"
 
     rtl_ne = (0.0, 0.0)        # where RTL returns to (home, or a rally point)
+    rally_source = None        # () -> (north, east, height) of the rally point for RTL, or None
 
     def touchdown(self) -> None:
         """The land detector saw the touchdown."""
@@ -794,8 +798,8 @@ class CopterMissionSequencer:
                     self._goal = (goal[0], goal[1], 0.0)
                     nav.land((goal[0], goal[1]))
                 else:
-                    self._goal = (0.0, 0.0, 0.0)
                     nav.rtl(p_ned)
+                    self._goal = (nav.rtl_ne[0], nav.rtl_ne[1], 0.0)   # home, or a rally point
             if touchdown and nav.phase == "land_descend":
                 nav.touchdown()
                 self._drop_pending(t_us, "landed")
