@@ -279,3 +279,20 @@ def test_plane_fence_action_guided_loiters_at_the_return_point(tmp_path):
           f"{d.min():.1f}-{d.max():.1f} m")
     h = a["truth_alt_m"][np.isfinite(a["truth_alt_m"])][-50:] - s.vehicle.home_truth_alt_m
     assert np.all(np.abs(h - 80.0) < 5.0)
+
+
+def test_sitl_run_names_a_malformed_fence_or_rally_file(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import pytest
+    from autopilot.mission.files import MissionFileError
+    repo = Path(__file__).resolve().parent.parent
+    (tmp_path / "bad.fence").write_text("-35.36 149.16\n-35.35 149.15\n-35.35 149.18\n")
+    r = subprocess.run([sys.executable, "-m", "tools.sitl", "run", "--fence", str(tmp_path / "bad.fence"),
+                        "--json"], cwd=repo, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and r.stdout == ""
+    assert "bad.fence: 3 points: a return point, at least 3 vertices" in r.stderr, r.stderr
+    with pytest.raises(MissionFileError, match=":1: expected 'RALLY LAT LON ALT"):
+        loads_rally("RALLY -35.36 149.17 80\n", "bad.rally")

@@ -9,8 +9,8 @@ Upload (GCS -> vehicle)::
 
 One upload at a time per mission type (mission, fence and rally uploads may overlap,
 as MAVProxy sends them and ArduPilot takes them): a second client's MISSION_COUNT during
-an upload is answered MAV_MISSION_DENIED; the same client's restarts it. An item request unanswered for
-``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
+an upload is answered MAV_MISSION_DENIED; the same client's restarts it. An item
+request unanswered for ``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
 (MAV_MISSION_OPERATION_CANCELLED). Items are checked one by one as they arrive
 (``item_problem``) and the whole mission at the end (``validate_mission``), both for the
 vehicle served: a command it does not fly is MAV_MISSION_UNSUPPORTED, a mission that
@@ -217,7 +217,8 @@ class MissionServer:
                            else rally_items_problem((item,)))
             if item is None or problem is not None:
                 code = problem.code if problem is not None else "MAV_MISSION_INVALID"
-                self._fail(up, code, problem.text if problem else f"item {seq}: not a {_TYPE_WORD[mtype].lower()} item")
+                self._fail(up, code, problem.text if problem
+                           else f"item {seq}: not a {_TYPE_WORD[mtype].lower()} item")
                 return
         else:
             problem = item_problem(item, self.kind) if item is not None else None
