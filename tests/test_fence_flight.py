@@ -90,6 +90,19 @@ def test_quad_crossing_an_exclusion_circle_returns_home_and_lands(tmp_path):
     assert math.hypot(a["truth_n_m"][ok][-1], a["truth_e_m"][ok][-1]) < 2.0   # landed at home
 
 
+def test_quad_fence_action_report_only_keeps_flying_the_mission(tmp_path):
+    lat, lon, r = QUAD_EXCL
+    s = _session(tmp_path, "quad", fence=_wpl(5004, r, lat, lon), FENCE_ENABLE=1, FENCE_TYPE=4,
+                 FENCE_ACTION=0)
+    g = s.vehicle.geofence
+    while not (g.breaches and g.breaches[-1]["cleared_s"] is not None) and s.t_s < 120.0:
+        s.step()
+    # THEN reported (STATUSTEXT, the summary) and cleared, the mission flown on in AUTO
+    assert g.breaches == [dict(g.breaches[0], action="report")]
+    assert "Fence breach: polygon, report" in [n[2] for n in s.vehicle.notices]
+    assert s.vehicle.mode.name == "AUTO" and s.vehicle.sequencer.current >= 4
+
+
 def test_plane_altitude_fence_breach_descends_and_clears(tmp_path):
     # GIVEN the default mission (WP6 at 110 m) and a ceiling of 105 m set in flight
     s = _session(tmp_path, "plane", FENCE_TYPE=1, FENCE_ALT_MAX=105)
