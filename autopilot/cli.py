@@ -27,7 +27,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--sim", default="tcp:127.0.0.1:4560",
                     help="simulator link: tcp:HOST:PORT, udp:HOST:PORT (default tcp:127.0.0.1:4560)")
     ap.add_argument("--vehicle", default="plane", choices=["plane"])
-    ap.add_argument("--mission", default=str(DEFAULT_MISSION))
+    ap.add_argument("--mission", default=str(DEFAULT_MISSION),
+                    help=".waypoints or .plan (a .plan's geoFence and rallyPoints load with it)")
+    ap.add_argument("--fence", help="geofence file (MAVProxy's fence formats; autopilot/fence/files.py)")
+    ap.add_argument("--rally", help="rally point file (MAVProxy's rally formats)")
     ap.add_argument("--nav", default="ekf", choices=["ekf", "ukf", "truth"])
     ap.add_argument("--params", help=".parm file to load")
     ap.add_argument("--gps", default="standard", choices=list(NAV_GPS_PRESETS),
@@ -66,6 +69,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         gcs_urls = _gcs_urls(args.gcs)
         mission = load_mission(args.mission, vehicle="plane")
+        from .fence.files import load_fence, load_plan_fence, load_rally
+        fence, rally = load_plan_fence(args.mission) if args.mission.lower().endswith(".plan") else ((), ())
+        fence = load_fence(args.fence) if args.fence else fence
+        rally = load_rally(args.rally) if args.rally else rally
         decls = list(plane_param_declarations())
         if gcs_urls is not None:
             from .gcs import GCS_PARAMS, load_lenient
@@ -91,6 +98,13 @@ def main(argv: list[str] | None = None) -> int:
         transport.send(b"")  # make ourselves known to a udpin simulator
     log = FlightLog(LOG_COLUMNS)
     vehicle = PlaneVehicle(params, mission, args.nav, autostart=gcs_urls is None, log=log)
+    vehicle.set_fence(fence, 0)
+    vehicle.set_rally(rally, 0)
+    why = vehicle.geofence.mission_problem(mission.items, None)
+    if why is not None:
+        print(f"autopilot: error: {args.mission}: the mission leaves the enabled fence: {why}", file=sys.stderr)
+        transport.close()
+        return 2
     end = AutopilotHilEnd(transport)
     gcs = None
     if gcs_urls is not None:

@@ -31,6 +31,8 @@ import dataclasses
 import math
 
 from .control.fixed_wing import FW_PARAMS, FixedWingController
+from .fence.actions import fence_step, home_ll
+from .fence.geofence import FENCE_PARAMS, Geofence, rally_params
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
 from .guidance.mission import MissionSequencer, NavTarget
@@ -95,6 +97,7 @@ NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before ever
 
 def plane_param_declarations() -> list[Param]:
     decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(CRASH_PARAMS) + list(FDI_PARAMS)
+    decls += list(FENCE_PARAMS) + list(rally_params("plane"))
     try:
         from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
         decls += list(NAV_PARAMS)
@@ -177,6 +180,8 @@ class PlaneVehicle:
         self._airborne = False                  # ... has been followed by flight
         self._ground_since_us: int | None = None
         self._launch_alt_m: float | None = None  # where the aircraft rested at arming (MSL)
+        self.geofence = Geofence(params, "plane")  # fence and rally points (autopilot/fence)
+        self.rtl_hold: NavTarget | None = None  # RTL to a rally point: the loiter there
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -190,7 +195,7 @@ class PlaneVehicle:
             return "no 3D fix"
         if self.mission is None or len(self.mission) < 2:
             return "no valid mission"
-        return None
+        return self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
 
     def arm(self, t_us: int, truth=None) -> str | None:
         reason = self.arm_checks()
@@ -231,6 +236,15 @@ class PlaneVehicle:
             if mode in (PlaneMode.LOITER, PlaneMode.GUIDED) and self.nav_state is not None:
                 nav = self.nav_state  # circle where we are, at this height
                 self.hold = self._hold_at(nav.lat_rad, nav.lon_rad, nav.alt_m)
+            self.rtl_hold = None
+            if mode == PlaneMode.RTL and self.nav_state is not None:
+                # the nearest rally point when it is nearer than home: loiter there
+                nav = self.nav_state
+                rally = self.geofence.rally_for_rtl(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad),
+                                                    home_ll(self))
+                if rally is not None:
+                    self.rtl_hold = self._hold_at(math.radians(rally[0]), math.radians(rally[1]), rally[2])
+                    self.log.event(t_us * 1e-6, f"RTL to rally point {rally[0]:.7f} {rally[1]:.7f}")
         self.mode = mode
         return None
 
@@ -289,6 +303,9 @@ class PlaneVehicle:
         problem = validate_mission(mission.items, "plane")
         if problem is not None:
             return f"item {problem.seq}: {problem.text}"
+        outside = self.geofence.mission_problem(mission.items, home_ll(self))
+        if outside is not None:
+            return outside
         self.mission = mission
         if self.sequencer is not None:
             self.sequencer.load(mission)
@@ -309,8 +326,28 @@ class PlaneVehicle:
         self.log.event(t_us * 1e-6, "home moved")
         return None
 
+    def set_fence(self, items, t_us: int) -> str | None:
+        """A new geofence (MAV_MISSION_TYPE_FENCE items), checked whole; () clears it."""
+        problem = self.geofence.set_fence(items)
+        if problem is not None:
+            return problem.text
+        self.log.event(t_us * 1e-6, f"fence: {len(self.geofence.fence_items)} items")
+        return None
+
+    def set_rally(self, items, t_us: int) -> str | None:
+        """New rally points (MAV_MISSION_TYPE_RALLY items); () clears them."""
+        problem = self.geofence.set_rally(items)
+        if problem is not None:
+            return problem.text
+        self.log.event(t_us * 1e-6, f"rally points: {len(self.geofence.rally_items)}")
+        return None
+
     def set_param(self, name: str, value: float) -> str | None:
         from .params import ParamError
+        if name == "FENCE_ACTION":
+            why = self.geofence.action_problem(value)
+            if why is not None:
+                return why
         try:
             self.params.set(name, value)
         except ParamError as e:
@@ -374,6 +411,7 @@ class PlaneVehicle:
 
         if self.armed and self.mode == PlaneMode.AUTO and self.params["CRASH_DETECT"] >= 1:
             self._crash_check(nav, t_us)
+        fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
@@ -457,10 +495,12 @@ class PlaneVehicle:
         hf = self.home_frame
         p_ned = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
         yaw = self.euler[2]
-        if self.mode in (PlaneMode.LOITER, PlaneMode.GUIDED):
-            if self.hold is None or self.landed:
+        if self.mode in (PlaneMode.LOITER, PlaneMode.GUIDED) or (self.mode == PlaneMode.RTL
+                                                                 and self.rtl_hold is not None):
+            hold = self.rtl_hold if self.mode == PlaneMode.RTL else self.hold
+            if hold is None or self.landed:
                 return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
-            tgt = self.hold
+            tgt = hold
         else:
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter

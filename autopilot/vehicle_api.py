@@ -45,3 +45,9 @@ class VehicleApi(Protocol):
     def set_current(self, seq: int, t_us: int) -> str | None: ...
     def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None: ...
     def set_param(self, name: str, value: float) -> str | None: ...  # refusal leaves it unchanged
+
+    # --- geofence and rally points (autopilot/fence), optional: without ``geofence``
+    # the mission service answers fence and rally requests MAV_MISSION_UNSUPPORTED ---
+    # geofence: autopilot.fence.Geofence
+    # def set_fence(self, items, t_us: int) -> str | None: ...   # () clears; refusal keeps the old
+    # def set_rally(self, items, t_us: int) -> str | None: ...

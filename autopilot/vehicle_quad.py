@@ -35,6 +35,8 @@ import math
 import numpy as np
 
 from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
+from .fence.actions import fence_step, home_ll
+from .fence.geofence import FENCE_PARAMS, Geofence, rally_params
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
@@ -92,6 +94,7 @@ _QUAD_FDI = ("FDI_ENABLE", "FDI_ALPHA", "FDI_PFA", "FDI_WIN", "FDI_CLR_T")
 def quad_param_declarations() -> list[Param]:
     decls = list(MULTIROTOR_PARAMS) + list(COPTER_GUIDANCE_PARAMS) + list(QUAD_VEHICLE_PARAMS)
     decls += [p for p in FDI_PARAMS if p.name in _QUAD_FDI] + list(MOTOR_PARAMS)
+    decls += list(FENCE_PARAMS) + list(rally_params("quad"))
     try:
         from .nav.config import NAV_PARAMS
         decls += list(NAV_PARAMS)
@@ -326,6 +329,8 @@ class QuadVehicle:
         self._fdi_events = 0
         self._motors = (0.0, 0.0, 0.0, 0.0)     # the commands flown since the last step
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
+        self.geofence = Geofence(params, "quad")  # fence and rally points (autopilot/fence)
+        self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -338,7 +343,7 @@ class QuadVehicle:
             return "no 3D fix"
         if self.mode == CopterMode.AUTO and (self.mission is None or len(self.mission) < 2):
             return "no valid mission"
-        return None
+        return self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
 
     def arm(self, t_us: int, truth=None) -> str | None:
         reason = self.arm_checks()
@@ -412,6 +417,18 @@ class QuadVehicle:
             self._alt_ref = -self.p_home[2]
         self._yaw_hold = self.euler[2]
 
+    def _rally_dest(self):
+        """RTL's rally point in home's NED (north, east, height above home), or None
+        for home (autopilot/fence: the nearest, when nearer than home)."""
+        nav, home = self.nav_state, home_ll(self)
+        if nav is None or home is None:
+            return None
+        r = self.geofence.rally_for_rtl(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad), home)
+        if r is None:
+            return None
+        p = self.home_frame.to_ned_fast(math.radians(r[0]), math.radians(r[1]), r[2])
+        return (float(p[0]), float(p[1]), -float(p[2]))
+
     @property
     def landed(self) -> bool:
         return not self.armed or self.on_ground
@@ -430,6 +447,9 @@ class QuadVehicle:
         problem = validate_mission(mission.items, "quad")
         if problem is not None:
             return f"item {problem.seq}: {problem.text}"
+        outside = self.geofence.mission_problem(mission.items, home_ll(self))
+        if outside is not None:
+            return outside
         self.mission = mission
         if self.sequencer is not None:
             self.sequencer.load(mission)
@@ -464,8 +484,28 @@ class QuadVehicle:
         self.log.event(t_us * 1e-6, "home moved")
         return None
 
+    def set_fence(self, items, t_us: int) -> str | None:
+        """A new geofence (MAV_MISSION_TYPE_FENCE items), checked whole; () clears it."""
+        problem = self.geofence.set_fence(items)
+        if problem is not None:
+            return problem.text
+        self.log.event(t_us * 1e-6, f"fence: {len(self.geofence.fence_items)} items")
+        return None
+
+    def set_rally(self, items, t_us: int) -> str | None:
+        """New rally points (MAV_MISSION_TYPE_RALLY items); () clears them."""
+        problem = self.geofence.set_rally(items)
+        if problem is not None:
+            return problem.text
+        self.log.event(t_us * 1e-6, f"rally points: {len(self.geofence.rally_items)}")
+        return None
+
     def set_param(self, name: str, value: float) -> str | None:
         from .params import ParamError
+        if name == "FENCE_ACTION":
+            why = self.geofence.action_problem(value)
+            if why is not None:
+                return why
         try:
             self.params.set(name, value)
         except ParamError as e:
@@ -544,6 +584,8 @@ class QuadVehicle:
         if mon is not None:
             self._monitor(mon, frame, omega, t_us)
 
+        fence_step(self, t_us, self.armed and not self.on_ground,
+                   landing=self.mode == CopterMode.LAND or self.navigator.phase.startswith("land"))
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)

@@ -63,9 +63,9 @@ concerned, ``"seq"``, or null):
 * ``finite_log``: no NaN or inf in the flight log, but in the columns that are NaN by
   design (truth on rows without truth, GPS on rows without a fix, filter sigmas on
   truth navigation). Figure: the number of non-finite values.
-* ``no_unexpected_mode``: in a run with no fault injected and no ground station, no
-  mode change after the first AUTO, no failsafe or crash event, no fixed-wing disarm
-  (it only disarms on a crash). Figure: their number (always counted; passes
+* ``no_unexpected_mode``: in a run with no fault injected, no geofence breach and no
+  ground station, no mode change after the first AUTO, no failsafe or crash event, no
+  fixed-wing disarm (it only disarms on a crash). Figure: their number (always counted; passes
   regardless in other runs). The fault monitor's false alarms that change no mode are
   the summary's ``false_alarms``.
 """
@@ -413,7 +413,9 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
             w = max(scored, key=lambda g: g["xtrack_max_m"])
             figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],
                                                 "rms_m": w["xtrack_rms_m"], "max_m": w["xtrack_max_m"]}
-    fault_free = not session.bridge.fault_log and session.gcs is None
+    # a geofence breach (autopilot/fence) explains its action's mode change as a fault does
+    fault_free = (not session.bridge.fault_log and session.gcs is None
+                  and not getattr(getattr(v, "geofence", None), "breaches", ()))
     # the end of the mission flown (the fixed-wing's loiter over home established, the
     # quad landed), not crashed; which items were reached is mission_order's to judge
     # (the summary's `completed` also counts DO items, which a condition may drop)

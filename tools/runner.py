@@ -59,6 +59,10 @@ class RunConfig:
     gcs: tuple[str, ...] | None = None
     param_store: Path | None = None                # parameters persisted across runs (gcs)
     signing_key: bytes | None = None               # MAVLink 2 signing key (gcs)
+    # geofence / rally points (autopilot/fence/files.py): a .plan mission brings its own;
+    # these files (MAVProxy's fence / rally formats, or QGC WPL 110) replace them
+    fence: Path | None = None
+    rally: Path | None = None
 
 
 class Session:
@@ -145,6 +149,7 @@ class Session:
         else:
             from autopilot.vehicle import LOG_DIV
             self.sim_end.truth_div = LOG_DIV
+        self._load_fence(cfg)
         self.crashed = False
         self.wall_loop_s = 0.0
         self.interrupted = False
@@ -155,6 +160,26 @@ class Session:
             self.gcs = GcsService(self.vehicle, cfg.gcs or DEFAULT_URLS, hil=self.ap_end,
                                   tlog_path=tlog, param_store_path=cfg.param_store,
                                   signing_key=cfg.signing_key)
+
+    def _load_fence(self, cfg: RunConfig) -> None:
+        """The fence and rally points of the run: the .plan's, then --fence / --rally;
+        the mission must lie inside an enabled fence (as an upload must)."""
+        from autopilot.fence.files import load_fence, load_plan_fence, load_rally
+        fence, rally = (), ()
+        if str(cfg.mission).lower().endswith(".plan") and Path(cfg.mission).exists():
+            fence, rally = load_plan_fence(cfg.mission)
+        if cfg.fence is not None:
+            fence = load_fence(cfg.fence)
+        if cfg.rally is not None:
+            rally = load_rally(cfg.rally)
+        v = self.vehicle
+        if fence:
+            v.set_fence(fence, 0)
+        if rally:
+            v.set_rally(rally, 0)
+        why = v.geofence.mission_problem(self.mission.items, None)
+        if why is not None:
+            raise MissionFileError(str(cfg.mission), None, f"the mission leaves the enabled fence: {why}")
 
     @property
     def t_s(self) -> float:

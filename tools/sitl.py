@@ -93,7 +93,9 @@ def _config(args) -> RunConfig:
                      progress=not args.json and sys.stderr.isatty() and gcs is None,
                      params_file=Path(args.params) if args.params else None,
                      param_overrides=overrides, gcs=gcs, param_store=param_store,
-                     signing_key=signing_key)
+                     signing_key=signing_key,
+                     fence=Path(args.fence) if args.fence else None,
+                     rally=Path(args.rally) if args.rally else None)
 
 
 def _signing_key(args, gcs) -> bytes | None:
@@ -300,6 +302,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      f"(the mission of 'sitl missions random'); default {DEFAULT_MISSION.name}"
                                      f" (quad: {QUAD_DEFAULT_MISSION.name})")
     r.add_argument("--scenario", help="scenario TOML: wind, turbulence, timed fault events")
+    r.add_argument("--fence", help="geofence file (MAVProxy 'fence load' formats: QGC WPL 110 or "
+                                   "LAT LON lines); replaces a .plan's geoFence")
+    r.add_argument("--rally", help="rally point file (MAVProxy 'rally load' formats: QGC WPL 110 or "
+                                   "RALLY lines); replaces a .plan's rallyPoints")
     r.add_argument("--wind", help="steady wind SPEED_MPS,FROM_DEG")
     r.add_argument("--turbulence", choices=["none", "light", "moderate", "severe"])
     r.add_argument("--seed", type=int, default=1)

@@ -348,6 +348,37 @@ def quad_figures(a: dict, home_truth_alt_m: float | None, home_est_alt_m: float 
     return out
 
 
+def fence_figures(v, a: dict) -> list[dict]:
+    """The vehicle's fence breaches ({at_s, type, action, cleared_s}, autopilot/fence), each
+    with ``truth_at_s``: the first flight-log row, from 5 s before the breach (or the end
+    of the one before) to 2 s after, where the truth was outside an enabled fence (the
+    same check, FENCE_ALT_MIN included, on the true position); null if none."""
+    g = getattr(v, "geofence", None)
+    if g is None or not g.breaches:
+        return []
+    hf, h0 = v.home_frame, getattr(v, "home_truth_alt_m", None)
+    out = []
+    prev_clear = -math.inf
+    for b in g.breaches:
+        b = dict(b)
+        truth_at = None
+        if hf is not None and h0 is not None and len(a["t_s"]):
+            home = (math.degrees(hf.lat0_rad), math.degrees(hf.lon0_rad))
+            t = a["t_s"]
+            w = np.flatnonzero(np.isfinite(a["truth_n_m"]) & (t >= max(b["at_s"] - 5.0, prev_clear))
+                               & (t <= b["at_s"] + 2.0))
+            for k in w:
+                lat, lon, _ = hf.to_geodetic_fast(np.array([a["truth_n_m"][k], a["truth_e_m"][k], 0.0]))
+                d = g.distances(math.degrees(lat), math.degrees(lon), a["truth_alt_m"][k] - h0, home)
+                if any(x > 0.0 for x in d.values()):
+                    truth_at = round(float(t[k]), 3)
+                    break
+        b["truth_at_s"] = truth_at
+        prev_clear = b["cleared_s"] if b["cleared_s"] is not None else math.inf
+        out.append(b)
+    return out
+
+
 def run_summary(session) -> dict:
     """summary.json of a finished in-process session (tools.runner.Session)."""
     v = session.vehicle
@@ -387,6 +418,9 @@ def run_summary(session) -> dict:
         "wind_from_deg": session.wind.from_deg,
         "turbulence": session.wind.turbulence,
         "lockstep_missed": session.sim_end.missed,
+        # geofence breaches (autopilot/fence): when, which fence, the action, when cleared,
+        # and when the truth crossed the fence (scoring the detection on the estimate)
+        "fence_breaches": fence_figures(v, a),
         "faults_injected": [
             {"at_s": round(r.at_s, 3), "unit": r.unit, "type": r.type, "instance": r.instance,
              "accepted": r.accepted, "source": r.source} for r in session.bridge.fault_log],

@@ -7,9 +7,10 @@ Upload (GCS -> vehicle)::
 
     MISSION_COUNT(n) -> MISSION_REQUEST_INT(0) -> MISSION_ITEM_INT(0) -> ... -> MISSION_ACK
 
-One upload at a time: a second client's MISSION_COUNT during an upload is answered
-MAV_MISSION_DENIED; the same client's restarts it. An item request unanswered for
-``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
+One upload at a time per mission type (mission, fence and rally uploads may overlap,
+as MAVProxy sends them and ArduPilot takes them): a second client's MISSION_COUNT during
+an upload is answered MAV_MISSION_DENIED; the same client's restarts it. An item
+request unanswered for ``timeout_s`` is sent again, at most ``retries`` times, then the upload is cancelled
 (MAV_MISSION_OPERATION_CANCELLED). Items are checked one by one as they arrive
 (``item_problem``) and the whole mission at the end (``validate_mission``), both for the
 vehicle served: a command it does not fly is MAV_MISSION_UNSUPPORTED, a mission that
@@ -29,13 +30,23 @@ the ones uploaded, byte for byte (item 0 included); the vehicle itself flies a c
 item 0 is replaced by home when the uploaded one is not a usable absolute position
 (MAVSDK clears an ArduPilot mission by uploading a lone relative-frame item 0).
 
-Only MAV_MISSION_TYPE_MISSION is implemented; fence and rally requests are answered
-MAV_MISSION_UNSUPPORTED. MISSION_CLEAR_ALL leaves the home item only.
+MISSION_CLEAR_ALL leaves the home item only.
+
+Fence and rally points (MAV_MISSION_TYPE_FENCE / _RALLY) go through the same exchanges
+with their mission_type in every message, for a vehicle that has a ``geofence``
+(autopilot/fence): no home item there, item 0 is the first zone vertex or rally point.
+Each item is checked as it arrives (``fence_item_problem``) and the whole set at the end
+(``fence_items_problem``: a polygon's vertex count, vertices that disagree with it, two
+return points), a refusal answered with its MAV_MISSION_RESULT and a STATUSTEXT, the
+fence or rally points in force kept. A count of 0, or MISSION_CLEAR_ALL of the type,
+clears them; MISSION_CLEAR_ALL of MAV_MISSION_TYPE_ALL clears all three.
 """
 from __future__ import annotations
 
 import math
 
+from ..fence.geofence import (MISSION_TYPE_FENCE, MISSION_TYPE_RALLY, fence_item_problem,
+                              fence_items_problem, rally_items_problem)
 from ..link.codec import MAV
 from ..mission.items import (ABSOLUTE_ALT_FRAMES, FRAME_GLOBAL, MISSION_TYPE_MISSION, NAV_WAYPOINT,
                              Mission, MissionItem, item_problem, validate_mission, vehicle_kind)
@@ -51,9 +62,10 @@ def result_code(name: str) -> int:
 
 class _Upload:
     __slots__ = ("cid", "sysid", "compid", "count", "items", "expected", "deadline",
-                 "tries", "legacy")
+                 "tries", "legacy", "mtype")
 
-    def __init__(self, cid, sysid, compid, count, now, timeout_s, legacy):
+    def __init__(self, cid, sysid, compid, count, now, timeout_s, legacy, mtype=MISSION_TYPE_MISSION):
+        self.mtype = mtype
         self.cid, self.sysid, self.compid = cid, sysid, compid
         self.count = count
         self.items: list[MissionItem] = []
@@ -79,7 +91,7 @@ class MissionServer:
         self.timeout_s = timeout_s
         self.retries = retries
         self.max_items = max_items
-        self.upload: _Upload | None = None
+        self.uploads: dict[int, _Upload] = {}   # by mission_type: each type has its own
         self.legacy_clients: set[int] = set()
         self._wire: tuple[MissionItem, ...] = ()
         self._flown: Mission | None = None       # the Mission object _wire belongs to
@@ -87,6 +99,11 @@ class MissionServer:
         self.uploads_refused = 0
 
     # ------------------------------------------------------------------- state ---
+    @property
+    def upload(self) -> _Upload | None:
+        """The plain mission's upload in progress, else any (None: none)."""
+        return self.uploads.get(MISSION_TYPE_MISSION) or next(iter(self.uploads.values()), None)
+
     @property
     def wire_items(self) -> tuple[MissionItem, ...]:
         """The mission as a ground station downloads it (item 0 = home)."""
@@ -112,22 +129,24 @@ class MissionServer:
 
     def client_gone(self, cid: int) -> None:
         self.legacy_clients.discard(cid)
-        if self.upload is not None and self.upload.cid == cid:
-            self.upload = None  # the old mission stays
+        for t, up in list(self.uploads.items()):
+            if up.cid == cid:
+                del self.uploads[t]  # the old mission stays
 
     def tick(self) -> None:
         """Timeouts and retries of the upload in progress."""
-        up = self.upload
-        if up is None:
-            return
+        for up in list(self.uploads.values()):
+            self._tick(up)
+
+    def _tick(self, up: _Upload) -> None:
         now = self.clock()
         if now < up.deadline:
             return
         if up.tries >= self.retries:
-            self.upload = None
+            self.uploads.pop(up.mtype, None)
             self.uploads_refused += 1
-            self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_OPERATION_CANCELLED")
-            self.say(4, f"Mission upload timed out at item {up.expected} of {up.count}")
+            self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_OPERATION_CANCELLED", up.mtype)
+            self.say(4, f"{_TYPE_WORD[up.mtype]} upload timed out at item {up.expected} of {up.count}")
             return
         up.tries += 1
         if up.tries == 1 and not up.legacy and up.expected == 0:
@@ -142,45 +161,44 @@ class MissionServer:
 
     def _request(self, up: _Upload, now: float) -> None:
         cls = MAV.MAVLink_mission_request_message if up.legacy else MAV.MAVLink_mission_request_int_message
-        self.send(up.cid, cls(up.sysid, up.compid, up.expected, MISSION_TYPE_MISSION))
+        self.send(up.cid, cls(up.sysid, up.compid, up.expected, up.mtype))
         up.deadline = now + self.timeout_s
 
     def _on_count(self, cid, msg, t_us) -> None:
         sysid, compid = msg.get_srcSystem(), msg.get_srcComponent()
         mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
-        if mtype != MISSION_TYPE_MISSION:
+        if not self._supported(mtype):
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
-        if self.upload is not None and self.upload.cid != cid:
-            self._ack(cid, sysid, compid, "MAV_MISSION_DENIED")
-            self.say(4, "Mission upload refused: another upload in progress")
+        current = self.uploads.get(mtype)
+        if current is not None and current.cid != cid:
+            self._ack(cid, sysid, compid, "MAV_MISSION_DENIED", mtype)
+            self.say(4, f"{_TYPE_WORD[mtype]} upload refused: another upload in progress")
             return
         count = int(msg.count)
         if count > self.max_items:
-            self.upload = None
-            self._ack(cid, sysid, compid, "MAV_MISSION_NO_SPACE")
-            self.say(4, f"Mission upload refused: {count} items, at most {self.max_items}")
+            self.uploads.pop(mtype, None)
+            self._ack(cid, sysid, compid, "MAV_MISSION_NO_SPACE", mtype)
+            self.say(4, f"{_TYPE_WORD[mtype]} upload refused: {count} items, at most {self.max_items}")
             return
         if count == 0:
-            self.upload = None
-            self._clear(t_us)
-            self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED")
+            self.uploads.pop(mtype, None)
+            self._clear_type(mtype, t_us)
+            self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED", mtype)
             return
         now = self.clock()
-        self.upload = _Upload(cid, sysid, compid, count, now, self.timeout_s,
-                              cid in self.legacy_clients)
-        self._request(self.upload, now)
+        up = self.uploads[mtype] = _Upload(cid, sysid, compid, count, now, self.timeout_s,
+                                           cid in self.legacy_clients, mtype)
+        self._request(up, now)
 
     def _on_item(self, cid, msg, t_us) -> None:
-        up = self.upload
         legacy = msg.get_type() == "MISSION_ITEM"
         if legacy:
             self.legacy_clients.add(cid)
+        mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
+        up = self.uploads.get(mtype)
         if up is None or up.cid != cid:
             return  # nothing asked for it: ignore (a late duplicate)
-        mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
-        if mtype != MISSION_TYPE_MISSION:
-            return
         seq = int(msg.seq)
         if seq < up.expected:
             return  # a duplicate of an item we already have
@@ -192,7 +210,18 @@ class MissionServer:
             item = MissionItem.from_float(msg) if legacy else MissionItem.from_int(msg)
         except (TypeError, ValueError, OverflowError):
             item = None
-        problem = item_problem(item, self.kind) if item is not None else None
+        if mtype != MISSION_TYPE_MISSION:
+            problem = None
+            if item is not None:
+                problem = (fence_item_problem(item) if mtype == MISSION_TYPE_FENCE
+                           else rally_items_problem((item,)))
+            if item is None or problem is not None:
+                code = problem.code if problem is not None else "MAV_MISSION_INVALID"
+                self._fail(up, code, problem.text if problem
+                           else f"item {seq}: not a {_TYPE_WORD[mtype].lower()} item")
+                return
+        else:
+            problem = item_problem(item, self.kind) if item is not None else None
         if item is None or (problem is not None and seq > 0):
             code = problem.code if problem is not None else "MAV_MISSION_INVALID"
             self._fail(up, code, f"item {seq}: {problem.text if problem else 'not a mission item'}")
@@ -209,13 +238,16 @@ class MissionServer:
         self._finish(up, t_us)
 
     def _fail(self, up: _Upload, code: str, text: str) -> None:
-        self.upload = None
+        self.uploads.pop(up.mtype, None)
         self.uploads_refused += 1
-        self._ack(up.cid, up.sysid, up.compid, code)
-        self.say(4, f"Mission refused: {text}")
+        self._ack(up.cid, up.sysid, up.compid, code, up.mtype)
+        self.say(4, f"{_TYPE_WORD[up.mtype]} refused: {text}")
 
     def _finish(self, up: _Upload, t_us: int) -> None:
         wire = tuple(up.items)
+        if up.mtype != MISSION_TYPE_MISSION:
+            self._finish_other(up, wire, t_us)
+            return
         flown = self._flown_copy(wire)
         problem = validate_mission(flown, self.kind)
         if problem is not None:
@@ -226,11 +258,49 @@ class MissionServer:
         if reason is not None:
             self._fail(up, "MAV_MISSION_DENIED", reason)
             return
-        self.upload = None
+        self.uploads.pop(up.mtype, None)
         self._wire, self._flown = wire, mission
         self.uploads_accepted += 1
         self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_ACCEPTED")
         self.say(6, f"Mission: {len(wire) - 1} items received")
+
+    def _finish_other(self, up: _Upload, wire: tuple, t_us: int) -> None:
+        """The end of a fence or rally upload: the whole set checked, then handed over."""
+        fence = up.mtype == MISSION_TYPE_FENCE
+        problem = fence_items_problem(wire) if fence else rally_items_problem(wire)
+        if problem is not None:
+            self._fail(up, problem.code, problem.text)
+            return
+        setter = self.vehicle.set_fence if fence else self.vehicle.set_rally
+        reason = setter(wire, t_us)
+        if reason is not None:
+            self._fail(up, "MAV_MISSION_DENIED", reason)
+            return
+        self.uploads.pop(up.mtype, None)
+        self.uploads_accepted += 1
+        self._ack(up.cid, up.sysid, up.compid, "MAV_MISSION_ACCEPTED", up.mtype)
+        self.say(6, f"{_TYPE_WORD[up.mtype]}: {len(wire)} items received")
+
+    def _supported(self, mtype: int) -> bool:
+        if mtype == MISSION_TYPE_MISSION:
+            return True
+        return mtype in (MISSION_TYPE_FENCE, MISSION_TYPE_RALLY) and hasattr(self.vehicle, "geofence")
+
+    def _items_of(self, mtype: int) -> tuple:
+        if mtype == MISSION_TYPE_MISSION:
+            return self.wire_items
+        g = self.vehicle.geofence
+        return g.fence_items if mtype == MISSION_TYPE_FENCE else g.rally_items
+
+    def _clear_type(self, mtype: int, t_us: int) -> None:
+        if mtype == MISSION_TYPE_MISSION:
+            self._clear(t_us)
+        elif mtype == MISSION_TYPE_FENCE:
+            if self.vehicle.set_fence((), t_us) is None:
+                self.say(6, "Fence cleared")
+        else:
+            if self.vehicle.set_rally((), t_us) is None:
+                self.say(6, "Rally points cleared")
 
     def _flown_copy(self, wire: tuple[MissionItem, ...]) -> tuple[MissionItem, ...]:
         """The uploaded items with a usable home as item 0 (the vehicle's copy)."""
@@ -263,58 +333,62 @@ class MissionServer:
         sysid, compid = msg.get_srcSystem(), msg.get_srcComponent()
         mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
         if mtype == MAV.MAV_MISSION_TYPE_ALL:
-            mtype = MISSION_TYPE_MISSION
-        if mtype != MISSION_TYPE_MISSION:
+            types = [t for t in (MISSION_TYPE_MISSION, MISSION_TYPE_FENCE, MISSION_TYPE_RALLY)
+                     if self._supported(t)]
+        elif self._supported(mtype):
+            types = [mtype]
+        else:
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
-        if self.upload is not None:
-            self._ack(cid, sysid, compid, "MAV_MISSION_DENIED")
+        if any(t in self.uploads for t in types):
+            self._ack(cid, sysid, compid, "MAV_MISSION_DENIED", mtype)
             return
-        self._clear(t_us)
-        self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED")
+        for t in types:
+            self._clear_type(t, t_us)
+        self._ack(cid, sysid, compid, "MAV_MISSION_ACCEPTED", mtype)
 
     def _on_ack(self, cid, msg, t_us) -> None:
-        up = self.upload
+        up = self.uploads.get(getattr(msg, "mission_type", MISSION_TYPE_MISSION))
         if up is not None and up.cid == cid and msg.type != MAV.MAV_MISSION_ACCEPTED:
-            self.upload = None  # the ground station gave up: the old mission stays
+            del self.uploads[up.mtype]  # the ground station gave up: the old mission stays
 
     # ---------------------------------------------------------------- download ---
     def _on_request_list(self, cid, msg, t_us) -> None:
         sysid, compid = msg.get_srcSystem(), msg.get_srcComponent()
         mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
-        if mtype != MISSION_TYPE_MISSION:
+        if not self._supported(mtype):
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
-        self.send(cid, MAV.MAVLink_mission_count_message(sysid, compid, len(self.wire_items),
-                                                         MISSION_TYPE_MISSION))
+        self.send(cid, MAV.MAVLink_mission_count_message(sysid, compid, len(self._items_of(mtype)),
+                                                         mtype))
 
     def _on_request(self, cid, msg, t_us) -> None:
         sysid, compid = msg.get_srcSystem(), msg.get_srcComponent()
         mtype = getattr(msg, "mission_type", MISSION_TYPE_MISSION)
-        if mtype != MISSION_TYPE_MISSION:
+        if not self._supported(mtype):
             self._ack(cid, sysid, compid, "MAV_MISSION_UNSUPPORTED", mtype)
             return
         legacy = msg.get_type() == "MISSION_REQUEST"
         if legacy:
             self.legacy_clients.add(cid)
-        wire = self.wire_items
+        wire = self._items_of(mtype)
         seq = int(msg.seq)
         if not 0 <= seq < len(wire):
-            self._ack(cid, sysid, compid, "MAV_MISSION_INVALID_SEQUENCE")
+            self._ack(cid, sysid, compid, "MAV_MISSION_INVALID_SEQUENCE", mtype)
             return
         it = wire[seq]
-        current = 1 if seq == self.vehicle.current_seq() else 0
+        current = 1 if mtype == MISSION_TYPE_MISSION and seq == self.vehicle.current_seq() else 0
         if legacy:
             self.send(cid, MAV.MAVLink_mission_item_message(
                 sysid, compid, seq, it.frame, it.command, current, it.autocontinue,
                 it.param1, it.param2, it.param3, it.param4, it.x_lat_deg, it.y_lon_deg,
-                it.z_alt_m, MISSION_TYPE_MISSION))
+                it.z_alt_m, mtype))
         else:
             f = it.to_int()
             self.send(cid, MAV.MAVLink_mission_item_int_message(
                 sysid, compid, seq, it.frame, it.command, current, it.autocontinue,
                 it.param1, it.param2, it.param3, it.param4, f["x"], f["y"], it.z_alt_m,
-                MISSION_TYPE_MISSION))
+                mtype))
 
     # ------------------------------------------------------------- set current ---
     def set_current(self, seq: int, t_us: int) -> str | None:
@@ -327,6 +401,9 @@ class MissionServer:
         reason = self.set_current(int(msg.seq), t_us)
         if reason is not None:
             self.say(4, f"Set current refused: {reason}")
+
+
+_TYPE_WORD = {MISSION_TYPE_MISSION: "Mission", MISSION_TYPE_FENCE: "Fence", MISSION_TYPE_RALLY: "Rally"}
 
 
 def _finite(v: float) -> float:

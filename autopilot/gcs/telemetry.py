@@ -33,6 +33,8 @@ STREAMS = {
     "ESTIMATOR_STATUS": (MAV.MAVLINK_MSG_ID_ESTIMATOR_STATUS, 1.0, MAV.MAV_DATA_STREAM_EXTRA3),
     "BATTERY_STATUS": (MAV.MAVLINK_MSG_ID_BATTERY_STATUS, 1.0, MAV.MAV_DATA_STREAM_EXTRA3),
     "HOME_POSITION": (MAV.MAVLINK_MSG_ID_HOME_POSITION, 0.2, None),
+    # only while the fence is enabled (autopilot/fence), as ArduPilot sends it
+    "FENCE_STATUS": (MAV.MAVLINK_MSG_ID_FENCE_STATUS, 1.0, S),
 }
 NAME_BY_ID = {v[0]: k for k, v in STREAMS.items()}
 ONE_SHOT = {MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION: "AUTOPILOT_VERSION"}
@@ -41,7 +43,8 @@ MIN_INTERVAL_US = 10_000   # the lockstep period: nothing can be fresher than on
 CAPABILITIES = (MAV.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | MAV.MAV_PROTOCOL_CAPABILITY_MISSION_INT
                 | MAV.MAV_PROTOCOL_CAPABILITY_COMMAND_INT | MAV.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | MAV.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
-                | MAV.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
+                | MAV.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+                | MAV.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | MAV.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
 # what we claim to be: ArduPilot 4.5.7, official release (major, minor, patch, type)
 FLIGHT_SW_VERSION = (4 << 24) | (5 << 16) | (7 << 8) | MAV.FIRMWARE_VERSION_TYPE_OFFICIAL
 UID = int.from_bytes(b"pysitl\x00\x01", "big")
@@ -190,6 +193,17 @@ class Telemetry:
         if not v.armed:
             enabled &= ~MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
         enabled |= MAV.MAV_SYS_STATUS_PREARM_CHECK if not v.armed else 0
+        g = getattr(v, "geofence", None)
+        if g is not None:
+            # the geofence: present once configured, enabled by FENCE_ENABLE, healthy
+            # unless breached (as ArduPilot reports it: MAVProxy says "fence breach" when
+            # the health bit drops, present or not)
+            if g.enabled or g.fence_items:
+                present |= MAV.MAV_SYS_STATUS_GEOFENCE
+            if g.enabled:
+                enabled |= MAV.MAV_SYS_STATUS_GEOFENCE
+            if not g.breached:
+                health |= MAV.MAV_SYS_STATUS_GEOFENCE
         volt, cur, rem = 0xFFFF, -1, -1
         bat = self.battery()
         if bat is not None:
@@ -436,4 +450,19 @@ class Telemetry:
             return self.home_position(t_us)
         if name == "AUTOPILOT_VERSION":
             return self.autopilot_version()
+        if name == "FENCE_STATUS":
+            return self.fence_status()
         return None
+
+    def fence_status(self):
+        """FENCE_STATUS while the fence is enabled: breached now, how many breaches, the
+        type and time (ms of simulation time) of the last."""
+        g = getattr(self.vehicle, "geofence", None)
+        if g is None or not g.enabled:
+            return None
+        # FENCE_MITIGATE names no mode change: an action taken is "unknown" (0)
+        mitigation = MAV.FENCE_MITIGATE_NONE if not g.breached or g.action == "report" \
+            else MAV.FENCE_MITIGATE_UNKNOWN
+        return MAV.MAVLink_fence_status_message(1 if g.breached else 0, min(g.breach_count, 0xFFFF),
+                                                g.breach_status_type, g.breach_time_ms & 0xFFFFFFFF,
+                                                mitigation)

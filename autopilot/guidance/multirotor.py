@@ -26,7 +26,8 @@ Landing: the reference flies to the land point at the current height, then desce
 WPNAV_SPEED_DN down to LAND_ALT_LOW above home, then at LAND_SPEED, and keeps descending
 until the vehicle's land detector reports the touchdown (vehicle_quad.py), so the
 touchdown is a gentle, constant-rate contact wherever the ground is. Return to launch:
-climb to Q_RTL_ALT above home (if lower), fly home, land.
+climb to Q_RTL_ALT above home (if lower), fly home (or to the rally point the vehicle
+chose, autopilot/fence), land; with RTL_ALT_FINAL > 0 hold that height over it instead.
 
 Mission items (item 0 is home): NAV_TAKEOFF (vertical, param7 altitude; its lat/lon are
 ignored, as ArduCopter does), NAV_WAYPOINT (param1 hold time [s], param2 acceptance
@@ -75,6 +76,8 @@ COPTER_GUIDANCE_PARAMS = (
     Param("WPNAV_LEASH", 8.0, 0.5, 50.0, "m", "raw reference brakes beyond this distance from the vehicle"),
     Param("WPNAV_SMOOTH", 4.0, 0.5, 20.0, "rad/s", "natural frequency of the reference model (jerk limit)"),
     Param("Q_RTL_ALT", 15.0, 0.0, 300.0, "m", "return-to-launch height above home (0: current)"),
+    Param("RTL_ALT_FINAL", 0.0, 0.0, 300.0, "m", "RTL (home or a rally point) ends holding this height "
+          "above home instead of landing (0: land; ArduCopter's, in metres)"),
     Param("LAND_SPEED", 0.5, 0.1, 3.0, "m/s", "final descent speed"),
     Param("LAND_ALT_LOW", 5.0, 0.0, 50.0, "m", "height above home where the final descent starts"),
     Param("WPNAV_TKOFF_TOL", 0.5, 0.05, 5.0, "m", "takeoff complete this close to its height"),
@@ -309,6 +312,7 @@ class CopterNavigator:
         self.traj.shift(d)
         self.goal_ne = (self.goal_ne[0] + d[0], self.goal_ne[1] + d[1])
         self.land_ne = (self.land_ne[0] + d[0], self.land_ne[1] + d[1])
+        self.rtl_ne = (self.rtl_ne[0] + d[0], self.rtl_ne[1] + d[1])
 
     def fix_yaw(self, turn_rad: float, rate_rad_s: float) -> None:
         """Turn the heading reference through ``turn_rad`` (signed: + clockwise seen from
@@ -380,19 +384,31 @@ class CopterNavigator:
         self._line((ne[0], ne[1], p[2]))
         self.phase = "land_approach"
 
-    def rtl(self, p_vehicle) -> None:
-        """Climb to Q_RTL_ALT (if lower), return home, land."""
+    def rtl(self, p_vehicle, rally=None) -> None:
+        """Climb to Q_RTL_ALT (if lower), return home, land. ``rally``: (north, east,
+        height above home) of the rally point to return to instead of home (at its
+        height, then the same landing: ArduCopter's RTL to a rally point); None: what
+        ``rally_source`` (the vehicle) chooses, home when it chooses none."""
         h_rtl = self.params["Q_RTL_ALT"]
         p = self.traj.raw
         h = -p[2]
-        self.land_ne = (0.0, 0.0)
-        if h_rtl > 0.0 and h < h_rtl - 0.2 and math.hypot(p[0], p[1]) > self.params["WPNAV_RADIUS"]:
+        if rally is None and self.rally_source is not None:
+            rally = self.rally_source()       # the vehicle's choice (autopilot/fence)
+        ne = (0.0, 0.0) if rally is None else (rally[0], rally[1])
+        if rally is not None and rally[2] > 0.0:
+            h_rtl = max(h_rtl, rally[2])
+        self.land_ne = self.rtl_ne = ne
+        far = math.hypot(p[0] - ne[0], p[1] - ne[1]) > self.params["WPNAV_RADIUS"]
+        if h_rtl > 0.0 and h < h_rtl - 0.2 and far:
             self._line((p[0], p[1], -h_rtl))
             self._yaw_goal = None
             self.phase = "rtl_climb"
         else:
-            self._line((0.0, 0.0, -max(h, h_rtl) if h_rtl > 0.0 else p[2]))
+            self._line((ne[0], ne[1], -max(h, h_rtl) if h_rtl > 0.0 else p[2]))
             self.phase = "rtl_return"
+
+    rtl_ne = (0.0, 0.0)        # where RTL returns to (home, or a rally point)
+    rally_source = None        # () -> (north, east, height) of the rally point for RTL, or None
 
     def touchdown(self) -> None:
         """The land detector saw the touchdown."""
@@ -406,8 +422,14 @@ class CopterNavigator:
         traj = self.traj
         ph = self.phase
         if ph in ("rtl_climb",) and traj.arrived:
-            self._line((0.0, 0.0, traj.p[2]))
+            self._line((self.rtl_ne[0], self.rtl_ne[1], traj.p[2]))
             self.phase = ph = "rtl_return"
+        if ph == "rtl_return" and traj.arrived and prm["RTL_ALT_FINAL"] > 0.0:
+            # landing disabled: hold over the return point at RTL_ALT_FINAL
+            self._line((self.rtl_ne[0], self.rtl_ne[1], -prm["RTL_ALT_FINAL"]))
+            self._yaw_goal = None
+            self.hold_scored = False
+            self.phase = ph = "hold"
         if ph in ("rtl_return", "land_approach") and traj.arrived:
             traj.descend(prm["WPNAV_SPEED_DN"], prm["WPNAV_ACCEL_Z"])
             self.leg_id += 1
@@ -776,8 +798,8 @@ class CopterMissionSequencer:
                     self._goal = (goal[0], goal[1], 0.0)
                     nav.land((goal[0], goal[1]))
                 else:
-                    self._goal = (0.0, 0.0, 0.0)
                     nav.rtl(p_ned)
+                    self._goal = (nav.rtl_ne[0], nav.rtl_ne[1], 0.0)   # home, or a rally point
             if touchdown and nav.phase == "land_descend":
                 nav.touchdown()
                 self._drop_pending(t_us, "landed")
