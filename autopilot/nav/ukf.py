@@ -32,9 +32,13 @@ sigma for 21 states; a spread of sqrt(n) = 4.6 sigma put attitude sigma points b
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.linalg
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+from autopilot.jit import kernel
 
 from . import qbatch
 from .base import Batch, NavFilterBase
@@ -54,6 +58,105 @@ def _robust_sqrt(A: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         w, V = np.linalg.eigh(0.5 * (A + A.T))
         return (V * np.sqrt(np.maximum(w, 0.0))).T
+
+
+@kernel
+def _exp_q(ax, ay, az):
+    """Exp: rotation vector -> unit quaternion (qbatch.from_rotvec)."""
+    ang = math.sqrt(ax * ax + ay * ay + az * az)
+    s = 0.5 if ang < 1e-9 else math.sin(0.5 * ang) / ang
+    return math.cos(0.5 * ang), ax * s, ay * s, az * s
+
+
+@kernel
+def _mul_q(pw, px, py, pz, qw, qx, qy, qz):
+    """Hamilton product p (x) q (qbatch.mul)."""
+    return (pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw)
+
+
+@kernel
+def propagate_sigmas(sig, dt, c, out):
+    """The sigma points ``sig`` (rows: error states) through the strapdown mechanisation
+    (strapdown.py's equations; Sola 2017 eqs 260-266 for the nominal-state kinematics,
+    eq 169 for ``(+)``), each with its own attitude and biases, back to error states
+    about the propagated nominal in ``out``. ``c``: nominal before (p, v, q, b_g, b_a)
+    and after (p, v, q), f_m, omega_m, w_ie, g, the Gauss-Markov decay a."""
+    p0, v0, q0, bg0, ba0 = c[0:3], c[3:6], c[6:10], c[10:13], c[13:16]
+    p1n, v1n, q1n = c[16:19], c[19:22], c[22:26]
+    f_m, om, w_ie, g, a_gm = c[26:29], c[29:32], c[32:35], c[35], c[36]
+    ex, ey, ez = w_ie[0], w_ie[1], w_ie[2]
+    h = 0.5 * dt
+    for i in range(sig.shape[0]):
+        s = sig[i]
+        o = out[i]
+        for k in range(sig.shape[1]):
+            o[k] = s[k]
+        # x_i = x_nom (+) dx_i:  p, v added;  q = Exp(dtheta_i) (x) q
+        px, py, pz = p0[0] + s[0], p0[1] + s[1], p0[2] + s[2]
+        vx, vy, vz = v0[0] + s[3], v0[1] + s[4], v0[2] + s[5]
+        dw, dx, dy, dz = _exp_q(s[6], s[7], s[8])
+        qw, qx, qy, qz = _mul_q(dw, dx, dy, dz, q0[0], q0[1], q0[2], q0[3])
+        ww, xx, yy, zz = qw * qw, qx * qx, qy * qy, qz * qz
+        r00, r01, r02 = ww + xx - yy - zz, 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qz + qw * qy)
+        r10, r11, r12 = 2.0 * (qx * qy + qw * qz), ww - xx + yy - zz, 2.0 * (qy * qz - qw * qx)
+        r20, r21, r22 = 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx), ww - xx - yy + zz
+        # omega = omega_m - b_g - R^T w_ie
+        wx = om[0] - (bg0[0] + s[12]) - (r00 * ex + r10 * ey + r20 * ez)
+        wy = om[1] - (bg0[1] + s[13]) - (r01 * ex + r11 * ey + r21 * ez)
+        wz = om[2] - (bg0[2] + s[14]) - (r02 * ex + r12 * ey + r22 * ez)
+        # f = f_m - b_a;  f_n = R (f + 1/2 dt omega x f)
+        fx = f_m[0] - (ba0[0] + s[9])
+        fy = f_m[1] - (ba0[1] + s[10])
+        fz = f_m[2] - (ba0[2] + s[11])
+        gx = fx + h * (wy * fz - wz * fy)
+        gy = fy + h * (wz * fx - wx * fz)
+        gz = fz + h * (wx * fy - wy * fx)
+        fnx = r00 * gx + r01 * gy + r02 * gz
+        fny = r10 * gx + r11 * gy + r12 * gz
+        fnz = r20 * gx + r21 * gy + r22 * gz
+        # v' = v + (f_n + g_n - 2 w_ie x v) dt;  p' = p + 1/2 (v + v') dt
+        ux = vx + (fnx - 2.0 * (ey * vz - ez * vy)) * dt
+        uy = vy + (fny - 2.0 * (ez * vx - ex * vz)) * dt
+        uz = vz + (fnz - 2.0 * (ex * vy - ey * vx)) * dt + (g + GRAVITY_GRADIENT * pz) * dt
+        o[0] = px + 0.5 * (vx + ux) * dt - p1n[0]
+        o[1] = py + 0.5 * (vy + uy) * dt - p1n[1]
+        o[2] = pz + 0.5 * (vz + uz) * dt - p1n[2]
+        o[3], o[4], o[5] = ux - v1n[0], uy - v1n[1], uz - v1n[2]
+        # q' = q (x) Exp(omega dt);  dtheta' = Log(q' (x) q_nom'^*)
+        ew, ex_, ey_, ez_ = _exp_q(wx * dt, wy * dt, wz * dt)
+        aw, ax, ay, az = _mul_q(qw, qx, qy, qz, ew, ex_, ey_, ez_)
+        bw, bx, by, bz = _mul_q(aw, ax, ay, az, q1n[0], -q1n[1], -q1n[2], -q1n[3])
+        if bw < 0.0:
+            bw, bx, by, bz = -bw, -bx, -by, -bz
+        sn = math.sqrt(bx * bx + by * by + bz * bz)
+        kk = 2.0 if sn < 1e-12 else 2.0 * math.atan2(sn, bw) / sn
+        o[6], o[7], o[8] = bx * kk, by * kk, bz * kk
+        # GPS error: Gauss-Markov, b' = a b
+        for k in range(16, 19):
+            o[k] = s[k] * a_gm
+
+
+# propagate_sigmas indexes the error state by number: the layout it was written for
+assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start) == (0, 3, 6, 9, 12, 16)
+
+
+class _SigmaPoints(MerweScaledSigmaPoints):
+    """filterpy's scaled sigma points (van der Merwe 2004 eq 3.82-3.85) built in two
+    array operations instead of a loop over the n columns (the same numbers)."""
+
+    def sigma_points(self, x, P):
+        n = self.n
+        lambda_ = self.alpha ** 2 * (n + self.kappa) - n
+        U = self.sqrt((lambda_ + n) * P)
+        sigmas = np.empty((2 * n + 1, n))
+        sigmas[0] = x
+        # chi_k = x + U_k, chi_{n+k} = x - U_k  (rows of U: U^T U = (n + lambda) P)
+        np.subtract(x, -U, out=sigmas[1:n + 1])
+        np.subtract(x, U, out=sigmas[n + 1:])
+        return sigmas
 
 
 class _ErrorStateUKF(UnscentedKalmanFilter):
@@ -77,7 +180,7 @@ class InsGpsUkf(NavFilterBase):
 
     def _reset_covariance_model(self) -> None:
         n = self.n
-        points = MerweScaledSigmaPoints(n, alpha=UKF_ALPHA, beta=UKF_BETA, kappa=UKF_KAPPA,
+        points = _SigmaPoints(n, alpha=UKF_ALPHA, beta=UKF_BETA, kappa=UKF_KAPPA,
                                         sqrt_method=_robust_sqrt)
         ukf = _ErrorStateUKF(dim_x=n, dim_z=1, dt=0.01, hx=None, fx=self._fx, points=points)
         ukf.x = np.zeros(n)
@@ -117,29 +220,12 @@ class InsGpsUkf(NavFilterBase):
     # ------------------------------------------------------------------- predict --
     def _fx(self, sig: np.ndarray, dt: float, nom0, nom1, f_m, omega_m, a_gm) -> np.ndarray:
         """Propagate error-state sigma points (rows) through the nonlinear mechanisation
-        (strapdown.py's equations, every sigma point with its own attitude and biases)."""
-        g = self._g
-        w_ie = np.asarray(self._w_ie)
-        p = np.asarray(nom0.p) + sig[:, POS]
-        v = np.asarray(nom0.v) + sig[:, VEL]
-        q = qbatch.mul(qbatch.from_rotvec(sig[:, ATT]), np.asarray(nom0.q))
-        Rs = qbatch.to_dcm(q)
-        # omega = omega_m - b_g - R^T w_ie
-        w = np.asarray(omega_m) - (np.asarray(nom0.bg) + sig[:, GBIAS]) - np.einsum("nji,j->ni", Rs, w_ie)
-        f = np.asarray(f_m) - (np.asarray(nom0.ba) + sig[:, ABIAS])
-        # f + 1/2 dt omega x f, rotated to NED
-        fg = f + 0.5 * dt * qbatch.cross(w, f)
-        f_n = np.einsum("nij,nj->ni", Rs, fg)
-        # v' = v + (f_n + g_n - 2 w_ie x v) dt
-        v1 = v + (f_n - 2.0 * qbatch.cross(w_ie, v)) * dt
-        v1[:, 2] += (g + GRAVITY_GRADIENT * p[:, 2]) * dt
-        p1 = p + 0.5 * (v + v1) * dt
-        q1 = qbatch.mul(q, qbatch.from_rotvec(w * dt))
-        out = sig.copy()
-        out[:, POS] = p1 - np.asarray(nom1.p)
-        out[:, VEL] = v1 - np.asarray(nom1.v)
-        out[:, ATT] = qbatch.to_rotvec(qbatch.mul(q1, qbatch.conj(np.asarray(nom1.q))))
-        out[:, GPSB] = sig[:, GPSB] * a_gm
+        (strapdown.py's equations, every sigma point with its own attitude and biases):
+        :func:`propagate_sigmas`."""
+        out = np.empty_like(sig)
+        propagate_sigmas(sig, dt, np.array((*nom0.p, *nom0.v, *nom0.q, *nom0.bg, *nom0.ba,
+                                            *nom1.p, *nom1.v, *nom1.q, *f_m, *omega_m,
+                                            *self._w_ie, self._g, a_gm)), out)
         return out
 
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
