@@ -143,34 +143,69 @@ def propagate_sigmas(sig, dt, c, out):
 assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start) == (0, 3, 6, 9, 12, 16)
 
 
+@kernel
+def _sigma_rows(x, A, out):
+    """Scaled sigma points (van der Merwe 2004 eqs 3.82-3.85) of mean ``x`` and
+    ``A = (n + lambda) P``: chi_0 = x, chi_k = x + U_k, chi_{n+k} = x - U_k with U the
+    upper Cholesky factor (U^T U = A, the rows of U = the columns of the lower factor).
+    Raises LinAlgError when A is not positive definite."""
+    n = x.shape[0]
+    L = np.linalg.cholesky(A)
+    for j in range(n):
+        out[0, j] = x[j]
+    for k in range(n):
+        for j in range(n):
+            u = L[j, k]
+            out[k + 1, j] = x[j] + u
+            out[n + k + 1, j] = x[j] - u
+
+
 class _SigmaPoints(MerweScaledSigmaPoints):
-    """filterpy's scaled sigma points (van der Merwe 2004 eq 3.82-3.85) built in two
-    array operations instead of a loop over the n columns (the same numbers)."""
+    """filterpy's scaled sigma points, built by one kernel (a symmetric eigen square
+    root when the covariance has lost positive definiteness to rounding)."""
 
     def sigma_points(self, x, P):
         n = self.n
-        lambda_ = self.alpha ** 2 * (n + self.kappa) - n
-        U = self.sqrt((lambda_ + n) * P)
+        A = (self.alpha ** 2 * (n + self.kappa)) * P
         sigmas = np.empty((2 * n + 1, n))
-        sigmas[0] = x
-        # chi_k = x + U_k, chi_{n+k} = x - U_k  (rows of U: U^T U = (n + lambda) P)
-        np.subtract(x, -U, out=sigmas[1:n + 1])
-        np.subtract(x, U, out=sigmas[n + 1:])
+        try:
+            _sigma_rows(x, A, sigmas)
+        except np.linalg.LinAlgError:
+            U = _robust_sqrt(A)
+            sigmas[0] = x
+            np.subtract(x, -U, out=sigmas[1:n + 1])
+            np.subtract(x, U, out=sigmas[n + 1:])
         return sigmas
 
 
 class _ErrorStateUKF(UnscentedKalmanFilter):
-    """filterpy's UKF with the process model applied to all sigma points at once and a
-    vectorised cross-covariance (same results as the per-point loops)."""
+    """filterpy's UKF with the process model applied to all sigma points at once and the
+    unscented transform without filterpy's per-call copies and its (2n+1)^2 diagonal
+    weight matrix (the same sums)."""
 
-    def compute_process_sigmas(self, dt, fx=None, **fx_args):
-        fx = self.fx if fx is None else fx
+    def predict(self, dt=None, **fx_args):
         sigmas = self.points_fn.sigma_points(self.x, self.P)
-        self.sigmas_f = fx(sigmas, dt, **fx_args)
+        sf = self.sigmas_f = self.fx(sigmas, dt, **fx_args)
+        # x = sum_i Wm_i X_i;  P = sum_i Wc_i (X_i - x)(X_i - x)^T + Q
+        x = self.Wm @ sf
+        y = sf - x
+        self.x = x
+        self.P = (y.T * self.Wc) @ y + self.Q
 
-    def cross_variance(self, x, z, sigmas_f, sigmas_h):
-        # P_xz = sum_i Wc_i (X_i - x)(Z_i - z)^T
-        return ((sigmas_f - x) * self.Wc[:, None]).T @ (sigmas_h - z)
+    def update_sigmas(self, z, R, sigmas_h):
+        """filterpy's ``update`` with the measurement sigma points given (the caller has
+        them already, ``_sigma_measurements``): the same equations, without its list
+        building and copies."""
+        Wc = self.Wc
+        # z_pred = sum_i Wm_i Z_i;  S = sum_i Wc_i (Z_i - z_pred)(Z_i - z_pred)^T + R
+        zp = self.Wm @ sigmas_h
+        dz = sigmas_h - zp
+        S = (dz.T * Wc) @ dz + R
+        # P_xz = sum_i Wc_i (X_i - x)(Z_i - z_pred)^T;  K = P_xz S^-1
+        K = ((self.sigmas_f - self.x).T * Wc) @ dz @ np.linalg.inv(S)
+        # x = x + K (z - z_pred);  P = P - K S K^T
+        self.x = self.x + K @ (z - zp)
+        self.P = self.P - K @ S @ K.T
 
 
 class InsGpsUkf(NavFilterBase):
@@ -295,11 +330,9 @@ class InsGpsUkf(NavFilterBase):
         Zs, z, R = self._Zs, batch.z, batch.R
         if rows is not None:
             Zs, z, R = Zs[:, rows], z[rows], R[rows]
-        rows_iter = iter(Zs)
         ukf = self._ukf
         try:
-            # filterpy evaluates hx on its sigma points in order: hand it the rows above
-            ukf.update(z, R=np.diag(R), hx=lambda s: next(rows_iter))
+            ukf.update_sigmas(z, np.diag(R), Zs)
         except np.linalg.LinAlgError:
             return
         ukf.P = self._condition(ukf.P)
