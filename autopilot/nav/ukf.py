@@ -225,6 +225,8 @@ class InsGpsUkf(NavFilterBase):
         self._Wc = np.asarray(points.Wc)
         self._q_dt = -1.0
         self._Zs = None
+        self._zero = np.zeros(n)                  # dx after every injection (never written)
+        self._zero.flags.writeable = False
 
     @property
     def P(self) -> np.ndarray:
@@ -253,31 +255,32 @@ class InsGpsUkf(NavFilterBase):
         self._q_dt = dt
 
     # ------------------------------------------------------------------- predict --
-    def _fx(self, sig: np.ndarray, dt: float, nom0, nom1, f_m, omega_m, a_gm) -> np.ndarray:
+    def _fx(self, sig: np.ndarray, dt: float, c: np.ndarray) -> np.ndarray:
         """Propagate error-state sigma points (rows) through the nonlinear mechanisation
         (strapdown.py's equations, every sigma point with its own attitude and biases):
-        :func:`propagate_sigmas`."""
+        :func:`propagate_sigmas` (``c``: its constants)."""
         out = np.empty_like(sig)
-        propagate_sigmas(sig, dt, np.array((*nom0.p, *nom0.v, *nom0.q, *nom0.bg, *nom0.ba,
-                                            *nom1.p, *nom1.v, *nom1.q, *f_m, *omega_m,
-                                            *self._w_ie, self._g, a_gm)), out)
+        propagate_sigmas(sig, dt, c, out)
         return out
 
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
         if dt != self._q_dt:
             self._process_noise(dt)
-        nom0 = self.nom.copy()
+        nom = self.nom
+        c = [*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba]          # the nominal before ...
         a = self._propagate_nominal(dt, f_m, omega_m)
+        # ... and after, the IMU samples, w_ie, g, the Gauss-Markov decay
+        c = np.array(c + nom.p + nom.v + nom.q + [*f_m, *omega_m, *self._w_ie, self._g, a])
         ukf = self._ukf
         lam = self.q_scale_hook(dt) if self.q_scale_hook is not None else None
         if lam is None:
-            ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+            ukf.predict(dt=dt, c=c)
         else:
             # additive Lambda Q (fading matrix, seed eq 2.40; base.py hooks)
             Q = ukf.Q
             ukf.Q = Q * np.asarray(lam, dtype=float)[:, None]
             try:
-                ukf.predict(dt=dt, nom0=nom0, nom1=self.nom, f_m=f_m, omega_m=omega_m, a_gm=a)
+                ukf.predict(dt=dt, c=c)
             finally:
                 ukf.Q = Q
         if self._q_sample is not None:            # sampling error of the IMU samples (base.py)
@@ -286,8 +289,8 @@ class InsGpsUkf(NavFilterBase):
         # fold the mean error into the nominal state; re-centre the sigma points on it
         x = ukf.x
         self._inject(x)
-        ukf.sigmas_f = ukf.sigmas_f - x
-        ukf.x = np.zeros(self.n)
+        ukf.sigmas_f -= x
+        ukf.x = self._zero
 
     # -------------------------------------------------------------------- update --
     def _sigma_measurements(self, batch: Batch, sig: np.ndarray) -> np.ndarray:
@@ -337,4 +340,4 @@ class InsGpsUkf(NavFilterBase):
             return
         ukf.P = self._condition(ukf.P)
         self._inject(ukf.x)
-        ukf.x = np.zeros(self.n)
+        ukf.x = self._zero
