@@ -58,3 +58,39 @@ def test_ukf_sigma_propagation_matches_the_equations():
     assert np.max(np.abs(out - ref)) < 1e-12
     # the central point propagates with the nominal state: zero error after
     assert np.max(np.abs(out[0, :9])) < 1e-9
+
+
+def test_message_records_are_frozen_dataclasses_with_the_same_constructor():
+    import dataclasses
+    import inspect
+
+    import pytest
+
+    from autopilot.frozen import message
+    from autopilot.messages import NavState
+
+    @message
+    class Rec:
+        t_us: int
+        v: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+        ok: bool = True
+
+    r = Rec(5)
+    assert (r.t_us, r.v.tolist(), r.ok) == (5, [0.0, 0.0, 0.0], True)
+    assert Rec(1).v is not Rec(1).v                       # a fresh default every time
+    assert (Rec(t_us=2, ok=False).ok, Rec(t_us=2, ok=False).t_us) == (False, 2)
+    assert list(inspect.signature(Rec).parameters) == ["t_us", "v", "ok"]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        r.t_us = 6
+    with pytest.raises(TypeError):
+        Rec()                                             # a field without default is required
+    n = NavState(1, np.zeros(3), np.zeros(3), np.array([1.0, 0, 0, 0]), np.zeros(3), 0.1, 0.2, 3.0, 4.0)
+    assert (n.source, n.aligned, n.wind_ned.tolist()) == ("truth", True, [0.0, 0.0, 0.0])
+    assert dataclasses.replace(n, alt_m=5.0).alt_m == 5.0
+    with pytest.raises(TypeError):
+        @message
+        class Bad:
+            a: int
+
+            def __post_init__(self):
+                pass
