@@ -94,3 +94,29 @@ def test_message_records_are_frozen_dataclasses_with_the_same_constructor():
 
             def __post_init__(self):
                 pass
+
+
+def test_ukf_sigma_measurements_match_the_equations():
+    from autopilot.nav.layout import WIND
+    from autopilot.nav.ukf import sigma_airspeed, sigma_heading, sigma_sideslip
+    rng = np.random.default_rng(3)
+    sig = rng.standard_normal((43, 21)) * 0.3
+    sig[1, ATT] = 1e-12
+    sig[2, ATT] = (0.0, 0.0, 3.0)                         # a heading across the +-pi wrap
+    m = np.array([0.22, 0.05, -0.5])
+    v, wind = np.array([20.0, -3.0, 1.0]), np.array([4.0, 2.0])
+    c1 = np.array([0.1, 0.98, 0.17])
+    R_i = qbatch.to_dcm(qbatch.from_rotvec(sig[:, ATT]))
+    # heading: h0 + wrap(atan2 of the turned field - atan2 of the field)
+    m_i = np.einsum("nij,j->ni", R_i, m)
+    dg = np.arctan2(m_i[:, 1], m_i[:, 0]) - np.arctan2(m[1], m[0])
+    ref = 0.5 + (dg + np.pi) % (2.0 * np.pi) - np.pi
+    out = np.empty(43)
+    sigma_heading(sig, 0.5, m, out)
+    assert np.max(np.abs(out - ref)) < 1e-12
+    vr = v + sig[:, VEL]
+    vr[:, :2] -= wind + sig[:, WIND]
+    sigma_airspeed(sig, v, wind, out)
+    assert np.max(np.abs(out - np.sqrt(np.einsum("ni,ni->n", vr, vr)))) < 1e-12
+    sigma_sideslip(sig, v, wind, c1, out)
+    assert np.max(np.abs(out - np.einsum("ni,ni->n", np.einsum("nij,j->ni", R_i, c1), vr))) < 1e-12

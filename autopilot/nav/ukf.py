@@ -40,7 +40,6 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from autopilot.jit import kernel
 
-from . import qbatch
 from .base import Batch, NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 from .strapdown import GRAVITY_GRADIENT
@@ -139,8 +138,52 @@ def propagate_sigmas(sig, dt, c, out):
             o[k] = s[k] * a_gm
 
 
-# propagate_sigmas indexes the error state by number: the layout it was written for
-assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start) == (0, 3, 6, 9, 12, 16)
+@kernel
+def _rotate_exp(ax, ay, az, x, y, z):
+    """R(Exp(a)) v: the vector v turned by the rotation vector a (qbatch.to_dcm of
+    qbatch.from_rotvec)."""
+    w, qx, qy, qz = _exp_q(ax, ay, az)
+    ww, xx, yy, zz = w * w, qx * qx, qy * qy, qz * qz
+    return ((ww + xx - yy - zz) * x + 2.0 * (qx * qy - w * qz) * y + 2.0 * (qx * qz + w * qy) * z,
+            2.0 * (qx * qy + w * qz) * x + (ww - xx + yy - zz) * y + 2.0 * (qy * qz - w * qx) * z,
+            2.0 * (qx * qz - w * qy) * x + 2.0 * (qy * qz + w * qx) * y + (ww - xx - yy + zz) * z)
+
+
+@kernel
+def sigma_heading(sig, h0, m, out):
+    """Magnetic heading of each sigma point: h_i = h0 + wrap(g(Exp(dtheta_i) m) - g(m)),
+    g(m) = atan2(m_E, m_N), the heading of the (smoothed) field turned into NED."""
+    g0 = math.atan2(m[1], m[0])
+    for i in range(sig.shape[0]):
+        mn, me, _ = _rotate_exp(sig[i, 6], sig[i, 7], sig[i, 8], m[0], m[1], m[2])
+        out[i] = h0 + ((math.atan2(me, mn) - g0 + math.pi) % (2.0 * math.pi) - math.pi)
+
+
+@kernel
+def sigma_airspeed(sig, v, wind, out):
+    """True airspeed of each sigma point: |v + dv_i - (w + dw_i, 0)|."""
+    for i in range(sig.shape[0]):
+        an = v[0] + sig[i, 3] - (wind[0] + sig[i, 19])
+        ae = v[1] + sig[i, 4] - (wind[1] + sig[i, 20])
+        ad = v[2] + sig[i, 5]
+        out[i] = math.sqrt(an * an + ae * ae + ad * ad)
+
+
+@kernel
+def sigma_sideslip(sig, v, wind, c1, out):
+    """Body-y air velocity of each sigma point: (Exp(dtheta_i) c1) . (v_i - w_i), c1 the
+    nominal body y axis in NED (the synthetic sideslip measurement, base.py)."""
+    for i in range(sig.shape[0]):
+        an = v[0] + sig[i, 3] - (wind[0] + sig[i, 19])
+        ae = v[1] + sig[i, 4] - (wind[1] + sig[i, 20])
+        ad = v[2] + sig[i, 5]
+        cx, cy, cz = _rotate_exp(sig[i, 6], sig[i, 7], sig[i, 8], c1[0], c1[1], c1[2])
+        out[i] = cx * an + cy * ae + cz * ad
+
+
+# the kernels index the error state by number: the layout it was written for
+assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start, WIND.start)
+        == (0, 3, 6, 9, 12, 16, 19))
 
 
 @kernel
@@ -303,20 +346,17 @@ class InsGpsUkf(NavFilterBase):
                 # h_i = yaw + (g(x_i) - g(x_nom)),  g = heading of the field rotated into NED;
                 # about the smoothed field, as the EKF's H (noise in the spread of the
                 # sigma points would correlate with the noise of the innovation)
-                m = np.asarray(self._m_ref)
-                m_i = np.einsum("nij,j->ni", qbatch.to_dcm(qbatch.from_rotvec(sig[:, ATT])), m)
-                dg = np.arctan2(m_i[:, 1], m_i[:, 0]) - np.arctan2(m[1], m[0])
-                Zs[:, r] = batch.h0[r] + (dg + np.pi) % (2.0 * np.pi) - np.pi
+                col = np.empty(len(sig))
+                sigma_heading(sig, float(batch.h0[r]), np.array(self._m_ref), col)
+                Zs[:, r] = col
             elif name == "airspeed":
-                vr = np.asarray(nom.v) + sig[:, VEL]
-                vr[:, :2] -= np.asarray(nom.wind) + sig[:, WIND]
-                Zs[:, r] = np.sqrt(np.einsum("ni,ni->n", vr, vr))
+                col = np.empty(len(sig))
+                sigma_airspeed(sig, np.array(nom.v), np.array(nom.wind), col)
+                Zs[:, r] = col
             elif name == "sideslip":
-                vr = np.asarray(nom.v) + sig[:, VEL]
-                vr[:, :2] -= np.asarray(nom.wind) + sig[:, WIND]
-                c1 = np.array(nom.R[1::3])            # body y axis in NED
-                c1_i = np.einsum("nij,j->ni", qbatch.to_dcm(qbatch.from_rotvec(sig[:, ATT])), c1)
-                Zs[:, r] = np.einsum("ni,ni->n", c1_i, vr)
+                col = np.empty(len(sig))
+                sigma_sideslip(sig, np.array(nom.v), np.array(nom.wind), np.array(nom.R[1::3]), col)
+                Zs[:, r] = col
         return Zs
 
     def _gate_stats(self, batch: Batch) -> None:
