@@ -229,6 +229,33 @@ def bench_formation(path, seconds: float) -> float:
     return out["sim_time_s"] / out["wall_s"]
 
 
+_FIRST_STEP = """
+import sys, time
+from tools.runner import RunConfig, Session
+s = Session(RunConfig(nav=sys.argv[1], duration_s=float(sys.argv[2]), seed=1))
+s.step()
+t1 = time.time()
+while s.t_s < float(sys.argv[2]):
+    s.step()
+print(t1, time.time())
+"""
+
+
+def bench_startup(nav: str = "ekf", seconds: float = 0.0, cache_dir: str | None = None) -> tuple:
+    """(start-up, total) wall seconds of a fresh ``python`` process: from its spawn to the
+    first lockstep step of a run (imports, JSBSim, the vehicle: what ``sitl run`` pays
+    before it flies), and to ``seconds`` of simulated flight. ``cache_dir``: the numba
+    cache to use (an empty one measures a fresh install's first run, kernels compiled)."""
+    env = dict(os.environ)
+    if cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = cache_dir
+    root = str(DEFAULT_MISSION.parent.parent)
+    t0 = time.time()
+    out = subprocess.run([sys.executable, "-c", _FIRST_STEP, nav, str(seconds)], cwd=root, env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    return float(out[-2]) - t0, float(out[-1]) - t0
+
+
 FORMATION5 = DEFAULT_MISSION.parent / "formation_seed_quad.toml"
 FORMATION10 = DEFAULT_MISSION.parent / "formation_ten_quad.toml"
 
@@ -239,6 +266,16 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
     measured (None: silent)."""
     say = out or (lambda *_: None)
     fig: dict = {"seconds": seconds}
+    bench_startup()                              # warm the file cache and the kernel cache
+    fig["startup_s"] = min(bench_startup()[0] for _ in range(2))
+    say(f"  start-up, process spawn to the first lockstep step (nav ekf): {fig['startup_s']:.2f} s")
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        cold = bench_startup("ukf", 15.0, cache_dir=d)[1]
+    warm = bench_startup("ukf", 15.0)[1]
+    fig["first_run_compile_s"] = cold - warm
+    say(f"  first run after install (nav ukf, 15 s flight, empty kernel cache): {cold:.2f} s, "
+        f"{fig['first_run_compile_s']:.2f} s more than with the cache")
     plant_rtf, plant_cpu = bench_plant(seconds)
     fig["plant_rtf"], fig["plant_cpu_rtf"] = plant_rtf, plant_cpu
     say(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time"
