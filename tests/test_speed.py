@@ -151,3 +151,31 @@ def test_codec_lockstep_fast_path_gives_what_the_general_path_gives():
     c = Codec(1, 1)
     assert seen(c.decode(frames[0] + bytes(bad) + frames[0], HIL_IDS)) == [seen([m])[0] for m in
                                                                             Codec(1, 1).decode(frames[0] * 2, HIL_IDS)]
+
+
+def test_ukf_moments_match_the_unscented_transform():
+    from autopilot.nav.ukf import ukf_moments
+    rng = np.random.default_rng(5)
+    n, m = 21, 43
+    sf = rng.standard_normal((m, n))
+    Wm = np.full(m, 0.5 / (m - 1) * 1.3)
+    Wm[0] = 1.0 - Wm[1:].sum()
+    Wc = Wm.copy()
+    Wc[0] += 1.2
+    q = rng.random(n) * 1e-3
+    idx = np.array([3 * n + 4, 4 * n + 3, 5 * n + 5])
+    qs = np.array([0.01, 0.01, 0.02])
+    floor, ceil = np.full(n, 1e-9), np.full(n, 10.0)
+    ceil[2] = 0.05                                       # a clamped diagonal entry
+    x_ref = Wm @ sf
+    y = sf - x_ref
+    P_ref = (y.T * Wc) @ y + np.diag(q)
+    P_ref.flat[idx] += qs
+    P_ref = 0.5 * (P_ref + P_ref.T)
+    d = P_ref.reshape(-1)[:: n + 1]
+    np.clip(d, floor, ceil, out=d)
+    x, P, s = np.empty(n), np.empty((n, n)), sf.copy()
+    ukf_moments(s, Wm, Wc, q, qs, idx, floor, ceil, x, P)
+    assert np.max(np.abs(x - x_ref)) < 1e-12
+    assert np.max(np.abs(P - P_ref)) < 1e-12 and P[2, 2] == 0.05 and (P == P.T).all()
+    assert np.max(np.abs(s - y)) < 1e-12                # re-centred in place

@@ -181,6 +181,38 @@ def sigma_sideslip(sig, v, wind, c1, out):
         out[i] = cx * an + cy * ae + cz * ad
 
 
+@kernel
+def ukf_moments(sf, Wm, Wc, q, qs, qs_idx, floor, ceil, x, P):
+    """The unscented transform of the propagated sigma points ``sf`` (van der Merwe 2004
+    eqs 3.86-3.87) with the additive process noise and the filter's conditioning:
+
+        x = sum_i Wm_i X_i,   P = sum_i Wc_i (X_i - x)(X_i - x)^T + diag(q) (+ qs at qs_idx)
+
+    then P symmetrised and its diagonal kept within [floor, ceil] (base.py's
+    _condition); the sigma points are re-centred on x in place. ``qs``: the IMU
+    sampling error (base.py), empty if none."""
+    m, n = sf.shape
+    x[:] = np.dot(Wm, sf)
+    for i in range(m):
+        for j in range(n):
+            sf[i, j] -= x[j]
+    W = np.empty((n, m))
+    for i in range(m):
+        for j in range(n):
+            W[j, i] = sf[i, j] * Wc[i]
+    C = np.dot(W, sf)
+    for k in range(n):
+        C[k, k] += q[k]
+    for k in range(qs.shape[0]):
+        C.flat[qs_idx[k]] += qs[k]
+    for a in range(n):
+        for b in range(n):
+            P[a, b] = 0.5 * (C[a, b] + C[b, a])
+        P[a, a] = min(max(P[a, a], floor[a]), ceil[a])
+
+
+_NO_QS = np.zeros(0)
+
 # the kernels index the error state by number: the layout it was written for
 assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start, WIND.start)
         == (0, 3, 6, 9, 12, 16, 19))
@@ -226,14 +258,16 @@ class _ErrorStateUKF(UnscentedKalmanFilter):
     unscented transform without filterpy's per-call copies and its (2n+1)^2 diagonal
     weight matrix (the same sums)."""
 
-    def predict(self, dt=None, **fx_args):
+    def predict(self, dt=None, c=None, q=None, qs=None, floor=None, ceil=None, qs_idx=None):
+        """Sigma points of (x, P), through the process model, and back to (x, P) with
+        the process noise ``q`` (diagonal) and the conditioning (:func:`ukf_moments`);
+        ``sigmas_f`` are left centred on the new x."""
         sigmas = self.points_fn.sigma_points(self.x, self.P)
-        sf = self.sigmas_f = self.fx(sigmas, dt, **fx_args)
-        # x = sum_i Wm_i X_i;  P = sum_i Wc_i (X_i - x)(X_i - x)^T + Q
-        x = self.Wm @ sf
-        y = sf - x
-        self.x = x
-        self.P = (y.T * self.Wc) @ y + self.Q
+        sf = self.sigmas_f = self.fx(sigmas, dt, c)
+        x = np.empty(self._dim_x)
+        P = np.empty((self._dim_x, self._dim_x))
+        ukf_moments(sf, self.Wm, self.Wc, q, qs, qs_idx, floor, ceil, x, P)
+        self.x, self.P = x, P
 
     def update_sigmas(self, z, R, sigmas_h):
         """filterpy's ``update`` with the measurement sigma points given (the caller has
@@ -270,6 +304,7 @@ class InsGpsUkf(NavFilterBase):
         self._Zs = None
         self._zero = np.zeros(n)                  # dx after every injection (never written)
         self._zero.flags.writeable = False
+        self._qs_idx_a = np.array(self._qs_idx, dtype=np.int64)
 
     @property
     def P(self) -> np.ndarray:
@@ -295,6 +330,7 @@ class InsGpsUkf(NavFilterBase):
         if self.is_plane:
             q[WIND] = prm["EK_WIND_NSE"] ** 2 * dt
         self._ukf.Q = np.diag(q)
+        self._qdiag = q
         self._q_dt = dt
 
     # ------------------------------------------------------------------- predict --
@@ -316,23 +352,13 @@ class InsGpsUkf(NavFilterBase):
         c = np.array(c + nom.p + nom.v + nom.q + [*f_m, *omega_m, *self._w_ie, self._g, a])
         ukf = self._ukf
         lam = self.q_scale_hook(dt) if self.q_scale_hook is not None else None
-        if lam is None:
-            ukf.predict(dt=dt, c=c)
-        else:
-            # additive Lambda Q (fading matrix, seed eq 2.40; base.py hooks)
-            Q = ukf.Q
-            ukf.Q = Q * np.asarray(lam, dtype=float)[:, None]
-            try:
-                ukf.predict(dt=dt, c=c)
-            finally:
-                ukf.Q = Q
-        if self._q_sample is not None:            # sampling error of the IMU samples (base.py)
-            ukf.P.flat[self._qs_idx] += self._q_sample
-        ukf.P = self._condition(ukf.P)
-        # fold the mean error into the nominal state; re-centre the sigma points on it
-        x = ukf.x
-        self._inject(x)
-        ukf.sigmas_f -= x
+        # additive (Lambda) Q: the fading matrix of seed eq 2.40 (base.py hooks) scales it
+        q = self._qdiag if lam is None else self._qdiag * np.asarray(lam, dtype=float)
+        # the sampling error of the IMU samples (base.py) where it exceeds Q
+        qs = _NO_QS if self._q_sample is None else np.array(self._q_sample)
+        ukf.predict(dt=dt, c=c, q=q, qs=qs, floor=self._floor, ceil=self._ceil, qs_idx=self._qs_idx_a)
+        # fold the mean error into the nominal state (the sigma points are centred on it)
+        self._inject(ukf.x)
         ukf.x = self._zero
 
     # -------------------------------------------------------------------- update --
