@@ -179,3 +179,27 @@ def test_ukf_moments_match_the_unscented_transform():
     assert np.max(np.abs(x - x_ref)) < 1e-12
     assert np.max(np.abs(P - P_ref)) < 1e-12 and P[2, 2] == 0.05 and (P == P.T).all()
     assert np.max(np.abs(s - y)) < 1e-12                # re-centred in place
+
+
+def test_ukf_update_matches_the_equations():
+    from autopilot.nav.ukf import ukf_update
+    rng = np.random.default_rng(9)
+    n, m, k = 21, 43, 4
+    sf = rng.standard_normal((m, n)) * 0.1
+    Zs = sf[:, :k] @ rng.standard_normal((k, k)) + rng.standard_normal((m, k)) * 0.01
+    Wm = np.full(m, 1.0 / m)
+    Wc = Wm.copy()
+    Wc[0] += 0.7
+    z, R = rng.standard_normal(k) * 0.1, np.full(k, 0.05)
+    A = rng.standard_normal((n, n))
+    P = A @ A.T * 0.01 + np.eye(n)
+    floor, ceil = np.full(n, 1e-9), np.full(n, 1e6)
+    zp = Wm @ Zs
+    dz = Zs - zp
+    S = (dz.T * Wc) @ dz + np.diag(R)
+    K = ((sf.T * Wc) @ dz) @ np.linalg.inv(S)
+    P_ref = P - K @ S @ K.T
+    P_ref = 0.5 * (P_ref + P_ref.T)
+    x, P1 = ukf_update(sf, Zs, Wm, Wc, z, R, floor, ceil, P)
+    assert np.max(np.abs(x - K @ (z - zp))) < 1e-12
+    assert np.max(np.abs(P1 - P_ref)) < 1e-12 and (P1 == P1.T).all()

@@ -1,4 +1,4 @@
-"""INS/GPS error-state unscented Kalman filter (seed ch. 8 sec. 2.1.3), built on filterpy.
+"""INS/GPS error-state unscented Kalman filter (seed ch. 8 sec. 2.1.3).
 
 The same model as :mod:`.ekf` -- nominal state, error-state layout (:mod:`.layout`),
 aiding sources, GPS latency, gating, resets, alignment (:mod:`.base`) -- with the
@@ -8,22 +8,25 @@ Formulation: a UKF over the *error state* with the nominal state propagated sepa
 (error-state UKF; Sola 2017 for the error definitions, R. van der Merwe's 2004 thesis
 "Sigma-point Kalman filters for probabilistic inference in dynamic state-space models"
 for the scaled sigma points). filterpy's ``UnscentedKalmanFilter`` with
-``MerweScaledSigmaPoints`` holds ``x = dx`` and ``P``. Because the attitude error is a
+``MerweScaledSigmaPoints`` holds ``x = dx``, ``P``, Q and the weights; the equations
+themselves are the compiled kernels below (autopilot/jit.py: one call per predict and
+per update instead of some forty numpy calls). Because the attitude error is a
 rotation vector in the tangent space of the nominal attitude, sigma points, means and
 residuals are plain vectors: no ``residual_x`` / ``x_mean_fn`` hooks are needed.
 
 * Predict: each sigma point ``dx_i`` is turned into a full state ``x_i = x_nom (+) dx_i``
   (``q_i = Exp(dtheta_i) (x) q``), propagated through the *nonlinear* strapdown
   mechanisation with its own biases, and mapped back against the propagated nominal,
-  ``dtheta_i' = Log(q_i' (x) q'^*)``. All sigma points at once (vectorised override of
-  ``compute_process_sigmas``). Q is the EKF's (additive). The mean of the propagated
-  error is folded into the nominal state and the sigma points re-centred.
+  ``dtheta_i' = Log(q_i' (x) q'^*)`` (:func:`propagate_sigmas`). Q is the EKF's
+  (additive). The mean of the propagated error is folded into the nominal state and
+  the sigma points re-centred (:func:`ukf_moments`).
 * Update: linear rows (GPS, baro) are evaluated on the sigma points through the EKF's
   H; the nonlinear ones (magnetic heading, airspeed, sideslip) exactly (the heading
-  about the smoothed Earth field, as the EKF's H, see base.py). One stacked
-  filterpy ``update`` per step with the rows that passed their gates (filterpy reuses
-  the prior sigma points for every update of a step, so several updates per predict
-  would be wrong); then the mean is folded into the nominal state, ``x = 0``.
+  about the smoothed Earth field, as the EKF's H, see base.py; :func:`sigma_heading`,
+  :func:`sigma_airspeed`, :func:`sigma_sideslip`). One stacked update per step with the
+  rows that passed their gates (:func:`ukf_update`; it reuses the prior sigma points,
+  so several updates per predict would be wrong); then the mean is folded into the
+  nominal state, ``x = 0``.
 * P is symmetrised, its diagonal kept within the same floor and ceiling as the EKF.
 
 Sigma-point scaling: alpha = 0.5, beta = 2, kappa = 0 (spread sqrt(n + lambda) = 2.3
@@ -211,6 +214,37 @@ def ukf_moments(sf, Wm, Wc, q, qs, qs_idx, floor, ceil, x, P):
         P[a, a] = min(max(P[a, a], floor[a]), ceil[a])
 
 
+@kernel
+def ukf_update(sf, Zs, Wm, Wc, z, R, floor, ceil, P):
+    """The UKF measurement update (van der Merwe 2004 eqs 3.88-3.93) from the sigma points
+    ``sf`` (centred on the prior error x = 0) and their predicted measurements ``Zs``:
+
+        z_pred = sum_i Wm_i Z_i,   S = sum_i Wc_i (Z_i - z_pred)(Z_i - z_pred)^T + diag(R)
+        P_xz = sum_i Wc_i X_i (Z_i - z_pred)^T,   K = P_xz S^-1
+        x = K (z - z_pred),   P' = P - K S K^T
+
+    then P' symmetrised and its diagonal kept within [floor, ceil] (base.py's
+    _condition). Returns (x, P'); raises LinAlgError when S is singular."""
+    m, n = sf.shape
+    zp = np.dot(Wm, Zs)
+    dz = Zs - zp
+    dzT = np.ascontiguousarray(dz.T)
+    WdzT = dzT * Wc
+    S = np.dot(WdzT, dz)
+    for k in range(S.shape[0]):
+        S[k, k] += R[k]
+    Pxz = np.dot(np.ascontiguousarray(sf.T) * Wc, dz)
+    K = np.dot(Pxz, np.linalg.inv(S))
+    x = np.dot(K, z - zp)
+    C = P - np.dot(np.dot(K, S), np.ascontiguousarray(K.T))
+    out = np.empty((n, n))
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.5 * (C[a, b] + C[b, a])
+        out[a, a] = min(max(out[a, a], floor[a]), ceil[a])
+    return x, out
+
+
 _NO_QS = np.zeros(0)
 
 # the kernels index the error state by number: the layout it was written for
@@ -254,9 +288,8 @@ class _SigmaPoints(MerweScaledSigmaPoints):
 
 
 class _ErrorStateUKF(UnscentedKalmanFilter):
-    """filterpy's UKF with the process model applied to all sigma points at once and the
-    unscented transform without filterpy's per-call copies and its (2n+1)^2 diagonal
-    weight matrix (the same sums)."""
+    """filterpy's UKF as the holder of x, P, Q, the weights and the sigma points, its
+    predict done by the kernels (:func:`propagate_sigmas`, :func:`ukf_moments`)."""
 
     def predict(self, dt=None, c=None, q=None, qs=None, floor=None, ceil=None, qs_idx=None):
         """Sigma points of (x, P), through the process model, and back to (x, P) with
@@ -268,21 +301,6 @@ class _ErrorStateUKF(UnscentedKalmanFilter):
         P = np.empty((self._dim_x, self._dim_x))
         ukf_moments(sf, self.Wm, self.Wc, q, qs, qs_idx, floor, ceil, x, P)
         self.x, self.P = x, P
-
-    def update_sigmas(self, z, R, sigmas_h):
-        """filterpy's ``update`` with the measurement sigma points given (the caller has
-        them already, ``_sigma_measurements``): the same equations, without its list
-        building and copies."""
-        Wc = self.Wc
-        # z_pred = sum_i Wm_i Z_i;  S = sum_i Wc_i (Z_i - z_pred)(Z_i - z_pred)^T + R
-        zp = self.Wm @ sigmas_h
-        dz = sigmas_h - zp
-        S = (dz.T * Wc) @ dz + R
-        # P_xz = sum_i Wc_i (X_i - x)(Z_i - z_pred)^T;  K = P_xz S^-1
-        K = ((self.sigmas_f - self.x).T * Wc) @ dz @ np.linalg.inv(S)
-        # x = x + K (z - z_pred);  P = P - K S K^T
-        self.x = self.x + K @ (z - zp)
-        self.P = self.P - K @ S @ K.T
 
 
 class InsGpsUkf(NavFilterBase):
@@ -401,9 +419,8 @@ class InsGpsUkf(NavFilterBase):
             Zs, z, R = Zs[:, rows], z[rows], R[rows]
         ukf = self._ukf
         try:
-            ukf.update_sigmas(z, np.diag(R), Zs)
+            x, ukf.P = ukf_update(ukf.sigmas_f, np.ascontiguousarray(Zs), self._Wm, self._Wc, z, R,
+                                  self._floor, self._ceil, ukf.P)
         except np.linalg.LinAlgError:
             return
-        ukf.P = self._condition(ukf.P)
-        self._inject(ukf.x)
-        ukf.x = self._zero
+        self._inject(x)
