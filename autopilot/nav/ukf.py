@@ -311,7 +311,7 @@ class InsGpsUkf(NavFilterBase):
     def _reset_covariance_model(self) -> None:
         n = self.n
         points = _SigmaPoints(n, alpha=UKF_ALPHA, beta=UKF_BETA, kappa=UKF_KAPPA,
-                                        sqrt_method=_robust_sqrt)
+                              sqrt_method=_robust_sqrt)
         ukf = _ErrorStateUKF(dim_x=n, dim_z=1, dt=0.01, hx=None, fx=self._fx, points=points)
         ukf.x = np.zeros(n)
         ukf.P = np.eye(n)
