@@ -10,29 +10,31 @@ truth (``--nav truth``) with a one-line swap while debugging.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
+
+from autopilot.frozen import message
 
 
 def _zeros3() -> np.ndarray:
     return np.zeros(3)
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class ImuSample:
     t_us: int
     f_b: np.ndarray         # specific force, body FRD [m/s^2]
     omega_b: np.ndarray     # angular rate, body FRD [rad/s]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class MagSample:
     t_us: int
     m_b: np.ndarray         # magnetic field, body FRD [gauss]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class BaroSample:
     t_us: int
     pressure_pa: float      # static pressure [Pa]
@@ -40,14 +42,14 @@ class BaroSample:
     temperature_k: float    # [K]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class AirspeedSample:
     t_us: int
     diff_pressure_pa: float  # dynamic (pitot - static) pressure [Pa]
     airspeed_mps: float      # indicated-to-true airspeed the sensor reports [m/s]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class GpsFix:
     """One GPS receiver solution. ``t_us`` is when it arrived; the solution itself is
     valid ``latency`` earlier (the navigation filter compensates)."""
@@ -63,7 +65,7 @@ class GpsFix:
     satellites: int
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class SensorFrame:
     """Everything the simulator delivered for one lockstep step."""
 
@@ -75,7 +77,7 @@ class SensorFrame:
     gps: GpsFix | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class NavState:
     """A navigation solution (estimate or truth), in the local NED frame of ``origin``."""
 
@@ -94,7 +96,7 @@ class NavState:
     source: str = "truth"    # "truth" | "ekf" | "ukf"
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class AttitudeTarget:
     """What guidance asks of the inner loops."""
 
@@ -104,7 +106,7 @@ class AttitudeTarget:
     throttle: float | None = None   # None: the airspeed/energy loop decides
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class ActuatorOutputs:
     """Normalised actuator commands sent back in HIL_ACTUATOR_CONTROLS.
 

@@ -37,27 +37,34 @@ class Param:
             raise ValueError(f"{self.name}: default {self.default} outside [{self.min}, {self.max}]")
 
 
-class ParamStore:
-    """The values of a set of parameters, checked against their declarations."""
+class ParamStore(dict):
+    """The values of a set of parameters, checked against their declarations.
+
+    A ``dict`` of name -> value underneath, so that ``params["NAME"]`` (a few dozen
+    reads per loop step) is the dictionary's own C lookup rather than a Python method;
+    every write goes through :meth:`set`'s checks (``params["NAME"] = v`` included) and
+    the other ``dict`` mutators are refused. Equality and hashing stay by identity."""
+
+    __slots__ = ("_decl", "_names")
+    __hash__ = object.__hash__
+    __eq__ = object.__eq__
+    __ne__ = object.__ne__
 
     def __init__(self, declarations: Iterable[Param]):
-        self._decl: dict[str, Param] = {}
+        decl: dict[str, Param] = {}
         for p in declarations:
-            if p.name in self._decl:
+            if p.name in decl:
                 raise ValueError(f"parameter {p.name} declared twice")
-            self._decl[p.name] = p
-        self._values: dict[str, float] = {p.name: float(p.default) for p in self._decl.values()}
-        self._names = list(self._decl)  # index order for PARAM_VALUE param_index
+            decl[p.name] = p
+        super().__init__((p.name, float(p.default)) for p in decl.values())
+        self._decl = decl
+        self._names = list(decl)  # index order for PARAM_VALUE param_index
+
+    def __reduce__(self):
+        return _restore_store, (list(self._decl.values()), list(dict.items(self)))
 
     # --- reading -----------------------------------------------------------------
-    def __getitem__(self, name: str) -> float:
-        return self._values[name]
-
-    def __contains__(self, name: str) -> bool:
-        return name in self._decl
-
-    def __len__(self) -> int:
-        return len(self._names)
+    # __getitem__, __contains__, __len__: the dict's (its keys are the declared names)
 
     def names(self) -> list[str]:
         return list(self._names)
@@ -72,7 +79,15 @@ class ParamStore:
         return [self._decl[n] for n in self._names]
 
     def items(self) -> list[tuple[str, float]]:
-        return [(n, self._values[n]) for n in self._names]
+        return [(n, self[n]) for n in self._names]
+
+    def __setitem__(self, name: str, value: float) -> None:
+        self.set(name, value)
+
+    def _refuse(self, *_a, **_k):
+        raise TypeError("ParamStore: values change through set() or load() only")
+
+    __delitem__ = update = pop = popitem = clear = setdefault = __ior__ = _refuse
 
     # --- writing -----------------------------------------------------------------
     def set(self, name: str, value: float) -> float:
@@ -90,7 +105,7 @@ class ParamStore:
             raise ParamError(f"{name}: must be an integer")
         if not decl.min <= v <= decl.max:
             raise ParamError(f"{name}: {v:g} outside [{decl.min:g}, {decl.max:g}]")
-        self._values[name] = v
+        dict.__setitem__(self, name, v)
         return v
 
     # --- .parm files -------------------------------------------------------------
@@ -128,8 +143,16 @@ class ParamStore:
                     raise ParamError(f"{path}:{lineno}: {name}: {value} outside [{decl.min:g}, {decl.max:g}]")
                 updates.append((name, v))
         for name, v in updates:
-            self._values[name] = v
+            dict.__setitem__(self, name, v)
         return [n for n, _ in updates]
+
+
+def _restore_store(declarations: list[Param], values: list[tuple[str, float]]) -> ParamStore:
+    """Unpickling (ParamStore.__reduce__): the declarations, then the values."""
+    store = ParamStore(declarations)
+    for name, v in values:
+        dict.__setitem__(store, name, v)
+    return store
 
 
 def _fmt(value: float) -> str:

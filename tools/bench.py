@@ -142,6 +142,8 @@ def bench_quad_plant(seconds: float) -> float:
     plant.set_airborne(10.0)
     u = plant.af.hover_command(plant.rho, plant.g)
     n = int(seconds / plant.dt_s)
+    for _ in range(10):                          # (a first run compiles the plant's kernel here)
+        plant.step((u, u, u, u))
     t0 = time.perf_counter()
     for k in range(n):
         d = 1e-4 * (k % 7)
@@ -208,54 +210,171 @@ def run_quad_bench(seconds: float = 60.0) -> None:
         print(f"    {label:32s} {timers.total[label] / steps * 1e6:8.1f}")
 
 
-def run_bench(seconds: float = 60.0, vehicle: str = "plane") -> None:
+def bench_formation(path, seconds: float) -> float:
+    """The seed's quadrotor formation (``path``) at full rates: the 250 Hz lockstep and the
+    single-quad filter rate (QD_NAV_DIV's default), ``seconds`` of simulated time from
+    power-on (alignment and the hold before the common start included, as a campaign pays
+    them). Real-time factor of the whole formation (all vehicles share this process)."""
+    import dataclasses
+    from autopilot.formation import load_formation
+    from autopilot.vehicle_quad import quad_param_declarations
+    from .formation import VehicleNetwork, run_quad
+    import numpy as np
+    nav_div = int(next(d.default for d in quad_param_declarations() if d.name == "QD_NAV_DIV"))
+    spec = load_formation(path)
+    spec = dataclasses.replace(spec, quad=dataclasses.replace(spec.quad, hil_rate_hz=250.0,
+                                                              nav_div=nav_div))
+    net = VehicleNetwork([v.id for v in spec.vehicles], spec.network.latency_s, spec.network.loss,
+                         np.random.default_rng(1))
+    from .formation import QUAD_START_S
+    out, _ = run_quad(spec, 1, net, max(seconds - QUAD_START_S, 0.1))
+    return out["sim_time_s"] / out["wall_s"]
+
+
+_FIRST_STEP = """
+import sys, time
+from tools.runner import RunConfig, Session
+s = Session(RunConfig(nav=sys.argv[1], duration_s=float(sys.argv[2]), seed=1))
+s.step()
+t1 = time.time()
+while s.t_s < float(sys.argv[2]):
+    s.step()
+print(t1, time.time())
+"""
+
+
+def bench_startup(nav: str = "ekf", seconds: float = 0.0, cache_dir: str | None = None) -> tuple:
+    """(start-up, total) wall seconds of a fresh ``python`` process: from its spawn to the
+    first lockstep step of a run (imports, JSBSim, the vehicle: what ``sitl run`` pays
+    before it flies), and to ``seconds`` of simulated flight. ``cache_dir``: the numba
+    cache to use (an empty one measures a fresh install's first run, kernels compiled)."""
+    env = dict(os.environ)
+    if cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = cache_dir
+    root = str(DEFAULT_MISSION.parent.parent)
+    t0 = time.time()
+    out = subprocess.run([sys.executable, "-c", _FIRST_STEP, nav, str(seconds)], cwd=root, env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    return float(out[-2]) - t0, float(out[-1]) - t0
+
+
+FORMATION5 = DEFAULT_MISSION.parent / "formation_seed_quad.toml"
+FORMATION10 = DEFAULT_MISSION.parent / "formation_ten_quad.toml"
+
+
+def bench_figures(seconds: float = 60.0, out=print) -> dict:
+    """Every figure of ``sitl bench`` in one run (ratios are only comparable within a run):
+    the keys of ``sitl bench --json``. ``out`` receives one line per figure as it is
+    measured (None: silent)."""
+    say = out or (lambda *_: None)
+    fig: dict = {"seconds": seconds}
+    bench_startup()                              # warm the file cache and the kernel cache
+    fig["startup_s"] = min(bench_startup()[0] for _ in range(2))
+    say(f"  start-up, process spawn to the first lockstep step (nav ekf): {fig['startup_s']:.2f} s")
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        cold = bench_startup("ukf", 15.0, cache_dir=d)[1]
+    bench_startup("ukf", 15.0)                   # (fills the kernel cache if it was empty)
+    warm = bench_startup("ukf", 15.0)[1]
+    fig["first_run_compile_s"] = cold - warm
+    say(f"  first run after install (nav ukf, 15 s flight, empty kernel cache): {cold:.2f} s, "
+        f"{fig['first_run_compile_s']:.2f} s more than with the cache")
+    plant_rtf, plant_cpu = bench_plant(seconds)
+    fig["plant_rtf"], fig["plant_cpu_rtf"] = plant_rtf, plant_cpu
+    say(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time"
+        f"   (per CPU second of this process: {plant_cpu:6.1f} x)")
+    for nav in ("truth", "ekf", "ukf"):
+        rtf, s = bench_memory(seconds if nav != "ukf" else min(seconds, 20.0), nav)
+        fig[f"loop_{nav}_rtf"], fig[f"loop_{nav}_cpu_rtf"] = rtf, s.bench_cpu_rtf
+        say(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time"
+            f"   (per CPU second of this process: {s.bench_cpu_rtf:6.1f} x)")
+    try:
+        fig["loop_tcp_rtf"] = bench_tcp(seconds, "ekf")
+        say(f"  full loop, TCP, two processes (ekf):           {fig['loop_tcp_rtf']:8.1f} x real time")
+    except Exception as e:  # report, do not hide
+        fig["loop_tcp_rtf"] = None
+        say(f"  full loop, TCP, two processes: failed ({e})")
+    fig["quad_plant_rtf"] = bench_quad_plant(seconds)
+    say(f"  quadrotor plant alone (4 ms steps):            {fig['quad_plant_rtf']:8.1f} x real time")
+    rtf, s = bench_quad_memory(seconds, "ekf")
+    fig["quad_loop_ekf_rtf"] = rtf
+    say(f"  quadrotor full loop, memory pipe, nav ekf:     {rtf:8.1f} x real time "
+        f"(best 5 s window {s.bench_best_window_rtf:.1f})")
+    fsec = min(seconds, 20.0)
+    fig["formation5_rtf"] = bench_formation(FORMATION5, fsec)
+    say(f"  5-quad formation, 250 Hz, full filter rate:    {fig['formation5_rtf']:8.1f} x real time")
+    fig["formation10_rtf"] = bench_formation(FORMATION10, fsec)
+    say(f"  10-quad formation, 250 Hz, full filter rate:   {fig['formation10_rtf']:8.1f} x real time")
+    tcp = fig["loop_tcp_rtf"]
+    fig["ratio_loop_ekf_to_plant"] = fig["loop_ekf_rtf"] / plant_rtf
+    fig["ratio_loop_ekf_to_plant_cpu"] = fig["loop_ekf_cpu_rtf"] / plant_cpu
+    fig["ratio_tcp_to_memory"] = tcp / fig["loop_ekf_rtf"] if tcp else None
+    fig["ratio_quad_loop_to_plant"] = fig["quad_loop_ekf_rtf"] / fig["quad_plant_rtf"]
+    fig["ratio_formation10_to_5"] = fig["formation10_rtf"] / fig["formation5_rtf"]
+    say(f"  ratios: loop ekf / plant {fig['ratio_loop_ekf_to_plant']:.3f} (CPU "
+        f"{fig['ratio_loop_ekf_to_plant_cpu']:.3f}), TCP / memory "
+        f"{fig['ratio_tcp_to_memory'] or float('nan'):.3f}, quad loop / quad plant "
+        f"{fig['ratio_quad_loop_to_plant']:.3f}, 10 quads / 5 quads {fig['ratio_formation10_to_5']:.3f}")
+    timers = _Timers()
+    _, s = bench_memory(min(seconds, 30.0), "ekf", timers)
+    steps = max(timers.count["plant"], 1)
+    fig["block_us"] = {k: timers.total[k] / steps * 1e6 for k in timers.total}
+    say("  time per 10 ms step by block (nav ekf), microseconds:")
+    for label in sorted(timers.total, key=lambda k: -timers.total[k]):
+        say(f"    {label:28s} {fig['block_us'][label]:8.1f}")
+    from autopilot.nav.bench import bench as nav_bench
+    from autopilot.nav.ukf import InsGpsUkf
+    from autopilot.nav.ekf import InsGpsEkf
+    say("  navigation filters alone, per 100 Hz step (best of 3), microseconds:")
+    for name, cls, secs in (("ekf", InsGpsEkf, 20.0), ("ukf", InsGpsUkf, 5.0)):
+        r = nav_bench(cls, aux_hz=50.0, seconds=secs, repeats=3)
+        fig[f"{name}_alone_us"] = r
+        say(f"    {name.upper()}: predict {r['predict_us']:7.1f}   update {r['update_us']:7.1f}   "
+            f"step {r['step_us']:7.1f}")
+    return fig
+
+
+def run_profile(seconds: float = 30.0, vehicle: str = "plane", top: int = 40) -> None:
+    """``sitl bench --profile``: the full loop (memory pipe, EKF) under cProfile, the top
+    functions by cumulative time, then by own time."""
+    import cProfile
+    import pstats
+    prof = cProfile.Profile()
+    if vehicle == "quad":
+        from .runner import QUAD_DEFAULT_MISSION
+        cfg = RunConfig(vehicle="quad", airframe="f450", mission=QUAD_DEFAULT_MISSION, nav="ekf",
+                        scenario=DEFAULT_SCENARIO, duration_s=1e9, seed=1)
+        warm = 12.0
+    else:
+        cfg = RunConfig(nav="ekf", scenario=DEFAULT_SCENARIO, duration_s=1e9, seed=1)
+        warm = 5.0
+    s = Session(cfg)
+    while not s.vehicle.armed or s.t_s < warm:
+        s.step()
+    t_end = s.t_s + seconds
+    prof.enable()
+    while s.t_s < t_end:
+        s.step()
+    prof.disable()
+    print(f"sitl bench --profile: {vehicle}, nav ekf, memory pipe, {seconds:.0f} simulated s "
+          f"after arming (cProfile slows Python calls ~2x: read shares, not speeds)")
+    st = pstats.Stats(prof)
+    st.sort_stats("cumulative").print_stats(top)
+    st.sort_stats("tottime").print_stats(top)
+
+
+def run_bench(seconds: float = 60.0, vehicle: str = "plane", as_json: bool = False) -> None:
+    if as_json:
+        import json
+        print(json.dumps(bench_figures(seconds, out=None), indent=1, sort_keys=True))
+        return
     if vehicle == "quad":
         run_quad_bench(seconds)
         return
     print(f"sitl bench: {seconds:.0f} simulated seconds per measurement, default mission, 100 Hz lockstep")
     print("  (wall-clock figures; in brackets the same per CPU second of this process, which a\n"
           "   shared machine disturbs less)")
-    plant_rtf, plant_cpu = bench_plant(seconds)
-    print(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time"
-          f"   (per CPU second of this process: {plant_cpu:6.1f} x)")
-    cpu_rows = {}
-    rows = {}
-    for nav in ("truth", "ekf", "ukf"):
-        try:
-            rtf, _ = bench_memory(seconds if nav != "ukf" else min(seconds, 20.0), nav)
-        except ImportError as e:
-            print(f"  full loop, memory pipe, nav {nav}: unavailable ({e})")
-            continue
-        rows[nav] = rtf
-        cpu_rows[nav] = _.bench_cpu_rtf
-        print(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time"
-              f"   (per CPU second of this process: {_.bench_cpu_rtf:6.1f} x)")
-    try:
-        tcp = bench_tcp(seconds, "ekf" if "ekf" in rows else "truth")
-        print(f"  full loop, TCP, two processes:                 {tcp:8.1f} x real time")
-    except Exception as e:  # report, do not hide
-        print(f"  full loop, TCP, two processes: failed ({e})")
-    best = rows.get("ekf", rows.get("truth"))
-    if best:
-        cbest = cpu_rows.get("ekf", cpu_rows.get("truth"))
-        print(f"  ratio closed loop (memory, ekf) / plant alone: {best / plant_rtf:8.3f}"
-              f"   (CPU: {cbest / plant_cpu:6.3f})")
-    timers = _Timers()
-    nav = "ekf" if "ekf" in rows else "truth"
-    _, s = bench_memory(min(seconds, 30.0), nav, timers)
-    steps = max(timers.count["plant"], 1)
-    print(f"  time per 10 ms step by block (nav {nav}), microseconds:")
-    for label in sorted(timers.total, key=lambda k: -timers.total[k]):
-        print(f"    {label:28s} {timers.total[label] / steps * 1e6:8.1f}")
-    # the filters alone, on the navigation simulator's manoeuvring flight
-    from autopilot.nav.bench import bench as nav_bench
-    from autopilot.nav.ukf import InsGpsUkf
-    from autopilot.nav.ekf import InsGpsEkf
-    print("  navigation filters alone, per 100 Hz step (best of 3), microseconds:")
-    for name, cls, secs in (("EKF", InsGpsEkf, 20.0), ("UKF", InsGpsUkf, 5.0)):
-        r = nav_bench(cls, aux_hz=50.0, seconds=secs, repeats=3)
-        print(f"    {name}: predict {r['predict_us']:7.1f}   update {r['update_us']:7.1f}   "
-              f"step {r['step_us']:7.1f}")
+    bench_figures(seconds)
 
 
 # --- fault monitor: false alarms over fault-free flights ------------------------------

@@ -10,7 +10,7 @@
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
                 [--signing-key FILE]
     sitl report RUN_DIR
-    sitl bench  [--vehicle plane|quad] [--seconds S]
+    sitl bench  [--vehicle plane|quad] [--seconds S] [--json] [--profile]
     sitl bench  --false-alarms [--flights N] [--seconds S] [--seed N]
     sitl formation FILE [--seed N] [--duration S] [--loss P] [--latency S] [--rate HZ]
                 [--udp] [--gcs] [--log-dir DIR] [--json]
@@ -266,7 +266,11 @@ def cmd_bench(args) -> int:
     from .bench import run_bench
     if args.seconds is None:
         args.seconds = 60.0
-    run_bench(args.seconds, vehicle=args.vehicle)
+    if args.profile:
+        from .bench import run_profile
+        run_profile(min(args.seconds, 30.0), vehicle=args.vehicle)
+        return 0
+    run_bench(args.seconds, vehicle=args.vehicle, as_json=args.json)
     return 0
 
 
@@ -375,6 +379,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--seconds", type=float, default=None,
                    help="simulated seconds per measurement (default 60; --false-alarms: per flight, 600)")
     b.add_argument("--vehicle", default="plane", choices=["plane", "quad"])
+    b.add_argument("--json", action="store_true",
+                   help="every figure (plane, quad, formations) as one JSON object")
+    b.add_argument("--profile", action="store_true",
+                   help="the full loop (nav ekf) under cProfile: top functions by cumulative time")
     b.add_argument("--false-alarms", action="store_true",
                    help="fault monitor: false alarms over fault-free flights of different seeds")
     b.add_argument("--flights", type=int, default=10, help="--false-alarms: number of flights")

@@ -196,8 +196,29 @@ class Codec:
         out = []
         n = len(data)
         i = 0
-        find = data.find
         crc16 = _crc16
+        if limit is None and raw_ids:
+            # the lockstep stream's case: whole unsigned MAVLink 2 frames of raw_ids back
+            # to back, read without the general loop's cases; anything else (another
+            # message, a partial frame, garbage, a signature) goes on below from there
+            while n - i >= 12 and data[i] == STX_V2 and not data[i + 2]:
+                plen = data[i + 1]
+                end = i + 10 + plen
+                msg_id = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
+                if end + 2 > n or msg_id not in raw_ids:
+                    break
+                f = _FLAT.get(msg_id) or _flat(msg_id)
+                if (data[end] | (data[end + 1] << 8)) != crc16(f.extra, crc16(data[i + 1:end], 0xFFFF)):
+                    break
+                size = f.size
+                t = f.unpack_from(data, i + 10) if plen >= size else f.unpack(data[i + 10:end] + _ZEROS[:size - plen])
+                out.append(RawMessage(msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
+                i = end + 2
+            if i == n:
+                self.limited = False
+                self.received += len(out)
+                return out
+        find = data.find
         stop_at = None if limit is None else self.bad_frames + limit
         self.limited = False
         while i < n:

@@ -86,6 +86,27 @@ def _split_url(url: str) -> tuple[str, str, int]:
         raise TransportError(f"bad link URL {url!r}: expected KIND:HOST:PORT") from None
 
 
+def _send_all(sock: socket.socket, data: bytes) -> bool:
+    """Send all of ``data`` on a non-blocking TCP socket; False if the connection failed.
+    One ``send`` when the socket buffer has room (every lockstep step: a few hundred
+    bytes), else the rest blocking (the peer is slow to read: wait for it, as before)."""
+    try:
+        n = sock.send(data)
+    except BlockingIOError:
+        n = 0
+    except OSError:
+        return False
+    if n == len(data):
+        return True
+    sock.setblocking(True)
+    try:
+        sock.sendall(memoryview(data)[n:])
+    except OSError:
+        return False
+    sock.setblocking(False)
+    return True
+
+
 class TcpClient:
     def __init__(self, host: str, port: int, connect_timeout_s: float = 10.0):
         deadline = time.monotonic() + connect_timeout_s
@@ -106,14 +127,8 @@ class TcpClient:
     def send(self, data: bytes) -> None:
         if self.closed:
             return
-        self.sock.setblocking(True)
-        try:
-            self.sock.sendall(data)
-        except OSError:
+        if not _send_all(self.sock, data):
             self.closed = True
-        finally:
-            if not self.closed:
-                self.sock.setblocking(False)
 
     def recv(self, timeout_s: float = 0.0) -> bytes:
         if self.closed:
@@ -167,11 +182,7 @@ class TcpServerOne:
     def send(self, data: bytes) -> None:
         if self.conn is None:
             return
-        self.conn.setblocking(True)
-        try:
-            self.conn.sendall(data)
-            self.conn.setblocking(False)
-        except OSError:
+        if not _send_all(self.conn, data):
             self.conn.close()
             self.conn = None
 

@@ -40,18 +40,20 @@ their own thresholds so that channels of different dimension compare).
 
 Cost: every statistic is a running sum over a ring of M samples (one add, one
 subtract per sample; re-summed every 64 windows against round-off). The chi-square
-quantiles are computed once, at construction (scipy.stats.chi2.ppf).
+quantiles are computed once, at construction (scipy.stats.chi2.ppf's own formula,
+``2 gammaincinv(dof / 2, 1 - alpha)``, from scipy.special: importing scipy.stats costs
+more start-up time than the rest of the autopilot).
 """
 from __future__ import annotations
 
 import math
 
-from scipy.stats import chi2 as _chi2
+from scipy.special import gammaincinv as _gammaincinv
 
 
 def chi2_threshold(alpha: float, dof: int) -> float:
     """chi2_{alpha, dof}: the (1 - alpha) quantile (eqs 2.14, 2.42)."""
-    return float(_chi2.ppf(1.0 - alpha, dof))
+    return float(2.0 * _gammaincinv(0.5 * dof, 1.0 - alpha))
 
 
 def family_alpha(p_fa: float, tests: float) -> float:

@@ -13,14 +13,14 @@ Sources: ``gps_pos`` (NED position, m), ``gps_vel`` (NED velocity, m/s), ``baro`
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from autopilot.frozen import message
 
 SOURCES = ("gps_pos", "gps_vel", "baro", "mag", "airspeed", "sideslip", "fake_pos")
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class InnovationRecord:
     t_us: int                          # filter time of the update [us]
     source: str                        # one of SOURCES

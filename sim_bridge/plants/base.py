@@ -7,13 +7,14 @@ are talking to. Units are SI, angles radians, frames NED (earth) and FRD (body);
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from autopilot.frozen import message
 
-@dataclass(frozen=True, slots=True)
+
+@message
 class PlantState:
     """True state of the vehicle at one instant (the plant's output)."""
 
@@ -35,7 +36,7 @@ class PlantState:
     temperature_k: float = 288.15  # static air temperature [K]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class PlaneControls:
     """Normalised fixed-wing commands, as carried in HIL_ACTUATOR_CONTROLS [0..3].
 

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.geo import LocalFrame, gravity_m_s2
+from autopilot.jit import kernel
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import isa
 from sim_bridge.wind import DrydenGusts
@@ -170,6 +171,10 @@ class QuadrotorPlant:
         self.touchdown_speed_mps: float | None = None
         # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
         self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+        # flight_step's constants
+        self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
+                                 af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
+                                 af.gear_height_m))
         self.reset()
 
     # ------------------------------------------------------------------- state ---
@@ -251,72 +256,29 @@ class QuadrotorPlant:
         return self.state()
 
     def _integrate(self, t_ss) -> None:
-        af = self.af
-        dt = self.dt_s
-        lag = self._lag
-        T = self.thrust
-        for j in range(4):
-            T[j] += (t_ss[j] - T[j]) * lag
-        t1, t2, t3, t4 = T
-        total = t1 + t2 + t3 + t4
-        m = af.mass_kg
-        g = self.g
-        qw, qx, qy, qz = self.q
-        r = _dcm(qw, qx, qy, qz)
-
-        # air-relative velocity (steady wind + Dryden gust) and the body drag (3.25)
-        vn, ve, vd = self.v
-        h_agl = -self.p[2]
+        """One integration step (:func:`flight_step`); the ground (resting, touching
+        down) here."""
         wn, we, wd = self._wind
         if self._gusts.active:
+            # the Dryden gust at the air-relative speed over the steady wind
+            vn, ve, vd = self.v
             an0, ae0, ad0 = vn - wn, ve - we, vd - wd
-            gn, ge, gd = self._gusts.step(h_agl, math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
+            gn, ge, gd = self._gusts.step(-self.p[2], math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
             wn, we, wd = wn + gn, we + ge, wd + gd
-        an, ae, ad = vn - wn, ve - we, vd - wd
-        va = math.sqrt(an * an + ae * ae + ad * ad)
-        dk = af.drag_lin + 0.5 * self.rho * af.drag_area_m2 * va   # D / V_a
-        dn, de, dd = -dk * an, -dk * ae, -dk * ad                    # -D e_V [N]
-
-        # thrust -T e_z in NED: third column of R times -total
-        fn = -total * r[2] + dn
-        fe = -total * r[5] + de
-        fdn = -total * r[8] + dd          # (gravity added below)
-        if self.on_ground:
-            if fdn + m * g < 0.0 and self._level(r) < 0.02:
-                self.on_ground = False    # thrust exceeds weight: lift off
-            else:
-                self._rest(dt)
-                return
-
-        # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
-        l, km = af.arm_m, self._km
-        mx = l * (t2 - t4)
-        my = l * (t3 - t1)
-        mz = km * (t1 + t3 - t2 - t4)
-        p, q, rr = self.w
-        ixx, iyy, izz = af.ixx, af.iyy, af.izz
-        pd = (mx - (izz - iyy) * q * rr) / ixx
-        qd = (my - (ixx - izz) * p * rr) / iyy
-        rd = (mz - (iyy - ixx) * p * q) / izz
-        p1, q1, r1 = p + pd * dt, q + qd * dt, rr + rd * dt
-        self.w = [p1, q1, r1]
-        # attitude: q <- q (x) Exp(omega_mid dt), renormalised (1.13-1.14)
-        self.q = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt, 0.5 * (q + q1) * dt,
-                            0.5 * (rr + r1) * dt)
-
-        # translational dynamics (3.23), (3.25)
-        a_n, a_e, a_d = fn / m, fe / m, fdn / m + g
-        u_n, u_e, u_d = vn + a_n * dt, ve + a_e * dt, vd + a_d * dt
-        pn, pe, pdn = self.p
-        pdn1 = pdn + 0.5 * (vd + u_d) * dt
-        self.p = [pn + 0.5 * (vn + u_n) * dt, pe + 0.5 * (ve + u_e) * dt, pdn1]
-        self.v = [u_n, u_e, u_d]
-        # specific force (accelerometer truth): non-gravitational force / m, body axes
-        self._f_b = ((r[0] * dn + r[3] * de + r[6] * dd) / m,
-                     (r[1] * dn + r[4] * de + r[7] * dd) / m,
-                     (r[2] * dn + r[5] * de + r[8] * dd - total) / m)
-        if pdn1 > -af.gear_height_m:
-            self._touchdown(u_d)
+        x = np.array((*self.p, *self.v, *self.q, *self.w, *self.thrust, *t_ss, wn, we, wd,
+                      1.0 if self.on_ground else 0.0))
+        out = flight_step(x, self._consts)
+        o = out.tolist()
+        self.thrust = o[13:17]
+        code = o[20]
+        if code == _ON_GROUND:
+            self._rest(self.dt_s)
+            return
+        self.on_ground = False
+        self.p, self.v, self.q, self.w = o[0:3], o[3:6], o[6:10], o[10:13]
+        self._f_b = (o[17], o[18], o[19])
+        if code == _TOUCHDOWN:
+            self._touchdown(o[5])
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
@@ -356,7 +318,7 @@ class QuadrotorPlant:
         if abs(roll) + abs(pitch) > 1e-6:
             p, q = -LEVEL_RATE * roll, -LEVEL_RATE * pitch
             self.w = [p, q, 0.0]
-            self.q = _quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0)
+            self.q = list(_quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0))
             r = _dcm(*self.q)
         else:
             self.w = [0.0, 0.0, 0.0]
@@ -374,7 +336,11 @@ def _dcm(w: float, x: float, y: float, z: float) -> tuple:
             2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
 
 
-def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
+_FLYING, _ON_GROUND, _TOUCHDOWN = 0.0, 1.0, 2.0
+
+
+@kernel
+def _quat_step(qw, qx, qy, qz, ax, ay, az):
     """q (x) Exp([ax, ay, az]) renormalised, w >= 0 (autopilot.geo.quat_integrate)."""
     ang = math.sqrt(ax * ax + ay * ay + az * az)
     if ang > 1e-9:
@@ -389,5 +355,65 @@ def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
     n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     if rw < 0.0:
         n = -n
-    return [rw * n, rx * n, ry * n, rz * n]
+    return rw * n, rx * n, ry * n, rz * n
 
+
+@kernel
+def flight_step(x, c):
+    """One step dt of eqs 3.23-3.26 (module docstring). ``x``: p (NED), v, q_nb, omega_b,
+    the rotor thrusts T, their static values T_ss, the wind (steady + gust, NED),
+    on-ground flag; ``c``: dt, the thrust lag 1 - exp(-dt/tau), m, g, c_lin, rho, CdA,
+    l, k_M, Ixx, Iyy, Izz, the gear height. Returns p, v, q, omega, T, the specific force
+    f_b and a code: 0 flew, 1 rests on the ground (only T moved), 2 touched down."""
+    dt, lag, m, g, drag_lin, rho, cda, l, km, ixx, iyy, izz, gear = (
+        c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12])
+    out = np.empty(21)
+    # each rotor's thrust follows its static value (eq 3.31, discretised exactly)
+    for j in range(4):
+        out[13 + j] = x[13 + j] + (x[17 + j] - x[13 + j]) * lag
+    t1, t2, t3, t4 = out[13], out[14], out[15], out[16]
+    total = t1 + t2 + t3 + t4
+    qw, qx, qy, qz = x[6], x[7], x[8], x[9]
+    ww, xx, yy, zz = qw * qw, qx * qx, qy * qy, qz * qz
+    r2, r5, r8 = 2.0 * (qx * qz + qw * qy), 2.0 * (qy * qz - qw * qx), ww - xx - yy + zz
+    # air-relative velocity and the body drag (3.25): -D e_V, D / V_a = c_lin + 1/2 rho CdA V_a
+    vn, ve, vd = x[3], x[4], x[5]
+    an, ae, ad = vn - x[21], ve - x[22], vd - x[23]
+    va = math.sqrt(an * an + ae * ae + ad * ad)
+    dk = drag_lin + 0.5 * rho * cda * va
+    dn, de, dd = -dk * an, -dk * ae, -dk * ad
+    # thrust -T e_z in NED: third column of R times -total (gravity added below)
+    fn = -total * r2 + dn
+    fe = -total * r5 + de
+    fdn = -total * r8 + dd
+    if x[24] != 0.0:
+        if not (fdn + m * g < 0.0 and 1.0 - r8 < 0.02):   # thrust exceeds weight: lift off
+            out[20] = 1.0
+            return out
+    # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
+    mx = l * (t2 - t4)
+    my = l * (t3 - t1)
+    mz = km * (t1 + t3 - t2 - t4)
+    p, q, rr = x[10], x[11], x[12]
+    pd = (mx - (izz - iyy) * q * rr) / ixx
+    qd = (my - (ixx - izz) * p * rr) / iyy
+    rd = (mz - (iyy - ixx) * p * q) / izz
+    p1, q1, r1 = p + pd * dt, q + qd * dt, rr + rd * dt
+    out[10], out[11], out[12] = p1, q1, r1
+    # attitude: q <- q (x) Exp(omega_mid dt), renormalised (1.13-1.14)
+    out[6], out[7], out[8], out[9] = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt,
+                                                  0.5 * (q + q1) * dt, 0.5 * (rr + r1) * dt)
+    # translational dynamics (3.23), (3.25)
+    a_n, a_e, a_d = fn / m, fe / m, fdn / m + g
+    u_n, u_e, u_d = vn + a_n * dt, ve + a_e * dt, vd + a_d * dt
+    pdn1 = x[2] + 0.5 * (vd + u_d) * dt
+    out[0], out[1], out[2] = x[0] + 0.5 * (vn + u_n) * dt, x[1] + 0.5 * (ve + u_e) * dt, pdn1
+    out[3], out[4], out[5] = u_n, u_e, u_d
+    # specific force (accelerometer truth): non-gravitational force / m, body axes
+    r0, r1_, r3 = ww + xx - yy - zz, 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qy + qw * qz)
+    r4, r6, r7 = ww - xx + yy - zz, 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx)
+    out[17] = (r0 * dn + r3 * de + r6 * dd) / m
+    out[18] = (r1_ * dn + r4 * de + r7 * dd) / m
+    out[19] = (r2 * dn + r5 * de + r8 * dd - total) / m
+    out[20] = 2.0 if pdn1 > -gear else 0.0
+    return out

@@ -5,12 +5,13 @@ Immutable: the arrays inside are made read-only by the producer.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.frozen import message
 
-@dataclass(frozen=True, slots=True)
+
+@message
 class GpsReading:
     """One GNSS fix as the receiver delivers it."""
 
@@ -36,7 +37,7 @@ class GpsReading:
         return math.atan2(float(self.v_ned[1]), float(self.v_ned[0])) % (2.0 * math.pi)
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class SensorReadings:
     """Everything the sensors produce at one simulation step.
 
