@@ -330,7 +330,7 @@ class Telemetry:
                 length = math.hypot(ln, le)
                 if length > 1e-3:
                     xtrack = ((pn - prev[0]) * -le + (pe - prev[1]) * ln) / length
-            if alt is not None:
+            if alt is not None and math.isfinite(alt):   # (NaN: "the current altitude")
                 alt_err = alt - nav.alt_m
         return MAV.MAVLink_nav_controller_output_message(
             math.degrees(r), math.degrees(p), _i(bearing, -180, 360), _i(bearing, -180, 360),

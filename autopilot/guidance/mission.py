@@ -39,6 +39,8 @@ radius, a speed outside the airframe's limits, a step too steep for its leg.
 Latitude and longitude 0 mean "here" (the position when the item starts) for the
 navigation items ArduPlane reads so, and then altitude 0 means the current altitude; a
 loiter's relative altitude 0 means the current altitude (ArduPilot's Location::sanitize).
+A NaN altitude (MAVLink's "no change"; QGroundControl writes null) is the current
+altitude when the item starts.
 """
 from __future__ import annotations
 
@@ -224,7 +226,11 @@ class MissionSequencer:
         means the current altitude; a loiter's relative altitude 0 means the current
         altitude."""
         if self._nav_pos is None:
-            if self._here(item):
+            if math.isnan(item.z_alt_m):
+                # NaN altitude (QGroundControl's null): the current altitude
+                b = (float(p_ne[0]), float(p_ne[1])) if self._here(item) else self.item_ne(item)
+                alt = alt_m
+            elif self._here(item):
                 b = (float(p_ne[0]), float(p_ne[1]))
                 alt = alt_m if item.z_alt_m == 0 else self.item_alt_m(item)
             else:

@@ -38,7 +38,8 @@ seconds), NAV_LAND (lat/lon 0: here), NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_S
 speed types 0 and 1 --, WPNAV_SPEED_UP -- 2 -- or WPNAV_SPEED_DN -- 3 -- for the rest of
 the flight; -2 restores the parameter), DO_SET_HOME (param1 1 or all zero: here),
 CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``).
-Latitude and longitude 0 mean "here" and altitude 0 "this height" (``item_ned``).
+Latitude and longitude 0 mean "here" and altitude 0 or NaN "this height" (``item_ned``);
+a NaN heading (param4, QGroundControl's null) leaves the heading to the legs.
 A waypoint is reached when the reference has arrived and the vehicle is within the
 acceptance radius (default WPNAV_RADIUS); the hold time starts then. Timed holds and
 loiters are flagged ``hold`` in the target (scored as hold_pos_rms_m). A mission that
@@ -521,8 +522,8 @@ class CopterMissionSequencer:
             q = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
                                        self.frame.alt0_m)
             n, e = float(q[0]), float(q[1])
-        if item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND:
-            d = p_now[2]                         # altitude 0: keep the height
+        if math.isnan(item.z_alt_m) or (item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND):
+            d = p_now[2]                         # altitude 0 or NaN: keep the height
         else:
             d = self.frame.alt0_m - self.item_alt_m(item)
         return n, e, d

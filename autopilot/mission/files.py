@@ -8,7 +8,13 @@
 * `.plan` (QGroundControl's JSON, docs.qgroundcontrol.com "Plan File Format"):
   `fileType` "Plan", `version` 1, `mission.plannedHomePosition` [lat, lon, alt MSL]
   becomes item 0, `mission.items` are SimpleItems (command, frame, params[7] with null
-  for NaN, autoContinue, doJumpId) that become items 1, 2, ... A DO_JUMP's param1 in a
+  for NaN, autoContinue, doJumpId) that become items 1, 2, ... Nulls are read as
+  QGroundControl's own loader reads them (MissionItem::load): any param null is NaN
+  (a NaN altitude flies at the current altitude, a NaN heading leaves it alone; NaN in
+  an unused latitude / longitude goes out as 0 in MISSION_ITEM_INT); a null doJumpId is
+  no doJumpId; a null home altitude is 0 m; QGroundControl's display fields (Altitude,
+  AltitudeMode, AMSLAltAboveTerrain, cruiseSpeed, hoverSpeed) are not read. Its older
+  item form (params[4] + "coordinate" [lat, lon, alt]) is read too. A DO_JUMP's param1 in a
   plan names the target's doJumpId; it is mapped to the target's seq on load, and on
   save every item gets doJumpId = seq so the two numberings agree. ComplexItems (survey,
   corridor scan, structure scan) are refused. Geofence and rally points are ignored.
@@ -200,12 +206,16 @@ def loads_plan(text: str, path: PathLike = "<string>", vehicle: str | None = Non
         raise MissionFileError(path, None, "no 'mission' object")
 
     home_pos = mission.get("plannedHomePosition")
-    if not (isinstance(home_pos, list) and len(home_pos) == 3 and all(map(_is_number, home_pos))):
+    if not (isinstance(home_pos, list) and len(home_pos) == 3 and all(map(_is_number, home_pos[:2]))
+            and (home_pos[2] is None or _is_number(home_pos[2]))):
         raise MissionFileError(path, "item 0",
                                "plannedHomePosition must be [lat, lon, alt] numbers")
+    # a null home altitude (QGroundControl saves one when it had no terrain height for
+    # the planned home) is read as sea level: the vehicle sets home at arming anyway
+    home_alt = 0.0 if home_pos[2] is None else home_pos[2]
     home = MissionItem(seq=0, frame=FRAME_GLOBAL, command=NAV_WAYPOINT, current=1,
                        autocontinue=1, param1=0.0, param2=0.0, param3=0.0, param4=0.0,
-                       x_lat_deg=home_pos[0], y_lon_deg=home_pos[1], z_alt_m=home_pos[2])
+                       x_lat_deg=home_pos[0], y_lon_deg=home_pos[1], z_alt_m=home_alt)
     problem = item_problem(home)
     if problem is not None:
         raise MissionFileError(path, "item 0", f"plannedHomePosition: {problem}")
@@ -269,6 +279,12 @@ def _plan_item(raw: Any, seq: int, path: PathLike, where: str) -> tuple[MissionI
         if not isinstance(raw.get(key), int) or isinstance(raw.get(key), bool):
             raise MissionFileError(path, where, f"'{key}' must be an integer, got {raw.get(key)!r}")
     params = raw.get("params")
+    coordinate = raw.get("coordinate")
+    if isinstance(params, list) and len(params) == 4 and coordinate is not None:
+        # QGroundControl's older item format: param5..7 in "coordinate" [lat, lon, alt]
+        if not (isinstance(coordinate, list) and len(coordinate) == 3):
+            raise MissionFileError(path, where, "'coordinate' must be [lat, lon, alt]")
+        params = params + coordinate
     if not isinstance(params, list) or len(params) != 7:
         count = len(params) if isinstance(params, list) else "none"
         raise MissionFileError(path, where, f"expected 7 params, got {count}")

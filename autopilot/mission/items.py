@@ -87,6 +87,12 @@ POSITION_COMMANDS = frozenset(
     {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF,
      NAV_LOITER_TO_ALT}
 )
+# Position commands whose altitude may be NaN: "the current altitude" (MAVLink's
+# "NaN: use the current / no change" for param7; QGroundControl writes it null, e.g. the
+# altitude of a loiter in its ArduPlane SITL test plan). A takeoff needs its altitude;
+# DO_SET_HOME a place to move home to.
+NAN_ALT_COMMANDS = frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
+                              NAV_LAND, NAV_LOITER_TO_ALT})
 # Navigation commands (ArduPilot's "NAV" ids, < 95): the vehicle flies one at a time.
 NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
 # Conditions gate the DO items after them, never a navigation command (AP_Mission).
@@ -150,6 +156,12 @@ def deg_to_e7(deg: float) -> int:
     if not _INT32_MIN <= value <= _INT32_MAX:
         raise ValueError(f"{deg!r} deg does not fit a degE7 int32")
     return value
+
+
+def _e7_or_zero(deg: float) -> int:
+    """degE7 of an x / y; NaN (an unused field left "default") is sent as 0, the only
+    integer that means "not given" to ArduPilot (latitude and longitude 0 = here)."""
+    return 0 if math.isnan(deg) else deg_to_e7(deg)
 
 
 def e7_to_deg(value_e7: int) -> float:
@@ -217,8 +229,8 @@ class MissionItem:
             "seq": self.seq, "frame": self.frame, "command": self.command,
             "current": self.current, "autocontinue": self.autocontinue,
             "param1": self.param1, "param2": self.param2, "param3": self.param3,
-            "param4": self.param4, "x": deg_to_e7(self.x_lat_deg),
-            "y": deg_to_e7(self.y_lon_deg), "z": self.z_alt_m,
+            "param4": self.param4, "x": _e7_or_zero(self.x_lat_deg),
+            "y": _e7_or_zero(self.y_lon_deg), "z": self.z_alt_m,
             "mission_type": self.mission_type,
         }
 
@@ -305,14 +317,19 @@ def _item_problem(item: MissionItem) -> Problem | None:
             return bad("INVALID_PARAM5_X", f"latitude {item.x_lat_deg} outside [-90, 90]")
         if not (math.isfinite(item.y_lon_deg) and -180.0 <= item.y_lon_deg <= 180.0):
             return bad("INVALID_PARAM6_Y", f"longitude {item.y_lon_deg} outside [-180, 180]")
-        if not (math.isfinite(item.z_alt_m) and ALT_MIN_M <= item.z_alt_m <= ALT_MAX_M):
+        if math.isnan(item.z_alt_m) and item.command in NAN_ALT_COMMANDS:
+            pass   # NaN altitude: the current altitude (MAVLink's "no change")
+        elif not (math.isfinite(item.z_alt_m) and ALT_MIN_M <= item.z_alt_m <= ALT_MAX_M):
             return bad("INVALID_PARAM7",
                        f"altitude {item.z_alt_m} m outside [{ALT_MIN_M:g}, {ALT_MAX_M:g}]")
     else:
         # x / y / z are unused; they must still be numbers that fit MISSION_ITEM_INT.
+        # NaN ("unused", as QGroundControl writes null) is sent as 0 in x / y (`to_int`).
         for code, value, limit in (("INVALID_PARAM5_X", item.x_lat_deg, _UNUSED_XY_MAX),
                                    ("INVALID_PARAM6_Y", item.y_lon_deg, _UNUSED_XY_MAX),
                                    ("INVALID_PARAM7", item.z_alt_m, math.inf)):
+            if math.isnan(value):
+                continue
             if not (math.isfinite(value) and abs(value) <= limit):
                 return bad(code, f"{name}: unused x/y/z value {value} does not fit the INT message")
 
