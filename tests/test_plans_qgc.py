@@ -8,8 +8,9 @@ import pytest
 
 from autopilot.link.codec import MAV
 from autopilot.mission.files import MissionFileError, load_mission, loads_plan
-from autopilot.mission.items import (DO_CHANGE_SPEED, NAV_LOITER_TIME, NAV_TAKEOFF,
-                                     NAV_WAYPOINT, MissionItem)
+from autopilot.mission.items import (DO_CHANGE_SPEED, DO_SET_ROI_LOCATION, DO_SET_ROI_NONE,
+                                     NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT,
+                                     NAV_TAKEOFF, NAV_WAYPOINT, MissionItem)
 from test_gcs_protocol import download, make_core, make_quad, upload
 from test_mission_commands import fly as fly_quad
 from test_quad_guidance import HOME as QHOME
@@ -120,3 +121,95 @@ def test_mission_item_int_with_a_nan_altitude_is_accepted_and_downloaded_back_as
 
 def load_mission_items() -> tuple[MissionItem, ...]:
     return loads_plan(plan_text(EVERY_NULL), "x.plan", "quad").items
+
+
+# --- the commands of QGroundControl's plans --------------------------------------------
+
+def test_the_quad_points_its_nose_at_the_roi_until_roi_none():
+    ms = qmission(qitem(1, NAV_TAKEOFF, alt=10.0),
+                  qitem(2, DO_SET_ROI_LOCATION, n=0.0, e=80.0, alt=0.0, frame=0),
+                  qitem(3, NAV_WAYPOINT, n=60.0, e=0.0, alt=10.0),
+                  qitem(4, NAV_WAYPOINT, n=60.0, e=40.0, alt=10.0),
+                  qitem(5, DO_SET_ROI_NONE, frame=2),
+                  qitem(6, NAV_WAYPOINT, n=0.0, e=40.0, alt=10.0))
+    seq, nav, log = fly_quad(ms, t_max=120.0, yaw_lag_s=0.3)
+    assert {3, 4, 6} <= seq.reached_seqs
+    errs = []
+    for r in log:
+        if r["seq"] in (3, 4) and r["t"] > 0:
+            n, e = r["pos"][0], r["pos"][1]
+            want = math.atan2(80.0 - e, 0.0 - n)
+            errs.append(abs(math.degrees(wrap(r["yaw"] - want))))
+    # after the first turn towards it (at most 180 deg at YAW_RATE_MAX), the nose is on it
+    settled = errs[int(len(errs) * 0.3):]
+    assert max(settled) < 5.0, max(settled)
+    # after DO_SET_ROI_NONE the nose follows the leg again (south)
+    last = [r for r in log if r["seq"] == 6][-200]
+    assert abs(math.degrees(wrap(last["yaw"] - math.pi))) < 5.0
+
+
+def wrap(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def test_the_plane_notes_the_roi_once_for_a_gimbal_it_does_not_have():
+    roi = ps.item(2, DO_SET_ROI_LOCATION, 300, 300, alt=0.0, frame=0)
+    s = ps.seq_for(ps.mission(ps.item(1, NAV_WAYPOINT, 500, 0), roi,
+                              ps.item(3, NAV_WAYPOINT, 1000, 0), roi.replace(seq=4),
+                              ps.item(5, NAV_WAYPOINT, 1500, 0)))
+    s._prev_wp_ne = (0.0, 0.0)
+    ps.fly(s, [(n, 0.0) for n in range(0, 1600, 20)])
+    said = [text for _, _, text in s.notices if "ROI" in text]
+    assert said == ["ROI noted: no gimbal on this airframe to point"]
+    assert s.roi is not None and {2, 4} <= s.reached_seqs
+
+
+def test_spline_waypoints_are_a_smooth_path_through_the_points_for_the_quad():
+    pts = [(60.0, 0.0), (60.0, 60.0), (0.0, 60.0)]
+    ms = qmission(qitem(1, NAV_TAKEOFF, alt=10.0),
+                  *[qitem(2 + k, NAV_SPLINE_WAYPOINT, n=n, e=e, alt=10.0)
+                    for k, (n, e) in enumerate(pts)])
+    seq, nav, log = fly_quad(ms, t_max=120.0)
+    assert {2, 3, 4} <= seq.reached_seqs
+    for n, e in pts[:2]:
+        near = min(log, key=lambda r: math.hypot(r["pos"][0] - n, r["pos"][1] - e))
+        # through the point (within a metre) without stopping there (flown through)
+        assert math.hypot(near["pos"][0] - n, near["pos"][1] - e) < 1.0
+        assert math.hypot(near["vel"][0], near["vel"][1]) > 3.0
+    # no corner: the course changes smoothly (never more than 3 deg per 0.1 s step)
+    moving = [r for r in log if r["seq"] in (3, 4) and math.hypot(r["vel"][0], r["vel"][1]) > 2.0]
+    courses = [math.atan2(r["vel"][1], r["vel"][0]) for r in moving[::25]]
+    steps = [abs(math.degrees(wrap(b - a))) for a, b in zip(courses, courses[1:])]
+    assert steps and max(steps) < 3.0, max(steps)
+    # and it stops on the last point (no spline after it)
+    end = next(r for r in log if r["seq"] == 5)
+    assert math.hypot(end["pos"][0] - 0.0, end["pos"][1] - 60.0) < 0.5
+    assert math.hypot(end["vel"][0], end["vel"][1]) < 0.2
+
+
+def test_the_plane_flies_a_spline_waypoint_as_a_waypoint_and_loiter_to_alt_by_its_sign():
+    s = ps.seq_for(ps.mission(ps.item(1, NAV_SPLINE_WAYPOINT, 500, 0, p=(5, 0, 0, 0)),
+                              ps.item(2, NAV_LOITER_TO_ALT, 900, 0, alt=120.0, p=(0, -200, 0, 0))))
+    s._prev_wp_ne = (0.0, 0.0)
+    t = ps.fly(s, [(n, 0.0) for n in (100, 300)])
+    assert t[-1].kind == "line" and t[-1].b_ne == pytest.approx((500.0, 0.0), abs=0.5)
+    t = ps.fly(s, [(n, 0.0) for n in (450, 520, 600)])
+    assert t[-1].seq == 2 and t[-1].kind == "loiter"
+    assert t[-1].radius_m == pytest.approx(200.0) and t[-1].direction == -1
+
+
+def test_do_change_speed_of_ground_speed_sets_the_plane_minimum_and_the_quad_speed():
+    s = ps.seq_for(ps.mission(ps.item(1, DO_CHANGE_SPEED, frame=2, alt=0.0, p=(1, 18, -1, 0)),
+                              ps.item(2, NAV_WAYPOINT, 800, 0)))
+    s._prev_wp_ne = (0.0, 0.0)
+    s.update(0, np.array([10.0, 0.0, -100.0]), np.array([20.0, 0, 0]), 0.0, 600.0,
+             wind_ne=(-10.0, 0.0))
+    assert s.min_groundspeed_mps == 18.0
+    t = s.update(10_000, np.array([20.0, 0.0, -100.0]), np.array([20.0, 0, 0]), 0.0, 600.0,
+                 wind_ne=(-10.0, 0.0))
+    assert t.airspeed_mps == pytest.approx(min(28.0, s.params["ARSPD_FBW_MAX"]), abs=0.01)
+    ms = qmission(qitem(1, NAV_TAKEOFF, alt=5.0), qitem(2, DO_CHANGE_SPEED, 1, 8, -1, frame=2),
+                  qitem(3, NAV_WAYPOINT, n=150.0, e=0.0, alt=5.0))
+    seq, nav, log = fly_quad(ms, t_max=60.0)
+    top = max(math.hypot(r["vel"][0], r["vel"][1]) for r in log)
+    assert top == pytest.approx(8.0, abs=0.1)

@@ -4,7 +4,10 @@ Item 0 is home (ArduPilot convention). Flown: NAV_TAKEOFF, NAV_WAYPOINT,
 NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_DELAY,
 NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
 CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
-ArduPlane does).
+ArduPlane does); NAV_SPLINE_WAYPOINT flown as a NAV_WAYPOINT (as ArduPlane flies it);
+DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE noted for a gimbal the airframe does
+not have (said once). NAV_LOITER_TO_ALT's radius sign is its direction (negative:
+counter-clockwise), as for the other loiters.
 
 Leg switching (seed section 1.16, the SLUGS rule): the vehicle's position is projected
 onto the leg direction; the waypoint is reached when the projection passes the end of
@@ -56,7 +59,8 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_DO_SET_HOME, MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LOITER_TIME,
                              MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem)
+                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem,
+                             MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS)
 from . import dubins
 from .l1 import G
 
@@ -103,8 +107,12 @@ class MissionSequencer:
     # ------------------------------------------------------------------ set-up ---
     def load(self, mission: Mission) -> None:
         self.mission = mission
-        self.items: tuple[MissionItem, ...] = tuple(mission.items)
+        # ArduPlane flies a NAV_SPLINE_WAYPOINT as a NAV_WAYPOINT
+        self.items: tuple[MissionItem, ...] = tuple(
+            it.replace(command=MAV_CMD_NAV_WAYPOINT, param1=0.0, param2=0.0, param3=0.0, param4=0.0)
+            if it.command == MAV_CMD_NAV_SPLINE_WAYPOINT else it for it in mission.items)
         self.home_alt_m = self.frame.alt0_m
+        self.roi = None                # DO_SET_ROI_LOCATION: (lat_deg, lon_deg, alt_m) noted
         self.jump_counts: dict[int, int] = {}
         self.reached: list[tuple[int, int]] = []   # (t_us, seq) of every item reached
         self.reached_seqs: set[int] = set()
@@ -416,6 +424,15 @@ class MissionSequencer:
                 self.say(t_us, SEV_INFO, f"CONDITION_YAW #{item.seq} ignored: a plane flies its course")
             elif cmd == MAV_CMD_DO_CHANGE_SPEED:
                 self._change_speed(t_us, item)
+            elif cmd in ROI_COMMANDS or cmd == MAV_CMD_DO_SET_ROI_NONE:
+                # noted for a gimbal this airframe does not have (ArduPlane points its
+                # mount, not the aircraft); said once
+                if cmd == MAV_CMD_DO_SET_ROI_NONE or self._here(item):
+                    self.roi = None
+                else:
+                    self.roi = (item.x_lat_deg, item.y_lon_deg, item.z_alt_m)
+                self.say(t_us, SEV_INFO, "ROI noted: no gimbal on this airframe to point",
+                         key="roi")
             elif cmd == MAV_CMD_DO_SET_HOME:
                 if item.param1 == 1 or self._here(item):
                     self.home_request = "here"

@@ -45,6 +45,10 @@ NAV_DELAY = mavlink2.MAV_CMD_NAV_DELAY  # 93
 CONDITION_DELAY = mavlink2.MAV_CMD_CONDITION_DELAY  # 112
 CONDITION_DISTANCE = mavlink2.MAV_CMD_CONDITION_DISTANCE  # 114
 CONDITION_YAW = mavlink2.MAV_CMD_CONDITION_YAW  # 115
+NAV_SPLINE_WAYPOINT = mavlink2.MAV_CMD_NAV_SPLINE_WAYPOINT  # 82
+DO_SET_ROI_LOCATION = mavlink2.MAV_CMD_DO_SET_ROI_LOCATION  # 195
+DO_SET_ROI_NONE = mavlink2.MAV_CMD_DO_SET_ROI_NONE  # 197
+DO_SET_ROI = mavlink2.MAV_CMD_DO_SET_ROI  # 201 (deprecated form; QGroundControl still writes it)
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -62,6 +66,10 @@ MAV_CMD_NAV_DELAY = NAV_DELAY
 MAV_CMD_CONDITION_DELAY = CONDITION_DELAY
 MAV_CMD_CONDITION_DISTANCE = CONDITION_DISTANCE
 MAV_CMD_CONDITION_YAW = CONDITION_YAW
+MAV_CMD_NAV_SPLINE_WAYPOINT = NAV_SPLINE_WAYPOINT
+MAV_CMD_DO_SET_ROI_LOCATION = DO_SET_ROI_LOCATION
+MAV_CMD_DO_SET_ROI_NONE = DO_SET_ROI_NONE
+MAV_CMD_DO_SET_ROI = DO_SET_ROI
 
 COMMAND_NAMES: dict[int, str] = {
     NAV_WAYPOINT: "NAV_WAYPOINT",
@@ -79,20 +87,27 @@ COMMAND_NAMES: dict[int, str] = {
     CONDITION_DELAY: "CONDITION_DELAY",
     CONDITION_DISTANCE: "CONDITION_DISTANCE",
     CONDITION_YAW: "CONDITION_YAW",
+    NAV_SPLINE_WAYPOINT: "NAV_SPLINE_WAYPOINT",
+    DO_SET_ROI_LOCATION: "DO_SET_ROI_LOCATION",
+    DO_SET_ROI_NONE: "DO_SET_ROI_NONE",
+    DO_SET_ROI: "DO_SET_ROI",
 }
 SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
 
 # Commands whose x / y / z are a place to fly to (DO_SET_HOME only when param1 == 0).
 POSITION_COMMANDS = frozenset(
     {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF,
-     NAV_LOITER_TO_ALT}
+     NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT}
 )
+# Commands whose x / y / z are a place to look at (region of interest); DO_SET_ROI at
+# latitude and longitude 0 clears it, as ArduPilot reads it.
+ROI_COMMANDS = frozenset({DO_SET_ROI_LOCATION, DO_SET_ROI})
 # Position commands whose altitude may be NaN: "the current altitude" (MAVLink's
 # "NaN: use the current / no change" for param7; QGroundControl writes it null, e.g. the
 # altitude of a loiter in its ArduPlane SITL test plan). A takeoff needs its altitude;
 # DO_SET_HOME a place to move home to.
 NAN_ALT_COMMANDS = frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
-                              NAV_LAND, NAV_LOITER_TO_ALT})
+                              NAV_LAND, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT}) | ROI_COMMANDS
 # Navigation commands (ArduPilot's "NAV" ids, < 95): the vehicle flies one at a time.
 NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
 # Conditions gate the DO items after them, never a navigation command (AP_Mission).
@@ -106,7 +121,8 @@ VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
     "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
                         NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
                         DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
-                        CONDITION_DISTANCE, CONDITION_YAW}),
+                        CONDITION_DISTANCE, CONDITION_YAW, NAV_SPLINE_WAYPOINT,
+                        DO_SET_ROI_LOCATION, DO_SET_ROI_NONE, DO_SET_ROI}),
 }
 VEHICLE_NAMES = {"plane": "the fixed-wing", "quad": "the quadrotor"}
 # DO_CHANGE_SPEED speed types (MAV_SPEED_TYPE)
@@ -268,7 +284,7 @@ def vehicle_kind(mav_type: int) -> str:
 
 
 def _uses_position(item: MissionItem) -> bool:
-    if item.command in POSITION_COMMANDS:
+    if item.command in POSITION_COMMANDS or item.command in ROI_COMMANDS:
         return True
     return item.command == DO_SET_HOME and item.param1 == 0.0
 
