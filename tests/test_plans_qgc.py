@@ -8,7 +8,7 @@ import pytest
 
 from autopilot.link.codec import MAV
 from autopilot.mission.files import MissionFileError, load_mission, loads_plan
-from autopilot.mission.items import (DO_CHANGE_SPEED, DO_SET_ROI_LOCATION, DO_SET_ROI_NONE,
+from autopilot.mission.items import (DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_ROI_LOCATION, DO_SET_ROI_NONE,
                                      NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT,
                                      NAV_TAKEOFF, NAV_WAYPOINT, MissionItem)
 from test_gcs_protocol import download, make_core, make_quad, upload
@@ -213,3 +213,90 @@ def test_do_change_speed_of_ground_speed_sets_the_plane_minimum_and_the_quad_spe
     seq, nav, log = fly_quad(ms, t_max=60.0)
     top = max(math.hypot(r["vel"][0], r["vel"][1]) for r in log)
     assert top == pytest.approx(8.0, abs=0.1)
+
+
+# --- ComplexItems ----------------------------------------------------------------------
+
+def survey_doc(vehicle, **kw):
+    from tools.qgc_survey import DEFAULTS, survey_plan
+    return survey_plan(vehicle, **{**DEFAULTS[vehicle], **kw})
+
+
+@pytest.mark.parametrize("vehicle", ["plane", "quad"])
+def test_a_survey_is_flown_from_its_stored_items_numbered_as_qgroundcontrol_numbers_them(vehicle):
+    doc = survey_doc(vehicle)
+    stored = doc["mission"]["items"][1]["TransectStyleComplexItem"]["Items"]
+    m = loads_plan(json.dumps(doc), "s.plan", vehicle)
+    # take-off 1, the survey's items 2.., then the item after it
+    assert len(m) == 1 + 1 + len(stored) + 1
+    assert [it.seq for it in m] == list(range(len(m)))
+    assert [d["doJumpId"] for d in stored] == [it.seq for it in m.items[2:-1]]
+    assert [(it.command, it.param1) for it in m.items[2:-1]] == \
+        [(d["command"], d["params"][0]) for d in stored]
+    # 20 transects: an entry (trigger distance) and an exit (0) camera command each
+    trig = [it.param1 for it in m if it.command == DO_SET_CAM_TRIGG_DIST]
+    assert len(trig) == 40 and trig[0::2] == [trig[0]] * 20 and set(trig[1::2]) == {0.0}
+    assert m[-1].command == (20 if vehicle == "plane" else 21)
+
+
+def test_the_shipped_survey_plans_are_what_the_tool_writes():
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    for vehicle in ("plane", "quad"):
+        shipped = json.loads((root / "missions" / f"survey_{vehicle}.plan").read_text())
+        assert shipped == json.loads(json.dumps(survey_doc(vehicle)))
+        m = load_mission(root / "missions" / f"survey_{vehicle}.plan", vehicle)
+        assert len(m) == 123
+
+
+def test_a_complex_item_without_stored_items_is_refused_naming_it():
+    doc = survey_doc("quad", transects=2)
+    items = doc["mission"]["items"]
+    del items[1]["TransectStyleComplexItem"]["Items"]
+    with pytest.raises(MissionFileError, match=r"x.plan:item 2: ComplexItem survey \(mission.items\[1\]\) "
+                                               r"has no stored mission items"):
+        loads_plan(json.dumps(doc), "x.plan")
+    items[1] = {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3,
+                "polygon": [[-35.36, 149.16], [-35.36, 149.17], [-35.37, 149.17]], "Layers": 2}
+    with pytest.raises(MissionFileError, match=r"item 2: ComplexItem structure scan .*saves only its geometry"):
+        loads_plan(json.dumps(doc), "x.plan")
+    items[1] = {"type": "ComplexItem", "complexItemType": "CorridorScan", "version": 3,
+                "TransectStyleComplexItem": {"Items": []}}
+    with pytest.raises(MissionFileError, match=r"ComplexItem corridor scan .* has no stored"):
+        loads_plan(json.dumps(doc), "x.plan")
+
+
+def test_a_corridor_scan_loads_and_a_bad_stored_item_is_named_with_its_complex_item():
+    doc = survey_doc("quad", transects=2)
+    survey = doc["mission"]["items"][1]
+    corridor = {"type": "ComplexItem", "complexItemType": "CorridorScan", "version": 3,
+                "CorridorWidth": 20, "EntryPoint": 0, "polyline": survey["polygon"][:2],
+                "TransectStyleComplexItem": survey["TransectStyleComplexItem"]}
+    doc["mission"]["items"][1] = corridor
+    m = loads_plan(json.dumps(doc), "c.plan", "quad")
+    assert len(m) == 1 + 1 + len(survey["TransectStyleComplexItem"]["Items"]) + 1
+    corridor["TransectStyleComplexItem"]["Items"][3]["params"][4] = 95.0
+    with pytest.raises(MissionFileError, match=r"c.plan:item 5 \(CorridorScan at mission.items\[1\], "
+                                               r"its item 4\): latitude 95.0 outside"):
+        loads_plan(json.dumps(doc), "c.plan", "quad")
+
+
+def test_camera_commands_are_noted_once_by_both_vehicles():
+    doc = survey_doc("quad", transects=3, length=20.0, north=10.0, east=0.0, home=QHOME)
+    m = loads_plan(json.dumps(doc), "s.plan", "quad")
+    seq, nav, log = fly_quad(m, t_max=300.0)
+    assert seq.landed
+    said = [t for _, _, t in seq.notices if "camera" in t]
+    assert said == ["Mission: camera commands noted: no camera on this airframe"]
+    cams = {it.seq for it in m if it.command == DO_SET_CAM_TRIGG_DIST}
+    assert cams <= seq.reached_seqs
+    s = ps.seq_for(ps.mission(ps.item(1, NAV_WAYPOINT, 500, 0),
+                              ps.item(2, DO_SET_CAM_TRIGG_DIST, frame=2, alt=0.0, p=(40, 0, 1, 0)),
+                              ps.item(3, NAV_WAYPOINT, 1000, 0),
+                              ps.item(4, DO_SET_CAM_TRIGG_DIST, frame=2, alt=0.0),
+                              ps.item(5, NAV_WAYPOINT, 1500, 0)))
+    s._prev_wp_ne = (0.0, 0.0)
+    ps.fly(s, [(n, 0.0) for n in range(0, 1600, 20)])
+    assert [t for _, _, t in s.notices if "amera" in t] == \
+        ["Camera commands noted: no camera on this airframe"]
+    assert {2, 4} <= s.reached_seqs

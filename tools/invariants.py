@@ -28,7 +28,9 @@ Cross-track against them (``xtrack_mission``)
     end of the log.
 
 ``xtrack_mission_worst_leg`` names the line with the largest error (the items at its two
-ends, ``from_seq`` null for the take-off point) with its own rms and max.
+ends, ``from_seq`` null for the take-off point) with its own rms and max;
+``xtrack_mission_legs`` lists every line so (rms and max null for a line never captured),
+e.g. each transect of a survey.
 
 The invariants (``check_invariants``): each ``{"passed": bool, "figure": number}`` and,
 where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name the item
@@ -391,11 +393,15 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     mission = v.mission if v.mission is not None else session.mission
     events = v.reached_events()
     figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None,
-                  "xtrack_mission_worst_leg": None}
+                  "xtrack_mission_worst_leg": None, "xtrack_mission_legs": []}
     if v.home_frame is not None:
         rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
         figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
         scored = [g for g in legs if g["xtrack_max_m"] is not None]
+        # every line's own figures (a survey's transects), null where never captured
+        figs["xtrack_mission_legs"] = [
+            {"from_seq": g["prev_seq"], "to_seq": g["seq"], "rms_m": g["xtrack_rms_m"],
+             "max_m": g["xtrack_max_m"]} for g in legs]
         if scored:
             w = max(scored, key=lambda g: g["xtrack_max_m"])
             figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],

@@ -6,7 +6,8 @@ NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
 CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
 ArduPlane does); NAV_SPLINE_WAYPOINT flown as a NAV_WAYPOINT (as ArduPlane flies it);
 DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE noted for a gimbal the airframe does
-not have (said once). NAV_LOITER_TO_ALT's radius sign is its direction (negative:
+not have (said once), and the camera commands of QGroundControl's surveys likewise.
+NAV_LOITER_TO_ALT's radius sign is its direction (negative:
 counter-clockwise), as for the other loiters.
 
 Leg switching (seed section 1.16, the SLUGS rule): the vehicle's position is projected
@@ -60,7 +61,8 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem,
-                             MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS)
+                             MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS,
+                             CAMERA_COMMANDS)
 from . import dubins
 from .l1 import G
 
@@ -433,6 +435,9 @@ class MissionSequencer:
                     self.roi = (item.x_lat_deg, item.y_lon_deg, item.z_alt_m)
                 self.say(t_us, SEV_INFO, "ROI noted: no gimbal on this airframe to point",
                          key="roi")
+            elif cmd in CAMERA_COMMANDS:
+                self.say(t_us, SEV_INFO, "Camera commands noted: no camera on this airframe",
+                         key="camera")
             elif cmd == MAV_CMD_DO_SET_HOME:
                 if item.param1 == 1 or self._here(item):
                     self.home_request = "here"

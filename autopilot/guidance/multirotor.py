@@ -37,7 +37,11 @@ seconds), NAV_LAND (lat/lon 0: here), NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_S
 (param2 [m/s], clamped to the parameter's range with a warning, replaces WPNAV_SPEED --
 speed types 0 and 1 --, WPNAV_SPEED_UP -- 2 -- or WPNAV_SPEED_DN -- 3 -- for the rest of
 the flight; -2 restores the parameter), DO_SET_HOME (param1 1 or all zero: here),
-CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``).
+CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``),
+NAV_SPLINE_WAYPOINT (a curve through the points, ``CopterMissionSequencer._spline``),
+DO_SET_ROI_LOCATION / DO_SET_ROI (the nose on the place until DO_SET_ROI_NONE or a ROI
+at latitude and longitude 0), and the camera commands of QGroundControl's surveys
+(noted once: no camera).
 Latitude and longitude 0 mean "here" and altitude 0 or NaN "this height" (``item_ned``);
 a NaN heading (param4, QGroundControl's null) leaves the heading to the legs.
 A waypoint is reached when the reference has arrived and the vehicle is within the
@@ -60,7 +64,7 @@ from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, NAV_COMMANDS, Mission,
                              MissionItem, MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT,
-                             ROI_COMMANDS)
+                             ROI_COMMANDS, CAMERA_COMMANDS)
 from ..params import Param
 
 RELATIVE_FRAMES = (3, 6, 11)
@@ -590,6 +594,7 @@ class CopterMissionSequencer:
         self._yaw_owner: int | None = None       # nav item a CONDITION_YAW belongs to (-1: next)
         self.home_request = None
         self.nav.roi_ne = None
+        self._camera_said = False
 
     def set_current(self, seq: int) -> None:
         self.current = seq
@@ -729,6 +734,10 @@ class CopterMissionSequencer:
                 q = self.frame.to_ned_fast(math.radians(item.x_lat_deg),
                                            math.radians(item.y_lon_deg), self.frame.alt0_m)
                 nav.roi_ne = (float(q[0]), float(q[1]))
+        elif cmd in CAMERA_COMMANDS:
+            if not self._camera_said:
+                self._camera_said = True
+                self._say(t_us, 6, "Mission: camera commands noted: no camera on this airframe")
         elif cmd == MAV_CMD_DO_SET_HOME:
             use_here = item.param1 == 1.0 or (item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0
                                               and item.z_alt_m == 0.0)

@@ -49,6 +49,10 @@ NAV_SPLINE_WAYPOINT = mavlink2.MAV_CMD_NAV_SPLINE_WAYPOINT  # 82
 DO_SET_ROI_LOCATION = mavlink2.MAV_CMD_DO_SET_ROI_LOCATION  # 195
 DO_SET_ROI_NONE = mavlink2.MAV_CMD_DO_SET_ROI_NONE  # 197
 DO_SET_ROI = mavlink2.MAV_CMD_DO_SET_ROI  # 201 (deprecated form; QGroundControl still writes it)
+DO_DIGICAM_CONTROL = mavlink2.MAV_CMD_DO_DIGICAM_CONTROL  # 203
+DO_SET_CAM_TRIGG_DIST = mavlink2.MAV_CMD_DO_SET_CAM_TRIGG_DIST  # 206
+IMAGE_START_CAPTURE = mavlink2.MAV_CMD_IMAGE_START_CAPTURE  # 2000
+IMAGE_STOP_CAPTURE = mavlink2.MAV_CMD_IMAGE_STOP_CAPTURE  # 2001
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -91,7 +95,15 @@ COMMAND_NAMES: dict[int, str] = {
     DO_SET_ROI_LOCATION: "DO_SET_ROI_LOCATION",
     DO_SET_ROI_NONE: "DO_SET_ROI_NONE",
     DO_SET_ROI: "DO_SET_ROI",
+    DO_DIGICAM_CONTROL: "DO_DIGICAM_CONTROL",
+    DO_SET_CAM_TRIGG_DIST: "DO_SET_CAM_TRIGG_DIST",
+    IMAGE_START_CAPTURE: "IMAGE_START_CAPTURE",
+    IMAGE_STOP_CAPTURE: "IMAGE_STOP_CAPTURE",
 }
+# Camera commands (what QGroundControl's surveys and corridor scans put between their
+# waypoints): accepted and noted by both vehicles, which carry no camera (said once).
+CAMERA_COMMANDS = frozenset({DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST, IMAGE_START_CAPTURE,
+                             IMAGE_STOP_CAPTURE})
 SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
 
 # Commands whose x / y / z are a place to fly to (DO_SET_HOME only when param1 == 0).
@@ -122,7 +134,7 @@ VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
                         NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
                         DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
                         CONDITION_DISTANCE, CONDITION_YAW, NAV_SPLINE_WAYPOINT,
-                        DO_SET_ROI_LOCATION, DO_SET_ROI_NONE, DO_SET_ROI}),
+                        DO_SET_ROI_LOCATION, DO_SET_ROI_NONE, DO_SET_ROI}) | CAMERA_COMMANDS,
 }
 VEHICLE_NAMES = {"plane": "the fixed-wing", "quad": "the quadrotor"}
 # DO_CHANGE_SPEED speed types (MAV_SPEED_TYPE)
