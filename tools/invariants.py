@@ -293,8 +293,8 @@ def _lowest_commanded_height(mission: Mission) -> float:
     takeoff = next((it.seq for it in mission.items[1:] if it.command == NAV_TAKEOFF), 0)
     for it in mission.items[takeoff + 1:]:
         if it.command in NAV_FLOWN and it.command not in (NAV_LAND, NAV_RETURN_TO_LAUNCH):
-            rel = it.frame in (3, 6, 11)
-            if rel and it.z_alt_m == 0.0:
+            rel = it.frame in (3, 6, 10, 11)
+            if (rel and it.z_alt_m == 0.0) or math.isnan(it.z_alt_m):
                 continue   # "the current altitude"
             hs.append(it.z_alt_m if rel else it.z_alt_m - mission.home.z_alt_m)
     return min(hs) if hs else math.inf

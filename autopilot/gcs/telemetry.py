@@ -304,7 +304,7 @@ class Telemetry:
             if m[k].command in POSITION_COMMANDS and (m[k].x_lat_deg, m[k].y_lon_deg) != (0.0, 0.0):
                 prev = ne(m[k])
                 break
-        alt = it.z_alt_m + (h.alt0_m if it.frame in (3, 6, 11) else 0.0)
+        alt = it.z_alt_m + (h.alt0_m if it.frame in (3, 6, 10, 11) else 0.0)
         return ne(it), prev, alt
 
     def nav_controller_output(self):

@@ -66,7 +66,8 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
 from . import dubins
 from .l1 import G
 
-RELATIVE_FRAMES = (3, 6, 11)  # GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT, TERRAIN (as rel.)
+RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
+TERRAIN_FRAMES = (10, 11)    # GLOBAL_TERRAIN_ALT(_INT)
 
 LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
                    MAV_CMD_NAV_LOITER_TO_ALT)
@@ -103,6 +104,7 @@ class MissionSequencer:
         self.params = params
         self.frame = frame
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
+        self.terrain = None   # (lat_deg, lon_deg) -> terrain height [m MSL] or None
         self.home_request = None  # DO_SET_HOME: (lat_rad, lon_rad, alt_m) or "here"
         self.load(mission)
 
@@ -217,9 +219,20 @@ class MissionSequencer:
 
     def item_alt_m(self, item: MissionItem) -> float:
         """Item altitude as MSL [m]."""
+        if item.frame in TERRAIN_FRAMES:
+            return self.terrain_alt_m(item.x_lat_deg, item.y_lon_deg) + item.z_alt_m
         if item.frame in RELATIVE_FRAMES:
             return self.home_alt_m + item.z_alt_m
         return item.z_alt_m
+
+    def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
+        """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
+        lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
+        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
+            h = self.terrain(lat_deg, lon_deg)
+            if h is not None:
+                return float(h)
+        return self.home_alt_m
 
     def item_ne(self, item: MissionItem) -> tuple[float, float]:
         p = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),

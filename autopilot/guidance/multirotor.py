@@ -67,7 +67,8 @@ from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              ROI_COMMANDS, CAMERA_COMMANDS)
 from ..params import Param
 
-RELATIVE_FRAMES = (3, 6, 11)
+RELATIVE_FRAMES = (3, 6)      # GLOBAL_RELATIVE_ALT(_INT)
+TERRAIN_FRAMES = (10, 11)     # GLOBAL_TERRAIN_ALT(_INT)
 LOITER_TURN_S = 20.0
 SPLINE_SAMPLES = 64           # points a spline leg is sampled at
 YAW_MIN_LEG_M = 5.0           # shorter moves keep the heading
@@ -570,6 +571,7 @@ class CopterMissionSequencer:
         self.frame = frame
         self.nav = nav
         self.notices: list[tuple[float, int, str]] = []
+        self.terrain = None   # (lat_deg, lon_deg) -> terrain height [m MSL] or None
         self.load(mission)
 
     def load(self, mission: Mission) -> None:
@@ -621,9 +623,20 @@ class CopterMissionSequencer:
 
     # ------------------------------------------------------------- geometry ---
     def item_alt_m(self, item: MissionItem) -> float:
+        if item.frame in TERRAIN_FRAMES:
+            return self.terrain_alt_m(item.x_lat_deg, item.y_lon_deg) + item.z_alt_m
         if item.frame in RELATIVE_FRAMES:
             return self.home_alt_m + item.z_alt_m
         return item.z_alt_m
+
+    def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
+        """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
+        lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
+        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
+            h = self.terrain(lat_deg, lon_deg)
+            if h is not None:
+                return float(h)
+        return self.home_alt_m
 
     def item_ned(self, item: MissionItem, p_now) -> tuple[float, float, float]:
         """Item position in home NED. As ArduCopter reads a location (loc_from_cmd):
