@@ -55,7 +55,8 @@ concerned, ``"seq"``, or null):
   fixed-wing's crash detection, or back on the ground). Figure: the lowest true height
   in that span (from the launch, for a crash before its end) [m].
 * ``height_floor``: from the end of the climb-out (the take-off counted) to the start of
-  a landing, the true height above home stays at or above the floor: ``HEIGHT_FLOOR_M``
+  a landing, the true height above home (above the terrain in a ``--terrain`` run)
+  stays at or above the floor: ``HEIGHT_FLOOR_M``
   of the vehicle, or half the lowest height commanded after the take-off if that is lower.
   Figure: the lowest true height [m].
 * ``attitude_limits``: fixed-wing bank within ROLL_LIMIT_DEG and pitch within
@@ -302,8 +303,11 @@ def _lowest_commanded_height(mission: Mission) -> float:
 
 def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, completed: bool,
                      done_t_s: float | None, home_truth_alt_m: float | None, params,
-                     wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False) -> dict:
-    """The invariants of one run (module docstring)."""
+                     wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False,
+                     ground_m: np.ndarray | None = None) -> dict:
+    """The invariants of one run (module docstring). ``ground_m``: the terrain's height
+    under each row (a ``--terrain`` run); the heights are then above that ground (less
+    the vehicle's height above it at home), not above home."""
     inv: dict = {}
     t = a["t_s"]
     armed = a["armed"] > 0
@@ -323,6 +327,8 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
     # heights
     if home_truth_alt_m is not None and armed.any():
         h = a["truth_alt_m"] - home_truth_alt_m
+        if ground_m is not None and len(ground_m) and np.isfinite(ground_m[0]):
+            h = h - (ground_m - ground_m[np.flatnonzero(armed)[0]])
         takeoff_t = [tu * 1e-6 for tu, s in events if 0 < s < len(mission) and mission[s].command == NAV_TAKEOFF]
         climbed = takeoff_t[0] if takeoff_t else math.inf
         t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm)
@@ -416,5 +422,21 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),
                            fault_free=fault_free, log_events=session.log.events,
-                           crashed=bool(session.crashed))
+                           crashed=bool(session.crashed), ground_m=_ground_under(session, a))
     return figs, inv
+
+
+def _ground_under(session, a: dict) -> np.ndarray | None:
+    """The terrain's height under every row of a ``--terrain`` run (NaN where no data;
+    the home ground there), else None."""
+    terrain = getattr(session, "terrain", None)
+    frame = session.vehicle.home_frame
+    if terrain is None or frame is None or not len(a["t_s"]):
+        return None
+    out = np.empty(len(a["t_s"]))
+    for i, (n, e) in enumerate(zip(a["truth_n_m"], a["truth_e_m"])):
+        lat, lon, _ = frame.to_geodetic_fast((n, e, 0.0))
+        h = terrain(math.degrees(lat), math.degrees(lon)) if math.isfinite(n) else None
+        out[i] = np.nan if h is None else h
+    home = terrain(math.degrees(frame.lat0_rad), math.degrees(frame.lon0_rad))
+    return np.where(np.isfinite(out), out, home if home is not None else np.nan)

@@ -5,6 +5,7 @@
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
                 [--gcs [URL] ...] [--param-store FILE] [--wipe] [--signing-key FILE]
+                [--terrain DIR]
     sitl missions random --vehicle plane|quad --seed N -o FILE [--max-time S]
     sitl missions sample --vehicle plane|quad --seeds FIRST-LAST [--max-time S] [--jsonl FILE]
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
@@ -93,7 +94,7 @@ def _config(args) -> RunConfig:
                      progress=not args.json and sys.stderr.isatty() and gcs is None,
                      params_file=Path(args.params) if args.params else None,
                      param_overrides=overrides, gcs=gcs, param_store=param_store,
-                     signing_key=signing_key)
+                     signing_key=signing_key, terrain=Path(args.terrain) if args.terrain else None)
 
 
 def _signing_key(args, gcs) -> bytes | None:
@@ -334,6 +335,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --gcs: MAVLink 2 signing key file (first line: a passphrase, as "
                         "MAVProxy's 'signing setup PASSPHRASE', or 64 hex digits); stored beside "
                         "the parameter store")
+    r.add_argument("--terrain", metavar="DIR",
+                   help="SRTM .hgt tiles (1 or 3 arc-second) for the ground under the vehicle "
+                        "and the autopilot's terrain-relative altitudes; default: flat at home "
+                        "(python -m tools.terrain_tile DIR writes a hilly tile)")
     r.set_defaults(func=cmd_run)
     ms = sub.add_parser("missions", help="mission tools: random missions")
     ms_sub = ms.add_subparsers(dest="missions_cmd", required=True)

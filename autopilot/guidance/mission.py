@@ -81,6 +81,7 @@ JOIN_XTRACK_M = 10.0
 JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
+TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
 @dataclass(frozen=True, slots=True)
@@ -522,12 +523,29 @@ class MissionSequencer:
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float, wind_ne=None) -> NavTarget:
         tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne)
+        if self.terrain is not None and tgt.kind in ("line", "direct", "loiter") \
+                and 0 < tgt.seq < len(self.items) and self.items[tgt.seq].frame in TERRAIN_FRAMES:
+            tgt = self._above_terrain(tgt, p_ned, v_ned)
         if self.min_groundspeed_mps > 0 and tgt.kind != "takeoff":
             chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
             if v != tgt.airspeed_mps:
                 tgt = dataclasses.replace(tgt, airspeed_mps=v)
         return tgt
+
+    def _above_terrain(self, tgt: NavTarget, p_ned, v_ned) -> NavTarget:
+        """A terrain-frame item: the altitude demand is its height above the ground
+        under the aircraft, taken TERRAIN_LEAD_S ahead along the ground velocity (the
+        climb or descent starts before the slope, as the altitude loop lags), not only
+        at the waypoint (ArduPlane's terrain following). Without data there: as planned."""
+        item = self.items[tgt.seq]
+        n = float(p_ned[0]) + TERRAIN_LEAD_S * float(v_ned[0])
+        e = float(p_ned[1]) + TERRAIN_LEAD_S * float(v_ned[1])
+        lat, lon, _ = self.frame.to_geodetic_fast((n, e, 0.0))
+        h = self.terrain(math.degrees(lat), math.degrees(lon))
+        if h is None or math.isnan(item.z_alt_m):
+            return tgt
+        return dataclasses.replace(tgt, alt_m=float(h) + item.z_alt_m)
 
     @staticmethod
     def _course(v_ned, heading_rad: float) -> float:

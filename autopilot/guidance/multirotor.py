@@ -386,6 +386,9 @@ class CopterNavigator:
         self._yaw_fix_rate = 0.0
         self.yaw_fix_target = 0.0
         self.roi_ne: tuple | None = None   # DO_SET_ROI_LOCATION: the nose points there
+        # a terrain-frame leg: (ground_d(n, e), start NE, goal NE, ground depth at start,
+        # at goal); the reference's depth follows the ground between them (``target``)
+        self.terrain_leg = None
 
     # ----------------------------------------------------------------- actions --
     def init(self, p_ned, yaw: float) -> None:
@@ -432,6 +435,7 @@ class CopterNavigator:
 
     def _line(self, goal) -> None:
         p = self.params
+        self.terrain_leg = None
         self.traj.line_to(goal, *self.speeds(), p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"])
         self.leg_id += 1
         self.goal_ne = (goal[0], goal[1])
@@ -455,6 +459,7 @@ class CopterNavigator:
         """Along a curve sampled by ``points`` (NED, from the raw reference), ending at
         ``v_end`` (NAV_SPLINE_WAYPOINT); the heading follows the path."""
         p = self.params
+        self.terrain_leg = None
         self.traj.curve_to(points, *self.speeds(), p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"], v_end)
         self.leg_id += 1
         goal = points[-1]
@@ -519,6 +524,11 @@ class CopterNavigator:
         if ph == "land_descend":
             low = -traj.p[2] <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
+        dz = self.terrain_offset(p_vehicle[0], p_vehicle[1])
+        if dz:
+            # the vehicle follows the ground: its leash to the straight line's reference
+            # is measured without the ground's offset
+            p_vehicle = (p_vehicle[0], p_vehicle[1], p_vehicle[2] - dz)
         traj.update(dt, p_vehicle, prm["WPNAV_LEASH"])
         # heading reference slewed towards its goal: a fixed heading (CONDITION_YAW),
         # else the region of interest, else along a curve, else towards the leg's end
@@ -542,11 +552,29 @@ class CopterNavigator:
     def arrived(self) -> bool:
         return self.traj.arrived
 
+    def terrain_offset(self, n: float, e: float) -> float:
+        """On a terrain-frame leg (``terrain_leg``), the depth to add at (n, e) to the
+        straight line's: the ground's rise or fall there against the straight line
+        between the ground at the leg's ends, so the reference keeps its height above
+        the ground; 0 elsewhere or without data."""
+        if self.terrain_leg is None or self.phase not in ("goto", "hold"):
+            return 0.0
+        ground_d, a, b, d_a, d_b = self.terrain_leg
+        ln = math.hypot(b[0] - a[0], b[1] - a[1])
+        f = ((n - a[0]) * (b[0] - a[0]) + (e - a[1]) * (b[1] - a[1])) / (ln * ln) if ln > 1e-3 else 1.0
+        f = min(max(f, 0.0), 1.0)
+        g = ground_d(n, e)
+        return 0.0 if g is None else g - (d_a + f * (d_b - d_a))
+
     def target(self, seq: int, hold: bool = False) -> CopterTarget:
         tr = self.traj
         kind = _PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
-        return CopterTarget(kind, seq, self.leg_id, tuple(tr.p), tuple(tr.v), tuple(tr.a),
+        p = tuple(tr.p)
+        dz = self.terrain_offset(p[0], p[1])
+        if dz:
+            p = (p[0], p[1], p[2] + dz)
+        return CopterTarget(kind, seq, self.leg_id, p, tuple(tr.v), tuple(tr.a),
                             self.yaw_ref, hold, goal, (tr.start[0], tr.start[1]))
 
 
@@ -884,10 +912,13 @@ class CopterMissionSequencer:
                     yaw_wp = None
                     if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param4) and item.param4 != 0.0:
                         yaw_wp = math.radians(item.param4)
+                    start = (nav.traj.raw[0], nav.traj.raw[1])
                     if cmd == MAV_CMD_NAV_SPLINE_WAYPOINT:
                         self._spline(item, goal)
                     else:
                         nav.goto(goal, yaw_wp)
+                    if item.frame in TERRAIN_FRAMES and self.terrain is not None:
+                        self._follow_terrain(start, goal)
                     if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_SPLINE_WAYPOINT):
                         self._hold_s = max(item.param1, 0.0) if math.isfinite(item.param1) else 0.0
                     elif cmd == MAV_CMD_NAV_LOITER_TIME:
@@ -934,6 +965,24 @@ class CopterMissionSequencer:
             return seq, False
         raise AssertionError(f"{item.command_name} at item {seq} is not flown by the quadrotor "
                              "and should have been refused when the mission was loaded")
+
+    def ground_d(self, n: float, e: float) -> float | None:
+        """The ground's depth below home [m, NED down] at (north, east) of home, from
+        ``terrain``; None where it has no data."""
+        lat, lon, _ = self.frame.to_geodetic_fast((n, e, 0.0))
+        h = self.terrain(math.degrees(lat), math.degrees(lon))
+        return None if h is None else self.home_alt_m - h
+
+    def _follow_terrain(self, start, goal) -> None:
+        """A terrain-frame leg: the reference keeps its height above the ground along
+        the leg, not only at its ends (as ArduCopter flies terrain-frame waypoints).
+        Where the start has no data, the goal's ground is used for both ends."""
+        d_b = self.ground_d(goal[0], goal[1])
+        if d_b is None:
+            return
+        d_a = self.ground_d(start[0], start[1])
+        self.nav.terrain_leg = (self.ground_d, tuple(start), (goal[0], goal[1]),
+                                d_b if d_a is None else d_a, d_b)
 
     def _next_nav_item(self) -> MissionItem | None:
         """The navigation item after the current one (DO items passed, a DO_JUMP that

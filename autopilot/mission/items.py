@@ -448,6 +448,22 @@ def vehicle_problem(item: MissionItem, vehicle: str) -> Problem | None:
     return None
 
 
+def terrain_problem(mission, terrain) -> str | None:
+    """Why a mission cannot be armed for: a terrain-frame item with a place of its own
+    where ``terrain`` (a callable (lat_deg, lon_deg) -> metres or None) has no data, as
+    ArduPilot refuses to arm until its terrain data covers the mission. None if every
+    such item has data, or if there is no terrain source (flat: data everywhere)."""
+    if mission is None or terrain is None:
+        return None
+    for it in mission.items[1:]:
+        if it.frame in TERRAIN_FRAMES and (it.command in POSITION_COMMANDS) \
+                and not (it.x_lat_deg == 0.0 and it.y_lon_deg == 0.0):
+            if terrain(it.x_lat_deg, it.y_lon_deg) is None:
+                # (one STATUSTEXT: 50 characters with "PreArm: ")
+                return f"terrain data missing for item {it.seq}"
+    return None
+
+
 def validate_item(item: MissionItem, vehicle: str | None = None) -> str | None:
     """None if the item is acceptable on its own, else a MAV_MISSION_RESULT name."""
     problem = item_problem(item, vehicle)

@@ -22,7 +22,8 @@ flown "+" (the seed's mixer, eq 3.30)::
 
     M = (l (T2 - T4), l (T3 - T1), k_M (T1 + T3 - T2 - T4)).
 
-Ground contact: flat terrain at home altitude; the vehicle rests on its skids, a
+Ground contact: flat terrain at home altitude, or the terrain model's height under the
+vehicle (``terrain``); the vehicle rests on its skids, a
 touchdown stops it within the step (no sinking, no bouncing) and the IMU sees the
 impulse; too fast or too tilted sets ``crashed``.
 
@@ -170,6 +171,11 @@ class QuadrotorPlant:
         self.touchdown_speed_mps: float | None = None
         # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
         self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+        # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
+        # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
+        # below home's ground point under the vehicle (NED down), updated every step()
+        self.terrain = None
+        self._ground_d = 0.0
         self.reset()
 
     # ------------------------------------------------------------------- state ---
@@ -242,6 +248,10 @@ class QuadrotorPlant:
     def step(self, controls, n_steps: int = 1) -> PlantState:
         """Hold the rotor commands for ``n_steps`` integration steps."""
         t_ss = self.static_thrusts(controls)
+        if self.terrain is not None:
+            lat, lon, _ = self._frame.to_geodetic_fast(self.p)
+            h = self.terrain(math.degrees(lat), math.degrees(lon))
+            self._ground_d = 0.0 if h is None else self.home[2] - h
         sc = self.rotor_scale
         if sc != (1.0, 1.0, 1.0, 1.0):
             t_ss = [t * k for t, k in zip(t_ss, sc)]
@@ -266,7 +276,7 @@ class QuadrotorPlant:
 
         # air-relative velocity (steady wind + Dryden gust) and the body drag (3.25)
         vn, ve, vd = self.v
-        h_agl = -self.p[2]
+        h_agl = self._ground_d - self.p[2]
         wn, we, wd = self._wind
         if self._gusts.active:
             an0, ae0, ad0 = vn - wn, ve - we, vd - wd
@@ -315,7 +325,7 @@ class QuadrotorPlant:
         self._f_b = ((r[0] * dn + r[3] * de + r[6] * dd) / m,
                      (r[1] * dn + r[4] * de + r[7] * dd) / m,
                      (r[2] * dn + r[5] * de + r[8] * dd - total) / m)
-        if pdn1 > -af.gear_height_m:
+        if pdn1 > self._ground_d - af.gear_height_m:
             self._touchdown(u_d)
 
     def _touchdown(self, v_down: float) -> None:
@@ -336,7 +346,7 @@ class QuadrotorPlant:
         self._f_b = (r[0] * fn + r[3] * fe + r[6] * fd,
                      r[1] * fn + r[4] * fe + r[7] * fd,
                      r[2] * fn + r[5] * fe + r[8] * fd)
-        self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
+        self.p = [self.p[0], self.p[1], self._ground_d - self.af.gear_height_m]
         self.v = [0.0, 0.0, 0.0]
         self.w = [0.0, 0.0, 0.0]
 
