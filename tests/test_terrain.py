@@ -137,3 +137,57 @@ def test_the_quad_flies_50_m_above_the_hilly_tile(tmp_path):
     s = json.loads(out.stdout)
     assert s["completed"] and not s["crashed"] and s["invariants_passed"]
     assert s["agl_rms_err_m"] < 2.0 and s["agl_min_m"] > 45.0
+
+
+def test_with_terrain_gcs_the_vehicle_asks_the_ground_station_and_arms_once_answered(tmp_path):
+    """``--terrain gcs`` over real TCP: the vehicle sends TERRAIN_REQUEST for the blocks
+    under its terrain-frame items and itself; arming is refused until they are answered
+    (PreArm: terrain data missing for item 2); this client answers as MAVProxy's terrain
+    module does (TERRAIN_DATA per requested 4 x 4 sub-block, from the hilly tile); then
+    TERRAIN_REPORT has nothing pending, the tile's height under the vehicle, and arming
+    is accepted."""
+    import time
+
+    from autopilot.gcs.terrain import answer_request
+    from test_gcs_support import MISSIONS, Sitl, command, connect
+    from tools.terrain_tile import main
+    main([str(tmp_path / "tiles")])
+    tiles = TerrainTiles(str(tmp_path / "tiles"))
+    sitl = Sitl(tmp_path / "run", "--vehicle", "quad", "--terrain", "gcs",
+                "--mission", str(MISSIONS / "terrain_quad.plan"))
+    try:
+        m = connect(sitl.url)
+        req = m.recv_match(type="TERRAIN_REQUEST", blocking=True, timeout=15)
+        assert req is not None and req.grid_spacing == 100 and req.mask == (1 << 56) - 1
+        refused = None
+        deadline = time.monotonic() + 40
+        while refused is None and time.monotonic() < deadline:   # until navigation is aligned
+            m.mav.command_long_send(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+            got = []
+            while (x := m.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True,
+                                     timeout=0.5)) is not None:
+                got.append(x)
+            texts = [x.text for x in got if x.get_type() == "STATUSTEXT"]
+            if "PreArm: terrain data missing for item 2" in texts:
+                refused = next(x for x in got if x.get_type() == "COMMAND_ACK")
+        assert refused is not None and refused.result == MAV.MAV_RESULT_FAILED
+        served, report = set(), None
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            msg = m.recv_match(type=["TERRAIN_REQUEST", "TERRAIN_REPORT"], blocking=True, timeout=0.5)
+            if msg is None:
+                continue
+            if msg.get_type() == "TERRAIN_REQUEST":
+                for d in answer_request(msg, tiles):
+                    m.mav.send(d)
+                served.add((msg.lat, msg.lon))
+            elif served and msg.pending == 0 and msg.loaded >= len(served):
+                report = msg
+                break
+        assert report is not None, served
+        here = tiles(report.lat * 1e-7, report.lon * 1e-7)
+        assert report.spacing == 100 and abs(report.terrain_height - here) < 1.0
+        ack = command(m, 400, 1)
+        assert ack is not None and ack.result == MAV.MAV_RESULT_ACCEPTED
+    finally:
+        sitl.stop()

@@ -403,11 +403,12 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     if v.home_frame is not None:
         rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params)
         figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
-        scored = [g for g in legs if g["xtrack_max_m"] is not None]
+        # (a run with no log rows leaves its lines unscored)
+        scored = [g for g in legs if g.get("xtrack_max_m") is not None]
         # every line's own figures (a survey's transects), null where never captured
         figs["xtrack_mission_legs"] = [
-            {"from_seq": g["prev_seq"], "to_seq": g["seq"], "rms_m": g["xtrack_rms_m"],
-             "max_m": g["xtrack_max_m"]} for g in legs]
+            {"from_seq": g["prev_seq"], "to_seq": g["seq"], "rms_m": g.get("xtrack_rms_m"),
+             "max_m": g.get("xtrack_max_m")} for g in legs]
         if scored:
             w = max(scored, key=lambda g: g["xtrack_max_m"])
             figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],

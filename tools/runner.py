@@ -79,7 +79,10 @@ class Session:
             raise MissionFileError(str(cfg.mission), f"item {problem.seq}", str(problem))
         self.home = cfg.home or mission_home(self.mission)
         self.terrain = None
-        if cfg.terrain is not None:
+        self.gcs_terrain = str(cfg.terrain) == "gcs"   # heights from the ground station
+        if self.gcs_terrain and cfg.gcs is None:
+            raise MissionFileError("--terrain gcs", None, "the ground station's terrain needs --gcs")
+        if cfg.terrain is not None and not self.gcs_terrain:
             # the ground is the tiles' (the vehicle rests on it at home) and the
             # autopilot reads the same tiles for its terrain-relative altitudes
             from autopilot.geo.terrain import TerrainTiles
@@ -150,6 +153,11 @@ class Session:
                                         autostart=not self.interactive, log=self.log)
         if self.terrain is not None:
             self.vehicle.terrain = self.terrain
+        elif self.gcs_terrain:
+            # the simulator's ground stays flat; the autopilot asks the ground station
+            # (TERRAIN_REQUEST / TERRAIN_DATA, autopilot/gcs/terrain.py)
+            from autopilot.gcs.terrain import GridTerrain
+            self.vehicle.terrain = GridTerrain()
         # truth (HIL_STATE_QUATERNION) only where the flight log keeps it: on its row
         # steps (and with every GPS fix); every step when the run flies on truth
         if cfg.nav == "truth":

@@ -338,7 +338,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--terrain", metavar="DIR",
                    help="SRTM .hgt tiles (1 or 3 arc-second) for the ground under the vehicle "
                         "and the autopilot's terrain-relative altitudes; default: flat at home "
-                        "(python -m tools.terrain_tile DIR writes a hilly tile)")
+                        "(python -m tools.terrain_tile DIR writes a hilly tile); 'gcs' (with "
+                        "--gcs): the autopilot asks the ground station (TERRAIN_REQUEST)")
     r.set_defaults(func=cmd_run)
     ms = sub.add_parser("missions", help="mission tools: random missions")
     ms_sub = ms.add_subparsers(dest="missions_cmd", required=True)
