@@ -307,6 +307,10 @@ class Telemetry:
                 prev = ne(m[k])
                 break
         alt = it.z_alt_m + (h.alt0_m if it.frame in (3, 6, 10, 11) else 0.0)
+        terrain = getattr(v, "terrain", None)
+        if it.frame in (10, 11) and terrain is not None:
+            ground = terrain(it.x_lat_deg, it.y_lon_deg)     # above the terrain there
+            alt = it.z_alt_m + ground if ground is not None else alt
         return ne(it), prev, alt
 
     def nav_controller_output(self):
