@@ -9,6 +9,7 @@ import pytest
 from autopilot.link.codec import MAV
 from autopilot.mission.files import MissionFileError, load_mission, loads_plan
 from autopilot.mission.items import (DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_ROI_LOCATION, DO_SET_ROI_NONE,
+                                     DO_SET_ROI_WPNEXT_OFFSET,
                                      NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT,
                                      NAV_TAKEOFF, NAV_WAYPOINT, MissionItem)
 from test_gcs_protocol import download, make_core, make_quad, upload
@@ -256,9 +257,12 @@ def test_a_complex_item_without_stored_items_is_refused_naming_it():
     with pytest.raises(MissionFileError, match=r"x.plan:item 2: ComplexItem survey \(mission.items\[1\]\) "
                                                r"has no stored mission items"):
         loads_plan(json.dumps(doc), "x.plan")
+    items[1] = {"type": "ComplexItem", "complexItemType": "fwLandingPattern", "version": 2}
+    with pytest.raises(MissionFileError, match=r"item 2: ComplexItem fixed-wing landing pattern .*saves only its geometry"):
+        loads_plan(json.dumps(doc), "x.plan")
     items[1] = {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3,
                 "polygon": [[-35.36, 149.16], [-35.36, 149.17], [-35.37, 149.17]], "Layers": 2}
-    with pytest.raises(MissionFileError, match=r"item 2: ComplexItem structure scan .*saves only its geometry"):
+    with pytest.raises(MissionFileError, match=r"item 2: ComplexItem structure scan .*needs .CameraCalc."):
         loads_plan(json.dumps(doc), "x.plan")
     items[1] = {"type": "ComplexItem", "complexItemType": "CorridorScan", "version": 3,
                 "TransectStyleComplexItem": {"Items": []}}
@@ -300,3 +304,46 @@ def test_camera_commands_are_noted_once_by_both_vehicles():
     assert [t for _, _, t in s.notices if "amera" in t] == \
         ["Camera commands noted: no camera on this airframe"]
     assert {2, 4} <= s.reached_seqs
+
+
+def structure_scan(poly, layers=2, **kw):
+    return {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3,
+            "polygon": poly, "Layers": layers, "EntranceAltitude": 20, "ScanBottomAlt": 5,
+            "StructureHeight": 25, "GimbalPitch": 0, "StartFromTop": False,
+            "CameraCalc": {"CameraName": "Manual (no camera specs)", "DistanceToSurface": 10,
+                           "AdjustedFootprintFrontal": 10, "AdjustedFootprintSide": 5,
+                           "DistanceMode": 1, "version": 2}, **kw}
+
+
+def test_a_structure_scan_is_generated_as_qgroundcontrol_generates_it_and_the_quad_looks_at_it():
+    # a 20 m square building 30 m north of home, its corners clockwise
+    sq = [(30, -10), (50, -10), (50, 10), (30, 10)]
+    poly = [[QHOME[0] + math.degrees(n / 6371000.0),
+             QHOME[1] + math.degrees(e / (6371000.0 * math.cos(math.radians(QHOME[0]))))] for n, e in sq]
+    doc = json.loads(plan_text([simple(22, 3, [0, 0, 0, None, QHOME[0], QHOME[1], 20], 1),
+                                structure_scan(poly), simple(21, 3, [0] * 3 + [None, 0, 0, 0], 2)],
+                               home=list(QHOME)))
+    m = loads_plan(json.dumps(doc), "s.plan", "quad")
+    # QGroundControl's count: layers x (vertices + 1 + 2 camera commands) + ROI x 2 + entry/exit
+    assert len(m) == 1 + 1 + (2 * (4 + 1 + 2) + 4) + 1
+    frame = ps.LocalFrame.from_degrees(*QHOME)
+    wps = [it for it in m.items[2:-1] if it.command == NAV_WAYPOINT]
+    ne = [tuple(round(float(c), 1) for c in frame.to_ned_fast(math.radians(it.x_lat_deg),
+                                                              math.radians(it.y_lon_deg), QHOME[2])[:2])
+          for it in wps]
+    # the flight polygon: the square moved out by DistanceToSurface (10 m)
+    assert np.allclose(ne[1:6], [(20, -20), (60, -20), (60, 20), (20, 20), (20, -20)], atol=0.3)
+    assert [it.z_alt_m for it in wps] == [20.0] + [10.0] * 5 + [20.0] * 5 + [20.0]
+    assert m[3].command == DO_SET_ROI_WPNEXT_OFFSET and m[3].z_alt_m == 90.0
+    # flown: on the layers' legs the nose is 90 deg right of the leg, at the building
+    seq, nav, log = fly_quad(m, t_max=300.0, yaw_lag_s=0.3)
+    assert seq.landed
+    errs = []
+    for r in log:
+        it = m[r["seq"]] if r["seq"] < len(m) else None
+        if it is not None and it.command == NAV_WAYPOINT and 4 <= r["seq"] <= 20:
+            v = math.hypot(r["vel"][0], r["vel"][1])
+            if v > 2.0:
+                want = math.atan2(r["vel"][1], r["vel"][0]) + math.pi / 2
+                errs.append(abs(math.degrees(wrap(r["yaw"] - want))))
+    assert errs and np.percentile(errs, 90) < 10.0, np.percentile(errs, 90)

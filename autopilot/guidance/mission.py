@@ -5,7 +5,7 @@ NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_DELA
 NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
 CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
 ArduPlane does); NAV_SPLINE_WAYPOINT flown as a NAV_WAYPOINT (as ArduPlane flies it);
-DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE noted for a gimbal the airframe does
+DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE / DO_SET_ROI_WPNEXT_OFFSET noted for a gimbal the airframe does
 not have (said once), and the camera commands of QGroundControl's surveys likewise.
 NAV_LOITER_TO_ALT's radius sign is its direction (negative:
 counter-clockwise), as for the other loiters.
@@ -62,7 +62,7 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem,
                              MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS,
-                             CAMERA_COMMANDS)
+                             CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET)
 from . import dubins
 from .l1 import G
 
@@ -440,10 +440,10 @@ class MissionSequencer:
                 self.say(t_us, SEV_INFO, f"CONDITION_YAW #{item.seq} ignored: a plane flies its course")
             elif cmd == MAV_CMD_DO_CHANGE_SPEED:
                 self._change_speed(t_us, item)
-            elif cmd in ROI_COMMANDS or cmd == MAV_CMD_DO_SET_ROI_NONE:
+            elif cmd in ROI_COMMANDS or cmd in (MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET):
                 # noted for a gimbal this airframe does not have (ArduPlane points its
                 # mount, not the aircraft); said once
-                if cmd == MAV_CMD_DO_SET_ROI_NONE or self._here(item):
+                if cmd in (MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET) or self._here(item):
                     self.roi = None
                 else:
                     self.roi = (item.x_lat_deg, item.y_lon_deg, item.z_alt_m)

@@ -40,7 +40,8 @@ the flight; -2 restores the parameter), DO_SET_HOME (param1 1 or all zero: here)
 CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``),
 NAV_SPLINE_WAYPOINT (a curve through the points, ``CopterMissionSequencer._spline``),
 DO_SET_ROI_LOCATION / DO_SET_ROI (the nose on the place until DO_SET_ROI_NONE or a ROI
-at latitude and longitude 0), and the camera commands of QGroundControl's surveys
+at latitude and longitude 0), DO_SET_ROI_WPNEXT_OFFSET (the nose towards the next
+waypoint turned by its yaw offset, as a structure scan asks), and the camera commands of QGroundControl's surveys
 (noted once: no camera).
 Latitude and longitude 0 mean "here" and altitude 0 or NaN "this height" (``item_ned``);
 a NaN heading (param4, QGroundControl's null) leaves the heading to the legs.
@@ -64,7 +65,7 @@ from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, NAV_COMMANDS, Mission,
                              MissionItem, MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT,
-                             ROI_COMMANDS, CAMERA_COMMANDS)
+                             ROI_COMMANDS, CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET)
 from ..params import Param
 
 RELATIVE_FRAMES = (3, 6)      # GLOBAL_RELATIVE_ALT(_INT)
@@ -386,6 +387,7 @@ class CopterNavigator:
         self._yaw_fix_rate = 0.0
         self.yaw_fix_target = 0.0
         self.roi_ne: tuple | None = None   # DO_SET_ROI_LOCATION: the nose points there
+        self.roi_wpnext_deg: float | None = None   # DO_SET_ROI_WPNEXT_OFFSET: yaw offset
         # a terrain-frame leg: (ground_d(n, e), start NE, goal NE, ground depth at start,
         # at goal); the reference's depth follows the ground between them (``target``)
         self.terrain_leg = None
@@ -538,6 +540,12 @@ class CopterNavigator:
             goal = math.atan2(de, dn) if math.hypot(dn, de) > 1.0 else None
         elif traj.curving and ph == "goto" and traj.course is not None:
             goal = traj.course
+        if self.roi_wpnext_deg is not None and self.roi_ne is None and ph == "goto":
+            # towards the next waypoint, turned by the offset (a structure scan's camera
+            # looks sideways at the structure)
+            dn, de = self.goal_ne[0] - traj.start[0], self.goal_ne[1] - traj.start[1]
+            if math.hypot(dn, de) > YAW_MIN_LEG_M:
+                goal = wrap_pi(math.atan2(de, dn) + math.radians(self.roi_wpnext_deg))
         if self._yaw_left is not None:
             step = self._yaw_fix_rate * dt
             turn = max(-step, min(step, self._yaw_left))
@@ -624,6 +632,7 @@ class CopterMissionSequencer:
         self._yaw_owner: int | None = None       # nav item a CONDITION_YAW belongs to (-1: next)
         self.home_request = None
         self.nav.roi_ne = None
+        self.nav.roi_wpnext_deg = None
         self._camera_said = False
 
     def set_current(self, seq: int) -> None:
@@ -769,12 +778,17 @@ class CopterMissionSequencer:
         elif cmd in ROI_COMMANDS or cmd == MAV_CMD_DO_SET_ROI_NONE:
             # the nose points at the region of interest for the rest of the mission
             # (ArduCopter's auto-yaw ROI); DO_SET_ROI_NONE or a location at 0, 0 clears it
+            nav.roi_wpnext_deg = None
             if cmd == MAV_CMD_DO_SET_ROI_NONE or (item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0):
                 nav.roi_ne = None
             else:
                 q = self.frame.to_ned_fast(math.radians(item.x_lat_deg),
                                            math.radians(item.y_lon_deg), self.frame.alt0_m)
                 nav.roi_ne = (float(q[0]), float(q[1]))
+        elif cmd == MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET:
+            # the nose towards the next waypoint turned by param7 (yaw offset, deg)
+            nav.roi_ne = None
+            nav.roi_wpnext_deg = item.z_alt_m if math.isfinite(item.z_alt_m) else 0.0
         elif cmd in CAMERA_COMMANDS:
             if not self._camera_said:
                 self._camera_said = True
