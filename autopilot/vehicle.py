@@ -38,7 +38,7 @@ from .guidance.l1 import G, L1Guidance
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
-from .mission.items import MAV_CMD_NAV_LAND, Mission, validate_mission
+from .mission.items import terrain_problem, MAV_CMD_NAV_LAND, Mission, validate_mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
@@ -141,6 +141,25 @@ class PlaneVehicle:
     navigation is healthy (headless runs); otherwise wait for a ground station.
     Implements ``autopilot.vehicle_api.VehicleApi`` for the ground-station service."""
 
+    # the terrain the autopilot reads (a callable (lat_deg, lon_deg) -> metres MSL or None:
+    # the simulator's tiles, autopilot.geo.terrain); None: flat at home altitude
+    terrain = None
+
+    @property
+    def sequencer(self):
+        return self._sequencer
+
+    @sequencer.setter
+    def sequencer(self, seq) -> None:
+        self._sequencer = seq
+        if seq is not None:
+            seq.terrain = self.terrain
+
+    def terrain_problem(self) -> str | None:
+        """The pre-arm reason when a terrain-frame item of the mission has no terrain
+        data under it (ArduPilot refuses to arm so), else None."""
+        return terrain_problem(self.mission, self.terrain)
+
     mav_type = MAV.MAV_TYPE_FIXED_WING
     modes = PlaneMode
     implemented_modes = IMPLEMENTED_PLANE_MODES
@@ -182,6 +201,7 @@ class PlaneVehicle:
         self._launch_alt_m: float | None = None  # where the aircraft rested at arming (MSL)
         self.geofence = Geofence(params, "plane")  # fence and rally points (autopilot/fence)
         self.rtl_hold: NavTarget | None = None  # RTL to a rally point: the loiter there
+        self._launch_ground_m: float | None = None  # the terrain's height there, if known
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -195,7 +215,8 @@ class PlaneVehicle:
             return "no 3D fix"
         if self.mission is None or len(self.mission) < 2:
             return "no valid mission"
-        return self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
+        return (self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
+                or self.terrain_problem())
 
     def arm(self, t_us: int, truth=None) -> str | None:
         reason = self.arm_checks()
@@ -210,6 +231,7 @@ class PlaneVehicle:
         self.crash = None
         self._launch_us = self._ground_since_us = None
         self._launch_alt_m = nav.alt_m
+        self._launch_ground_m = self._ground_m(nav)
         self._airborne = False
         self.armed = True
         self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
@@ -451,6 +473,11 @@ class PlaneVehicle:
         # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
         # nothing of where the ground is
         h = nav.alt_m - self._launch_alt_m
+        ground = self._ground_m(nav)
+        if ground is not None and self._launch_ground_m is not None:
+            # over known terrain: the height above the ground under the aircraft (less
+            # the launcher's height above it at arming), not above the launch point
+            h = nav.alt_m - ground - (self._launch_alt_m - self._launch_ground_m)
         moving_air = nav.airspeed_mps >= 0.75 * p["ARSPD_FBW_MIN"]
         if self._launch_us is None:
             if moving_air:
@@ -477,6 +504,12 @@ class PlaneVehicle:
         elif (t_us - self._ground_since_us) * 1e-6 >= p["CRASH_DELAY_S"]:
             where = f"height {h:.1f} m" if on_ground else "stopped"
             self._crashed(t_us, f"on the ground outside a landing ({where})")
+
+    def _ground_m(self, nav: NavState) -> float | None:
+        """The terrain's height under the aircraft [m MSL] from ``terrain``, or None."""
+        if self.terrain is None:
+            return None
+        return self.terrain(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
 
     def _landing(self) -> bool:
         """A landing is being flown (where touching down is the plan)."""

@@ -43,7 +43,7 @@ from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
-from .mission.items import Mission, validate_mission
+from .mission.items import terrain_problem, Mission, validate_mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
@@ -284,6 +284,25 @@ class QuadVehicle:
     """The quadrotor autopilot's loop. ``autostart``: arm and fly AUTO by itself once
     navigation is healthy (headless runs); otherwise wait for a ground station."""
 
+    # the terrain the autopilot reads (a callable (lat_deg, lon_deg) -> metres MSL or None:
+    # the simulator's tiles, autopilot.geo.terrain); None: flat at home altitude
+    terrain = None
+
+    @property
+    def sequencer(self):
+        return self._sequencer
+
+    @sequencer.setter
+    def sequencer(self, seq) -> None:
+        self._sequencer = seq
+        if seq is not None:
+            seq.terrain = self.terrain
+
+    def terrain_problem(self) -> str | None:
+        """The pre-arm reason when a terrain-frame item of the mission has no terrain
+        data under it (ArduPilot refuses to arm so), else None."""
+        return terrain_problem(self.mission, self.terrain)
+
     mav_type = MAV.MAV_TYPE_QUADROTOR
     modes = CopterMode
     implemented_modes = IMPLEMENTED_COPTER_MODES
@@ -343,7 +362,8 @@ class QuadVehicle:
             return "no 3D fix"
         if self.mode == CopterMode.AUTO and (self.mission is None or len(self.mission) < 2):
             return "no valid mission"
-        return self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
+        return (self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
+                or self.terrain_problem())
 
     def arm(self, t_us: int, truth=None) -> str | None:
         reason = self.arm_checks()

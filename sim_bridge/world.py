@@ -40,9 +40,11 @@ class World:
 def build_world(home: tuple[float, float, float, float], seed: int, airframe: str = "aerosonde",
                 scenario: Path | None = None, wind: tuple[float, float] | None = None,
                 turbulence: str | None = None, vehicle: str = "plane",
-                sensor_params: SensorParams | None = None) -> World:
+                sensor_params: SensorParams | None = None, terrain=None) -> World:
     """``home`` = (lat_deg, lon_deg, alt_m, heading_deg). ``wind`` = (speed, from_deg)
-    overrides the scenario's steady wind; ``turbulence`` overrides its level."""
+    overrides the scenario's steady wind; ``turbulence`` overrides its level.
+    ``terrain``: the ground's height, a callable (lat_deg, lon_deg) -> metres MSL or None
+    (autopilot.geo.terrain); None: flat at home altitude."""
     events: list = []
     w = Wind(0.0, 0.0, "none")
     if scenario is not None:
@@ -65,6 +67,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
         quad_airframe = "f450" if airframe == "aerosonde" else airframe
         plant = QuadrotorPlant(home, quad_airframe, dt_s=QUAD_DT_S, wind_ned=tuple(w.wind_ned()),
                                turbulence=w.turbulence, rng=rng_plant)
+        plant.terrain = terrain
         sensors = SensorSuite(sp, rng_sensors, dt_s=QUAD_DT_S)
         sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
         return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=QUAD_DT_S,
@@ -75,6 +78,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
     from .plants.jsbsim_plane import JSBSimPlane
     plant = JSBSimPlane(airframe, home=home, wind_ned=tuple(w.wind_ned()),
                         turbulence=w.turbulence, rng=rng_plant)
+    plant.terrain = terrain
     sensors = SensorSuite(sp, rng_sensors, dt_s=0.01)
     sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
     return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w)

@@ -282,7 +282,7 @@ BAD_FILES = [
     ("empty_items.plan", None, "empty mission"),
     ("no_home.plan", "item 0", "plannedHomePosition"),
     ("home_bad_lat.plan", "item 0", "MAV_MISSION_INVALID_PARAM5_X"),
-    ("complex_item.plan", "item 3", "unsupported ComplexItem (survey)"),
+    ("complex_item.plan", "item 3", "ComplexItem survey (mission.items[2]) has no stored mission items"),
     ("unknown_command.plan", "item 2", "unknown command 31337"),
     ("bad_frame.plan", "item 3", "unsupported frame 1"),
     ("params_count.plan", "item 2", "expected 7 params, got 6"),

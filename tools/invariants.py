@@ -29,7 +29,9 @@ Cross-track against them (``xtrack_mission``)
     end of the log.
 
 ``xtrack_mission_worst_leg`` names the line with the largest error (the items at its two
-ends, ``from_seq`` null for the take-off point) with its own rms and max.
+ends, ``from_seq`` null for the take-off point) with its own rms and max;
+``xtrack_mission_legs`` lists every line so (rms and max null for a line never captured),
+e.g. each transect of a survey.
 
 The invariants (``check_invariants``): each ``{"passed": bool, "figure": number}`` and,
 where a bound applies, ``"limit"`` (``mission_order`` and ``no_orbit`` also name the item
@@ -54,7 +56,8 @@ concerned, ``"seq"``, or null):
   fixed-wing's crash detection, or back on the ground). Figure: the lowest true height
   in that span (from the launch, for a crash before its end) [m].
 * ``height_floor``: from the end of the climb-out (the take-off counted) to the start of
-  a landing, the true height above home stays at or above the floor: ``HEIGHT_FLOOR_M``
+  a landing, the true height above home (above the terrain in a ``--terrain`` run)
+  stays at or above the floor: ``HEIGHT_FLOOR_M``
   of the vehicle, or half the lowest height commanded after the take-off if that is lower.
   Figure: the lowest true height [m].
 * ``attitude_limits``: fixed-wing bank within ROLL_LIMIT_DEG and pitch within
@@ -302,8 +305,8 @@ def _lowest_commanded_height(mission: Mission) -> float:
     takeoff = next((it.seq for it in mission.items[1:] if it.command == NAV_TAKEOFF), 0)
     for it in mission.items[takeoff + 1:]:
         if it.command in NAV_FLOWN and it.command not in (NAV_LAND, NAV_RETURN_TO_LAUNCH):
-            rel = it.frame in (3, 6, 11)
-            if rel and it.z_alt_m == 0.0:
+            rel = it.frame in (3, 6, 10, 11)
+            if (rel and it.z_alt_m == 0.0) or math.isnan(it.z_alt_m):
                 continue   # "the current altitude"
             hs.append(it.z_alt_m if rel else it.z_alt_m - mission.home.z_alt_m)
     return min(hs) if hs else math.inf
@@ -311,8 +314,11 @@ def _lowest_commanded_height(mission: Mission) -> float:
 
 def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, completed: bool,
                      done_t_s: float | None, home_truth_alt_m: float | None, params,
-                     wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False) -> dict:
-    """The invariants of one run (module docstring)."""
+                     wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False,
+                     ground_m: np.ndarray | None = None) -> dict:
+    """The invariants of one run (module docstring). ``ground_m``: the terrain's height
+    under each row (a ``--terrain`` run); the heights are then above that ground (less
+    the vehicle's height above it at home), not above home."""
     inv: dict = {}
     t = a["t_s"]
     armed = a["armed"] > 0
@@ -332,6 +338,8 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
     # heights
     if home_truth_alt_m is not None and armed.any():
         h = a["truth_alt_m"] - home_truth_alt_m
+        if ground_m is not None and len(ground_m) and np.isfinite(ground_m[0]):
+            h = h - (ground_m - ground_m[np.flatnonzero(armed)[0]])
         takeoff_t = [tu * 1e-6 for tu, s in events if 0 < s < len(mission) and mission[s].command == NAV_TAKEOFF]
         climbed = takeoff_t[0] if takeoff_t else math.inf
         t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm)
@@ -402,13 +410,18 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     mission = v.mission if v.mission is not None else session.mission
     events = v.reached_events()
     figs: dict = {"xtrack_mission_rms_m": None, "xtrack_mission_max_m": None,
-                  "xtrack_mission_worst_leg": None}
+                  "xtrack_mission_worst_leg": None, "xtrack_mission_legs": []}
     if v.home_frame is not None:
         radii = getattr(v.sequencer, "loiter_radii", ()) if vehicle == "plane" else ()
         rms, mx, legs = xtrack_mission(a, mission, v.home_frame, vehicle, events, session.params,
                                        radii)
         figs["xtrack_mission_rms_m"], figs["xtrack_mission_max_m"] = rms, mx
-        scored = [g for g in legs if g["xtrack_max_m"] is not None]
+        # (a run with no log rows leaves its lines unscored)
+        scored = [g for g in legs if g.get("xtrack_max_m") is not None]
+        # every line's own figures (a survey's transects), null where never captured
+        figs["xtrack_mission_legs"] = [
+            {"from_seq": g["prev_seq"], "to_seq": g["seq"], "rms_m": g.get("xtrack_rms_m"),
+             "max_m": g.get("xtrack_max_m")} for g in legs]
         if scored:
             w = max(scored, key=lambda g: g["xtrack_max_m"])
             figs["xtrack_mission_worst_leg"] = {"from_seq": w["prev_seq"], "to_seq": w["seq"],
@@ -425,5 +438,21 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),
                            fault_free=fault_free, log_events=session.log.events,
-                           crashed=bool(session.crashed))
+                           crashed=bool(session.crashed), ground_m=_ground_under(session, a))
     return figs, inv
+
+
+def _ground_under(session, a: dict) -> np.ndarray | None:
+    """The terrain's height under every row of a ``--terrain`` run (NaN where no data;
+    the home ground there), else None."""
+    terrain = getattr(session, "terrain", None)
+    frame = session.vehicle.home_frame
+    if terrain is None or frame is None or not len(a["t_s"]):
+        return None
+    out = np.empty(len(a["t_s"]))
+    for i, (n, e) in enumerate(zip(a["truth_n_m"], a["truth_e_m"])):
+        lat, lon, _ = frame.to_geodetic_fast((n, e, 0.0))
+        h = terrain(math.degrees(lat), math.degrees(lon)) if math.isfinite(n) else None
+        out[i] = np.nan if h is None else h
+    home = terrain(math.degrees(frame.lat0_rad), math.degrees(frame.lon0_rad))
+    return np.where(np.isfinite(out), out, home if home is not None else np.nan)

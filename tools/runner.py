@@ -63,6 +63,7 @@ class RunConfig:
     # these files (MAVProxy's fence / rally formats, or QGC WPL 110) replace them
     fence: Path | None = None
     rally: Path | None = None
+    terrain: Path | None = None                    # SRTM .hgt tiles (None: flat at home)
 
 
 class Session:
@@ -81,12 +82,26 @@ class Session:
         if problem is not None:               # a command this vehicle does not fly (yet)
             raise MissionFileError(str(cfg.mission), f"item {problem.seq}", str(problem))
         self.home = cfg.home or mission_home(self.mission)
+        self.terrain = None
+        self.gcs_terrain = str(cfg.terrain) == "gcs"   # heights from the ground station
+        if self.gcs_terrain and cfg.gcs is None:
+            raise MissionFileError("--terrain gcs", None, "the ground station's terrain needs --gcs")
+        if cfg.terrain is not None and not self.gcs_terrain:
+            # the ground is the tiles' (the vehicle rests on it at home) and the
+            # autopilot reads the same tiles for its terrain-relative altitudes
+            from autopilot.geo.terrain import TerrainTiles
+            self.terrain = TerrainTiles(str(cfg.terrain))
+            h = self.terrain(self.home[0], self.home[1])
+            if h is None:
+                raise MissionFileError(str(cfg.terrain), None, f"no terrain tile covers home "
+                                       f"{self.home[0]:.6f} {self.home[1]:.6f}")
+            self.home = (self.home[0], self.home[1], h, self.home[3])
         from sim_bridge.sensors.params import GPS_PRESETS, SensorParams
         if cfg.gps not in GPS_PRESETS:
             raise ValueError(f"unknown GPS receiver model {cfg.gps!r} ({', '.join(GPS_PRESETS)})")
         sensor_params = SensorParams(**GPS_PRESETS[cfg.gps])
         world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
-                            cfg.turbulence, cfg.vehicle, sensor_params)
+                            cfg.turbulence, cfg.vehicle, sensor_params, self.terrain)
         quad = cfg.vehicle == "quad"
         tailwind = -world.wind.speed_mps * math.cos(math.radians(world.wind.from_deg - self.home[3]))
         if cfg.home is None and not quad and (world.wind.speed_mps >= LAUNCH_INTO_WIND_MPS
@@ -96,7 +111,7 @@ class Session:
             # turbulence sank the Aerosonde 1.5 m onto the ground); --home's heading overrides
             self.home = (*self.home[:3], world.wind.from_deg % 360.0)
             world = build_world(self.home, cfg.seed, cfg.airframe, cfg.scenario, cfg.wind,
-                                cfg.turbulence, cfg.vehicle, sensor_params)
+                                cfg.turbulence, cfg.vehicle, sensor_params, self.terrain)
         self.world = world
         self.wind = world.wind
         self.plant = world.plant
@@ -140,6 +155,13 @@ class Session:
             self.log = FlightLog(LOG_COLUMNS)
             self.vehicle = PlaneVehicle(self.params, self.mission, cfg.nav,
                                         autostart=not self.interactive, log=self.log)
+        if self.terrain is not None:
+            self.vehicle.terrain = self.terrain
+        elif self.gcs_terrain:
+            # the simulator's ground stays flat; the autopilot asks the ground station
+            # (TERRAIN_REQUEST / TERRAIN_DATA, autopilot/gcs/terrain.py)
+            from autopilot.gcs.terrain import GridTerrain
+            self.vehicle.terrain = GridTerrain()
         # truth (HIL_STATE_QUATERNION) only where the flight log keeps it: on its row
         # steps (and with every GPS fix); every step when the run flies on truth
         if cfg.nav == "truth":

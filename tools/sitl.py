@@ -5,6 +5,7 @@
                 [--duration S] [--nav ekf|ukf|truth] [--home LAT,LON,ALT_M,HEADING_DEG]
                 [--log-dir DIR] [--param NAME=VALUE ...] [--params FILE] [--json]
                 [--gcs [URL] ...] [--param-store FILE] [--wipe] [--signing-key FILE]
+                [--terrain DIR]
     sitl missions random --vehicle plane|quad --seed N -o FILE [--max-time S]
     sitl missions sample --vehicle plane|quad --seeds FIRST-LAST [--max-time S] [--jsonl FILE]
     sitl params save|load FILE [--vehicle plane|quad] [--param-store FILE] [--connect URL]
@@ -95,7 +96,8 @@ def _config(args) -> RunConfig:
                      param_overrides=overrides, gcs=gcs, param_store=param_store,
                      signing_key=signing_key,
                      fence=Path(args.fence) if args.fence else None,
-                     rally=Path(args.rally) if args.rally else None)
+                     rally=Path(args.rally) if args.rally else None,
+                     terrain=Path(args.terrain) if args.terrain else None)
 
 
 def _signing_key(args, gcs) -> bytes | None:
@@ -344,6 +346,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --gcs: MAVLink 2 signing key file (first line: a passphrase, as "
                         "MAVProxy's 'signing setup PASSPHRASE', or 64 hex digits); stored beside "
                         "the parameter store")
+    r.add_argument("--terrain", metavar="DIR",
+                   help="SRTM .hgt tiles (1 or 3 arc-second) for the ground under the vehicle "
+                        "and the autopilot's terrain-relative altitudes; default: flat at home "
+                        "(python -m tools.terrain_tile DIR writes a hilly tile); 'gcs' (with "
+                        "--gcs): the autopilot asks the ground station (TERRAIN_REQUEST)")
     r.set_defaults(func=cmd_run)
     ms = sub.add_parser("missions", help="mission tools: random missions")
     ms_sub = ms.add_subparsers(dest="missions_cmd", required=True)

@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from autopilot.mission.items import TERRAIN_FRAMES
+
 CAPTURE_M = 10.0
 KIND_LINE, KIND_LOITER, KIND_TAKEOFF, KIND_DIRECT = 2, 3, 1, 4
 
@@ -379,6 +381,41 @@ def fence_figures(v, a: dict) -> list[dict]:
     return out
 
 
+def terrain_figures(a: dict, mission, frame, terrain, home_truth_alt_m) -> dict:
+    """``agl_min_m`` / ``agl_rms_err_m``: the true height above the terrain while a
+    terrain-frame item (MAV_FRAME_GLOBAL_TERRAIN_ALT(_INT)) is flown, its lowest and its
+    RMS error against the item's commanded height. The terrain is the simulator's (the
+    ``--terrain`` tiles, else flat at the true home altitude). None without such items."""
+    out = {"agl_min_m": None, "agl_rms_err_m": None}
+    if mission is None or frame is None or not len(a["t_s"]):
+        return out
+    cmd = np.full(len(mission), np.nan)
+    for it in mission.items[1:]:
+        if it.frame in TERRAIN_FRAMES:
+            cmd[it.seq] = it.z_alt_m
+    if not np.isfinite(cmd).any():
+        return out
+    seq = a["seq"].astype(int)
+    ok = (seq > 0) & (seq < len(mission)) & (a["armed"] > 0) & np.isfinite(a["truth_alt_m"])
+    idx = np.flatnonzero(ok)
+    idx = idx[np.isfinite(cmd[seq[idx]])]
+    if not idx.size:
+        return out
+    ground = np.empty(idx.size)
+    for k, i in enumerate(idx):
+        h = None
+        if terrain is not None:
+            lat, lon, _ = frame.to_geodetic_fast((a["truth_n_m"][i], a["truth_e_m"][i], 0.0))
+            h = terrain(math.degrees(lat), math.degrees(lon))
+        ground[k] = h if h is not None else (home_truth_alt_m if home_truth_alt_m is not None
+                                             else frame.alt0_m)
+    agl = a["truth_alt_m"][idx] - ground
+    err = agl - cmd[seq[idx]]
+    out["agl_min_m"] = float(np.min(agl))
+    out["agl_rms_err_m"] = float(np.sqrt(np.mean(err ** 2)))
+    return out
+
+
 def run_summary(session) -> dict:
     """summary.json of a finished in-process session (tools.runner.Session)."""
     v = session.vehicle
@@ -437,6 +474,8 @@ def run_summary(session) -> dict:
         # the healthy margin: largest detection statistic / threshold per channel while
         # no fault was detected (> 1 would have been a detection)
         s["fdi_peak_ratio"] = {k: round(v, 3) for k, v in sorted(getattr(mon, "peaks", {}).items())}
+    s.update(terrain_figures(a, v.mission if v.mission is not None else session.mission,
+                             v.home_frame, getattr(session, "terrain", None), v.home_truth_alt_m))
     # the cross-track error against the mission as written, and the flight invariants
     # (tools/invariants.py)
     from .invariants import run_invariants

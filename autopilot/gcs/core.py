@@ -40,6 +40,9 @@ all-zero key; refused while armed (as ArduPilot) and with an initial timestamp t
 not fit the signature's 48 bits. The check of every incoming signature is the service's
 (``service.py``).
 
+TERRAIN_DATA and TERRAIN_CHECK go to the terrain server (``terrain.py``: TERRAIN_REQUEST
+for what the vehicle lacks, TERRAIN_REPORT streamed in the EXTRA3 group).
+
 Optional vehicle methods beyond ``VehicleApi`` (used when present, else UNSUPPORTED):
 ``takeoff(alt_m, t_us)``, ``set_speed(speed_mps, t_us)``,
 ``set_guided_target(lat_rad, lon_rad, alt_m, t_us)``, each returning None or a reason.
@@ -58,6 +61,7 @@ from ..link.codec import MAV
 from ..link.signing import TIMESTAMP_MAX
 from .mission import MissionServer
 from .params import ParamServer
+from .terrain import TerrainServer
 from .telemetry import MIN_INTERVAL_US, NAME_BY_ID, ONE_SHOT, STREAMS, Telemetry
 
 R = MAV
@@ -134,6 +138,7 @@ class GcsCore:
         self.missions = MissionServer(vehicle, self._send, self.say, self.tm.home_item, clock,
                                       mission_timeout_s, mission_retries)
         self.params = ParamServer(vehicle, self._send, self._broadcast, self.say, clock, persist)
+        self.terrain = TerrainServer(vehicle, self._send, self._broadcast)
         self.t_us = 0
         self.pending_relays: list[tuple[int, int, int, int, float]] = []
         self.gcs_seen = False
@@ -228,7 +233,8 @@ class GcsCore:
             return
         if name in ("COMMAND_LONG", "COMMAND_INT"):
             self._command(c, Cmd(msg), t_us)
-        elif self.missions.handle(c.cid, msg, t_us) or self.params.handle(c.cid, msg, t_us):
+        elif self.missions.handle(c.cid, msg, t_us) or self.params.handle(c.cid, msg, t_us) \
+                or self.terrain.handle(c.cid, msg, t_us):
             pass
         elif name == "REQUEST_DATA_STREAM":
             self._request_data_stream(c, msg)
@@ -332,6 +338,7 @@ class GcsCore:
             self._sync_events()
             return
         self._events(t_us)
+        self.terrain.tick(t_us)
         built: dict[str, object] = {}
         for c in self.clients.values():
             for name, interval in c.intervals.items():
@@ -346,6 +353,8 @@ class GcsCore:
                 c.due[name] = due if due > t_us else t_us + interval  # behind: skip ahead
                 if name in built:
                     msg = built[name]
+                elif name == "TERRAIN_REPORT":
+                    msg = built[name] = self.terrain.report()
                 else:
                     msg = built[name] = self.tm.build(name, t_us)
                 if msg is not None:

@@ -35,6 +35,8 @@ STREAMS = {
     "HOME_POSITION": (MAV.MAVLINK_MSG_ID_HOME_POSITION, 0.2, None),
     # only while the fence is enabled (autopilot/fence), as ArduPilot sends it
     "FENCE_STATUS": (MAV.MAVLINK_MSG_ID_FENCE_STATUS, 1.0, S),
+    # built by the terrain server (gcs/terrain.py), as ArduPilot's EXTRA3 group has it
+    "TERRAIN_REPORT": (MAV.MAVLINK_MSG_ID_TERRAIN_REPORT, 1.0, MAV.MAV_DATA_STREAM_EXTRA3),
 }
 NAME_BY_ID = {v[0]: k for k, v in STREAMS.items()}
 ONE_SHOT = {MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION: "AUTOPILOT_VERSION"}
@@ -318,7 +320,11 @@ class Telemetry:
             if m[k].command in POSITION_COMMANDS and (m[k].x_lat_deg, m[k].y_lon_deg) != (0.0, 0.0):
                 prev = ne(m[k])
                 break
-        alt = it.z_alt_m + (h.alt0_m if it.frame in (3, 6, 11) else 0.0)
+        alt = it.z_alt_m + (h.alt0_m if it.frame in (3, 6, 10, 11) else 0.0)
+        terrain = getattr(v, "terrain", None)
+        if it.frame in (10, 11) and terrain is not None:
+            ground = terrain(it.x_lat_deg, it.y_lon_deg)     # above the terrain there
+            alt = it.z_alt_m + ground if ground is not None else alt
         return ne(it), prev, alt
 
     def nav_controller_output(self):
@@ -344,7 +350,7 @@ class Telemetry:
                 length = math.hypot(ln, le)
                 if length > 1e-3:
                     xtrack = ((pn - prev[0]) * -le + (pe - prev[1]) * ln) / length
-            if alt is not None:
+            if alt is not None and math.isfinite(alt):   # (NaN: "the current altitude")
                 alt_err = alt - nav.alt_m
         return MAV.MAVLink_nav_controller_output_message(
             math.degrees(r), math.degrees(p), _i(bearing, -180, 360), _i(bearing, -180, 360),

@@ -4,7 +4,11 @@ Item 0 is home (ArduPilot convention). Flown: NAV_TAKEOFF, NAV_WAYPOINT,
 NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_DELAY,
 NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
 CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
-ArduPlane does).
+ArduPlane does); NAV_SPLINE_WAYPOINT flown as a NAV_WAYPOINT (as ArduPlane flies it);
+DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE / DO_SET_ROI_WPNEXT_OFFSET noted for a gimbal the airframe does
+not have (said once), and the camera commands of QGroundControl's surveys likewise.
+NAV_LOITER_TO_ALT's radius sign is its direction (negative:
+counter-clockwise), as for the other loiters.
 
 Leg switching (seed section 1.16, the SLUGS rule): the vehicle's position is projected
 onto the leg direction; the waypoint is reached when the projection passes the end of
@@ -39,6 +43,8 @@ radius, a speed outside the airframe's limits, a step too steep for its leg.
 Latitude and longitude 0 mean "here" (the position when the item starts) for the
 navigation items ArduPlane reads so, and then altitude 0 means the current altitude; a
 loiter's relative altitude 0 means the current altitude (ArduPilot's Location::sanitize).
+A NaN altitude (MAVLink's "no change"; QGroundControl writes null) is the current
+altitude when the item starts.
 """
 from __future__ import annotations
 
@@ -54,11 +60,14 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_DO_SET_HOME, MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LOITER_TIME,
                              MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem)
+                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem,
+                             MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS,
+                             CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET)
 from . import dubins
 from .l1 import G
 
-RELATIVE_FRAMES = (3, 6, 11)  # GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT, TERRAIN (as rel.)
+RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
+TERRAIN_FRAMES = (10, 11)    # GLOBAL_TERRAIN_ALT(_INT)
 
 LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
                    MAV_CMD_NAV_LOITER_TO_ALT)
@@ -73,6 +82,7 @@ JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
 LOITER_ENTRY_M = 10.0           # the line into a loiter is flown to this far outside its circle
+TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,14 +106,19 @@ class MissionSequencer:
         self.params = params
         self.frame = frame
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
+        self.terrain = None   # (lat_deg, lon_deg) -> terrain height [m MSL] or None
         self.home_request = None  # DO_SET_HOME: (lat_rad, lon_rad, alt_m) or "here"
         self.load(mission)
 
     # ------------------------------------------------------------------ set-up ---
     def load(self, mission: Mission) -> None:
         self.mission = mission
-        self.items: tuple[MissionItem, ...] = tuple(mission.items)
+        # ArduPlane flies a NAV_SPLINE_WAYPOINT as a NAV_WAYPOINT
+        self.items: tuple[MissionItem, ...] = tuple(
+            it.replace(command=MAV_CMD_NAV_WAYPOINT, param1=0.0, param2=0.0, param3=0.0, param4=0.0)
+            if it.command == MAV_CMD_NAV_SPLINE_WAYPOINT else it for it in mission.items)
         self.home_alt_m = self.frame.alt0_m
+        self.roi = None                # DO_SET_ROI_LOCATION: (lat_deg, lon_deg, alt_m) noted
         self.jump_counts: dict[int, int] = {}
         self.reached: list[tuple[int, int]] = []   # (t_us, seq) of every item reached
         self.reached_seqs: set[int] = set()
@@ -215,9 +230,20 @@ class MissionSequencer:
 
     def item_alt_m(self, item: MissionItem) -> float:
         """Item altitude as MSL [m]."""
+        if item.frame in TERRAIN_FRAMES:
+            return self.terrain_alt_m(item.x_lat_deg, item.y_lon_deg) + item.z_alt_m
         if item.frame in RELATIVE_FRAMES:
             return self.home_alt_m + item.z_alt_m
         return item.z_alt_m
+
+    def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
+        """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
+        lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
+        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
+            h = self.terrain(lat_deg, lon_deg)
+            if h is not None:
+                return float(h)
+        return self.home_alt_m
 
     def item_ne(self, item: MissionItem) -> tuple[float, float]:
         p = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
@@ -234,7 +260,11 @@ class MissionSequencer:
         means the current altitude; a loiter's relative altitude 0 means the current
         altitude."""
         if self._nav_pos is None:
-            if self._here(item):
+            if math.isnan(item.z_alt_m):
+                # NaN altitude (QGroundControl's null): the current altitude
+                b = (float(p_ne[0]), float(p_ne[1])) if self._here(item) else self.item_ne(item)
+                alt = alt_m
+            elif self._here(item):
                 b = (float(p_ne[0]), float(p_ne[1]))
                 alt = alt_m if item.z_alt_m == 0 else self.item_alt_m(item)
             else:
@@ -486,6 +516,18 @@ class MissionSequencer:
                 self.say(t_us, SEV_INFO, f"CONDITION_YAW #{item.seq} ignored: a plane flies its course")
             elif cmd == MAV_CMD_DO_CHANGE_SPEED:
                 self._change_speed(t_us, item)
+            elif cmd in ROI_COMMANDS or cmd in (MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET):
+                # noted for a gimbal this airframe does not have (ArduPlane points its
+                # mount, not the aircraft); said once
+                if cmd in (MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET) or self._here(item):
+                    self.roi = None
+                else:
+                    self.roi = (item.x_lat_deg, item.y_lon_deg, item.z_alt_m)
+                self.say(t_us, SEV_INFO, "ROI noted: no gimbal on this airframe to point",
+                         key="roi")
+            elif cmd in CAMERA_COMMANDS:
+                self.say(t_us, SEV_INFO, "Camera commands noted: no camera on this airframe",
+                         key="camera")
             elif cmd == MAV_CMD_DO_SET_HOME:
                 if item.param1 == 1 or self._here(item):
                     self.home_request = "here"
@@ -557,12 +599,29 @@ class MissionSequencer:
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float, wind_ne=None) -> NavTarget:
         tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne)
+        if self.terrain is not None and tgt.kind in ("line", "direct", "loiter") \
+                and 0 < tgt.seq < len(self.items) and self.items[tgt.seq].frame in TERRAIN_FRAMES:
+            tgt = self._above_terrain(tgt, p_ned, v_ned)
         if self.min_groundspeed_mps > 0 and tgt.kind != "takeoff":
             chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
             if v != tgt.airspeed_mps:
                 tgt = dataclasses.replace(tgt, airspeed_mps=v)
         return tgt
+
+    def _above_terrain(self, tgt: NavTarget, p_ned, v_ned) -> NavTarget:
+        """A terrain-frame item: the altitude demand is its height above the ground
+        under the aircraft, taken TERRAIN_LEAD_S ahead along the ground velocity (the
+        climb or descent starts before the slope, as the altitude loop lags), not only
+        at the waypoint (ArduPlane's terrain following). Without data there: as planned."""
+        item = self.items[tgt.seq]
+        n = float(p_ned[0]) + TERRAIN_LEAD_S * float(v_ned[0])
+        e = float(p_ned[1]) + TERRAIN_LEAD_S * float(v_ned[1])
+        lat, lon, _ = self.frame.to_geodetic_fast((n, e, 0.0))
+        h = self.terrain(math.degrees(lat), math.degrees(lon))
+        if h is None or math.isnan(item.z_alt_m):
+            return tgt
+        return dataclasses.replace(tgt, alt_m=float(h) + item.z_alt_m)
 
     @staticmethod
     def _course(v_ned, heading_rad: float) -> float:

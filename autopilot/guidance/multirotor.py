@@ -38,8 +38,14 @@ seconds), NAV_LAND (lat/lon 0: here), NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_S
 (param2 [m/s], clamped to the parameter's range with a warning, replaces WPNAV_SPEED --
 speed types 0 and 1 --, WPNAV_SPEED_UP -- 2 -- or WPNAV_SPEED_DN -- 3 -- for the rest of
 the flight; -2 restores the parameter), DO_SET_HOME (param1 1 or all zero: here),
-CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``).
-Latitude and longitude 0 mean "here" and altitude 0 "this height" (``item_ned``).
+CONDITION_DELAY / CONDITION_DISTANCE / CONDITION_YAW (``CopterMissionSequencer``),
+NAV_SPLINE_WAYPOINT (a curve through the points, ``CopterMissionSequencer._spline``),
+DO_SET_ROI_LOCATION / DO_SET_ROI (the nose on the place until DO_SET_ROI_NONE or a ROI
+at latitude and longitude 0), DO_SET_ROI_WPNEXT_OFFSET (the nose towards the next
+waypoint turned by its yaw offset, as a structure scan asks), and the camera commands of QGroundControl's surveys
+(noted once: no camera).
+Latitude and longitude 0 mean "here" and altitude 0 or NaN "this height" (``item_ned``);
+a NaN heading (param4, QGroundControl's null) leaves the heading to the legs.
 A waypoint is reached when the reference has arrived and the vehicle is within the
 acceptance radius (default WPNAV_RADIUS); the hold time starts then. Timed holds and
 loiters are flagged ``hold`` in the target (scored as hold_pos_rms_m). A mission that
@@ -47,6 +53,7 @@ ends without landing returns to launch and lands (as the fixed-wing returns home
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -58,11 +65,14 @@ from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, NAV_COMMANDS, Mission,
-                             MissionItem)
+                             MissionItem, MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT,
+                             ROI_COMMANDS, CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET)
 from ..params import Param
 
-RELATIVE_FRAMES = (3, 6, 11)
+RELATIVE_FRAMES = (3, 6)      # GLOBAL_RELATIVE_ALT(_INT)
+TERRAIN_FRAMES = (10, 11)     # GLOBAL_TERRAIN_ALT(_INT)
 LOITER_TURN_S = 20.0
+SPLINE_SAMPLES = 64           # points a spline leg is sampled at
 YAW_MIN_LEG_M = 5.0           # shorter moves keep the heading
 YAW_DONE_DEG = 5.0            # CONDITION_YAW holds with the heading this close
 
@@ -134,11 +144,18 @@ class Trajectory:
         self.start = (0.0, 0.0, 0.0)
         self.descending = False       # open-ended descent (landing)
         self._vdesc = 0.0
+        self._poly = None             # a curve (spline): sampled points, NED
+        self._cum = None              # ... and the distance along it at each
+        self._v_end = 0.0             # speed kept at the end of a curve (flown through)
 
     @property
     def arrived(self) -> bool:
         """The raw profile is at its goal and the smoothed reference has settled on it."""
-        if self.descending or self._s < self._len or self._vs != 0.0:
+        if self.descending or self._s < self._len:
+            return False
+        if self._v_end > 0.0:
+            return True               # a curve flown through: done when its end is passed
+        if self._vs != 0.0:
             return False
         p, g, v = self.p, self.goal, self.v
         return (abs(p[0] - g[0]) + abs(p[1] - g[1]) + abs(p[2] - g[2]) < 0.03
@@ -155,6 +172,8 @@ class Trajectory:
         self.start = tuple(self.p)
         self._len = self._s = self._vs = 0.0
         self.descending = False
+        self._poly = self._cum = None
+        self._v_end = 0.0
 
     def line_to(self, goal, v_h: float, v_up: float, v_dn: float, a_h: float, a_z: float) -> None:
         """From the raw reference's current position to ``goal`` (NED)."""
@@ -164,6 +183,8 @@ class Trajectory:
         self.start = tuple(r)
         self.goal = [float(goal[0]), float(goal[1]), float(goal[2])]
         self.descending = False
+        self._poly = self._cum = None
+        self._v_end = 0.0
         if length < 1e-6:
             self._len = self._s = self._vs = 0.0
             self._vraw = [0.0, 0.0, 0.0]
@@ -180,6 +201,55 @@ class Trajectory:
         self._u, self._len, self._s, self._vs = u, length, 0.0, min(vs, vmax)
         self._vmax, self._amax = vmax, amax
 
+    def curve_to(self, points, v_h: float, v_up: float, v_dn: float, a_h: float, a_z: float,
+                 v_end: float = 0.0) -> None:
+        """Along the curve sampled by ``points`` (NED; the first is the raw reference's
+        position), with the speed and acceleration limits of the straight line between
+        its ends, the speed also held to sqrt(a_h R) on its tightest bend of radius R
+        (the lateral acceleration), ending at ``v_end`` (> 0: flown through, the next
+        curve goes on from there at that speed)."""
+        pts = [tuple(float(c) for c in q) for q in points]
+        self.line_to(pts[-1], v_h, v_up, v_dn, a_h, a_z)
+        if self._len <= 0.0 or len(pts) < 3:
+            return
+        cum = [0.0]
+        for a, b in zip(pts, pts[1:]):
+            cum.append(cum[-1] + math.dist(a, b))
+        if cum[-1] < 1e-3:
+            return
+        r_min = math.inf
+        for a, b, c in zip(pts, pts[1:], pts[2:]):
+            u1 = (b[0] - a[0], b[1] - a[1])
+            u2 = (c[0] - b[0], c[1] - b[1])
+            l1, l2 = math.hypot(*u1), math.hypot(*u2)
+            if l1 > 1e-6 and l2 > 1e-6:
+                turn = abs(math.atan2(u1[0] * u2[1] - u1[1] * u2[0], u1[0] * u2[0] + u1[1] * u2[1]))
+                if turn > 1e-6:
+                    r_min = min(r_min, 0.5 * (l1 + l2) / turn)
+        self._vmax = min(self._vmax, math.sqrt(a_h * r_min))
+        self._poly, self._cum, self._len = pts, cum, cum[-1]
+        self._v_end = min(max(v_end, 0.0), self._vmax)
+        u = self._seg_dir(0)
+        vr = self._vraw
+        self._u = u
+        self._vs = min(max(0.0, vr[0] * u[0] + vr[1] * u[1] + vr[2] * u[2]), self._vmax)
+
+    def _seg_dir(self, i: int):
+        a, b = self._poly[i], self._poly[i + 1]
+        ln = max(math.dist(a, b), 1e-9)
+        return ((b[0] - a[0]) / ln, (b[1] - a[1]) / ln, (b[2] - a[2]) / ln)
+
+    @property
+    def course(self) -> float | None:
+        """The direction of the path at the raw reference (for the heading), or None
+        on a vertical move."""
+        u = self._u
+        return math.atan2(u[1], u[0]) if math.hypot(u[0], u[1]) > 0.2 else None
+
+    @property
+    def curving(self) -> bool:
+        return self._poly is not None
+
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same
         reference in a frame whose origin moved by -d (home moved)."""
@@ -189,11 +259,16 @@ class Trajectory:
             v[2] += d[2]
         st = self.start
         self.start = (st[0] + d[0], st[1] + d[1], st[2] + d[2])
+        if self._poly is not None:
+            self._poly = [(q[0] + d[0], q[1] + d[1], q[2] + d[2]) for q in self._poly]
 
     def retune(self, v_h: float, v_up: float, v_dn: float) -> None:
         """New speed limits for the line being flown (a speed change in flight: the
         profile slows down at its acceleration limit or speeds up)."""
         if self.descending or self._len <= 0.0:
+            return
+        if self._poly is not None:
+            self._vmax = min(self._vmax, v_h)
             return
         u = self._u
         uh, uz = math.hypot(u[0], u[1]), abs(u[2])
@@ -206,6 +281,8 @@ class Trajectory:
         if self.descending or self._len <= 0.0 or self._vs <= 0.0:
             return (r[0], r[1], r[2])
         d = min(self._vs * self._vs / (2.0 * self._amax), self._len - self._s)
+        if self._poly is not None:
+            return self._at(self._s + d)
         u = self._u
         return (r[0] + u[0] * d, r[1] + u[1] * d, r[2] + u[2] * d)
 
@@ -254,7 +331,7 @@ class Trajectory:
         lim = self._amax * dt
         # braking curve v = sqrt(2 a d): followed exactly (the discrete steps need a
         # little more than a_max at its very end), so the profile stops on the goal
-        v_brake = math.sqrt(2.0 * self._amax * max(remaining, 0.0))
+        v_brake = math.sqrt(2.0 * self._amax * max(remaining, 0.0) + self._v_end * self._v_end)
         v_goal = min(self._vmax, v_brake)
         ex, ey, ez = r[0] - p_vehicle[0], r[1] - p_vehicle[1], r[2] - p_vehicle[2]
         if ex * ex + ey * ey + ez * ez > leash * leash:
@@ -265,12 +342,27 @@ class Trajectory:
             vs1 = v_brake
         s = self._s + 0.5 * (vs0 + vs1) * dt
         if s >= self._len or (vs1 <= 0.0 and remaining < 1e-3):
-            s, vs1 = self._len, 0.0
+            s, vs1 = self._len, (self._v_end if self._v_end > 0.0 and s >= self._len else 0.0)
         self._s, self._vs = s, vs1
+        if self._poly is not None:
+            self.raw = list(self._at(s))
+            u = self._u
+            self._vraw = [u[0] * vs1, u[1] * vs1, u[2] * vs1]
+            return
         u = self._u
         st = self.start
         self.raw = [st[0] + u[0] * s, st[1] + u[1] * s, st[2] + u[2] * s]
         self._vraw = [u[0] * vs1, u[1] * vs1, u[2] * vs1]
+
+    def _at(self, s: float):
+        """The point at distance ``s`` along the curve (and its direction in ``_u``)."""
+        cum, pts = self._cum, self._poly
+        i = min(max(bisect.bisect_right(cum, s) - 1, 0), len(pts) - 2)
+        seg = cum[i + 1] - cum[i]
+        f = min(max((s - cum[i]) / seg, 0.0), 1.0) if seg > 1e-9 else 1.0
+        a, b = pts[i], pts[i + 1]
+        self._u = self._seg_dir(i)
+        return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
 
 
 class CopterNavigator:
@@ -297,6 +389,11 @@ class CopterNavigator:
         self._yaw_left: float | None = None
         self._yaw_fix_rate = 0.0
         self.yaw_fix_target = 0.0
+        self.roi_ne: tuple | None = None   # DO_SET_ROI_LOCATION: the nose points there
+        self.roi_wpnext_deg: float | None = None   # DO_SET_ROI_WPNEXT_OFFSET: yaw offset
+        # a terrain-frame leg: (ground_d(n, e), start NE, goal NE, ground depth at start,
+        # at goal); the reference's depth follows the ground between them (``target``)
+        self.terrain_leg = None
 
     # ----------------------------------------------------------------- actions --
     def init(self, p_ned, yaw: float) -> None:
@@ -344,6 +441,7 @@ class CopterNavigator:
 
     def _line(self, goal) -> None:
         p = self.params
+        self.terrain_leg = None
         self.traj.line_to(goal, *self.speeds(), p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"])
         self.leg_id += 1
         self.goal_ne = (goal[0], goal[1])
@@ -361,6 +459,18 @@ class CopterNavigator:
         self._line(goal)
         if yaw is not None:
             self._yaw_goal = yaw
+        self.phase = "goto"
+
+    def spline(self, points, v_end: float = 0.0) -> None:
+        """Along a curve sampled by ``points`` (NED, from the raw reference), ending at
+        ``v_end`` (NAV_SPLINE_WAYPOINT); the heading follows the path."""
+        p = self.params
+        self.terrain_leg = None
+        self.traj.curve_to(points, *self.speeds(), p["WPNAV_ACCEL"], p["WPNAV_ACCEL_Z"], v_end)
+        self.leg_id += 1
+        goal = points[-1]
+        self.goal_ne = (goal[0], goal[1])
+        self._yaw_goal = None
         self.phase = "goto"
 
     def hold(self, p=None, scored: bool = False) -> None:
@@ -438,15 +548,33 @@ class CopterNavigator:
         if ph == "land_descend":
             low = -traj.p[2] <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
+        dz = self.terrain_offset(p_vehicle[0], p_vehicle[1])
+        if dz:
+            # the vehicle follows the ground: its leash to the straight line's reference
+            # is measured without the ground's offset
+            p_vehicle = (p_vehicle[0], p_vehicle[1], p_vehicle[2] - dz)
         traj.update(dt, p_vehicle, prm["WPNAV_LEASH"])
-        # heading reference slewed towards its goal
+        # heading reference slewed towards its goal: a fixed heading (CONDITION_YAW),
+        # else the region of interest, else along a curve, else towards the leg's end
+        goal = self._yaw_goal
+        if self.roi_ne is not None and ph not in ("idle", "landed", "takeoff"):
+            dn, de = self.roi_ne[0] - p_vehicle[0], self.roi_ne[1] - p_vehicle[1]
+            goal = math.atan2(de, dn) if math.hypot(dn, de) > 1.0 else None
+        elif traj.curving and ph == "goto" and traj.course is not None:
+            goal = traj.course
+        if self.roi_wpnext_deg is not None and self.roi_ne is None and ph == "goto":
+            # towards the next waypoint, turned by the offset (a structure scan's camera
+            # looks sideways at the structure)
+            dn, de = self.goal_ne[0] - traj.start[0], self.goal_ne[1] - traj.start[1]
+            if math.hypot(dn, de) > YAW_MIN_LEG_M:
+                goal = wrap_pi(math.atan2(de, dn) + math.radians(self.roi_wpnext_deg))
         if self._yaw_left is not None:
             step = self._yaw_fix_rate * dt
             turn = max(-step, min(step, self._yaw_left))
             self._yaw_left = 0.0 if abs(self._yaw_left - turn) < 1e-9 else self._yaw_left - turn
             self.yaw_ref = self.yaw_fix_target if self._yaw_left == 0.0 else wrap_pi(self.yaw_ref + turn)
-        elif self._yaw_goal is not None:
-            err = wrap_pi(self._yaw_goal - self.yaw_ref)
+        elif goal is not None:
+            err = wrap_pi(goal - self.yaw_ref)
             step = math.radians(prm["YAW_RATE_MAX"]) * dt
             self.yaw_ref = wrap_pi(self.yaw_ref + max(-step, min(step, err)))
 
@@ -454,11 +582,29 @@ class CopterNavigator:
     def arrived(self) -> bool:
         return self.traj.arrived
 
+    def terrain_offset(self, n: float, e: float) -> float:
+        """On a terrain-frame leg (``terrain_leg``), the depth to add at (n, e) to the
+        straight line's: the ground's rise or fall there against the straight line
+        between the ground at the leg's ends, so the reference keeps its height above
+        the ground; 0 elsewhere or without data."""
+        if self.terrain_leg is None or self.phase not in ("goto", "hold"):
+            return 0.0
+        ground_d, a, b, d_a, d_b = self.terrain_leg
+        ln = math.hypot(b[0] - a[0], b[1] - a[1])
+        f = ((n - a[0]) * (b[0] - a[0]) + (e - a[1]) * (b[1] - a[1])) / (ln * ln) if ln > 1e-3 else 1.0
+        f = min(max(f, 0.0), 1.0)
+        g = ground_d(n, e)
+        return 0.0 if g is None else g - (d_a + f * (d_b - d_a))
+
     def target(self, seq: int, hold: bool = False) -> CopterTarget:
         tr = self.traj
         kind = _PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
-        return CopterTarget(kind, seq, self.leg_id, tuple(tr.p), tuple(tr.v), tuple(tr.a),
+        p = tuple(tr.p)
+        dz = self.terrain_offset(p[0], p[1])
+        if dz:
+            p = (p[0], p[1], p[2] + dz)
+        return CopterTarget(kind, seq, self.leg_id, p, tuple(tr.v), tuple(tr.a),
                             self.yaw_ref, hold, goal, (tr.start[0], tr.start[1]))
 
 
@@ -483,6 +629,7 @@ class CopterMissionSequencer:
         self.frame = frame
         self.nav = nav
         self.notices: list[tuple[float, int, str]] = []
+        self.terrain = None   # (lat_deg, lon_deg) -> terrain height [m MSL] or None
         self.load(mission)
 
     def load(self, mission: Mission) -> None:
@@ -506,6 +653,9 @@ class CopterMissionSequencer:
         self._cond_start_us: int | None = None   # when the first pending condition started
         self._yaw_owner: int | None = None       # nav item a CONDITION_YAW belongs to (-1: next)
         self.home_request = None
+        self.nav.roi_ne = None
+        self.nav.roi_wpnext_deg = None
+        self._camera_said = False
 
     def set_current(self, seq: int) -> None:
         self.current = seq
@@ -523,15 +673,29 @@ class CopterMissionSequencer:
         """Home moved: the goal being flown moves by ``d`` (NED) in the new frame."""
         g = self._goal
         self._goal = (g[0] + d[0], g[1] + d[1], g[2] + d[2])
+        if self.nav.roi_ne is not None:
+            r = self.nav.roi_ne
+            self.nav.roi_ne = (r[0] + d[0], r[1] + d[1])
 
     def _say(self, t_us: int, severity: int, text: str) -> None:
         self.notices.append((t_us * 1e-6, severity, text))
 
     # ------------------------------------------------------------- geometry ---
     def item_alt_m(self, item: MissionItem) -> float:
+        if item.frame in TERRAIN_FRAMES:
+            return self.terrain_alt_m(item.x_lat_deg, item.y_lon_deg) + item.z_alt_m
         if item.frame in RELATIVE_FRAMES:
             return self.home_alt_m + item.z_alt_m
         return item.z_alt_m
+
+    def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
+        """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
+        lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
+        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
+            h = self.terrain(lat_deg, lon_deg)
+            if h is not None:
+                return float(h)
+        return self.home_alt_m
 
     def item_ned(self, item: MissionItem, p_now) -> tuple[float, float, float]:
         """Item position in home NED. As ArduCopter reads a location (loc_from_cmd):
@@ -543,8 +707,8 @@ class CopterMissionSequencer:
             q = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
                                        self.frame.alt0_m)
             n, e = float(q[0]), float(q[1])
-        if item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND:
-            d = p_now[2]                         # altitude 0: keep the height
+        if math.isnan(item.z_alt_m) or (item.z_alt_m == 0.0 and item.command != MAV_CMD_NAV_LAND):
+            d = p_now[2]                         # altitude 0 or NaN: keep the height
         else:
             d = self.frame.alt0_m - self.item_alt_m(item)
         return n, e, d
@@ -633,6 +797,24 @@ class CopterMissionSequencer:
                                        f"{name} {lo:g}..{hi:g}: {min(max(v, lo), hi):g} m/s")
                 setattr(nav, attr, min(max(v, lo), hi))
             nav.traj.retune(*nav.speeds())       # the leg being flown too
+        elif cmd in ROI_COMMANDS or cmd == MAV_CMD_DO_SET_ROI_NONE:
+            # the nose points at the region of interest for the rest of the mission
+            # (ArduCopter's auto-yaw ROI); DO_SET_ROI_NONE or a location at 0, 0 clears it
+            nav.roi_wpnext_deg = None
+            if cmd == MAV_CMD_DO_SET_ROI_NONE or (item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0):
+                nav.roi_ne = None
+            else:
+                q = self.frame.to_ned_fast(math.radians(item.x_lat_deg),
+                                           math.radians(item.y_lon_deg), self.frame.alt0_m)
+                nav.roi_ne = (float(q[0]), float(q[1]))
+        elif cmd == MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET:
+            # the nose towards the next waypoint turned by param7 (yaw offset, deg)
+            nav.roi_ne = None
+            nav.roi_wpnext_deg = item.z_alt_m if math.isfinite(item.z_alt_m) else 0.0
+        elif cmd in CAMERA_COMMANDS:
+            if not self._camera_said:
+                self._camera_said = True
+                self._say(t_us, 6, "Mission: camera commands noted: no camera on this airframe")
         elif cmd == MAV_CMD_DO_SET_HOME:
             use_here = item.param1 == 1.0 or (item.x_lat_deg == 0.0 and item.y_lon_deg == 0.0
                                               and item.z_alt_m == 0.0)
@@ -750,7 +932,8 @@ class CopterMissionSequencer:
                 return self._next(t_us, p_ned, touchdown, yaw)
             return seq, False
         if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
-                   MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY):
+                   MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY,
+                   MAV_CMD_NAV_SPLINE_WAYPOINT):
             if entering:
                 if cmd == MAV_CMD_NAV_DELAY:
                     # hold where the reference can stop, for param1 seconds
@@ -765,8 +948,14 @@ class CopterMissionSequencer:
                     yaw_wp = None
                     if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param4) and item.param4 != 0.0:
                         yaw_wp = math.radians(item.param4)
-                    nav.goto(goal, yaw_wp)
-                    if cmd == MAV_CMD_NAV_WAYPOINT:
+                    start = (nav.traj.raw[0], nav.traj.raw[1])
+                    if cmd == MAV_CMD_NAV_SPLINE_WAYPOINT:
+                        self._spline(item, goal)
+                    else:
+                        nav.goto(goal, yaw_wp)
+                    if item.frame in TERRAIN_FRAMES and self.terrain is not None:
+                        self._follow_terrain(start, goal)
+                    if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_SPLINE_WAYPOINT):
                         self._hold_s = max(item.param1, 0.0) if math.isfinite(item.param1) else 0.0
                     elif cmd == MAV_CMD_NAV_LOITER_TIME:
                         self._hold_s = max(item.param1, 0.0)
@@ -782,6 +971,10 @@ class CopterMissionSequencer:
                 radius = item.param2
             if self._hold_start_us is None:
                 dist = math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1])
+                if nav.arrived and nav.traj._v_end > 0.0:
+                    # a spline flown through: done when the reference passes its end
+                    # (ArduCopter counts a waypoint it does not stop at by its target)
+                    return self._next(t_us, p_ned, touchdown, yaw)
                 if nav.arrived and dist <= radius and abs(p_ned[2] - goal[2]) <= max(radius, 1.0):
                     self._hold_start_us = t_us
                     if self._hold_s > 0.0 and cmd != MAV_CMD_NAV_DELAY:
@@ -808,6 +1001,78 @@ class CopterMissionSequencer:
             return seq, False
         raise AssertionError(f"{item.command_name} at item {seq} is not flown by the quadrotor "
                              "and should have been refused when the mission was loaded")
+
+    def ground_d(self, n: float, e: float) -> float | None:
+        """The ground's depth below home [m, NED down] at (north, east) of home, from
+        ``terrain``; None where it has no data."""
+        lat, lon, _ = self.frame.to_geodetic_fast((n, e, 0.0))
+        h = self.terrain(math.degrees(lat), math.degrees(lon))
+        return None if h is None else self.home_alt_m - h
+
+    def _follow_terrain(self, start, goal) -> None:
+        """A terrain-frame leg: the reference keeps its height above the ground along
+        the leg, not only at its ends (as ArduCopter flies terrain-frame waypoints).
+        Where the start has no data, the goal's ground is used for both ends."""
+        d_b = self.ground_d(goal[0], goal[1])
+        if d_b is None:
+            return
+        d_a = self.ground_d(start[0], start[1])
+        self.nav.terrain_leg = (self.ground_d, tuple(start), (goal[0], goal[1]),
+                                d_b if d_a is None else d_a, d_b)
+
+    def _next_nav_item(self) -> MissionItem | None:
+        """The navigation item after the current one (DO items passed, a DO_JUMP that
+        will be taken followed), or None."""
+        i = self.current + 1
+        counts = dict(self.jump_counts)
+        for _ in range(len(self.items) + 4):
+            if i >= len(self.items):
+                return None
+            it = self.items[i]
+            if it.command == MAV_CMD_DO_JUMP:
+                done = counts.get(it.seq, 0)
+                if int(it.param2) < 0 or done < int(it.param2):
+                    counts[it.seq] = done + 1
+                    i = int(it.param1)
+                    continue
+            elif it.command in NAV_COMMANDS:
+                return it
+            i += 1
+        return None
+
+    def _spline(self, item: MissionItem, goal) -> None:
+        """NAV_SPLINE_WAYPOINT as ArduCopter flies it (AC_WPNav's spline legs): a cubic
+        Hermite curve from where the reference is to the waypoint. Its tangent at the
+        start, when the reference is moving on from a previous leg, that of Catmull-Rom
+        (from the previous leg's start to this waypoint), else the chord; at
+        the end, towards the next waypoint when there is one (Catmull-Rom: this leg's
+        start to the next point), else the chord. Into a following spline the curve is
+        flown through without stopping; otherwise (or with a hold time) it stops there."""
+        nav = self.nav
+        p0 = tuple(nav.traj.raw)
+        p1 = tuple(goal)
+        chord = tuple(b - a for a, b in zip(p0, p1))
+        # moving on from the previous leg: its start is the point before this one
+        moving = math.hypot(nav.traj._vraw[0], nav.traj._vraw[1]) > 0.5
+        prev = nav.traj.start
+        m0 = tuple(0.5 * (b - a) for a, b in zip(prev, p1)) if moving else chord
+        nxt = self._next_nav_item()
+        stop = (math.isfinite(item.param1) and item.param1 > 0.0)
+        m1 = chord
+        v_end = 0.0
+        if nxt is not None and nxt.command in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_SPLINE_WAYPOINT):
+            pn = self.item_ned(nxt, p1)
+            m1 = tuple(0.5 * (b - a) for a, b in zip(p0, pn))
+            if nxt.command == MAV_CMD_NAV_SPLINE_WAYPOINT and not stop:
+                v_end = nav.speeds()[0]
+        pts = []
+        for k in range(SPLINE_SAMPLES + 1):
+            u = k / SPLINE_SAMPLES
+            h00, h10 = 2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u
+            h01, h11 = -2 * u ** 3 + 3 * u ** 2, u ** 3 - u ** 2
+            pts.append(tuple(h00 * a + h10 * ta + h01 * b + h11 * tb
+                             for a, ta, b, tb in zip(p0, m0, p1, m1)))
+        nav.spline(pts, v_end)
 
     def _next(self, t_us: int, p_ned, touchdown: bool, yaw: float) -> tuple[int, bool]:
         """The navigation item completed: on to the next one at once."""

@@ -8,10 +8,21 @@
 * `.plan` (QGroundControl's JSON, docs.qgroundcontrol.com "Plan File Format"):
   `fileType` "Plan", `version` 1, `mission.plannedHomePosition` [lat, lon, alt MSL]
   becomes item 0, `mission.items` are SimpleItems (command, frame, params[7] with null
-  for NaN, autoContinue, doJumpId) that become items 1, 2, ... A DO_JUMP's param1 in a
+  for NaN, autoContinue, doJumpId) that become items 1, 2, ... Nulls are read as
+  QGroundControl's own loader reads them (MissionItem::load): any param null is NaN
+  (a NaN altitude flies at the current altitude, a NaN heading leaves it alone; NaN in
+  an unused latitude / longitude goes out as 0 in MISSION_ITEM_INT); a null doJumpId is
+  no doJumpId; a null home altitude is 0 m; QGroundControl's display fields (Altitude,
+  AltitudeMode, AMSLAltAboveTerrain, cruiseSpeed, hoverSpeed) are not read. Its older
+  item form (params[4] + "coordinate" [lat, lon, alt]) is read too. A ComplexItem
+  (survey, corridor scan) is flown from the mission items QGroundControl stored in it
+  (TransectStyleComplexItem.Items), numbered on from the item before it as QGroundControl
+  numbers them; a structure scan (which QGroundControl saves as geometry) from the
+  items QGroundControl generates for it (``_structure_scan_items``); one without stored
+  items (a landing pattern, a survey saved without them) is refused, named. Its items' doJumpIds are not DO_JUMP targets. A DO_JUMP's param1 in a
   plan names the target's doJumpId; it is mapped to the target's seq on load, and on
-  save every item gets doJumpId = seq so the two numberings agree. ComplexItems (survey,
-  corridor scan, structure scan) are refused. Geofence and rally points are ignored.
+  save every item gets doJumpId = seq so the two numberings agree. Geofence and rally
+  points are ignored.
 
 `load_mission(path, vehicle="plane" | "quad")` also refuses what that vehicle does not fly
 (`autopilot.mission.items.vehicle_problem`), naming the item; without ``vehicle`` any
@@ -200,12 +211,16 @@ def loads_plan(text: str, path: PathLike = "<string>", vehicle: str | None = Non
         raise MissionFileError(path, None, "no 'mission' object")
 
     home_pos = mission.get("plannedHomePosition")
-    if not (isinstance(home_pos, list) and len(home_pos) == 3 and all(map(_is_number, home_pos))):
+    if not (isinstance(home_pos, list) and len(home_pos) == 3 and all(map(_is_number, home_pos[:2]))
+            and (home_pos[2] is None or _is_number(home_pos[2]))):
         raise MissionFileError(path, "item 0",
                                "plannedHomePosition must be [lat, lon, alt] numbers")
+    # a null home altitude (QGroundControl saves one when it had no terrain height for
+    # the planned home) is read as sea level: the vehicle sets home at arming anyway
+    home_alt = 0.0 if home_pos[2] is None else home_pos[2]
     home = MissionItem(seq=0, frame=FRAME_GLOBAL, command=NAV_WAYPOINT, current=1,
                        autocontinue=1, param1=0.0, param2=0.0, param3=0.0, param4=0.0,
-                       x_lat_deg=home_pos[0], y_lon_deg=home_pos[1], z_alt_m=home_pos[2])
+                       x_lat_deg=home_pos[0], y_lon_deg=home_pos[1], z_alt_m=home_alt)
     problem = item_problem(home)
     if problem is not None:
         raise MissionFileError(path, "item 0", f"plannedHomePosition: {problem}")
@@ -217,9 +232,20 @@ def loads_plan(text: str, path: PathLike = "<string>", vehicle: str | None = Non
         raise MissionFileError(path, None, "empty mission: mission.items is empty")
 
     items = [home]
+    place = {0: "item 0"}     # where each item is in the file (an item of a ComplexItem named so)
     seq_of_jump_id: dict[int, int] = {}
-    for seq, raw in enumerate(raw_items, start=1):
+    for index, raw in enumerate(raw_items, start=1):
+        seq = len(items)
         where = f"item {seq}"
+        if isinstance(raw, dict) and raw.get("type") == "ComplexItem":
+            for k, inner in enumerate(_complex_items(raw, index, path, where)):
+                at = f"item {seq + k} ({raw.get('complexItemType')} at mission.items[{index - 1}], " \
+                     f"its item {k + 1})"
+                item, _ = _plan_item(inner, seq + k, path, at)
+                items.append(item)
+                place[item.seq] = at
+            continue
+        place[seq] = where
         item, jump_id = _plan_item(raw, seq, path, where)
         if jump_id is not None:
             if jump_id in seq_of_jump_id:
@@ -244,11 +270,129 @@ def loads_plan(text: str, path: PathLike = "<string>", vehicle: str | None = Non
     for item in items:
         problem = item_problem(item, vehicle)
         if problem is not None:
-            raise MissionFileError(path, f"item {item.seq}", str(problem))
+            raise MissionFileError(path, place[item.seq], str(problem))
     problem = validate_mission(items, vehicle)
     if problem is not None:
-        raise MissionFileError(path, f"item {problem.seq}", str(problem))
+        raise MissionFileError(path, place.get(problem.seq, f"item {problem.seq}"), str(problem))
     return Mission(tuple(items))
+
+
+# QGroundControl's ComplexItems and where each keeps the mission items it generated.
+# A transect-style item (survey, corridor scan) saves them in TransectStyleComplexItem.Items
+# (TransectStyleComplexItem::_save) and QGroundControl flies those as saved; a structure
+# scan saves only its geometry and QGroundControl generates its items on load: so do we
+# (``_structure_scan_items``); the landing patterns are refused here, named.
+TRANSECT_COMPLEX_TYPES = ("survey", "CorridorScan")   # (a structure scan is generated)
+COMPLEX_ITEM_NAMES = {"survey": "survey", "CorridorScan": "corridor scan",
+                      "StructureScan": "structure scan", "fwLandingPattern": "fixed-wing landing pattern",
+                      "vtolLandingPattern": "VTOL landing pattern"}
+
+
+def _complex_items(raw: dict, index: int, path: PathLike, where: str) -> list:
+    """The mission items a ComplexItem stores (mission.items[index - 1]), or a
+    MissionFileError naming it."""
+    ctype = raw.get("complexItemType")
+    name = COMPLEX_ITEM_NAMES.get(ctype, repr(ctype))
+    if ctype in TRANSECT_COMPLEX_TYPES:
+        inner = raw.get("TransectStyleComplexItem")
+        stored = inner.get("Items") if isinstance(inner, dict) else None
+        if isinstance(stored, list) and stored:
+            return stored
+        raise MissionFileError(path, where, f"ComplexItem {name} (mission.items[{index - 1}]) has no "
+                                            "stored mission items (TransectStyleComplexItem.Items): "
+                                            "open and save the plan again with QGroundControl")
+    if ctype == "StructureScan":
+        return _structure_scan_items(raw, index, path, where)
+    if ctype in COMPLEX_ITEM_NAMES:
+        raise MissionFileError(path, where, f"ComplexItem {name} (mission.items[{index - 1}]) has no "
+                                            "stored mission items: QGroundControl saves only its "
+                                            "geometry; upload it from QGroundControl instead")
+    raise MissionFileError(path, where, f"unknown ComplexItem type {ctype!r} "
+                                        f"(mission.items[{index - 1}])")
+
+
+def _structure_scan_items(raw: dict, index: int, path: PathLike, where: str) -> list:
+    """A structure scan's mission items, generated from what QGroundControl saves of it
+    as QGroundControl generates them when it loads one (StructureScanComplexItem:
+    appendMissionItems, version 3): the flight polygon is the structure's ``polygon``
+    moved out by ``CameraCalc.DistanceToSurface`` (each edge moved out, the new vertices
+    where consecutive moved edges meet, QGCMapPolygon::offset); then a waypoint at its
+    first vertex at ``EntranceAltitude``, DO_SET_ROI_WPNEXT_OFFSET (pitch
+    ``GimbalPitch``, yaw offset 90: the camera looks at the structure), ``Layers``
+    layers ``CameraCalc.AdjustedFootprintFrontal`` apart from half a layer above
+    ``ScanBottomAlt`` up (or half a layer below ``StructureHeight`` down, with
+    ``StartFromTop``), each a waypoint at every vertex and back at the first, camera
+    triggering by ``AdjustedFootprintSide`` from its first waypoint to its end, then
+    DO_SET_ROI_NONE and the exit waypoint at the entrance; altitudes above home."""
+    def bad(what: str) -> MissionFileError:
+        return MissionFileError(path, where, f"ComplexItem structure scan (mission.items[{index - 1}]): {what}")
+
+    if raw.get("version") != 3:
+        raise bad(f"version {raw.get('version')!r} not supported (QGroundControl writes 3)")
+    cam = raw.get("CameraCalc")
+    poly = raw.get("polygon")
+    if not isinstance(cam, dict) or not isinstance(poly, list) or len(poly) < 3:
+        raise bad("needs 'CameraCalc' and a 'polygon' of at least 3 [lat, lon] vertices")
+    try:
+        pts = [(float(a), float(b)) for a, b in poly]
+        dist = float(cam["DistanceToSurface"])
+        layer_h = float(cam["AdjustedFootprintFrontal"])
+        trigger = float(cam["AdjustedFootprintSide"])
+        layers = int(raw["Layers"])
+        entrance = float(raw["EntranceAltitude"])
+        bottom = float(raw["ScanBottomAlt"])
+        top = float(raw["StructureHeight"])
+        pitch = float(raw.get("GimbalPitch", 0.0))
+        from_top = bool(raw.get("StartFromTop", False))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise bad(f"missing or bad value ({exc})") from None
+    if layers < 1 or layer_h <= 0:
+        raise bad("needs Layers >= 1 and CameraCalc.AdjustedFootprintFrontal > 0")
+    # the flight polygon, in a flat frame at the first vertex (metres north, east)
+    lat0 = math.radians(pts[0][0])
+    k_n, k_e = 6371000.0 * math.pi / 180.0, 6371000.0 * math.pi / 180.0 * math.cos(lat0)
+    ne = [((la - pts[0][0]) * k_n, (lo - pts[0][1]) * k_e) for la, lo in pts]
+    area = sum(a[1] * b[0] - b[1] * a[0] for a, b in zip(ne, ne[1:] + ne[:1]))  # <0: clockwise
+    side = 1.0 if area > 0 else -1.0
+    moved = []
+    for a, b in zip(ne, ne[1:] + ne[:1]):
+        ln = math.hypot(b[0] - a[0], b[1] - a[1]) or 1.0
+        # outward normal of a clockwise polygon seen from above: to the left of a->b
+        nx, ny = side * -(b[1] - a[1]) / ln, side * (b[0] - a[0]) / ln
+        moved.append(((a[0] + nx * dist, a[1] + ny * dist), (b[0] + nx * dist, b[1] + ny * dist)))
+    flight = []
+    for (p1, p2), (q1, q2) in zip(moved[-1:] + moved[:-1], moved):
+        d1 = (p2[0] - p1[0], p2[1] - p1[1])
+        d2 = (q2[0] - q1[0], q2[1] - q1[1])
+        den = d1[0] * d2[1] - d1[1] * d2[0]
+        if abs(den) < 1e-9:
+            flight.append(q1)
+            continue
+        t = ((q1[0] - p1[0]) * d2[1] - (q1[1] - p1[1]) * d2[0]) / den
+        flight.append((p1[0] + t * d1[0], p1[1] + t * d1[1]))
+    geo = [(round(pts[0][0] + n / k_n, 7), round(pts[0][1] + e / k_e, 7)) for n, e in flight]
+
+    def wp(lat, lon, alt):
+        return {"type": "SimpleItem", "command": NAV_WAYPOINT, "frame": 3, "autoContinue": True,
+                "params": [0, 0, 0, None, lat, lon, alt]}
+
+    def do(cmd, params):
+        return {"type": "SimpleItem", "command": cmd, "frame": 2, "autoContinue": True,
+                "params": params}
+
+    items = [wp(*geo[0], entrance),
+             do(mavlink2.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, [0, 0, 0, 0, pitch, 0, 90])]
+    alt = (top - 0.5 * layer_h) if from_top else (bottom + 0.5 * layer_h)
+    for _ in range(layers):
+        for k, (la, lo) in enumerate(geo + geo[:1]):
+            items.append(wp(la, lo, alt))
+            if k == 0:
+                items.append(do(mavlink2.MAV_CMD_DO_SET_CAM_TRIGG_DIST, [trigger, 0, 1, 0, 0, 0, 0]))
+        items.append(do(mavlink2.MAV_CMD_DO_SET_CAM_TRIGG_DIST, [0, 0, 0, 0, 0, 0, 0]))
+        alt += -layer_h if from_top else layer_h
+    items.append(do(mavlink2.MAV_CMD_DO_SET_ROI_NONE, [0, 0, 0, 0, 0, 0, 0]))
+    items.append(wp(*geo[0], entrance))
+    return items
 
 
 def _is_number(value: Any) -> bool:
@@ -259,16 +403,18 @@ def _plan_item(raw: Any, seq: int, path: PathLike, where: str) -> tuple[MissionI
     if not isinstance(raw, dict):
         raise MissionFileError(path, where, "item is not a JSON object")
     kind = raw.get("type")
-    if kind == "ComplexItem":
-        raise MissionFileError(path, where, f"unsupported ComplexItem "
-                                            f"({raw.get('complexItemType', '?')}): "
-                                            "only SimpleItem missions can be flown")
     if kind != "SimpleItem":
         raise MissionFileError(path, where, f"unknown item type {kind!r}, expected 'SimpleItem'")
     for key in ("command", "frame"):
         if not isinstance(raw.get(key), int) or isinstance(raw.get(key), bool):
             raise MissionFileError(path, where, f"'{key}' must be an integer, got {raw.get(key)!r}")
     params = raw.get("params")
+    coordinate = raw.get("coordinate")
+    if isinstance(params, list) and len(params) == 4 and coordinate is not None:
+        # QGroundControl's older item format: param5..7 in "coordinate" [lat, lon, alt]
+        if not (isinstance(coordinate, list) and len(coordinate) == 3):
+            raise MissionFileError(path, where, "'coordinate' must be [lat, lon, alt]")
+        params = params + coordinate
     if not isinstance(params, list) or len(params) != 7:
         count = len(params) if isinstance(params, list) else "none"
         raise MissionFileError(path, where, f"expected 7 params, got {count}")

@@ -4,7 +4,7 @@ A `MissionItem` carries exactly the fields of MISSION_ITEM_INT (less the target 
 except that x / y are float degrees (`x_lat_deg`, `y_lon_deg`) instead of degE7
 integers; `from_int` / `to_int` convert at the link boundary. `z_alt_m` is metres,
 above mean sea level for MAV_FRAME_GLOBAL(_INT), above home for
-MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT).
+MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT), above the terrain for MAV_FRAME_GLOBAL_TERRAIN_ALT(_INT).
 
 Item 0 of a mission is home (the ArduPilot convention that MAVProxy, MAVSDK and
 QGroundControl expect): a NAV_WAYPOINT in an absolute-altitude global frame.
@@ -45,6 +45,15 @@ NAV_DELAY = mavlink2.MAV_CMD_NAV_DELAY  # 93
 CONDITION_DELAY = mavlink2.MAV_CMD_CONDITION_DELAY  # 112
 CONDITION_DISTANCE = mavlink2.MAV_CMD_CONDITION_DISTANCE  # 114
 CONDITION_YAW = mavlink2.MAV_CMD_CONDITION_YAW  # 115
+NAV_SPLINE_WAYPOINT = mavlink2.MAV_CMD_NAV_SPLINE_WAYPOINT  # 82
+DO_SET_ROI_LOCATION = mavlink2.MAV_CMD_DO_SET_ROI_LOCATION  # 195
+DO_SET_ROI_NONE = mavlink2.MAV_CMD_DO_SET_ROI_NONE  # 197
+DO_SET_ROI_WPNEXT_OFFSET = mavlink2.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET  # 196 (structure scans)
+DO_SET_ROI = mavlink2.MAV_CMD_DO_SET_ROI  # 201 (deprecated form; QGroundControl still writes it)
+DO_DIGICAM_CONTROL = mavlink2.MAV_CMD_DO_DIGICAM_CONTROL  # 203
+DO_SET_CAM_TRIGG_DIST = mavlink2.MAV_CMD_DO_SET_CAM_TRIGG_DIST  # 206
+IMAGE_START_CAPTURE = mavlink2.MAV_CMD_IMAGE_START_CAPTURE  # 2000
+IMAGE_STOP_CAPTURE = mavlink2.MAV_CMD_IMAGE_STOP_CAPTURE  # 2001
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -62,6 +71,11 @@ MAV_CMD_NAV_DELAY = NAV_DELAY
 MAV_CMD_CONDITION_DELAY = CONDITION_DELAY
 MAV_CMD_CONDITION_DISTANCE = CONDITION_DISTANCE
 MAV_CMD_CONDITION_YAW = CONDITION_YAW
+MAV_CMD_NAV_SPLINE_WAYPOINT = NAV_SPLINE_WAYPOINT
+MAV_CMD_DO_SET_ROI_LOCATION = DO_SET_ROI_LOCATION
+MAV_CMD_DO_SET_ROI_NONE = DO_SET_ROI_NONE
+MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET = DO_SET_ROI_WPNEXT_OFFSET
+MAV_CMD_DO_SET_ROI = DO_SET_ROI
 
 COMMAND_NAMES: dict[int, str] = {
     NAV_WAYPOINT: "NAV_WAYPOINT",
@@ -79,14 +93,36 @@ COMMAND_NAMES: dict[int, str] = {
     CONDITION_DELAY: "CONDITION_DELAY",
     CONDITION_DISTANCE: "CONDITION_DISTANCE",
     CONDITION_YAW: "CONDITION_YAW",
+    NAV_SPLINE_WAYPOINT: "NAV_SPLINE_WAYPOINT",
+    DO_SET_ROI_LOCATION: "DO_SET_ROI_LOCATION",
+    DO_SET_ROI_NONE: "DO_SET_ROI_NONE",
+    DO_SET_ROI_WPNEXT_OFFSET: "DO_SET_ROI_WPNEXT_OFFSET",
+    DO_SET_ROI: "DO_SET_ROI",
+    DO_DIGICAM_CONTROL: "DO_DIGICAM_CONTROL",
+    DO_SET_CAM_TRIGG_DIST: "DO_SET_CAM_TRIGG_DIST",
+    IMAGE_START_CAPTURE: "IMAGE_START_CAPTURE",
+    IMAGE_STOP_CAPTURE: "IMAGE_STOP_CAPTURE",
 }
+# Camera commands (what QGroundControl's surveys and corridor scans put between their
+# waypoints): accepted and noted by both vehicles, which carry no camera (said once).
+CAMERA_COMMANDS = frozenset({DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST, IMAGE_START_CAPTURE,
+                             IMAGE_STOP_CAPTURE})
 SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
 
 # Commands whose x / y / z are a place to fly to (DO_SET_HOME only when param1 == 0).
 POSITION_COMMANDS = frozenset(
     {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LAND, NAV_TAKEOFF,
-     NAV_LOITER_TO_ALT}
+     NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT}
 )
+# Commands whose x / y / z are a place to look at (region of interest); DO_SET_ROI at
+# latitude and longitude 0 clears it, as ArduPilot reads it.
+ROI_COMMANDS = frozenset({DO_SET_ROI_LOCATION, DO_SET_ROI})
+# Position commands whose altitude may be NaN: "the current altitude" (MAVLink's
+# "NaN: use the current / no change" for param7; QGroundControl writes it null, e.g. the
+# altitude of a loiter in its ArduPlane SITL test plan). A takeoff needs its altitude;
+# DO_SET_HOME a place to move home to.
+NAN_ALT_COMMANDS = frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
+                              NAV_LAND, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT}) | ROI_COMMANDS
 # Navigation commands (ArduPilot's "NAV" ids, < 95): the vehicle flies one at a time.
 NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
 # Conditions gate the DO items after them, never a navigation command (AP_Mission).
@@ -100,7 +136,9 @@ VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
     "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
                         NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
                         DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
-                        CONDITION_DISTANCE, CONDITION_YAW}),
+                        CONDITION_DISTANCE, CONDITION_YAW, NAV_SPLINE_WAYPOINT,
+                        DO_SET_ROI_LOCATION, DO_SET_ROI_NONE, DO_SET_ROI,
+                        DO_SET_ROI_WPNEXT_OFFSET}) | CAMERA_COMMANDS,
 }
 VEHICLE_NAMES = {"plane": "the fixed-wing", "quad": "the quadrotor"}
 # DO_CHANGE_SPEED speed types (MAV_SPEED_TYPE)
@@ -112,14 +150,18 @@ FRAME_MISSION = mavlink2.MAV_FRAME_MISSION  # 2, no position (DO_ commands)
 FRAME_GLOBAL_RELATIVE_ALT = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT  # 3, alt above home
 FRAME_GLOBAL_INT = mavlink2.MAV_FRAME_GLOBAL_INT  # 5, same meaning as 0
 FRAME_GLOBAL_RELATIVE_ALT_INT = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT  # 6, as 3
+FRAME_GLOBAL_TERRAIN_ALT = mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT  # 10, alt above the terrain
+FRAME_GLOBAL_TERRAIN_ALT_INT = mavlink2.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT  # 11, as 10
 
 SUPPORTED_FRAMES = frozenset(
     {FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT,
-     FRAME_GLOBAL_RELATIVE_ALT_INT}
+     FRAME_GLOBAL_RELATIVE_ALT_INT, FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT}
 )
 GLOBAL_FRAMES = frozenset(
-    {FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT}
+    {FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_INT, FRAME_GLOBAL_RELATIVE_ALT_INT,
+     FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT}
 )
+TERRAIN_FRAMES = frozenset({FRAME_GLOBAL_TERRAIN_ALT, FRAME_GLOBAL_TERRAIN_ALT_INT})
 ABSOLUTE_ALT_FRAMES = frozenset({FRAME_GLOBAL, FRAME_GLOBAL_INT})
 RELATIVE_ALT_FRAMES = frozenset({FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_RELATIVE_ALT_INT})
 
@@ -150,6 +192,12 @@ def deg_to_e7(deg: float) -> int:
     if not _INT32_MIN <= value <= _INT32_MAX:
         raise ValueError(f"{deg!r} deg does not fit a degE7 int32")
     return value
+
+
+def _e7_or_zero(deg: float) -> int:
+    """degE7 of an x / y; NaN (an unused field left "default") is sent as 0, the only
+    integer that means "not given" to ArduPilot (latitude and longitude 0 = here)."""
+    return 0 if math.isnan(deg) else deg_to_e7(deg)
 
 
 def e7_to_deg(value_e7: int) -> float:
@@ -217,8 +265,8 @@ class MissionItem:
             "seq": self.seq, "frame": self.frame, "command": self.command,
             "current": self.current, "autocontinue": self.autocontinue,
             "param1": self.param1, "param2": self.param2, "param3": self.param3,
-            "param4": self.param4, "x": deg_to_e7(self.x_lat_deg),
-            "y": deg_to_e7(self.y_lon_deg), "z": self.z_alt_m,
+            "param4": self.param4, "x": _e7_or_zero(self.x_lat_deg),
+            "y": _e7_or_zero(self.y_lon_deg), "z": self.z_alt_m,
             "mission_type": self.mission_type,
         }
 
@@ -256,7 +304,7 @@ def vehicle_kind(mav_type: int) -> str:
 
 
 def _uses_position(item: MissionItem) -> bool:
-    if item.command in POSITION_COMMANDS:
+    if item.command in POSITION_COMMANDS or item.command in ROI_COMMANDS:
         return True
     return item.command == DO_SET_HOME and item.param1 == 0.0
 
@@ -305,14 +353,19 @@ def _item_problem(item: MissionItem) -> Problem | None:
             return bad("INVALID_PARAM5_X", f"latitude {item.x_lat_deg} outside [-90, 90]")
         if not (math.isfinite(item.y_lon_deg) and -180.0 <= item.y_lon_deg <= 180.0):
             return bad("INVALID_PARAM6_Y", f"longitude {item.y_lon_deg} outside [-180, 180]")
-        if not (math.isfinite(item.z_alt_m) and ALT_MIN_M <= item.z_alt_m <= ALT_MAX_M):
+        if math.isnan(item.z_alt_m) and item.command in NAN_ALT_COMMANDS:
+            pass   # NaN altitude: the current altitude (MAVLink's "no change")
+        elif not (math.isfinite(item.z_alt_m) and ALT_MIN_M <= item.z_alt_m <= ALT_MAX_M):
             return bad("INVALID_PARAM7",
                        f"altitude {item.z_alt_m} m outside [{ALT_MIN_M:g}, {ALT_MAX_M:g}]")
     else:
         # x / y / z are unused; they must still be numbers that fit MISSION_ITEM_INT.
+        # NaN ("unused", as QGroundControl writes null) is sent as 0 in x / y (`to_int`).
         for code, value, limit in (("INVALID_PARAM5_X", item.x_lat_deg, _UNUSED_XY_MAX),
                                    ("INVALID_PARAM6_Y", item.y_lon_deg, _UNUSED_XY_MAX),
                                    ("INVALID_PARAM7", item.z_alt_m, math.inf)):
+            if math.isnan(value):
+                continue
             if not (math.isfinite(value) and abs(value) <= limit):
                 return bad(code, f"{name}: unused x/y/z value {value} does not fit the INT message")
 
@@ -396,6 +449,22 @@ def vehicle_problem(item: MissionItem, vehicle: str) -> Problem | None:
         what = _plane_problem(item)
         if what is not None:
             return Problem(item.seq, "MAV_MISSION_UNSUPPORTED", f"{what} is not flown by {who}")
+    return None
+
+
+def terrain_problem(mission, terrain) -> str | None:
+    """Why a mission cannot be armed for: a terrain-frame item with a place of its own
+    where ``terrain`` (a callable (lat_deg, lon_deg) -> metres or None) has no data, as
+    ArduPilot refuses to arm until its terrain data covers the mission. None if every
+    such item has data, or if there is no terrain source (flat: data everywhere)."""
+    if mission is None or terrain is None:
+        return None
+    for it in mission.items[1:]:
+        if it.frame in TERRAIN_FRAMES and (it.command in POSITION_COMMANDS) \
+                and not (it.x_lat_deg == 0.0 and it.y_lon_deg == 0.0):
+            if terrain(it.x_lat_deg, it.y_lon_deg) is None:
+                # (one STATUSTEXT: 50 characters with "PreArm: ")
+                return f"terrain data missing for item {it.seq}"
     return None
 
 

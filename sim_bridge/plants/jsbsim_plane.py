@@ -28,7 +28,8 @@ Start and launch
     *c172p, runway.* The aircraft starts at rest on its wheels at home with the
     brakes set; the brakes are released by ``launch()`` or when the throttle command
     first exceeds ``AUTO_LAUNCH_THROTTLE``, and the autopilot takes off on the wheels.
-    After the start, any ground contact (terrain at home altitude) ends at rest: the
+    After the start, any ground contact (terrain at home altitude, or the terrain
+    model's height under the aircraft, ``terrain``) ends at rest: the
     Aerosonde's contact points (cradle shoes, nose, tail, wing tips, top) slide with
     friction and keep it above ground at any attitude, whatever the impact.
 
@@ -160,6 +161,9 @@ class JSBSimPlane:
         self._armed_us: int | None = None
         self._rail_start_ecef_ft = (0.0, 0.0, 0.0)
         self._controls = PlaneControls()
+        # the ground's height [m MSL] under the aircraft once it is free: a callable
+        # (lat_deg, lon_deg) -> metres or None (autopilot.geo.terrain); None: flat at home
+        self.terrain = None
         self._set_wind_values(wind_ned, turbulence)
         self._place_at_start()
 
@@ -233,6 +237,10 @@ class JSBSimPlane:
         # tens to hundreds of metres: 0.25 m of flight per JSBSim step changes nothing)
         if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
             self._gusts.step(self, n_steps)
+        if self.terrain is not None and self._phase == _FREE:
+            fdm = self._fdm
+            h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
+            fdm["position/terrain-elevation-asl-ft"] = (self.home[2] if h is None else h) / FT_M
         imu = self._imu_getters
         n_mean = min(self.imu_mean_steps, n_steps)
         acc = [0.0] * 6

@@ -22,7 +22,8 @@ flown "+" (the seed's mixer, eq 3.30)::
 
     M = (l (T2 - T4), l (T3 - T1), k_M (T1 + T3 - T2 - T4)).
 
-Ground contact: flat terrain at home altitude; the vehicle rests on its skids, a
+Ground contact: flat terrain at home altitude, or the terrain model's height under the
+vehicle (``terrain``); the vehicle rests on its skids, a
 touchdown stops it within the step (no sinking, no bouncing) and the IMU sees the
 impulse; too fast or too tilted sets ``crashed``.
 
@@ -175,6 +176,11 @@ class QuadrotorPlant:
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
                                  af.gear_height_m))
+        # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
+        # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
+        # below home's ground point under the vehicle (NED down), updated every step()
+        self.terrain = None
+        self._ground_d = 0.0
         self.reset()
 
     # ------------------------------------------------------------------- state ---
@@ -247,6 +253,10 @@ class QuadrotorPlant:
     def step(self, controls, n_steps: int = 1) -> PlantState:
         """Hold the rotor commands for ``n_steps`` integration steps."""
         t_ss = self.static_thrusts(controls)
+        if self.terrain is not None:
+            lat, lon, _ = self._frame.to_geodetic_fast(self.p)
+            h = self.terrain(math.degrees(lat), math.degrees(lon))
+            self._ground_d = 0.0 if h is None else self.home[2] - h
         sc = self.rotor_scale
         if sc != (1.0, 1.0, 1.0, 1.0):
             t_ss = [t * k for t, k in zip(t_ss, sc)]
@@ -263,10 +273,10 @@ class QuadrotorPlant:
             # the Dryden gust at the air-relative speed over the steady wind
             vn, ve, vd = self.v
             an0, ae0, ad0 = vn - wn, ve - we, vd - wd
-            gn, ge, gd = self._gusts.step(-self.p[2], math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
+            gn, ge, gd = self._gusts.step(self._ground_d - self.p[2], math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
             wn, we, wd = wn + gn, we + ge, wd + gd
         x = np.array((*self.p, *self.v, *self.q, *self.w, *self.thrust, *t_ss, wn, we, wd,
-                      1.0 if self.on_ground else 0.0))
+                      1.0 if self.on_ground else 0.0, self._ground_d))
         out = flight_step(x, self._consts)
         o = out.tolist()
         self.thrust = o[13:17]
@@ -298,7 +308,7 @@ class QuadrotorPlant:
         self._f_b = (r[0] * fn + r[3] * fe + r[6] * fd,
                      r[1] * fn + r[4] * fe + r[7] * fd,
                      r[2] * fn + r[5] * fe + r[8] * fd)
-        self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
+        self.p = [self.p[0], self.p[1], self._ground_d - self.af.gear_height_m]
         self.v = [0.0, 0.0, 0.0]
         self.w = [0.0, 0.0, 0.0]
 
@@ -322,7 +332,7 @@ class QuadrotorPlant:
             r = _dcm(*self.q)
         else:
             self.w = [0.0, 0.0, 0.0]
-        self.p = [self.p[0], self.p[1], -self.af.gear_height_m]
+        self.p = [self.p[0], self.p[1], self._ground_d - self.af.gear_height_m]
         self.v = [0.0, 0.0, 0.0]
         g = self.g
         self._f_b = (-r[6] * g, -r[7] * g, -r[8] * g)
@@ -362,7 +372,7 @@ def _quat_step(qw, qx, qy, qz, ax, ay, az):
 def flight_step(x, c):
     """One step dt of eqs 3.23-3.26 (module docstring). ``x``: p (NED), v, q_nb, omega_b,
     the rotor thrusts T, their static values T_ss, the wind (steady + gust, NED),
-    on-ground flag; ``c``: dt, the thrust lag 1 - exp(-dt/tau), m, g, c_lin, rho, CdA,
+    on-ground flag, the ground's depth below home (NED down); ``c``: dt, the thrust lag 1 - exp(-dt/tau), m, g, c_lin, rho, CdA,
     l, k_M, Ixx, Iyy, Izz, the gear height. Returns p, v, q, omega, T, the specific force
     f_b and a code: 0 flew, 1 rests on the ground (only T moved), 2 touched down."""
     dt, lag, m, g, drag_lin, rho, cda, l, km, ixx, iyy, izz, gear = (
@@ -415,5 +425,5 @@ def flight_step(x, c):
     out[17] = (r0 * dn + r3 * de + r6 * dd) / m
     out[18] = (r1_ * dn + r4 * de + r7 * dd) / m
     out[19] = (r2 * dn + r5 * de + r8 * dd - total) / m
-    out[20] = 2.0 if pdn1 > -gear else 0.0
+    out[20] = 2.0 if pdn1 > x[25] - gear else 0.0
     return out
