@@ -21,8 +21,11 @@ Cross-track against them (``xtrack_mission``)
     earlier, where the vehicle reaches the circle (the radius it flew, which is wider
     than the one written where that is under the minimum turn radius; LOITER_RAD for 0;
     plus ``CAPTURE_M``). As for the flown legs (tools/summary.py), a leg counts from its
-    capture: its first sample within ``CAPTURE_M`` of the line flying along it (true
-    ground velocity less than 90 degrees from the line's direction). The direction
+    capture: its first sample within ``CAPTURE_M`` of the line between the two items
+    (the segment, not its extension: a loop that crosses the line's extension far beyond
+    either item is not on the line the user drew) flying along it (true ground velocity
+    less than 90 degrees from the line's direction); from there the error is the
+    distance from the line through the two items. The direction
     matters for the mission's lines as it does not for the legs guidance draws: after a
     reversal the aircraft is at the new line's start, but flying the other way, and the
     turn back is the join, not tracking. An item never counted has its leg run to the
@@ -200,12 +203,16 @@ def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, e
         length = math.hypot(bn - an, be - ae)
         un, ue = (bn - an) / length, (be - ae) / length
         xt = (tn[idx] - an) * (-ue) + (te[idx] - ae) * un
+        along = (tn[idx] - an) * un + (te[idx] - ae) * ue
         along_v = a["truth_vn_mps"][idx] * un + a["truth_ve_mps"][idx] * ue
         if leg["loiter_r"] > 0.0:
             near = np.flatnonzero(np.hypot(tn[idx] - bn, te[idx] - be) <= leg["loiter_r"] + CAPTURE_M)
             if near.size:
-                xt, along_v = xt[:near[0]], along_v[:near[0]]
-        cap = np.flatnonzero((np.abs(xt) <= CAPTURE_M) & (along_v > 0.0))
+                xt, along, along_v = xt[:near[0]], along[:near[0]], along_v[:near[0]]
+        # captured on the line between the two items (within CAPTURE_M of the segment),
+        # flying along it
+        cap = np.flatnonzero((np.abs(xt) <= CAPTURE_M) & (along_v > 0.0)
+                             & (along >= -CAPTURE_M) & (along <= length + CAPTURE_M))
         if not cap.size:
             continue
         xt = xt[cap[0]:]

@@ -95,7 +95,7 @@ def csc(p, chi: float, q, psi: float, radius: float):
     return min(words, key=lambda w: w[0]) if words else None
 
 
-def _samples(segments, ds: float = SAMPLE_M):
+def samples(segments, ds: float = SAMPLE_M):
     """(north, east, course) every ``ds`` metres along the segments (their ends
     included)."""
     for sg in segments:
@@ -128,7 +128,7 @@ def path_cost(segments, a, u, side: float, cross_tol_m: float) -> tuple[float, f
     captured = False
     after = 0.0       # furthest from the line after the capture
     xt2 = 0.0
-    for n, e, chi in _samples(segments):
+    for n, e, chi in samples(segments):
         x = (n - a[0]) * -u[1] + (e - a[1]) * u[0]
         if not captured:
             if side != 0.0:

@@ -81,7 +81,8 @@ JOIN_XTRACK_M = 10.0
 JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
-LOITER_ENTRY_M = 10.0           # the line into a loiter is flown to this far outside its circle
+LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
+                                # (inside the CAPTURE_M at which its scoring stops)
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
@@ -797,7 +798,7 @@ class MissionSequencer:
                     # the next leg joined from there (a loop where it turns sharply,
                     # and the next join starts as badly: a cascade); through B onto the
                     # next leg instead where that costs less
-                    alt_plan = self._plan_through(p_ne, chi, a_ne, b_ne)
+                    alt_plan = self._plan_through(p_ne, chi, a_ne, b_ne, accept)
                     if alt_plan is not None and alt_plan[0] < plan[4]:
                         self._through_tried = self._carry_path = True
                     else:
@@ -878,11 +879,14 @@ class MissionSequencer:
                 best = plan
         return best
 
-    def _plan_through(self, p_ne, chi, a_ne, b_ne):
+    def _plan_through(self, p_ne, chi, a_ne, b_ne, accept: float):
         """A join through B onto the next leg B->C (for a leg A->B too short to be
-        joined and turned off again): the path of least cost (``dubins.path_cost``
-        against both lines, A->B's scored until B counts and B->C's after) from here to
-        B on B->C's course, as (cost, segments), or None where no line follows."""
+        joined and turned off again, or a join that leaves no room for B's turn): of the
+        paths from here onto B->C (entries from B to two turn radii down the line) that
+        pass within 0.9 of B's acceptance radius (so B counts on the way), the one of
+        least cost (its length and ``dubins.path_cost`` against both lines: A->B's
+        scored until B counts and B->C's after), as (cost, segments); None where no
+        line follows or no path passes B."""
         lines = self._lines_after(b_ne, 1)
         if not lines:
             return None
@@ -900,16 +904,24 @@ class MissionSequencer:
             return 0.0 if abs(xt0) < 2.0 else math.copysign(1.0, xt0)
 
         s1, s2 = side_of(a_ne, u1), side_of(b_ne, u)
+        near2 = (0.9 * accept) ** 2
         best = None
         for r in self._join_radii():
-            for length, segs in dubins.csc_words(p_ne, chi, b_ne, psi, r):
-                cost = length + dubins.path_cost(segs, b_ne, u, s2, 2.0)[0]
-                if l1 > 1e-3:
-                    cost += dubins.path_cost(segs, a_ne, u1, s1, 2.0)[0]
-                if dubins.turning(segs) > 2.0 * math.pi:
-                    continue    # a loop and more: the ordinary join does better
-                if best is None or cost < best[0]:
-                    best = (cost, segs)
+            s_top = min(l2 - short, 2.0 * r)
+            step = max(0.25 * r, s_top / 8.0, 1.0)
+            for k in range(int(s_top / step) + 1):
+                q = (b_ne[0] + k * step * u[0], b_ne[1] + k * step * u[1])
+                for length, segs in dubins.csc_words(p_ne, chi, q, psi, r):
+                    if dubins.turning(segs) > 2.0 * math.pi:
+                        continue    # a loop and more: the ordinary join does better
+                    if k and min((n - b_ne[0]) ** 2 + (e - b_ne[1]) ** 2
+                                 for n, e, _ in dubins.samples(segs)) > near2:
+                        continue    # B not passed within its radius
+                    cost = length + dubins.path_cost(segs, b_ne, u, s2, 2.0)[0]
+                    if l1 > 1e-3:
+                        cost += dubins.path_cost(segs, a_ne, u1, s1, 2.0)[0]
+                    if best is None or cost < best[0]:
+                        best = (cost, segs)
         return best
 
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
@@ -937,7 +949,7 @@ class MissionSequencer:
             # a leg too short to be joined and turned off again: joined through B onto
             # the leg after it (B counts on the way, within its radius), the path flown
             # on past B
-            through = self._plan_through(p_ne, chi, a_ne, b_ne)
+            through = self._plan_through(p_ne, chi, a_ne, b_ne, accept)
             if through is not None:
                 self._joined = True
                 self._start_path(through[1], "join", t_us)
