@@ -2,9 +2,9 @@
 
 Item 0 is home (ArduPilot convention). Flown: NAV_TAKEOFF, NAV_WAYPOINT,
 NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_DELAY,
-NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
-CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
-ArduPlane does).
+NAV_RETURN_TO_LAUNCH, NAV_LAND (guidance/landing.py), DO_LAND_START (a marker), DO_JUMP,
+DO_CHANGE_SPEED (every speed type), DO_SET_HOME, CONDITION_DELAY, CONDITION_DISTANCE and
+CONDITION_YAW (ignored with a note, as ArduPlane does).
 
 Leg switching (seed section 1.16, the SLUGS rule): the vehicle's position is projected
 onto the leg direction; the waypoint is reached when the projection passes the end of
@@ -54,8 +54,10 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_DO_SET_HOME, MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LOITER_TIME,
                              MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_LOITER_TURNS,
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem)
+                             MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND,
+                             MAV_CMD_DO_LAND_START, Mission, MissionItem)
 from . import dubins
+from .landing import Landing
 from .l1 import G
 
 RELATIVE_FRAMES = (3, 6, 11)  # GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT, TERRAIN (as rel.)
@@ -63,7 +65,7 @@ RELATIVE_FRAMES = (3, 6, 11)  # GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT, TE
 LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
                    MAV_CMD_NAV_LOITER_TO_ALT)
 NAV_ITEMS = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-             MAV_CMD_NAV_DELAY) + LOITER_COMMANDS
+             MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND) + LOITER_COMMANDS
 SEV_WARNING, SEV_NOTICE, SEV_INFO = 4, 5, 6   # MAV_SEVERITY
 
 # no join is planned onto a leg the vehicle already flies: this close to its line and
@@ -88,6 +90,8 @@ class NavTarget:
     direction: int = 1           # +1 clockwise
     pitch_min_rad: float = 0.0   # takeoff climb pitch
     heading_rad: float = 0.0     # takeoff heading hold
+    land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
+    climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
 
 
 class MissionSequencer:
@@ -117,12 +121,15 @@ class MissionSequencer:
         self.rtl_established = False
         self._rtl_radius: float | None = None
         self.launched = False          # left the ground (an item counted on the launcher is not)
+        self.landing: Landing | None = None   # the NAV_LAND approach being flown
+        self.land_complete = False     # landed at the end of the mission (NAV_LAND)
         self._on_circle_since_us = None
         self._prev_wp_ne: tuple | None = None
         self._prev_alt: float | None = None
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
+        self._airspeed_mps = 0.0
         self._wind_ne = (0.0, 0.0)
         self._alt_m = self.home_alt_m
         self._do_pending: list[int] = []      # DO_/CONDITION_ items run alongside the nav item
@@ -152,6 +159,8 @@ class MissionSequencer:
         self._loiter_captured = False
         self._loiter_radius: float | None = None
         self._alt_reached = False
+        if getattr(self, "landing", None) is not None and self.landing.phase == "approach":
+            self.landing = None        # an approach left (a new item, a jump): flown afresh
 
     def set_current(self, seq: int) -> None:
         """Jump to item ``seq`` (MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT)."""
@@ -410,6 +419,8 @@ class MissionSequencer:
                 self.say(t_us, SEV_INFO, f"CONDITION_YAW #{item.seq} ignored: a plane flies its course")
             elif cmd == MAV_CMD_DO_CHANGE_SPEED:
                 self._change_speed(t_us, item)
+            elif cmd == MAV_CMD_DO_LAND_START:
+                pass           # a marker: where RTL_AUTOLAND and a go-around join the landing
             elif cmd == MAV_CMD_DO_SET_HOME:
                 if item.param1 == 1 or self._here(item):
                     self.home_request = "here"
@@ -479,8 +490,8 @@ class MissionSequencer:
         return v
 
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
-               alt_m: float, wind_ne=None) -> NavTarget:
-        tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne)
+               alt_m: float, wind_ne=None, airspeed_mps: float | None = None) -> NavTarget:
+        tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps)
         if self.min_groundspeed_mps > 0 and tgt.kind != "takeoff":
             chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
@@ -493,9 +504,11 @@ class MissionSequencer:
         vn, ve = float(v_ned[0]), float(v_ned[1])
         return math.atan2(ve, vn) if math.hypot(vn, ve) > 5.0 else heading_rad
 
-    def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne) -> NavTarget:
+    def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps=None) -> NavTarget:
         p_ne = (float(p_ned[0]), float(p_ned[1]))
         self._v_ned = v_ned
+        if airspeed_mps is not None:
+            self._airspeed_mps = airspeed_mps
         if wind_ne is not None:
             self._wind_ne = (float(wind_ne[0]), float(wind_ne[1]))
         if self._prev_alt is None:
@@ -515,7 +528,7 @@ class MissionSequencer:
             # the DO items before this navigation item run first (a condition holds back
             # those after it): CONDITION_DISTANCE measures to this item's place
             b = None
-            if cmd == MAV_CMD_NAV_WAYPOINT or cmd in LOITER_COMMANDS:
+            if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) or cmd in LOITER_COMMANDS:
                 b = self._resolve(item, p_ne, alt_m)[0]
             elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
                 b = (0.0, 0.0)
@@ -528,6 +541,8 @@ class MissionSequencer:
             tgt = self._loiter(t_us, item, p_ne, chi, alt_m)
         elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
             tgt = self._rtl(t_us, item, p_ne, chi, alt_m)
+        elif cmd == MAV_CMD_NAV_LAND:
+            tgt = self._land(t_us, item, p_ne, chi, alt_m)
         elif cmd == MAV_CMD_NAV_DELAY:
             # ArduPlane does not delay while armed (a plane cannot stop): done at once
             self.say(t_us, SEV_INFO, f"NAV_DELAY #{item.seq}: no delay in flight")
@@ -582,7 +597,7 @@ class MissionSequencer:
                 continue
             if it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
                 return (0.0, 0.0)
-            if it.command == MAV_CMD_NAV_WAYPOINT and not self._here(it):
+            if it.command in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) and not self._here(it):
                 return self.item_ne(it)
             return None  # loiters etc.: no anticipation
         return None
@@ -800,6 +815,40 @@ class MissionSequencer:
                 return None
         return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
                          c_ne=c_ne, radius_m=radius, direction=direction)
+
+    def _land(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
+        """NAV_LAND (autopilot/guidance/landing.py): join the approach leg from the
+        previous waypoint to the land point, then fly it down; the item never counts as
+        reached in the air. Once down, the mission is over (``land_complete`` is set by
+        the vehicle when it disarms)."""
+        b_ne, alt_b = self._resolve(item, p_ne, alt_m)
+        if self._leg_start is None:
+            self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
+            self._leg_start_alt = self._prev_alt
+        if self.landing is None:
+            a_ne = self._leg_start
+            ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
+            self.landing = Landing(self.params, a_ne, b_ne, self._leg_start_alt, alt_b,
+                                   self._groundspeed_along(u))
+            self.say(t_us, SEV_INFO, f"Landing approach: {ln:.0f} m from {self._leg_start_alt - alt_b:.0f} m, "
+                                     f"aim {self.landing.shift_m:.0f} m short")
+        land = self.landing
+        if land.phase == "approach":
+            r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
+            if r is not None and r != "leg":   # joining the approach: at the glide slope's height
+                return dataclasses.replace(r, airspeed_mps=land.airspeed_mps,
+                                           alt_m=land.glide_alt(land.along(p_ne)))
+        alt, climb = land.step(t_us, p_ne, alt_m, self._v_ned, self._airspeed_mps)
+        if land.phase != "approach" and land.flare_info is not None and land.flare_us == t_us:
+            h, s, v, d = land.flare_info
+            self.say(t_us, SEV_INFO, f"Flare {h:.1f} m sink {s:.2f} m/s speed {v:.1f} m/s, {d:.0f} m to go")
+        if land.phase == "rollout" and land.touch_us == t_us:
+            self.say(t_us, SEV_INFO, "Touchdown")
+        if land.phase == "ground" and land.landed_us == t_us:
+            self.say(t_us, SEV_INFO, "Landed")
+        return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
+                         b_ne=land.line_end(), land=land.phase, climb_mps=climb)
 
     def rtl_alt_m(self) -> float:
         rtl = self.params["RTL_ALT"]

@@ -45,6 +45,8 @@ NAV_DELAY = mavlink2.MAV_CMD_NAV_DELAY  # 93
 CONDITION_DELAY = mavlink2.MAV_CMD_CONDITION_DELAY  # 112
 CONDITION_DISTANCE = mavlink2.MAV_CMD_CONDITION_DISTANCE  # 114
 CONDITION_YAW = mavlink2.MAV_CMD_CONDITION_YAW  # 115
+DO_LAND_START = mavlink2.MAV_CMD_DO_LAND_START  # 189: marks a landing sequence
+DO_GO_AROUND = mavlink2.MAV_CMD_DO_GO_AROUND  # 191: COMMAND_LONG only, never a mission item
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -62,6 +64,8 @@ MAV_CMD_NAV_DELAY = NAV_DELAY
 MAV_CMD_CONDITION_DELAY = CONDITION_DELAY
 MAV_CMD_CONDITION_DISTANCE = CONDITION_DISTANCE
 MAV_CMD_CONDITION_YAW = CONDITION_YAW
+MAV_CMD_DO_LAND_START = DO_LAND_START
+MAV_CMD_DO_GO_AROUND = DO_GO_AROUND
 
 COMMAND_NAMES: dict[int, str] = {
     NAV_WAYPOINT: "NAV_WAYPOINT",
@@ -79,6 +83,7 @@ COMMAND_NAMES: dict[int, str] = {
     CONDITION_DELAY: "CONDITION_DELAY",
     CONDITION_DISTANCE: "CONDITION_DISTANCE",
     CONDITION_YAW: "CONDITION_YAW",
+    DO_LAND_START: "DO_LAND_START",
 }
 SUPPORTED_COMMANDS = frozenset(COMMAND_NAMES)
 
@@ -92,13 +97,14 @@ NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
 # Conditions gate the DO items after them, never a navigation command (AP_Mission).
 CONDITION_COMMANDS = frozenset({CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW})
 
-# What each vehicle flies. The quadrotor flies every command above
+# What each vehicle flies. The quadrotor flies every command above but DO_LAND_START
 # (guidance/multirotor.py); the fixed-wing (guidance/mission.py) the ones listed, and
 # `_plane_problem` names what it does not fly yet within those.
 VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
-    "quad": SUPPORTED_COMMANDS,
+    "quad": SUPPORTED_COMMANDS - {DO_LAND_START},
     "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
                         NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
+                        NAV_LAND, DO_LAND_START,
                         DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
                         CONDITION_DISTANCE, CONDITION_YAW}),
 }
@@ -380,6 +386,9 @@ def _plane_problem(item: MissionItem) -> str | None:
     if item.command == DO_CHANGE_SPEED and math.isfinite(item.param3) and item.param3 > 0.0:
         # (ArduPlane sets its cruise throttle; here the airspeed loop sets the throttle)
         return f"DO_CHANGE_SPEED throttle {item.param3:g} %"
+    if item.command == NAV_LAND and item.x_lat_deg == 0 and item.y_lon_deg == 0:
+        # (a landing needs its point: the approach is the leg from the previous waypoint)
+        return "NAV_LAND at latitude/longitude 0 (here)"
     return None
 
 

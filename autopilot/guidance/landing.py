@@ -1,0 +1,145 @@
+"""Fixed-wing automatic landing: the NAV_LAND item, as ArduPlane flies it.
+
+Phases (``Landing.phase``):
+
+* ``approach``: the leg from the previous waypoint A to the land point B, tracked by L1
+  (a straight line, extended past B), on a glide slope from A's altitude down to the
+  ground, at the approach airspeed TECS_LAND_ARSPD (-1: midway between ARSPD_FBW_MIN
+  and TRIM_ARSPD, as ArduPlane reads it). The throttle holds the airspeed and the
+  pitch the slope, as on any leg.
+* ``flare``: from LAND_FLARE_ALT above the land point, or LAND_FLARE_SEC before the
+  ground at the current sink rate, whichever comes first (ArduPlane's two triggers).
+  The throttle goes to idle and the pitch flies a sink-rate demand
+  hdot = -min(s_app, h / LAND_FLARE_SEC + TECS_LAND_SINK): the approach sink s_app
+  until the exponential flare law's demand falls under it, then the classic
+  exponential flare (the height decays with time constant LAND_FLARE_SEC towards a
+  touchdown at TECS_LAND_SINK). The pitch is held at no less than LAND_PITCH_DEG
+  (ArduPlane's LAND_PITCH_CD) and no more than LAND_PITCH_MAX; the bank is limited as
+  just after launch (TKOFF_LVL_BANK).
+  The climb rate is flown with its own gain, LAND_FLR_CLMB_KP (ArduPlane's TECS
+  likewise tightens its height loop in the flare): the cruise gain lets the aircraft
+  lag the law by about a second, and it then touches down early and faster.
+* ``rollout``: touched down: in the flare, below LAND_FLARE_ALT, the sink rate has
+  stayed under half TECS_LAND_SINK (which the flare law never asks for in the air)
+  for ``TOUCH_S``: the elevator goes neutral (a held nose-up attitude would lift the
+  aircraft off its skids again), wings level, idle.
+* ``ground``: stopped (ground speed under ``STOP_GSPD`` after the flare, within
+  LAND_FLARE_ALT of the land point): the landing is complete; the vehicle disarms
+  LAND_DISARMDELAY seconds later.
+
+The aim point. A flare flown so ends beyond the point where the glide slope meets
+the ground: with r = s_app / s_td, the exponential part takes tau ln r seconds from the
+height tau (s_app - s_td) where it starts, which the glide slope would have flown in
+tau (1 - 1/r) seconds, so the touchdown is gs tau (ln r - 1 + 1/r) past that point (gs
+the ground speed along the approach, estimated in the wind when the approach starts).
+The glide slope is aimed that much short of the land point, so the touchdown, not the
+glide slope's end, falls on it.
+"""
+from __future__ import annotations
+
+import math
+
+from ..params import Param
+
+LAND_PARAMS = (
+    Param("LAND_FLARE_ALT", 3.0, 0.0, 30.0, "m", "flare at this height above the land point"),
+    Param("LAND_FLARE_SEC", 2.0, 0.5, 10.0, "s", "flare this long before the ground at the current sink rate; the flare law's time constant"),
+    Param("LAND_PITCH_DEG", 0.0, -10.0, 20.0, "deg", "minimum pitch in the flare (ArduPlane LAND_PITCH_CD)"),
+    Param("LAND_PITCH_MAX", 12.0, 0.0, 30.0, "deg", "maximum pitch in the flare (tail clearance, stall margin)"),
+    Param("LAND_DISARMDELAY", 20.0, 0.0, 127.0, "s", "disarm this long after the landing is complete"),
+    Param("TECS_LAND_ARSPD", -1.0, -1.0, 80.0, "m/s", "approach airspeed (-1: midway between ARSPD_FBW_MIN and TRIM_ARSPD)"),
+    Param("TECS_LAND_SINK", 0.25, 0.0, 2.0, "m/s", "sink rate the flare ends at (touchdown)"),
+    Param("LAND_FLR_CLMB_KP", 0.15, 0.0, 2.0, "rad s/m", "climb-rate error to pitch in the flare"),
+)
+STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
+TOUCH_S = 0.3          # sink rate under TECS_LAND_SINK / 2 this long in the flare: touched down [s]
+
+
+def approach_airspeed(params) -> float:
+    """TECS_LAND_ARSPD, or midway between ARSPD_FBW_MIN and TRIM_ARSPD when -1."""
+    v = params["TECS_LAND_ARSPD"]
+    if v > 0:
+        return min(max(v, params["ARSPD_FBW_MIN"] * 0.75), params["ARSPD_FBW_MAX"])
+    return 0.5 * (params["ARSPD_FBW_MIN"] + params["TRIM_ARSPD"])
+
+
+def flare_overshoot_m(gs_mps: float, s_app: float, s_td: float, tau: float) -> float:
+    """How far past the glide slope's ground point the flare law touches down (module
+    docstring): gs tau (ln r - 1 + 1/r), r = s_app / s_td."""
+    if s_td <= 0.0 or s_app <= s_td:
+        return 0.0
+    r = s_app / s_td
+    return gs_mps * tau * (math.log(r) - 1.0 + 1.0 / r)
+
+
+class Landing:
+    """One approach to the land point B from A (both NE of home [m]); ``alt_a`` and
+    ``alt_b`` MSL [m]. ``step`` returns (altitude demand, sink-rate demand or None,
+    phase) and moves the phases on."""
+
+    def __init__(self, params, a_ne, b_ne, alt_a: float, alt_b: float, gs_mps: float):
+        self.params = params
+        self.a_ne, self.b_ne = a_ne, b_ne
+        self.alt_a, self.alt_b = alt_a, alt_b
+        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        self.length = max(ln, 1.0)
+        self.u = ((b_ne[0] - a_ne[0]) / self.length, (b_ne[1] - a_ne[1]) / self.length)
+        self.airspeed_mps = approach_airspeed(params)
+        dh = max(alt_a - alt_b, 0.0)
+        s_app = dh / self.length * gs_mps
+        self.shift_m = min(flare_overshoot_m(gs_mps, s_app, params["TECS_LAND_SINK"],
+                                             params["LAND_FLARE_SEC"]), 0.5 * self.length)
+        self.aim_along = self.length - self.shift_m     # where the glide slope meets the ground
+        self.slope = dh / max(self.aim_along, 1.0)
+        self.phase = "approach"
+        self.flare_us: int | None = None
+        self.flare_info: tuple | None = None            # (height, sink, airspeed, distance to go)
+        self.landed_us: int | None = None
+        self.touch_us: int | None = None
+        self._sink_app: float | None = None
+        self._slow_since: int | None = None
+
+    def along(self, p_ne) -> float:
+        return (p_ne[0] - self.a_ne[0]) * self.u[0] + (p_ne[1] - self.a_ne[1]) * self.u[1]
+
+    def cross(self, p_ne) -> float:
+        return -(p_ne[0] - self.a_ne[0]) * self.u[1] + (p_ne[1] - self.a_ne[1]) * self.u[0]
+
+    def line_end(self) -> tuple[float, float]:
+        """A point well past B on the approach line (L1 tracks the line beyond B)."""
+        return (self.b_ne[0] + 1000.0 * self.u[0], self.b_ne[1] + 1000.0 * self.u[1])
+
+    def glide_alt(self, along: float) -> float:
+        """The glide slope's altitude at ``along`` metres from A (MSL)."""
+        a = min(max(along, 0.0), self.aim_along)
+        return self.alt_b + self.slope * (self.aim_along - a)
+
+    def step(self, t_us: int, p_ne, alt_m: float, v_ned, airspeed_mps: float):
+        p = self.params
+        h = alt_m - self.alt_b
+        sink = float(v_ned[2])
+        gspd = math.hypot(float(v_ned[0]), float(v_ned[1]))
+        along = self.along(p_ne)
+        if self.phase == "approach":
+            self._sink_app = max(self.slope * max(gspd, 1.0), p["TECS_LAND_SINK"])
+            if h <= p["LAND_FLARE_ALT"] or (sink > 0.05 and h <= sink * p["LAND_FLARE_SEC"]):
+                self.phase = "flare"
+                self.flare_us = t_us
+                self.flare_info = (h, sink, airspeed_mps, self.length - along)
+        if self.phase == "flare" and h < p["LAND_FLARE_ALT"]:
+            if sink < 0.5 * p["TECS_LAND_SINK"]:
+                if self._slow_since is None:
+                    self._slow_since = t_us
+                if (t_us - self._slow_since) * 1e-6 >= TOUCH_S:
+                    self.phase = "rollout"
+                    self.touch_us = t_us
+            else:
+                self._slow_since = None
+        if self.phase in ("flare", "rollout") and gspd < STOP_GSPD and h < p["LAND_FLARE_ALT"]:
+            self.phase = "ground"
+            self.landed_us = t_us
+        if self.phase == "approach":
+            return self.glide_alt(along), None
+        tau = p["LAND_FLARE_SEC"]
+        s_dem = min(self._sink_app, max(h, 0.0) / tau + p["TECS_LAND_SINK"])
+        return self.alt_b, -s_dem
