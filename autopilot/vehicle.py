@@ -228,6 +228,8 @@ class PlaneVehicle:
     def set_mode(self, mode: PlaneMode, t_us: int) -> str | None:
         if mode not in self.implemented_modes:
             return f"mode {int(mode)} not implemented"
+        if mode == PlaneMode.RTL and self.params["RTL_AUTOLAND"] == 2 and self._autoland(t_us):
+            return None                          # RTL_AUTOLAND 2: straight to the landing (AUTO)
         if mode != self.mode:
             self.log.event(t_us * 1e-6, f"mode {mode.name}")
             if mode == PlaneMode.AUTO and self.sequencer is not None:
@@ -467,6 +469,31 @@ class PlaneVehicle:
         land = self.sequencer.landing if self.sequencer is not None else None
         return land is None or land.phase == "approach"
 
+    def go_around(self, alt_m: float, t_us: int) -> str | None:
+        """MAV_CMD_DO_GO_AROUND: abandon the landing being flown in AUTO (climb to
+        ``alt_m`` above home, 0: the NAV_LAND's or LAND_ABORT_ALT) and fly it again."""
+        if not self.armed or self.mode != PlaneMode.AUTO or self.sequencer is None:
+            return "not flying a landing in AUTO"
+        return self.sequencer.go_around(t_us, "commanded", alt_m if alt_m > 0 else None)
+
+    def _autoland(self, t_us: int) -> bool:
+        """RTL_AUTOLAND: fly the nearest DO_LAND_START sequence in AUTO (ArduPlane
+        switches to AUTO so); False when the mission has none."""
+        seq, nav = self.sequencer, self.nav_state
+        if seq is None or not self.armed or nav is None or self.home_frame is None:
+            return False
+        p = self.home_frame.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        start = seq.landing_start_seq((float(p[0]), float(p[1])))
+        if start is None:
+            return False
+        self.notice(t_us * 1e-6, SEV_INFO, f"RTL_AUTOLAND: landing sequence from item #{start}")
+        seq.set_current(start)
+        seq.landing = None
+        if self.mode != PlaneMode.AUTO:
+            self.log.event(t_us * 1e-6, "mode AUTO")
+            self.mode = PlaneMode.AUTO
+        return True
+
     def _land_disarm(self, t_us: int) -> None:
         """NAV_LAND: disarm LAND_DISARMDELAY after the landing is complete (stopped on
         the ground, guidance/landing.py); the mission is then over."""
@@ -500,6 +527,9 @@ class PlaneVehicle:
         else:
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
+            if self.mode == PlaneMode.RTL and self.sequencer.rtl_established \
+                    and self.params["RTL_AUTOLAND"] == 1:
+                self._autoland(t_us)            # RTL_AUTOLAND 1: home reached, now land
             seq = self.sequencer
             tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
                              airspeed_mps=nav.airspeed_mps)
@@ -513,6 +543,8 @@ class PlaneVehicle:
         self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
         pitch_min = pitch_max = climb = None
         throttle = None
+        if tgt.land == "go_around":
+            pitch_min = math.radians(p["TKOFF_PITCH"]) if tgt.alt_m - nav.alt_m > p["TKOFF_ALT_TOL"] else None
         if tgt.land in ("flare", "rollout", "ground"):
             # the flare (guidance/landing.py): idle, the sink rate on the pitch
             throttle, climb = 0.0, tgt.climb_mps
@@ -541,11 +573,7 @@ class PlaneVehicle:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
         if tgt.land in ("rollout", "ground"):
-            # on the skids: wings level, idle, elevator neutral (landing.py)
-            c = self.ctrl.update(nav, dt, 0.0, tgt.alt_m, tgt.airspeed_mps, None, 0.0, euler=self.euler,
-                                 climb_override=climb)
-            self.ctrl.last = (c[0], 0.0, c[2], 0.0)
-            return self.ctrl.last
+            bank = 0.0                           # on the skids: wings level (landing.py)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
                                 euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
                                 climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None)

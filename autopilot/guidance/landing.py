@@ -8,7 +8,9 @@ Phases (``Landing.phase``):
   and TRIM_ARSPD, as ArduPlane reads it). The throttle holds the airspeed and the
   pitch the slope, as on any leg.
 * ``flare``: from LAND_FLARE_ALT above the land point, or LAND_FLARE_SEC before the
-  ground at the current sink rate, whichever comes first (ArduPlane's two triggers).
+  ground at the glide slope's sink rate, whichever comes first (ArduPlane's two
+  triggers; the slope's sink, not the measured one, so that a gust's sink does not
+  start the flare high).
   The throttle goes to idle and the pitch flies a sink-rate demand
   hdot = -min(s_app, h / LAND_FLARE_SEC + TECS_LAND_SINK): the approach sink s_app
   until the exponential flare law's demand falls under it, then the classic
@@ -21,8 +23,16 @@ Phases (``Landing.phase``):
   lag the law by about a second, and it then touches down early and faster.
 * ``rollout``: touched down: in the flare, below LAND_FLARE_ALT, the sink rate has
   stayed under half TECS_LAND_SINK (which the flare law never asks for in the air)
-  for ``TOUCH_S``: the elevator goes neutral (a held nose-up attitude would lift the
-  aircraft off its skids again), wings level, idle.
+  for ``TOUCH_S``: wings level, idle, the flare's pitch law goes on (held against the
+  skids, it cannot lift the aircraft off at idle; a gust that floats it is flown as in
+  the flare).
+* ``go_around``: the approach abandoned (MAV_CMD_DO_GO_AROUND, or an automatic abort
+  when, below LAND_AB_CHK_ALT and before the flare, the aircraft is LAND_AB_HIGH above
+  or LAND_AB_LOW below the glide slope, LAND_AB_XTRK off the centreline, or its 1 s
+  mean airspeed LAND_AB_SPD above the approach's): climb straight ahead on the
+  approach line at TRIM_ARSPD to the abort altitude (the command's, else NAV_LAND
+  param1, else LAND_ABORT_ALT, above home), then fly the landing again (the sequencer:
+  guidance/mission.py ``_go_around_climb``).
 * ``ground``: stopped (ground speed under ``STOP_GSPD`` after the flare, within
   LAND_FLARE_ALT of the land point): the landing is complete; the vehicle disarms
   LAND_DISARMDELAY seconds later.
@@ -50,7 +60,15 @@ LAND_PARAMS = (
     Param("TECS_LAND_ARSPD", -1.0, -1.0, 80.0, "m/s", "approach airspeed (-1: midway between ARSPD_FBW_MIN and TRIM_ARSPD)"),
     Param("TECS_LAND_SINK", 0.25, 0.0, 2.0, "m/s", "sink rate the flare ends at (touchdown)"),
     Param("LAND_FLR_CLMB_KP", 0.15, 0.0, 2.0, "rad s/m", "climb-rate error to pitch in the flare"),
+    Param("RTL_AUTOLAND", 0, 0, 3, "", "RTL lands through the nearest DO_LAND_START: 0 no, 1 after reaching home, 2 at once, 3 only for a go-around", is_int=True),
+    Param("LAND_ABORT_ALT", 30.0, 5.0, 300.0, "m", "go-around climb altitude above home when neither the command nor the NAV_LAND gives one"),
+    Param("LAND_AB_CHK_ALT", 20.0, 0.0, 200.0, "m", "the approach is checked (LAND_AB_*) below this height above the land point"),
+    Param("LAND_AB_HIGH", 8.0, 0.0, 100.0, "m", "abort: this far above the glide slope (0: no check)"),
+    Param("LAND_AB_LOW", 8.0, 0.0, 100.0, "m", "abort: this far below the glide slope (0: no check)"),
+    Param("LAND_AB_XTRK", 15.0, 0.0, 200.0, "m", "abort: this far off the approach's centreline (0: no check)"),
+    Param("LAND_AB_SPD", 6.0, 0.0, 30.0, "m/s", "abort: airspeed (1 s mean) this much above the approach airspeed (0: no check)"),
 )
+AB_SPD_TAU_S = 1.0     # the airspeed mean the overspeed abort reads [s]
 STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
 TOUCH_S = 0.3          # sink rate under TECS_LAND_SINK / 2 this long in the flare: touched down [s]
 
@@ -96,6 +114,9 @@ class Landing:
         self.flare_info: tuple | None = None            # (height, sink, airspeed, distance to go)
         self.landed_us: int | None = None
         self.touch_us: int | None = None
+        self.ga_alt: float | None = None                # go-around: the climb's altitude (MSL)
+        self._v_mean: float | None = None
+        self._last_us: int | None = None
         self._sink_app: float | None = None
         self._slow_since: int | None = None
 
@@ -114,6 +135,32 @@ class Landing:
         a = min(max(along, 0.0), self.aim_along)
         return self.alt_b + self.slope * (self.aim_along - a)
 
+    def unsafe(self, p_ne, alt_m: float, airspeed_mps: float, t_us: int) -> str | None:
+        """Why the approach must be abandoned, or None: below LAND_AB_CHK_ALT above the
+        land point and before the flare, too far above or below the glide slope, off
+        the centreline, or too fast (LAND_AB_*)."""
+        p = self.params
+        dt = 0.0 if self._last_us is None else (t_us - self._last_us) * 1e-6
+        self._last_us = t_us
+        if self._v_mean is None:
+            self._v_mean = airspeed_mps
+        self._v_mean += (airspeed_mps - self._v_mean) * min(dt / AB_SPD_TAU_S, 1.0)
+        h = alt_m - self.alt_b
+        along = self.along(p_ne)
+        if h > p["LAND_AB_CHK_ALT"] or along < 0.0:
+            return None
+        dh = alt_m - self.glide_alt(along)
+        if p["LAND_AB_HIGH"] > 0 and dh > p["LAND_AB_HIGH"]:
+            return f"{dh:.0f} m above the glide slope"
+        if p["LAND_AB_LOW"] > 0 and -dh > p["LAND_AB_LOW"]:
+            return f"{-dh:.0f} m below the glide slope"
+        xt = self.cross(p_ne)
+        if p["LAND_AB_XTRK"] > 0 and abs(xt) > p["LAND_AB_XTRK"]:
+            return f"{abs(xt):.0f} m off the centreline"
+        if p["LAND_AB_SPD"] > 0 and self._v_mean > self.airspeed_mps + p["LAND_AB_SPD"]:
+            return f"airspeed {self._v_mean:.1f} m/s"
+        return None
+
     def step(self, t_us: int, p_ne, alt_m: float, v_ned, airspeed_mps: float):
         p = self.params
         h = alt_m - self.alt_b
@@ -121,8 +168,11 @@ class Landing:
         gspd = math.hypot(float(v_ned[0]), float(v_ned[1]))
         along = self.along(p_ne)
         if self.phase == "approach":
-            self._sink_app = max(self.slope * max(gspd, 1.0), p["TECS_LAND_SINK"])
-            if h <= p["LAND_FLARE_ALT"] or (sink > 0.05 and h <= sink * p["LAND_FLARE_SEC"]):
+            s_gs = self.slope * max(gspd, 1.0)        # the glide slope's sink rate
+            if h <= p["LAND_FLARE_ALT"] or h <= s_gs * p["LAND_FLARE_SEC"]:
+                # the flare law starts from the sink rate flown (the glide slope's at most:
+                # an aircraft below it, sinking less, is not pushed down to it)
+                self._sink_app = max(min(s_gs, sink), p["TECS_LAND_SINK"])
                 self.phase = "flare"
                 self.flare_us = t_us
                 self.flare_info = (h, sink, airspeed_mps, self.length - along)

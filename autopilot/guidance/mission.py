@@ -123,6 +123,7 @@ class MissionSequencer:
         self.launched = False          # left the ground (an item counted on the launcher is not)
         self.landing: Landing | None = None   # the NAV_LAND approach being flown
         self.land_complete = False     # landed at the end of the mission (NAV_LAND)
+        self.go_arounds = 0            # approaches abandoned (DO_GO_AROUND, automatic abort)
         self._on_circle_since_us = None
         self._prev_wp_ne: tuple | None = None
         self._prev_alt: float | None = None
@@ -834,7 +835,13 @@ class MissionSequencer:
             self.say(t_us, SEV_INFO, f"Landing approach: {ln:.0f} m from {self._leg_start_alt - alt_b:.0f} m, "
                                      f"aim {self.landing.shift_m:.0f} m short")
         land = self.landing
+        if land.phase == "go_around":
+            return self._go_around_climb(t_us, item, p_ne, alt_m)
         if land.phase == "approach":
+            why = land.unsafe(p_ne, alt_m, self._airspeed_mps, t_us)
+            if why is not None:
+                self.go_around(t_us, f"unsafe approach: {why}")
+                return self._go_around_climb(t_us, item, p_ne, alt_m)
             r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
                 return dataclasses.replace(r, airspeed_mps=land.airspeed_mps,
@@ -849,6 +856,77 @@ class MissionSequencer:
             self.say(t_us, SEV_INFO, "Landed")
         return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
                          b_ne=land.line_end(), land=land.phase, climb_mps=climb)
+
+    def go_around(self, t_us: int, why: str, alt_m: float | None = None) -> str | None:
+        """Abandon the approach (MAV_CMD_DO_GO_AROUND, or an unsafe approach): climb
+        straight ahead on the approach line to ``alt_m`` above home (else the NAV_LAND's
+        param1, else LAND_ABORT_ALT), then fly the landing again (``_go_around_climb``).
+        Refused (a reason) when no landing is flown or the aircraft is already down."""
+        land = self.landing
+        if land is None or self.finished:
+            return "no landing in progress"
+        if land.phase in ("rollout", "ground"):
+            return "already landed"
+        if land.phase == "go_around":
+            return None
+        item = self.items[self.current]
+        if alt_m is None or not alt_m > 0:
+            alt_m = item.param1 if item.param1 > 0 else self.params["LAND_ABORT_ALT"]
+        land.phase = "go_around"
+        land.ga_alt = self.home_alt_m + alt_m
+        self.go_arounds += 1
+        self.leg_id += 1
+        self._path = []
+        self.say(t_us, SEV_NOTICE, f"Go around ({why}): climbing to {alt_m:.0f} m")
+        return None
+
+    def _go_around_climb(self, t_us, item, p_ne, alt_m) -> NavTarget | None:
+        """The go-around's climb, on the approach line; at its altitude, the landing is
+        flown again: the items after the NAV_LAND if there are any (as ArduPlane goes on
+        with the mission), else from the nearest DO_LAND_START before it, else from the
+        navigation item before it (the approach's first waypoint)."""
+        land = self.landing
+        if alt_m >= land.ga_alt - self.params["TKOFF_ALT_TOL"]:
+            nxt = item.seq + 1
+            if nxt >= len(self.items):
+                nxt = self.landing_start_seq(p_ne, before=item.seq)
+                if nxt is None:
+                    nxt = max((i for i in range(1, item.seq) if self.items[i].command in NAV_ITEMS),
+                              default=item.seq)
+            self.say(t_us, SEV_INFO, f"Go around complete: landing again from item #{nxt}")
+            self._prev_wp_ne = (float(p_ne[0]), float(p_ne[1]))
+            self._prev_alt = land.ga_alt
+            self.landing = None
+            self.current = nxt
+            self.leg_id += 1
+            self._do_pending = []
+            self._start_item()
+            self._collect_do_items(t_us)
+            return None
+        return NavTarget("line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
+                         a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
+
+    def landing_start_seq(self, p_ne, before: int | None = None) -> int | None:
+        """The DO_LAND_START nearest to p_ne (NE of home) (of those before item
+        ``before`` if given), or None: where RTL_AUTOLAND and a go-around join a landing.
+        Its place is its own latitude/longitude, else that of the first navigation item
+        with a place after it (AP_Mission's nearest landing sequence, by distance)."""
+        best, best_d = None, math.inf
+        end = len(self.items) if before is None else before
+        for i in range(1, end):
+            it = self.items[i]
+            if it.command != MAV_CMD_DO_LAND_START:
+                continue
+            where = it if not self._here(it) else next(
+                (n for n in self.items[i + 1:] if n.command in NAV_ITEMS and not self._here(n)
+                 and n.command != MAV_CMD_NAV_RETURN_TO_LAUNCH), None)
+            if where is None:
+                continue
+            q = self.item_ne(where)
+            d = math.hypot(q[0] - p_ne[0], q[1] - p_ne[1])
+            if d < best_d:
+                best, best_d = i, d
+        return best
 
     def rtl_alt_m(self) -> float:
         rtl = self.params["RTL_ALT"]
