@@ -527,12 +527,13 @@ class PlaneVehicle:
         else:
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
-            if self.mode == PlaneMode.RTL and self.sequencer.rtl_established \
-                    and self.params["RTL_AUTOLAND"] == 1:
-                self._autoland(t_us)            # RTL_AUTOLAND 1: home reached, now land
             seq = self.sequencer
             tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
                              airspeed_mps=nav.airspeed_mps)
+            if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \
+                    and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
+                tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
+                                 airspeed_mps=nav.airspeed_mps)
             self._sequencer_requests(t_us, nav)
         self.target = tgt
         vn, ve, _ = nav.v_ned.tolist()

@@ -38,12 +38,18 @@ Phases (``Landing.phase``):
   LAND_DISARMDELAY seconds later.
 
 The aim point. A flare flown so ends beyond the point where the glide slope meets
-the ground: with r = s_app / s_td, the exponential part takes tau ln r seconds from the
-height tau (s_app - s_td) where it starts, which the glide slope would have flown in
-tau (1 - 1/r) seconds, so the touchdown is gs tau (ln r - 1 + 1/r) past that point (gs
-the ground speed along the approach, estimated in the wind when the approach starts).
-The glide slope is aimed that much short of the land point, so the touchdown, not the
-glide slope's end, falls on it.
+the ground: with r = s_app / s_td and a flight path that follows the law exactly, the
+exponential part takes tau ln r seconds from the height tau (s_app - s_td) where it
+starts, which the glide slope would have flown in tau (1 - 1/r) seconds, so the
+touchdown is gs tau (ln r - 1 + 1/r) past that point (gs the ground speed along the
+approach, estimated in the wind when the approach starts). The aircraft's sink rate
+follows the law's demand with a lag (its heave response and the pitch loop's),
+LAND_FLR_LAG seconds as a first-order lag, which shortens the float: with r = 4.3 and
+gs 23 m/s, 31 m without lag, 18 m with 0.4 s. ``flare_overshoot_m`` integrates that
+lagged flare from the flare height (both triggers) to the ground, and the glide slope is
+aimed that much short of the land point, so the touchdown, not the glide slope's end,
+falls on it. LAND_FLR_LAG is a property of the airframe and LAND_FLR_CLMB_KP, measured
+from calm-air landings (docs/status.md).
 """
 from __future__ import annotations
 
@@ -59,7 +65,8 @@ LAND_PARAMS = (
     Param("LAND_DISARMDELAY", 20.0, 0.0, 127.0, "s", "disarm this long after the landing is complete"),
     Param("TECS_LAND_ARSPD", -1.0, -1.0, 80.0, "m/s", "approach airspeed (-1: midway between ARSPD_FBW_MIN and TRIM_ARSPD)"),
     Param("TECS_LAND_SINK", 0.25, 0.0, 2.0, "m/s", "sink rate the flare ends at (touchdown)"),
-    Param("LAND_FLR_CLMB_KP", 0.15, 0.0, 2.0, "rad s/m", "climb-rate error to pitch in the flare"),
+    Param("LAND_FLR_CLMB_KP", 0.08, 0.0, 2.0, "rad s/m", "climb-rate error to pitch in the flare"),
+    Param("LAND_FLR_LAG", 0.4, 0.0, 3.0, "s", "lag of the sink rate behind the flare law's demand (places the aim point)"),
     Param("RTL_AUTOLAND", 0, 0, 3, "", "RTL lands through the nearest DO_LAND_START: 0 no, 1 after reaching home, 2 at once, 3 only for a go-around", is_int=True),
     Param("LAND_ABORT_ALT", 30.0, 5.0, 300.0, "m", "go-around climb altitude above home when neither the command nor the NAV_LAND gives one"),
     Param("LAND_AB_CHK_ALT", 20.0, 0.0, 200.0, "m", "the approach is checked (LAND_AB_*) below this height above the land point"),
@@ -81,13 +88,26 @@ def approach_airspeed(params) -> float:
     return 0.5 * (params["ARSPD_FBW_MIN"] + params["TRIM_ARSPD"])
 
 
-def flare_overshoot_m(gs_mps: float, s_app: float, s_td: float, tau: float) -> float:
-    """How far past the glide slope's ground point the flare law touches down (module
-    docstring): gs tau (ln r - 1 + 1/r), r = s_app / s_td."""
+def flare_overshoot_m(gs_mps: float, s_app: float, s_td: float, tau: float,
+                      h_flare: float | None = None, lag_s: float = 0.0) -> float:
+    """How far past the glide slope's ground point the flare touches down (module
+    docstring). Without lag and from the law's own start height: gs tau (ln r - 1 +
+    1/r), r = s_app / s_td; otherwise the flare from ``h_flare`` with the sink following
+    the law's demand min(s_app, h / tau + s_td) through a first-order lag ``lag_s``,
+    integrated (Euler, 5 ms) to the ground."""
     if s_td <= 0.0 or s_app <= s_td:
         return 0.0
     r = s_app / s_td
-    return gs_mps * tau * (math.log(r) - 1.0 + 1.0 / r)
+    if h_flare is None and lag_s <= 0.0:
+        return gs_mps * tau * (math.log(r) - 1.0 + 1.0 / r)
+    h = h_flare if h_flare is not None else tau * (s_app - s_td)
+    h0, s, t, dt = h, s_app, 0.0, 0.005
+    while h > 0.0 and t < 60.0:
+        dem = min(s_app, h / tau + s_td)
+        s += (dem - s) * (min(dt / lag_s, 1.0) if lag_s > 0.0 else 1.0)
+        h -= s * dt
+        t += dt
+    return max(gs_mps * (t - h0 / s_app), 0.0)
 
 
 class Landing:
@@ -105,8 +125,10 @@ class Landing:
         self.airspeed_mps = approach_airspeed(params)
         dh = max(alt_a - alt_b, 0.0)
         s_app = dh / self.length * gs_mps
+        h_flare = max(params["LAND_FLARE_ALT"], s_app * params["LAND_FLARE_SEC"])
         self.shift_m = min(flare_overshoot_m(gs_mps, s_app, params["TECS_LAND_SINK"],
-                                             params["LAND_FLARE_SEC"]), 0.5 * self.length)
+                                             params["LAND_FLARE_SEC"], h_flare, params["LAND_FLR_LAG"]),
+                           0.5 * self.length)
         self.aim_along = self.length - self.shift_m     # where the glide slope meets the ground
         self.slope = dh / max(self.aim_along, 1.0)
         self.phase = "approach"
