@@ -283,6 +283,14 @@ class PlaneVehicle:
             return True   # (rollout: still sliding; ground stations see it land when it stops)
         return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.launched
 
+    @property
+    def landing_phase(self) -> str | None:
+        """The NAV_LAND phase being flown (guidance/landing.py), or None."""
+        seq = self.sequencer
+        if not self.armed or seq is None or seq.landing is None:
+            return None
+        return seq.landing.phase
+
     def current_seq(self) -> int:
         if self.sequencer is None:
             return 1 if self.mission is not None and len(self.mission) > 1 else 0

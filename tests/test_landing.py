@@ -143,6 +143,25 @@ def test_do_go_around_is_refused_by_name_when_no_landing_is_flown():
     assert texts == ["Go around refused: not flying a landing in AUTO"]
 
 
+def test_extended_sys_state_says_landing_while_a_landing_is_flown():
+    from autopilot.gcs.telemetry import Telemetry
+    params = ParamStore(list(plane_param_declarations()) + list(GCS_PARAMS))
+    v = PlaneVehicle(params, load_mission(LAND_PLAN), "truth", autostart=False)
+    tm = Telemetry.__new__(Telemetry)
+    tm.vehicle = v
+    assert tm.extended_sys_state().landed_state == MAV.MAV_LANDED_STATE_ON_GROUND
+    h = v.mission.home
+    v.home_frame = LocalFrame(math.radians(h.x_lat_deg), math.radians(h.y_lon_deg), h.z_alt_m)
+    v.sequencer = MissionSequencer(v.mission, v.home_frame, params)
+    v.sequencer.launched = v.armed = True
+    v.nav_state = type("Nav", (), {"alt_m": h.z_alt_m + 30.0})()
+    assert tm.extended_sys_state().landed_state == MAV.MAV_LANDED_STATE_IN_AIR
+    v.sequencer.landing = Landing(params, (0.0, 1000.0), (0.0, -50.0), h.z_alt_m + 45, h.z_alt_m - 1.5, 20.0)
+    assert tm.extended_sys_state().landed_state == MAV.MAV_LANDED_STATE_LANDING
+    v.sequencer.landing.phase = "ground"                       # stopped: on the ground
+    assert tm.extended_sys_state().landed_state == MAV.MAV_LANDED_STATE_ON_GROUND
+
+
 # --- geometry ----------------------------------------------------------------------------
 
 def test_the_glide_slope_is_aimed_short_by_the_flare_overshoot():
