@@ -172,6 +172,7 @@ class MissionSequencer:
         self.leg_id += 1
         self._path = []
         self._do_pending = []
+        self.landing = None            # a landing jumped to is flown from its approach
         self._start_item()
 
     def resume(self) -> None:
@@ -183,6 +184,10 @@ class MissionSequencer:
         self._leg_along0 = None
         self._loiter_captured = False
         self._loiter_last_bearing = None
+        if self.landing is not None and self.landing.phase in ("flare", "go_around"):
+            # left in the flare or the go-around's climb: the approach is flown afresh
+            # (joined from here; too low or off it below LAND_AB_CHK_ALT, it is abandoned)
+            self.landing = None
         self.leg_id += 1
 
     def move_home(self, frame: LocalFrame) -> None:
