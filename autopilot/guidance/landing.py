@@ -12,15 +12,17 @@ Phases (``Landing.phase``):
   triggers; the slope's sink, not the measured one, so that a gust's sink does not
   start the flare high).
   The throttle goes to idle and the pitch flies a sink-rate demand
-  hdot = -min(s_app, h / LAND_FLARE_SEC + TECS_LAND_SINK): the approach sink s_app
-  until the exponential flare law's demand falls under it, then the classic
+  hdot = -min(s_app, h / LAND_FLARE_SEC + TECS_LAND_SINK): the approach sink s_app (its
+  mean over the last ``SINK_MEAN_S``, the glide slope's at most) until the exponential
+  flare law's demand falls under it, then the classic
   exponential flare (the height decays with time constant LAND_FLARE_SEC towards a
   touchdown at TECS_LAND_SINK). The pitch is held at no less than LAND_PITCH_DEG
   (ArduPlane's LAND_PITCH_CD) and no more than LAND_PITCH_MAX; the bank is limited as
   just after launch (TKOFF_LVL_BANK).
   The climb rate is flown with its own gain, LAND_FLR_CLMB_KP (ArduPlane's TECS
-  likewise tightens its height loop in the flare): the cruise gain lets the aircraft
-  lag the law by about a second, and it then touches down early and faster.
+  likewise tightens its height loop in the flare): at the cruise gain the aircraft lags
+  the law by about 0.7 s and touches down early; a higher gain follows it closely in
+  still air but chases the gusts' sink in turbulence and lands harder (docs/status.md).
 * ``rollout``: touched down: in the flare, below LAND_FLARE_ALT, the sink rate has
   stayed under half TECS_LAND_SINK (which the flare law never asks for in the air)
   for ``TOUCH_S``: wings level, idle, the flare's pitch law goes on (held against the
@@ -77,6 +79,7 @@ LAND_PARAMS = (
 )
 AB_SPD_TAU_S = 1.0     # the airspeed mean the overspeed abort reads [s]
 STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
+SINK_MEAN_S = 1.0      # the approach's sink rate the flare starts from: its mean over this [s]
 TOUCH_S = 0.3          # sink rate under TECS_LAND_SINK / 2 this long in the flare: touched down [s]
 
 
@@ -141,6 +144,8 @@ class Landing:
         self._last_us: int | None = None
         self._sink_app: float | None = None
         self._slow_since: int | None = None
+        self._sink_mean: float | None = None
+        self._sink_us: int | None = None
 
     def along(self, p_ne) -> float:
         return (p_ne[0] - self.a_ne[0]) * self.u[0] + (p_ne[1] - self.a_ne[1]) * self.u[1]
@@ -191,10 +196,15 @@ class Landing:
         along = self.along(p_ne)
         if self.phase == "approach":
             s_gs = self.slope * max(gspd, 1.0)        # the glide slope's sink rate
+            dt = 0.0 if self._sink_us is None else (t_us - self._sink_us) * 1e-6
+            self._sink_us = t_us
+            self._sink_mean = sink if self._sink_mean is None else \
+                self._sink_mean + (sink - self._sink_mean) * min(dt / SINK_MEAN_S, 1.0)
             if h <= p["LAND_FLARE_ALT"] or h <= s_gs * p["LAND_FLARE_SEC"]:
-                # the flare law starts from the sink rate flown (the glide slope's at most:
-                # an aircraft below it, sinking less, is not pushed down to it)
-                self._sink_app = max(min(s_gs, sink), p["TECS_LAND_SINK"])
+                # the flare law starts from the sink rate flown, its SINK_MEAN_S mean (a
+                # gust's moment says nothing), the glide slope's at most: an aircraft below
+                # the slope, sinking less, is not pushed down to it
+                self._sink_app = max(min(s_gs, self._sink_mean), p["TECS_LAND_SINK"])
                 self.phase = "flare"
                 self.flare_us = t_us
                 self.flare_info = (h, sink, airspeed_mps, self.length - along)
