@@ -35,6 +35,7 @@ from .fence.actions import fence_step, home_ll
 from .fence.geofence import FENCE_PARAMS, Geofence, rally_params
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
+from .guidance.landing import LAND_PARAMS
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
@@ -67,6 +68,7 @@ CRASH_PARAMS = (
     Param("CRASH_DELAY_S", 1.0, 0.1, 10.0, "s", "on the ground (or stopped) this long before a crash is declared"),
 )
 SEV_EMERGENCY = 0        # MAV_SEVERITY_EMERGENCY (ArduPlane says "Crash detected" so)
+SEV_INFO = 6             # MAV_SEVERITY_INFO
 CRASH_STOP_GSPD = 1.5   # ground speed under which a stopped aircraft is not moving [m/s] (ArduPlane)
 CRASH_CLIMB = 1.0       # climbing faster than this [m/s] is not resting on the ground
 
@@ -96,7 +98,8 @@ NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before ever
 
 
 def plane_param_declarations() -> list[Param]:
-    decls = list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(CRASH_PARAMS) + list(FDI_PARAMS)
+    decls = (list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(LAND_PARAMS) + list(CRASH_PARAMS)
+             + list(FDI_PARAMS))
     decls += list(FENCE_PARAMS) + list(rally_params("plane"))
     try:
         from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
@@ -202,6 +205,7 @@ class PlaneVehicle:
         self.geofence = Geofence(params, "plane")  # fence and rally points (autopilot/fence)
         self.rtl_hold: NavTarget | None = None  # RTL to a rally point: the loiter there
         self._launch_ground_m: float | None = None  # the terrain's height there, if known
+        self.land_done = False                  # landed (NAV_LAND) and disarmed: no re-arming
 
     # ------------------------------------------------------------------ arming ---
     def arm_checks(self) -> str | None:
@@ -251,6 +255,8 @@ class PlaneVehicle:
     def set_mode(self, mode: PlaneMode, t_us: int) -> str | None:
         if mode not in self.implemented_modes:
             return f"mode {int(mode)} not implemented"
+        if mode == PlaneMode.RTL and self.params["RTL_AUTOLAND"] == 2 and self._autoland(t_us):
+            return None                          # RTL_AUTOLAND 2: straight to the landing (AUTO)
         if mode != self.mode:
             self.log.event(t_us * 1e-6, f"mode {mode.name}")
             if mode == PlaneMode.AUTO and self.sequencer is not None:
@@ -304,10 +310,22 @@ class PlaneVehicle:
     @property
     def landed(self) -> bool:
         """On the launcher or back on the ground: not armed, or armed but not yet
-        launched (no mission item reached above the launcher, and below 2 m above home)."""
+        launched (no mission item reached above the launcher, and below 2 m above home),
+        or down and stopped at the end of a landing (guidance/landing.py)."""
         if not self.armed or self.home_frame is None or self.nav_state is None:
             return True
+        land = self.sequencer.landing
+        if land is not None and land.phase == "ground":
+            return True   # (rollout: still sliding; ground stations see it land when it stops)
         return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.launched
+
+    @property
+    def landing_phase(self) -> str | None:
+        """The NAV_LAND phase being flown (guidance/landing.py), or None."""
+        seq = self.sequencer
+        if not self.armed or seq is None or seq.landing is None:
+            return None
+        return seq.landing.phase
 
     def current_seq(self) -> int:
         if self.sequencer is None:
@@ -403,7 +421,7 @@ class PlaneVehicle:
         # navigation -> fault monitor
         mon = self.monitor
         if mon is not None:
-            mon.update(t_us, self.armed and not self.landed)
+            mon.update(t_us, self._monitoring())
             if len(mon.events) > self._fdi_events:
                 for t_s, _sev, text in mon.events[self._fdi_events:]:
                     self.log.event(t_s, text)
@@ -421,7 +439,8 @@ class PlaneVehicle:
                 self.set_mode(PlaneMode.RTL, t_us)
 
         # modes
-        if not self.armed and self.autostart and self.crash is None:  # (no re-arming after a crash)
+        if not self.armed and self.autostart and self.crash is None and not self.land_done:
+            # (no re-arming after a crash or a landing)
             if nav.aligned and nav.healthy and self.gps_fix_type >= 3:
                 if self.healthy_since_us is None:
                     self.healthy_since_us = t_us
@@ -437,8 +456,10 @@ class PlaneVehicle:
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
+        if self.armed and self.sequencer is not None:
+            self._land_disarm(t_us)
         if mon is not None:
-            mon.observe_controls(t_us, nav, controls, self.armed and not self.landed)
+            mon.observe_controls(t_us, nav, controls, self._monitoring())
         if truth is not None and self.armed and self.home_truth_alt_m is None:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
         if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
@@ -518,6 +539,56 @@ class PlaneVehicle:
             return False
         return seq.items[seq.current].command == MAV_CMD_NAV_LAND
 
+    def _monitoring(self) -> bool:
+        """The fault monitor watches the flight: armed, off the ground, and not in a
+        landing's flare (idle, high angle of attack, ground effect and then the skids'
+        friction: outside the models its statistics test)."""
+        if not self.armed or self.landed:
+            return False
+        land = self.sequencer.landing if self.sequencer is not None else None
+        return land is None or land.phase == "approach"
+
+    def go_around(self, alt_m: float, t_us: int) -> str | None:
+        """MAV_CMD_DO_GO_AROUND: abandon the landing being flown in AUTO (climb to
+        ``alt_m`` above home, 0: the NAV_LAND's or LAND_ABORT_ALT) and fly it again."""
+        if not self.armed or self.mode != PlaneMode.AUTO or self.sequencer is None:
+            return "not flying a landing in AUTO"
+        return self.sequencer.go_around(t_us, "commanded", alt_m if alt_m > 0 else None)
+
+    def _autoland(self, t_us: int) -> bool:
+        """RTL_AUTOLAND: fly the nearest DO_LAND_START sequence in AUTO (ArduPlane
+        switches to AUTO so); False when the mission has none."""
+        seq, nav = self.sequencer, self.nav_state
+        if seq is None or not self.armed or nav is None or self.home_frame is None:
+            return False
+        p = self.home_frame.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        start = seq.landing_start_seq((float(p[0]), float(p[1])))
+        if start is None:
+            return False
+        self.notice(t_us * 1e-6, SEV_INFO, f"RTL_AUTOLAND: landing sequence from item #{start}")
+        seq.set_current(start)
+        seq.landing = None
+        if self.mode != PlaneMode.AUTO:
+            self.log.event(t_us * 1e-6, "mode AUTO")
+            self.mode = PlaneMode.AUTO
+        return True
+
+    def _land_disarm(self, t_us: int) -> None:
+        """NAV_LAND: disarm LAND_DISARMDELAY after the landing is complete (stopped on
+        the ground, guidance/landing.py); the mission is then over."""
+        seq = self.sequencer
+        land = seq.landing
+        if land is None or land.landed_us is None:
+            return
+        if (t_us - land.landed_us) * 1e-6 >= self.params["LAND_DISARMDELAY"]:
+            seq.land_complete = seq.finished = True
+            if seq.current < len(seq.items) and seq.current not in seq.reached_seqs:
+                seq.reached.append((t_us, seq.current))     # the NAV_LAND item: done
+                seq.reached_seqs.add(seq.current)
+            self.land_done = True
+            self.notice(t_us * 1e-6, SEV_INFO, "Landing complete: disarming")
+            self.disarm(t_us, force=True)
+
     def _crashed(self, t_us: int, why: str) -> None:
         self.crash = why
         self.notice(t_us * 1e-6, SEV_EMERGENCY, f"Crash detected: {why}")
@@ -538,7 +609,12 @@ class PlaneVehicle:
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
             seq = self.sequencer
-            tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2])
+            tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
+                             airspeed_mps=nav.airspeed_mps)
+            if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \
+                    and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
+                tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
+                                 airspeed_mps=nav.airspeed_mps)
             self._sequencer_requests(t_us, nav)
         self.target = tgt
         vn, ve, _ = nav.v_ned.tolist()
@@ -547,8 +623,17 @@ class PlaneVehicle:
         v_ne = (vn, ve)
         p_ne = (pn, pe)
         self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
-        pitch_min = None
+        pitch_min = pitch_max = climb = None
         throttle = None
+        if tgt.land == "go_around":
+            pitch_min = math.radians(p["TKOFF_PITCH"]) if tgt.alt_m - nav.alt_m > p["TKOFF_ALT_TOL"] else None
+        if tgt.land in ("flare", "rollout", "ground"):
+            # the flare (guidance/landing.py): idle, the sink rate on the pitch
+            throttle, climb = 0.0, tgt.climb_mps
+            pitch_min, pitch_max = math.radians(p["LAND_PITCH_DEG"]), math.radians(p["LAND_PITCH_MAX"])
+            # the trim angle of attack at the airspeed flown, not the approach speed's:
+            # the speed decays at idle, and the nose must rise with it (to LAND_PITCH_MAX)
+            tgt = dataclasses.replace(tgt, airspeed_mps=max(nav.airspeed_mps, 0.75 * p["ARSPD_FBW_MIN"]))
         if tgt.kind == "takeoff":
             # wings level on the launch heading, full throttle, climb at the takeoff pitch
             err = wrap_pi(tgt.heading_rad - yaw)
@@ -569,8 +654,11 @@ class PlaneVehicle:
         if tgt.kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
+        if tgt.land in ("rollout", "ground"):
+            bank = 0.0                           # on the skids: wings level (landing.py)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
-                                euler=self.euler)
+                                euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
+                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step

@@ -64,17 +64,29 @@ CIRCUIT_LIKE = wpl(
 
 # --- acceptance, per vehicle -----------------------------------------------------------
 
-def test_copter_autotest_shapes_load_for_the_quad_and_name_what_the_plane_does_not_fly():
+def _land_here(text):
+    """The mission with its last item (a NAV_LAND) at latitude/longitude 0 (here)."""
+    rows = text.splitlines()
+    cols = rows[-1].split("\t")
+    cols[8], cols[9] = "0", "0"
+    return "\n".join(rows[:-1] + ["\t".join(cols)]) + "\n"
+
+
+def test_copter_autotest_shapes_load_for_both_and_name_what_the_plane_does_not_fly():
     m = loads_waypoints(CHIAI_LIKE, "chiai.waypoints", vehicle="quad")
     assert [it.command for it in m][1:] == [NAV_TAKEOFF, NAV_WAYPOINT, CONDITION_YAW, NAV_LAND]
     loads_waypoints(CIRCUIT_LIKE, "circuit.waypoints", vehicle="quad")
+    # the fixed-wing lands on a point (guidance/landing.py) ...
+    m = loads_waypoints(CIRCUIT_LIKE, "circuit.waypoints", vehicle="plane")
+    assert m[-1].command == NAV_LAND
+    loads_waypoints(CHIAI_LIKE, "chiai.waypoints", vehicle="plane")
+    # ... but not "here": a landing needs the approach leg to its point
     with pytest.raises(MissionFileError) as info:
-        loads_waypoints(CHIAI_LIKE, "chiai.waypoints", vehicle="plane")
+        loads_waypoints(_land_here(CHIAI_LIKE), "chiai.waypoints", vehicle="plane")
     assert info.value.where == 6                              # the file's line of item 4
-    assert "item 4: NAV_LAND is not flown by the fixed-wing (MAV_MISSION_UNSUPPORTED)" \
-        in str(info.value)
-    with pytest.raises(MissionFileError, match=r"item 6: NAV_LAND is not flown by the fixed-wing"):
-        loads_waypoints(CIRCUIT_LIKE, "circuit.waypoints", vehicle="plane")
+    assert "item 4: NAV_LAND at latitude/longitude 0 (here) is not flown by the fixed-wing " \
+           "(MAV_MISSION_UNSUPPORTED)" in str(info.value)
+    loads_waypoints(_land_here(CHIAI_LIKE), "chiai.waypoints", vehicle="quad")
 
 
 @pytest.mark.parametrize("row", [
@@ -168,13 +180,14 @@ def test_upload_refuses_with_the_right_mission_ack_and_keeps_the_old_mission():
 
 
 def test_upload_of_a_command_the_plane_does_not_fly_is_unsupported_and_named():
-    items = _items(CHIAI_LIKE)
+    items = _items(_land_here(CHIAI_LIKE))
     core, v, _, _ = make_core()                               # the fixed-wing
     old = v.mission
     said = recording_statustexts(core)
     acks = upload(core, items)
     assert [a.type for a in acks] == [MAV.MAV_MISSION_UNSUPPORTED]
-    assert said == ["Mission refused: item 4: NAV_LAND is not flown by the fixed-wing"]
+    assert said == ["Mission refused: item 4: NAV_LAND at latitude/longitude 0 (here) is not "
+                    "flown by the fixed-wing"]
     assert v.mission is old
     core, v, _, _ = make_core(make_quad())                    # the quadrotor flies it
     assert [a.type for a in upload(core, items)] == [MAV.MAV_MISSION_ACCEPTED]

@@ -299,11 +299,19 @@ def orbit_turns(a: dict, mission: Mission, vehicle: str) -> tuple[float, int | N
     return worst, worst_seq
 
 
-def _land_start(a: dict, vehicle: str, after_t: float) -> float:
-    if vehicle != "quad":
-        return math.inf
+def _land_start(a: dict, vehicle: str, after_t: float, mission: Mission | None = None) -> float:
+    """When the landing began: the quad's land phase; the fixed-wing's approach to a
+    NAV_LAND (the first row flying that item); inf without one."""
     t = a["t_s"]
-    idx = np.flatnonzero((a["kind"] == QUAD_KIND_LAND) & (a["armed"] > 0) & (t > after_t))
+    if vehicle == "quad":
+        idx = np.flatnonzero((a["kind"] == QUAD_KIND_LAND) & (a["armed"] > 0) & (t > after_t))
+        return float(t[idx[0]]) if idx.size else math.inf
+    if mission is None:
+        return math.inf
+    lands = [it.seq for it in mission.items[1:] if it.command == NAV_LAND]
+    if not lands:
+        return math.inf
+    idx = np.flatnonzero(np.isin(a["seq"], lands) & (a["armed"] > 0) & (t > after_t))
     return float(t[idx[0]]) if idx.size else math.inf
 
 
@@ -349,7 +357,7 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
             h = h - (ground_m - ground_m[np.flatnonzero(armed)[0]])
         takeoff_t = [tu * 1e-6 for tu, s in events if 0 < s < len(mission) and mission[s].command == NAV_TAKEOFF]
         climbed = takeoff_t[0] if takeoff_t else math.inf
-        t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm)
+        t_land = _land_start(a, vehicle, climbed if takeoff_t else t_arm, mission)
         flying = (a["kind"] != 0) & armed
         t_launch = float(t[np.flatnonzero(flying)[0]]) if flying.any() else math.inf
         # armed or not: an aircraft disarmed by its crash detection is on the ground
@@ -397,7 +405,11 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
     # unasked-for mode changes and failsafes
     n = 0
     seen_auto = False
+    # a fixed-wing that has landed disarms (and drops to MANUAL): asked for by its NAV_LAND
+    t_landed = _land_start(a, vehicle, -math.inf, mission) if vehicle == "plane" else math.inf
     for _t, text in log_events:
+        if _t >= t_landed and text in ("disarmed", "mode MANUAL"):
+            continue
         if text.startswith("mode "):
             if text == "mode AUTO" and not seen_auto:
                 seen_auto = True
@@ -440,7 +452,8 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
     # quad landed), not crashed; which items were reached is mission_order's to judge
     # (the summary's `completed` also counts DO items, which a condition may drop)
     seq = v.sequencer
-    ended = bool(seq is not None and seq.finished and seq.rtl_established and not session.crashed)
+    ended = bool(seq is not None and seq.finished and not session.crashed
+                 and (seq.rtl_established or getattr(seq, "land_complete", False)))
     inv = check_invariants(a, mission, vehicle, events, completed=ended,
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),

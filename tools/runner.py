@@ -173,6 +173,10 @@ class Session:
             self.sim_end.truth_div = LOG_DIV
         self._load_fence(cfg)
         self.crashed = False
+        self.landing_score = None
+        if not quad:
+            from .landing_score import LandingScore
+            self.landing_score = LandingScore(self.home[2])   # the ground at home (MSL)
         self.wall_loop_s = 0.0
         self.interrupted = False
         self.gcs = None
@@ -217,6 +221,8 @@ class Session:
                 gcs.after_step(frame, out)
         controls = self.sim_end.poll_answer(self.bridge.t_us)
         self.bridge.advance(controls)
+        if self.landing_score is not None:
+            self.landing_score.update(self.bridge.state, self.vehicle, not self.plant.on_launcher)
         if gcs is not None:
             gcs.step(self.bridge.t_us)
 
@@ -228,7 +234,7 @@ class Session:
                 return True
             return bool(self.vehicle.mission_landed and not self.vehicle.armed)
         seq = self.vehicle.sequencer
-        if seq is not None and seq.finished and seq.rtl_established:
+        if seq is not None and seq.finished and (seq.rtl_established or seq.land_complete):
             return True
         if getattr(self.vehicle, "crash", None) is not None:
             self.crashed = True  # the vehicle's crash detection disarmed it
@@ -236,7 +242,8 @@ class Session:
         st = self.bridge.state
         if not st.on_ground and not self.plant.on_launcher:
             self._left_ground = True
-        if self.vehicle.armed and st.on_ground and self._left_ground:
+        if self.vehicle.armed and st.on_ground and self._left_ground \
+                and (seq is None or seq.landing is None):   # (touching down in a landing is no crash)
             self.crashed = True  # back on the ground after the takeoff: crashed
             return True
         return False

@@ -429,7 +429,8 @@ def run_summary(session) -> dict:
     # completed: every mission item reached (or so skipped), then the end of the mission
     # flown (the RTL loiter established; the quad landed) -- an RTL or LAND commanded
     # halfway (a failsafe, a ground station) is not a completed mission
-    completed = bool(seq is not None and seq.finished and seq.rtl_established and not session.crashed
+    ended = seq is not None and (seq.rtl_established or getattr(seq, "land_complete", False))
+    completed = bool(seq is not None and seq.finished and ended and not session.crashed
                      and reached + skipped >= total)
     home_est = v.home_frame.alt0_m if v.home_frame is not None else None
     if session.cfg.vehicle == "quad":
@@ -463,6 +464,8 @@ def run_summary(session) -> dict:
              "accepted": r.accepted, "source": r.source} for r in session.bridge.fault_log],
     }
     s.update(figs)
+    score = getattr(session, "landing_score", None)
+    s["landing"] = score.figures(v) if score is not None else None
     latency = session.params["EK_GPS_DELAY"] if "EK_GPS_DELAY" in session.params else 0.15
     s.update(nav_figures(a, latency, session.bridge.fault_log))
     mon = getattr(v, "monitor", None)

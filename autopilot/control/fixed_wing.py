@@ -178,7 +178,14 @@ class FixedWingController:
     def update(self, nav: NavState, dt: float, bank_cmd_rad: float, alt_cmd_m: float,
                airspeed_cmd_mps: float, pitch_min_rad: float | None = None,
                throttle_override: float | None = None,
-               euler: tuple[float, float, float] | None = None) -> tuple[float, float, float, float]:
+               euler: tuple[float, float, float] | None = None,
+               climb_override: float | None = None,
+               pitch_max_rad: float | None = None,
+               climb_kp: float | None = None) -> tuple[float, float, float, float]:
+        """``climb_override``: fly this climb rate [m/s] instead of the altitude (the
+        landing flare: height, not airspeed, is what matters then, so no speed
+        priority), with the proportional gain ``climb_kp`` if given;
+        ``pitch_max_rad``: a pitch ceiling below PTCH_LIM_MAX_DEG."""
         p = self.params
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b
@@ -200,6 +207,9 @@ class FixedWingController:
         else:
             alt_err = self.alt_dem_m - nav.alt_m
         hdot_c = min(max(hdot_dem + p["ALT_KP"] * alt_err, -p["SINK_MAX"]), p["CLMB_MAX"])
+        if climb_override is not None:
+            self.alt_dem_m = nav.alt_m
+            hdot_c = min(max(climb_override, -p["SINK_MAX"]), p["CLMB_MAX"])
         dv = airspeed_cmd_mps - v_air
         db = p["SPD_PRIO_DB"]
         eout = self.elevator_out and throttle_override is None
@@ -207,7 +217,7 @@ class FixedWingController:
             # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
             # (should the surface work again) trade height for speed
             dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
-        if abs(dv) > db:
+        if abs(dv) > db and climb_override is None:
             hdot_c -= p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
@@ -217,8 +227,14 @@ class FixedWingController:
         # trim angle of attack at the *commanded* airspeed: using the measured one would
         # raise the nose further as the aircraft slows (positive feedback towards stall)
         alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * min((p["TRIM_ARSPD"] / max(airspeed_cmd_mps, 5.0)) ** 2, 2.0)
+        kp = self.climb_pid.kp
+        if climb_kp is not None:
+            self.climb_pid.kp = climb_kp
         theta_c = self.climb_pid.update(hdot_c, hdot, dt, rate=0.0,
                                         feedforward=alpha_ff + gamma_c + turn_ff)
+        self.climb_pid.kp = kp
+        if pitch_max_rad is not None:
+            theta_c = min(theta_c, pitch_max_rad)
         if pitch_min_rad is not None:
             theta_c = max(theta_c, pitch_min_rad)
 

@@ -20,6 +20,9 @@ ARM_DISARM 400                          ACCEPTED; FAILED + "PreArm: <reason>"
 DO_SET_MODE 176 (and SET_MODE)          ACCEPTED; UNSUPPORTED for a mode not implemented
 NAV_TAKEOFF 22                          vehicle.takeoff, if it has one
 NAV_RETURN_TO_LAUNCH 20, NAV_LAND 21    mode RTL / LAND (UNSUPPORTED where no LAND mode)
+DO_GO_AROUND 191                        vehicle.go_around (param1: altitude above home, 0:
+                                        the landing's); FAILED + STATUSTEXT when no
+                                        landing is flown; UNSUPPORTED without one
 MISSION_START 300                       mode AUTO from param1 (FAILED without a mission)
 DO_SET_HOME 179                         vehicle.set_home; HOME_POSITION to all
 DO_CHANGE_SPEED 178                     vehicle.set_speed, if it has one
@@ -512,6 +515,18 @@ class GcsCore:
         mode = self._mode_by_name("LAND")
         return UNSUPPORTED if mode is None else self._set_mode(int(mode), t_us)
 
+    def _c_go_around(self, c, cmd, t_us):
+        fn = getattr(self.vehicle, "go_around", None)
+        if fn is None:
+            return UNSUPPORTED
+        if not _finite(cmd.p1) or not 0.0 <= cmd.p1 < 50000.0:
+            return DENIED
+        reason = fn(cmd.p1, t_us)
+        if reason is not None:
+            self.say(SEV_WARNING, f"Go around refused: {reason}")
+            return FAILED
+        return ACCEPTED
+
     def _c_takeoff(self, c, cmd, t_us):
         v = self.vehicle
         fn = getattr(v, "takeoff", None)
@@ -744,6 +759,7 @@ _COMMANDS = {
     R.MAV_CMD_DO_SET_MODE: GcsCore._c_set_mode,
     R.MAV_CMD_NAV_RETURN_TO_LAUNCH: GcsCore._c_rtl,
     R.MAV_CMD_NAV_LAND: GcsCore._c_land,
+    R.MAV_CMD_DO_GO_AROUND: GcsCore._c_go_around,
     R.MAV_CMD_NAV_TAKEOFF: GcsCore._c_takeoff,
     R.MAV_CMD_MISSION_START: GcsCore._c_mission_start,
     R.MAV_CMD_DO_SET_HOME: GcsCore._c_set_home,

@@ -2,7 +2,7 @@
 
 Item 0 is home (ArduPilot convention). Flown: NAV_TAKEOFF, NAV_WAYPOINT,
 NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_DELAY,
-NAV_RETURN_TO_LAUNCH, DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
+NAV_RETURN_TO_LAUNCH, NAV_LAND (guidance/landing.py), DO_LAND_START (a marker), DO_JUMP, DO_CHANGE_SPEED (every speed type), DO_SET_HOME,
 CONDITION_DELAY, CONDITION_DISTANCE and CONDITION_YAW (ignored with a note, as
 ArduPlane does); NAV_SPLINE_WAYPOINT flown as a NAV_WAYPOINT (as ArduPlane flies it);
 DO_SET_ROI_LOCATION / DO_SET_ROI / DO_SET_ROI_NONE / DO_SET_ROI_WPNEXT_OFFSET noted for a gimbal the airframe does
@@ -62,8 +62,10 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_RETURN_TO_LAUNCH,
                              MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem,
                              MAV_CMD_DO_SET_ROI_NONE, MAV_CMD_NAV_SPLINE_WAYPOINT, ROI_COMMANDS,
-                             CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET)
+                             CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET,
+                             MAV_CMD_NAV_LAND, MAV_CMD_DO_LAND_START)
 from . import dubins
+from .landing import Landing
 from .l1 import G
 
 RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
@@ -72,7 +74,7 @@ TERRAIN_FRAMES = (10, 11)    # GLOBAL_TERRAIN_ALT(_INT)
 LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
                    MAV_CMD_NAV_LOITER_TO_ALT)
 NAV_ITEMS = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-             MAV_CMD_NAV_DELAY) + LOITER_COMMANDS
+             MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND) + LOITER_COMMANDS
 SEV_WARNING, SEV_NOTICE, SEV_INFO = 4, 5, 6   # MAV_SEVERITY
 
 # no join is planned onto a leg the vehicle already flies: this close to its line and
@@ -100,6 +102,8 @@ class NavTarget:
     direction: int = 1           # +1 clockwise
     pitch_min_rad: float = 0.0   # takeoff climb pitch
     heading_rad: float = 0.0     # takeoff heading hold
+    land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
+    climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
 
 
 class MissionSequencer:
@@ -135,12 +139,16 @@ class MissionSequencer:
         self.rtl_established = False
         self._rtl_radius: float | None = None
         self.launched = False          # left the ground (an item counted on the launcher is not)
+        self.landing: Landing | None = None   # the NAV_LAND approach being flown
+        self.land_complete = False     # landed at the end of the mission (NAV_LAND)
+        self.go_arounds = 0            # approaches abandoned (DO_GO_AROUND, automatic abort)
         self._on_circle_since_us = None
         self._prev_wp_ne: tuple | None = None
         self._prev_alt: float | None = None
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
+        self._airspeed_mps = 0.0
         self._wind_ne = (0.0, 0.0)
         self._alt_m = self.home_alt_m
         self._do_pending: list[int] = []      # DO_/CONDITION_ items run alongside the nav item
@@ -174,6 +182,8 @@ class MissionSequencer:
         self._loiter_radius: float | None = None
         self._loiter_entered = False   # the line into the loiter flown to its circle
         self._alt_reached = False
+        if getattr(self, "landing", None) is not None and self.landing.phase == "approach":
+            self.landing = None        # an approach left (a new item, a jump): flown afresh
 
     def set_current(self, seq: int) -> None:
         """Jump to item ``seq`` (MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT)."""
@@ -184,6 +194,7 @@ class MissionSequencer:
         self.leg_id += 1
         self._path = []
         self._do_pending = []
+        self.landing = None            # a landing jumped to is flown from its approach
         self._start_item()
 
     def resume(self) -> None:
@@ -198,6 +209,10 @@ class MissionSequencer:
         self._loiter_last_bearing = None
         self._carry_path = self._through_tried = False
         self._fillet_at = None
+        if self.landing is not None and self.landing.phase in ("flare", "go_around"):
+            # left in the flare or the go-around's climb: the approach is flown afresh
+            # (joined from here; too low or off it below LAND_AB_CHK_ALT, it is abandoned)
+            self.landing = None
         self.leg_id += 1
 
     def move_home(self, frame: LocalFrame) -> None:
@@ -529,6 +544,8 @@ class MissionSequencer:
             elif cmd in CAMERA_COMMANDS:
                 self.say(t_us, SEV_INFO, "Camera commands noted: no camera on this airframe",
                          key="camera")
+            elif cmd == MAV_CMD_DO_LAND_START:
+                pass           # a marker: where RTL_AUTOLAND and a go-around join the landing
             elif cmd == MAV_CMD_DO_SET_HOME:
                 if item.param1 == 1 or self._here(item):
                     self.home_request = "here"
@@ -598,8 +615,8 @@ class MissionSequencer:
         return v
 
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
-               alt_m: float, wind_ne=None) -> NavTarget:
-        tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne)
+               alt_m: float, wind_ne=None, airspeed_mps: float | None = None) -> NavTarget:
+        tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps)
         if self.terrain is not None and tgt.kind in ("line", "direct", "loiter") \
                 and 0 < tgt.seq < len(self.items) and self.items[tgt.seq].frame in TERRAIN_FRAMES:
             tgt = self._above_terrain(tgt, p_ned, v_ned)
@@ -629,9 +646,11 @@ class MissionSequencer:
         vn, ve = float(v_ned[0]), float(v_ned[1])
         return math.atan2(ve, vn) if math.hypot(vn, ve) > 5.0 else heading_rad
 
-    def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne) -> NavTarget:
+    def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps=None) -> NavTarget:
         p_ne = (float(p_ned[0]), float(p_ned[1]))
         self._v_ned = v_ned
+        if airspeed_mps is not None:
+            self._airspeed_mps = airspeed_mps
         if wind_ne is not None:
             self._wind_ne = (float(wind_ne[0]), float(wind_ne[1]))
         if self._prev_alt is None:
@@ -651,7 +670,7 @@ class MissionSequencer:
             # the DO items before this navigation item run first (a condition holds back
             # those after it): CONDITION_DISTANCE measures to this item's place
             b = None
-            if cmd == MAV_CMD_NAV_WAYPOINT or cmd in LOITER_COMMANDS:
+            if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) or cmd in LOITER_COMMANDS:
                 b = self._resolve(item, p_ne, alt_m)[0]
             elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
                 b = (0.0, 0.0)
@@ -664,6 +683,8 @@ class MissionSequencer:
             tgt = self._loiter(t_us, item, p_ne, chi, alt_m)
         elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
             tgt = self._rtl(t_us, item, p_ne, chi, alt_m)
+        elif cmd == MAV_CMD_NAV_LAND:
+            tgt = self._land(t_us, item, p_ne, chi, alt_m)
         elif cmd == MAV_CMD_NAV_DELAY:
             # ArduPlane does not delay while armed (a plane cannot stop): done at once
             self.say(t_us, SEV_INFO, f"NAV_DELAY #{item.seq}: no delay in flight")
@@ -722,8 +743,8 @@ class MissionSequencer:
                 i += 1
                 continue
             out.append(it)
-            if it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
-                break
+            if it.command in (MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_LAND):
+                break     # the mission ends there
             i += 1
         return out
 
@@ -754,8 +775,8 @@ class MissionSequencer:
         line ends outside its circle); None where no turn onto it is anticipated."""
         if it is None or it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return (0.0, 0.0), 0.0
-        if it.command == MAV_CMD_NAV_WAYPOINT and not self._here(it):
-            return self.item_ne(it), 0.0
+        if it.command in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) and not self._here(it):
+            return self.item_ne(it), 0.0   # (a landing's line is its approach)
         if it.command in LOITER_COMMANDS and not self._here(it):
             # the line into a loiter is flown to its circle (_loiter_approach): the
             # turn onto it is filleted like any other, on the part outside the circle
@@ -1106,6 +1127,117 @@ class MissionSequencer:
         if along >= length - reach:
             return None
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=c_ne)
+
+    def _land(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
+        """NAV_LAND (autopilot/guidance/landing.py): join the approach leg from the
+        previous waypoint to the land point, then fly it down; the item never counts as
+        reached in the air. Once down, the mission is over (``land_complete`` is set by
+        the vehicle when it disarms)."""
+        b_ne, alt_b = self._resolve(item, p_ne, alt_m)
+        if self._leg_start is None:
+            self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
+            self._leg_start_alt = self._prev_alt
+        if self.landing is None:
+            a_ne = self._leg_start
+            ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
+            self.landing = Landing(self.params, a_ne, b_ne, self._leg_start_alt, alt_b,
+                                   self._groundspeed_along(u))
+            self.say(t_us, SEV_INFO, f"Landing approach: {ln:.0f} m from {self._leg_start_alt - alt_b:.0f} m, "
+                                     f"aim {self.landing.shift_m:.0f} m short")
+        land = self.landing
+        if land.phase == "go_around":
+            return self._go_around_climb(t_us, item, p_ne, alt_m)
+        if land.phase == "approach":
+            why = land.unsafe(p_ne, alt_m, self._airspeed_mps, t_us)
+            if why is not None:
+                self.go_around(t_us, f"unsafe approach: {why}")
+                return self._go_around_climb(t_us, item, p_ne, alt_m)
+            r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
+            if r is not None and r != "leg":   # joining the approach: at the glide slope's height
+                return dataclasses.replace(r, airspeed_mps=land.airspeed_mps,
+                                           alt_m=land.glide_alt(land.along(p_ne)))
+        alt, climb = land.step(t_us, p_ne, alt_m, self._v_ned, self._airspeed_mps)
+        if land.phase != "approach" and land.flare_info is not None and land.flare_us == t_us:
+            h, s, v, d = land.flare_info
+            self.say(t_us, SEV_INFO, f"Flare {h:.1f} m sink {s:.2f} m/s speed {v:.1f} m/s, {d:.0f} m to go")
+        if land.phase == "rollout" and land.touch_us == t_us:
+            self.say(t_us, SEV_INFO, "Touchdown")
+        if land.phase == "ground" and land.landed_us == t_us:
+            self.say(t_us, SEV_INFO, "Landed")
+        return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
+                         b_ne=land.line_end(), land=land.phase, climb_mps=climb)
+
+    def go_around(self, t_us: int, why: str, alt_m: float | None = None) -> str | None:
+        """Abandon the approach (MAV_CMD_DO_GO_AROUND, or an unsafe approach): climb
+        straight ahead on the approach line to ``alt_m`` above home (else the NAV_LAND's
+        param1, else LAND_ABORT_ALT), then fly the landing again (``_go_around_climb``).
+        Refused (a reason) when no landing is flown or the aircraft is already down."""
+        land = self.landing
+        if land is None or self.finished:
+            return "no landing in progress"
+        if land.phase in ("rollout", "ground"):
+            return "already landed"
+        if land.phase == "go_around":
+            return None
+        item = self.items[self.current]
+        if alt_m is None or not alt_m > 0:
+            alt_m = item.param1 if item.param1 > 0 else self.params["LAND_ABORT_ALT"]
+        land.phase = "go_around"
+        land.ga_alt = self.home_alt_m + alt_m
+        self.go_arounds += 1
+        self.leg_id += 1
+        self._path = []
+        self.say(t_us, SEV_NOTICE, f"Go around ({why}): climbing to {alt_m:.0f} m")
+        return None
+
+    def _go_around_climb(self, t_us, item, p_ne, alt_m) -> NavTarget | None:
+        """The go-around's climb, on the approach line; at its altitude, the landing is
+        flown again: the items after the NAV_LAND if there are any (as ArduPlane goes on
+        with the mission), else from the nearest DO_LAND_START before it, else from the
+        navigation item before it (the approach's first waypoint)."""
+        land = self.landing
+        if alt_m >= land.ga_alt - self.params["TKOFF_ALT_TOL"]:
+            nxt = item.seq + 1
+            if nxt >= len(self.items):
+                nxt = self.landing_start_seq(p_ne, before=item.seq)
+                if nxt is None:
+                    nxt = max((i for i in range(1, item.seq) if self.items[i].command in NAV_ITEMS),
+                              default=item.seq)
+            self.say(t_us, SEV_INFO, f"Go around complete: landing again from item #{nxt}")
+            self._prev_wp_ne = (float(p_ne[0]), float(p_ne[1]))
+            self._prev_alt = land.ga_alt
+            self.landing = None
+            self.current = nxt
+            self.leg_id += 1
+            self._do_pending = []
+            self._start_item()
+            self._collect_do_items(t_us)
+            return None
+        return NavTarget("line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
+                         a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
+
+    def landing_start_seq(self, p_ne, before: int | None = None) -> int | None:
+        """The DO_LAND_START nearest to p_ne (NE of home) (of those before item
+        ``before`` if given), or None: where RTL_AUTOLAND and a go-around join a landing.
+        Its place is its own latitude/longitude, else that of the first navigation item
+        with a place after it (AP_Mission's nearest landing sequence, by distance)."""
+        best, best_d = None, math.inf
+        end = len(self.items) if before is None else before
+        for i in range(1, end):
+            it = self.items[i]
+            if it.command != MAV_CMD_DO_LAND_START:
+                continue
+            where = it if not self._here(it) else next(
+                (n for n in self.items[i + 1:] if n.command in NAV_ITEMS and not self._here(n)
+                 and n.command != MAV_CMD_NAV_RETURN_TO_LAUNCH), None)
+            if where is None:
+                continue
+            q = self.item_ne(where)
+            d = math.hypot(q[0] - p_ne[0], q[1] - p_ne[1])
+            if d < best_d:
+                best, best_d = i, d
+        return best
 
     def rtl_alt_m(self) -> float:
         rtl = self.params["RTL_ALT"]

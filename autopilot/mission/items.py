@@ -54,6 +54,8 @@ DO_DIGICAM_CONTROL = mavlink2.MAV_CMD_DO_DIGICAM_CONTROL  # 203
 DO_SET_CAM_TRIGG_DIST = mavlink2.MAV_CMD_DO_SET_CAM_TRIGG_DIST  # 206
 IMAGE_START_CAPTURE = mavlink2.MAV_CMD_IMAGE_START_CAPTURE  # 2000
 IMAGE_STOP_CAPTURE = mavlink2.MAV_CMD_IMAGE_STOP_CAPTURE  # 2001
+DO_LAND_START = mavlink2.MAV_CMD_DO_LAND_START  # 189: marks a landing sequence
+DO_GO_AROUND = mavlink2.MAV_CMD_DO_GO_AROUND  # 191: COMMAND_LONG only, never a mission item
 
 # The same values under their full MAVLink names.
 MAV_CMD_NAV_WAYPOINT = NAV_WAYPOINT
@@ -76,6 +78,8 @@ MAV_CMD_DO_SET_ROI_LOCATION = DO_SET_ROI_LOCATION
 MAV_CMD_DO_SET_ROI_NONE = DO_SET_ROI_NONE
 MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET = DO_SET_ROI_WPNEXT_OFFSET
 MAV_CMD_DO_SET_ROI = DO_SET_ROI
+MAV_CMD_DO_LAND_START = DO_LAND_START
+MAV_CMD_DO_GO_AROUND = DO_GO_AROUND
 
 COMMAND_NAMES: dict[int, str] = {
     NAV_WAYPOINT: "NAV_WAYPOINT",
@@ -102,6 +106,7 @@ COMMAND_NAMES: dict[int, str] = {
     DO_SET_CAM_TRIGG_DIST: "DO_SET_CAM_TRIGG_DIST",
     IMAGE_START_CAPTURE: "IMAGE_START_CAPTURE",
     IMAGE_STOP_CAPTURE: "IMAGE_STOP_CAPTURE",
+    DO_LAND_START: "DO_LAND_START",
 }
 # Camera commands (what QGroundControl's surveys and corridor scans put between their
 # waypoints): accepted and noted by both vehicles, which carry no camera (said once).
@@ -128,13 +133,14 @@ NAV_COMMANDS = POSITION_COMMANDS | {NAV_RETURN_TO_LAUNCH, NAV_DELAY}
 # Conditions gate the DO items after them, never a navigation command (AP_Mission).
 CONDITION_COMMANDS = frozenset({CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW})
 
-# What each vehicle flies. The quadrotor flies every command above
+# What each vehicle flies. The quadrotor flies every command above but DO_LAND_START
 # (guidance/multirotor.py); the fixed-wing (guidance/mission.py) the ones listed, and
 # `_plane_problem` names what it does not fly yet within those.
 VEHICLE_COMMANDS: dict[str, frozenset[int]] = {
-    "quad": SUPPORTED_COMMANDS,
+    "quad": SUPPORTED_COMMANDS - {DO_LAND_START},
     "plane": frozenset({NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME,
                         NAV_LOITER_TO_ALT, NAV_DELAY, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
+                        NAV_LAND, DO_LAND_START,
                         DO_JUMP, DO_CHANGE_SPEED, DO_SET_HOME, CONDITION_DELAY,
                         CONDITION_DISTANCE, CONDITION_YAW, NAV_SPLINE_WAYPOINT,
                         DO_SET_ROI_LOCATION, DO_SET_ROI_NONE, DO_SET_ROI,
@@ -433,6 +439,9 @@ def _plane_problem(item: MissionItem) -> str | None:
     if item.command == DO_CHANGE_SPEED and math.isfinite(item.param3) and item.param3 > 0.0:
         # (ArduPlane sets its cruise throttle; here the airspeed loop sets the throttle)
         return f"DO_CHANGE_SPEED throttle {item.param3:g} %"
+    if item.command == NAV_LAND and item.x_lat_deg == 0 and item.y_lon_deg == 0:
+        # (a landing needs its point: the approach is the leg from the previous waypoint)
+        return "NAV_LAND at latitude/longitude 0 (here)"
     return None
 
 

@@ -43,6 +43,7 @@ OPTIONAL_KEY_PATTERNS = (
     "fdi_peak_ratio.*", "nav_pos_h_rms_during_fault_okf_m",
     "invariants.*.passed", "invariants.*.figure", "invariants.*.limit", "invariants.*.seq",
     "xtrack_mission_rms_m", "xtrack_mission_max_m",
+    "landing.*",                      # a flight with a NAV_LAND (tools/landing_score.py)
 )
 _PATTERNS = [re.compile("^" + re.escape(p).replace("\\#", r"\d+").replace("\\*", r"[^.]+") + "$")
              for p in OPTIONAL_KEY_PATTERNS]
