@@ -133,7 +133,9 @@ class Session:
             decls = list(decls) + list(GCS_PARAMS)
         self.params = ParamStore(decls)
         airframe_parm = MISSIONS_DIR / "params" / f"{cfg.airframe}.parm"
-        if airframe_parm.exists():
+        # (a quad's RunConfig built in code keeps the default airframe, the Aerosonde's:
+        # the quad flies the F450 whatever it says, and takes none of a plane's tuning)
+        if airframe_parm.exists() and not (cfg.vehicle == "quad" and cfg.airframe in ("aerosonde", "c172p")):
             self.params.load(airframe_parm)   # the airframe's tuning, before the user's
         for k, v in NAV_GPS_PRESETS[cfg.gps].items():
             self.params.set(k, v)             # the filter told of the receiver, before the user
