@@ -338,12 +338,13 @@ class MissionSequencer:
     def _fillet(self, a_ne, b_ne):
         """The turn arc at B towards the next leg: (d, arc, skip) with arc a path
         segment starting d before B along A->B, or (0, None, False) when no turn is to
-        be filleted. Where the next leg B->C is too short for an arc and C lies within
-        its acceptance radius of where the arc would start (so C counts the moment B
-        does), the arc is the one between A->B and the leg after, C->D, at the corner
-        where their lines meet (``skip``): the vehicle turns once onto the line it will
-        fly instead of arriving at B along A->B and joining C->D from there, which
-        overshoots C->D wherever the short leg turns sharply."""
+        be filleted. Where the next waypoint C lies within its acceptance radius of B
+        (so C counts the moment B does), the arc is the one between A->B and the leg
+        after, C->D, at the corner where their lines meet (``_skip_arc``, ``skip``
+        True) where one fits: the vehicle turns once onto the line it will fly instead
+        of arriving at B along A->B and joining C->D from there, which overshoots C->D
+        wherever the short leg turns sharply. ``skip`` is also True for an ordinary arc
+        past waypoints on B (duplicates), which count with B."""
         lines = self._lines_after(b_ne, 2)
         if not lines:
             return 0.0, None, False
