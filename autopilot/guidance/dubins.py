@@ -6,10 +6,14 @@ wind, a loiter, a DO_JUMP, RTL, a mode change back to AUTO) is planned as a path
 bounded curvature (Dubins 1957): a turn of radius R from the current position and
 course, a straight tangent, and a second turn of radius R that ends tangent to the leg
 at an entry point E on it. Of the four turn-straight-turn words (RSR, LSL, RSL, LSR)
-the shortest is flown, and E is chosen along the leg so that the whole path is
-shortest: the aircraft is back on the mission's line as soon as it can be, rolling out
-on it instead of being left to a tracking law to capture it (which overshoots a line
-joined at a large angle by a good fraction of the turn radius).
+at each entry E along the leg, the path flown is the one of least cost
+(``path_cost``): its length, plus what the mission's cross-track (tools/invariants.py)
+would score on it once it is on the line (the squared cross-track it flies there, and
+any straying beyond CAPTURE_M, weighed so that a loop costs less than a few metres of
+overshoot). The shortest path is not the best: it reaches the line at a shallow angle
+far down the leg and flies beside it all the way, and one that loops across the line
+overshoots it by up to a turn diameter; L1 left to capture a line joined at a large
+angle overshoots it by a good fraction of the turn radius.
 
 Conventions as the rest of the guidance: horizontal (north, east) pairs in metres,
 courses chi from north, clockwise positive (chi = atan2(e, n)), turn direction +1
