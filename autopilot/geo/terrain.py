@@ -42,6 +42,17 @@ class FlatTerrain:
         return self.alt_m
 
 
+def height_or(terrain, lat_deg: float, lon_deg: float, default_m: float) -> float:
+    """The terrain's height [m MSL] there from ``terrain`` (a callable (lat_deg, lon_deg)
+    -> metres or None), else ``default_m`` (no terrain, no data there, or latitude and
+    longitude 0, "here")."""
+    if terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
+        h = terrain(lat_deg, lon_deg)
+        if h is not None:
+            return float(h)
+    return default_m
+
+
 def tile_name(lat_deg: float, lon_deg: float) -> str:
     """The name of the tile holding the point, e.g. 'S36E149'."""
     la, lo = math.floor(lat_deg), math.floor(lon_deg)

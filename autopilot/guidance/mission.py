@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geo import LocalFrame, wrap_pi
+from ..geo.terrain import height_or
 from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE,
                              MAV_CMD_CONDITION_YAW, MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP,
                              MAV_CMD_DO_SET_HOME, MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LOITER_TIME,
@@ -255,11 +256,7 @@ class MissionSequencer:
     def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
         """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
         lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
-        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
-            h = self.terrain(lat_deg, lon_deg)
-            if h is not None:
-                return float(h)
-        return self.home_alt_m
+        return height_or(self.terrain, lat_deg, lon_deg, self.home_alt_m)
 
     def item_ne(self, item: MissionItem) -> tuple[float, float]:
         p = self.frame.to_ned_fast(math.radians(item.x_lat_deg), math.radians(item.y_lon_deg),
@@ -959,10 +956,10 @@ class MissionSequencer:
             self._fillet_at = (key, self._fillet(a_ne, b_ne))
         d_turn, arc, skip = self._fillet_at[1]
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        r_join = self.turn_radius_m(wind=True)
         # (a leg within the acceptance radius: B would count the moment A did)
         if not self._through_tried and arc is None and length <= accept \
-                and accept < math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]) < 4.0 * r_join \
+                and accept < math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]) \
+                < 4.0 * self.turn_radius_m(wind=True) \
                 and not (self._skip_join or dubins.on_leg(p_ne, chi, a_ne, b_ne, JOIN_XTRACK_M,
                                                           JOIN_COURSE_RAD)):
             # (once per item: from as far as 4 join radii; a join planned from further

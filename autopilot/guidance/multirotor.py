@@ -58,6 +58,7 @@ import math
 from dataclasses import dataclass
 
 from ..geo import LocalFrame, wrap_pi
+from ..geo.terrain import height_or
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              MAV_CMD_CONDITION_DISTANCE, MAV_CMD_CONDITION_YAW,
                              MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP, MAV_CMD_DO_SET_HOME,
@@ -691,11 +692,7 @@ class CopterMissionSequencer:
     def terrain_alt_m(self, lat_deg: float, lon_deg: float) -> float:
         """The terrain's height [m MSL] there: from ``terrain`` (a callable (lat_deg,
         lon_deg) -> metres or None, set by the vehicle), else flat at home altitude."""
-        if self.terrain is not None and not (lat_deg == 0.0 and lon_deg == 0.0):
-            h = self.terrain(lat_deg, lon_deg)
-            if h is not None:
-                return float(h)
-        return self.home_alt_m
+        return height_or(self.terrain, lat_deg, lon_deg, self.home_alt_m)
 
     def item_ned(self, item: MissionItem, p_now) -> tuple[float, float, float]:
         """Item position in home NED. As ArduCopter reads a location (loc_from_cmd):
