@@ -39,11 +39,12 @@ from .guidance.landing import LAND_PARAMS
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
-from .mission.items import terrain_problem, MAV_CMD_NAV_LAND, Mission, validate_mission
+from .mission.items import MAV_CMD_NAV_LAND, Mission
 from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
 from .params import Param, ParamStore
+from .vehicle_base import TruthNav, VehicleBase
 
 GUIDANCE_PARAMS = (
     Param("NAVL1_PERIOD", 17.0, 5.0, 60.0, "s", "L1 period: the cross-track response period"),
@@ -91,7 +92,6 @@ LOG_COLUMNS = (
     "gps_n_m", "gps_e_m", "gps_alt_m",
 ) + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
 _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
-_NAN9 = (math.nan,) * 9
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 LOG_DIV = 2          # flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix
 NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before every fusion (autopilot/nav/ekf.py)
@@ -109,23 +109,6 @@ def plane_param_declarations() -> list[Param]:
     return decls
 
 
-class TruthNav:
-    """NavState from HIL_STATE_QUATERNION: the ``--nav truth`` debugging aid."""
-
-    def __init__(self):
-        self.origin: LocalFrame | None = None
-
-    def update(self, frame: SensorFrame, truth) -> NavState | None:
-        if truth is None:
-            return None
-        if self.origin is None:
-            self.origin = LocalFrame(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        p = self.origin.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        return NavState(frame.t_us, p, truth.v_ned, truth.q_nb, truth.omega_b,
-                        truth.lat_rad, truth.lon_rad, truth.alt_m, truth.airspeed_mps,
-                        source="truth")
-
-
 def make_nav(source: str, params: ParamStore):
     if source == "truth":
         return TruthNav()
@@ -139,30 +122,13 @@ def make_nav(source: str, params: ParamStore):
     raise ValueError(f"unknown navigation source {source!r} (truth, ekf, ukf)")
 
 
-class PlaneVehicle:
+class PlaneVehicle(VehicleBase):
     """The fixed-wing autopilot's loop. ``autostart``: arm and fly AUTO by itself once
     navigation is healthy (headless runs); otherwise wait for a ground station.
-    Implements ``autopilot.vehicle_api.VehicleApi`` for the ground-station service."""
+    Implements ``autopilot.vehicle_api.VehicleApi`` for the ground-station service
+    (its airframe-independent half in ``autopilot.vehicle_base.VehicleBase``)."""
 
-    # the terrain the autopilot reads (a callable (lat_deg, lon_deg) -> metres MSL or None:
-    # the simulator's tiles, autopilot.geo.terrain); None: flat at home altitude
-    terrain = None
-
-    @property
-    def sequencer(self):
-        return self._sequencer
-
-    @sequencer.setter
-    def sequencer(self, seq) -> None:
-        self._sequencer = seq
-        if seq is not None:
-            seq.terrain = self.terrain
-
-    def terrain_problem(self) -> str | None:
-        """The pre-arm reason when a terrain-frame item of the mission has no terrain
-        data under it (ArduPilot refuses to arm so), else None."""
-        return terrain_problem(self.mission, self.terrain)
-
+    vehicle_kind = "plane"
     mav_type = MAV.MAV_TYPE_FIXED_WING
     modes = PlaneMode
     implemented_modes = IMPLEMENTED_PLANE_MODES
@@ -208,28 +174,8 @@ class PlaneVehicle:
         self.land_done = False                  # landed (NAV_LAND) and disarmed: no re-arming
 
     # ------------------------------------------------------------------ arming ---
-    def arm_checks(self) -> str | None:
-        """None when arming is allowed, else the PreArm reason."""
-        nav = self.nav_state
-        if nav is None or not nav.aligned:
-            return "navigation not aligned"
-        if not nav.healthy:
-            return "navigation unhealthy"
-        if self.gps_fix_type < 3:
-            return "no 3D fix"
-        if self.mission is None or len(self.mission) < 2:
-            return "no valid mission"
-        return (self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
-                or self.terrain_problem())
-
-    def arm(self, t_us: int, truth=None) -> str | None:
-        reason = self.arm_checks()
-        if reason is not None:
-            return reason
-        nav = self.nav_state
-        self.home_frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        if truth is not None:
-            self.home_truth_alt_m = truth.alt_m
+    def _arming(self, nav: NavState) -> None:
+        """At arming: the mission from its start, crash detection from the launch."""
         self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
         self.ctrl.reset()
         self.crash = None
@@ -237,20 +183,9 @@ class PlaneVehicle:
         self._launch_alt_m = nav.alt_m
         self._launch_ground_m = self._ground_m(nav)
         self._airborne = False
-        self.armed = True
-        self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
-                                    f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.1f} m")
-        return None
 
-    def disarm(self, t_us: int, force: bool = False) -> str | None:
-        if not self.armed:
-            return None
-        if not self.landed and not force:
-            return "Disarm refused: flying"
-        self.armed = False
+    def _disarming(self, t_us: int) -> None:
         self.set_mode(PlaneMode.MANUAL, t_us)
-        self.log.event(t_us * 1e-6, "disarmed")
-        return None
 
     def set_mode(self, mode: PlaneMode, t_us: int) -> str | None:
         if mode not in self.implemented_modes:
@@ -327,37 +262,11 @@ class PlaneVehicle:
             return None
         return seq.landing.phase
 
-    def current_seq(self) -> int:
-        if self.sequencer is None:
-            return 1 if self.mission is not None and len(self.mission) > 1 else 0
-        return min(self.sequencer.current, max(len(self.sequencer.items) - 1, 0))
-
-    def reached_events(self) -> list[tuple[int, int]]:
-        return list(self.sequencer.reached) if self.sequencer is not None else []
-
-    def set_mission(self, mission: Mission, t_us: int) -> str | None:
-        """Replace the mission atomically. In flight the new mission starts from its
-        item 1 (ArduPilot keeps the index; a fresh start is the simpler promise)."""
-        if len(mission) < 1:
-            return "empty mission"
-        problem = validate_mission(mission.items, "plane")
-        if problem is not None:
-            return f"item {problem.seq}: {problem.text}"
-        outside = self.geofence.mission_problem(mission.items, home_ll(self))
-        if outside is not None:
-            return outside
-        self.mission = mission
+    def _load_mission(self, mission: Mission) -> None:
+        """In flight a new mission starts from its item 1 (ArduPilot keeps the index; a
+        fresh start is the simpler promise)."""
         if self.sequencer is not None:
             self.sequencer.load(mission)
-        self.log.event(t_us * 1e-6, f"mission replaced: {len(mission) - 1} items")
-        return None
-
-    def set_current(self, seq: int, t_us: int) -> str | None:
-        if self.mission is None or not 0 < seq < len(self.mission):
-            return f"no mission item {seq}"
-        if self.sequencer is not None:
-            self.sequencer.set_current(seq)
-        return None
 
     def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
         self.home_frame = LocalFrame(lat_rad, lon_rad, alt_m)
@@ -366,37 +275,11 @@ class PlaneVehicle:
         self.log.event(t_us * 1e-6, "home moved")
         return None
 
-    def set_fence(self, items, t_us: int) -> str | None:
-        """A new geofence (MAV_MISSION_TYPE_FENCE items), checked whole; () clears it."""
-        problem = self.geofence.set_fence(items)
-        if problem is not None:
-            return problem.text
-        self.log.event(t_us * 1e-6, f"fence: {len(self.geofence.fence_items)} items")
-        return None
-
-    def set_rally(self, items, t_us: int) -> str | None:
-        """New rally points (MAV_MISSION_TYPE_RALLY items); () clears them."""
-        problem = self.geofence.set_rally(items)
-        if problem is not None:
-            return problem.text
-        self.log.event(t_us * 1e-6, f"rally points: {len(self.geofence.rally_items)}")
-        return None
-
-    def set_param(self, name: str, value: float) -> str | None:
-        from .params import ParamError
-        if name == "FENCE_ACTION":
-            why = self.geofence.action_problem(value)
-            if why is not None:
-                return why
-        try:
-            self.params.set(name, value)
-        except ParamError as e:
-            return str(e)
+    def _param_changed(self, name: str) -> None:
         if name in ("NAVL1_PERIOD", "NAVL1_DAMPING"):
             self.l1.set_design(self.params["NAVL1_PERIOD"], self.params["NAVL1_DAMPING"])
         else:
             self.ctrl.configure_gains()
-        return None
 
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
@@ -422,10 +305,7 @@ class PlaneVehicle:
         mon = self.monitor
         if mon is not None:
             mon.update(t_us, self._monitoring())
-            if len(mon.events) > self._fdi_events:
-                for t_s, _sev, text in mon.events[self._fdi_events:]:
-                    self.log.event(t_s, text)
-                self._fdi_events = len(mon.events)
+            self._forward_events(mon)
             eout = mon.elevator_fault_s is not None and self.params["EOUT_ENABLE"] > 0
             if eout != self.ctrl.elevator_out:
                 # the elevator is faulty: height on the throttle (control/fixed_wing.py)
@@ -479,11 +359,6 @@ class PlaneVehicle:
             if req == "here":
                 req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
             self.set_home(*req, t_us)
-
-    def notice(self, t_s: float, severity: int, text: str) -> None:
-        """Something to tell the ground stations (STATUSTEXT) and the flight log."""
-        self.notices.append((t_s, severity, text))
-        self.log.event(t_s, text)
 
     def _crash_check(self, nav: NavState, t_us: int) -> None:
         """Crash detection (module docstring); disarms on a crash."""
@@ -672,30 +547,14 @@ class PlaneVehicle:
         else:
             p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
         er, ep, ey = self.euler
-        if truth is not None:
-            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
-            tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
-            tv = truth.v_ned.tolist()
-            t_alt, t_as = truth.alt_m, truth.airspeed_mps
-        else:
-            p_tru = (math.nan, math.nan, math.nan)
-            tr = tp = ty = t_alt = t_as = math.nan
-            tv = (math.nan, math.nan, math.nan)
+        p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         w = nav.wind_ned.tolist()
         v = nav.v_ned.tolist()
-        sig = _NAN9
-        out_sig = getattr(self.nav, "output_sigmas9", None)
-        if out_sig is not None:
-            sig = out_sig()
-        if gps is not None:
-            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
-            gps_row = (g[0], g[1], gps.alt_m)
-        else:
-            gps_row = (math.nan, math.nan, math.nan)
+        sig, gps_row = self._nav_rows(hf, gps)
         self.log.append((
             t_us * 1e-6, float(self.armed), float(self.mode.value), float(tgt.seq), float(tgt.leg_id),
             float(KIND_CODES[tgt.kind]),

@@ -1,9 +1,10 @@
 """What the ground-station service (autopilot/gcs) may ask of a vehicle loop.
 
 Both vehicle loops (``autopilot.vehicle.PlaneVehicle`` and the quadrotor's) implement
-this protocol, so the MAVLink side never asks which airframe it serves. The GCS calls
-these between lockstep steps (never from another thread), and every call takes the
-simulation time ``t_us`` for its log entries.
+this protocol, so the MAVLink side never asks which airframe it serves; what of it does
+not depend on the airframe is written once, in ``autopilot.vehicle_base.VehicleBase``.
+The GCS calls these between lockstep steps (never from another thread), and every call
+takes the simulation time ``t_us`` for its log entries.
 """
 from __future__ import annotations
 

@@ -43,11 +43,12 @@ from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
-from .mission.items import terrain_problem, Mission, validate_mission
+from .mission.items import Mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
 from .params import Param, ParamStore
+from .vehicle_base import TruthNav, VehicleBase
 
 RHO0 = 1.225
 R_AIR = 287.05287
@@ -85,7 +86,6 @@ LOG_COLUMNS = (
     "fdi_gamma_4", "fdi_motor_lam",
 )
 KIND_CODES = {"ground": 0, "takeoff": 1, "move": 2, "hold": 3, "land": 4, "idle": 5, "manual": 6}
-_NAN9 = (math.nan,) * 9
 
 
 _QUAD_FDI = ("FDI_ENABLE", "FDI_ALPHA", "FDI_PFA", "FDI_WIN", "FDI_CLR_T")
@@ -114,23 +114,6 @@ class PilotInput:
         self.pitch_rad = 0.0
         self.yaw_rate_rps = 0.0
         self.throttle = throttle      # 0..1; None: PILOT_THR_HOV (STABILIZE), centre (ALT_HOLD)
-
-
-class TruthNav:
-    """NavState from HIL_STATE_QUATERNION: the ``--nav truth`` debugging aid."""
-
-    def __init__(self):
-        self.origin: LocalFrame | None = None
-
-    def update(self, frame: SensorFrame, truth) -> NavState | None:
-        if truth is None:
-            return None
-        if self.origin is None:
-            self.origin = LocalFrame(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        p = self.origin.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        return NavState(frame.t_us, p, truth.v_ned, truth.q_nb, truth.omega_b,
-                        truth.lat_rad, truth.lon_rad, truth.alt_m, truth.airspeed_mps,
-                        source="truth")
 
 
 class DecimatedNav:
@@ -280,29 +263,12 @@ def make_quad_nav(source: str, params: ParamStore, dt_s: float = 0.004):
     raise ValueError(f"unknown navigation source {source!r} (truth, ekf, ukf)")
 
 
-class QuadVehicle:
+class QuadVehicle(VehicleBase):
     """The quadrotor autopilot's loop. ``autostart``: arm and fly AUTO by itself once
-    navigation is healthy (headless runs); otherwise wait for a ground station."""
+    navigation is healthy (headless runs); otherwise wait for a ground station. Its
+    airframe-independent half is ``autopilot.vehicle_base.VehicleBase``."""
 
-    # the terrain the autopilot reads (a callable (lat_deg, lon_deg) -> metres MSL or None:
-    # the simulator's tiles, autopilot.geo.terrain); None: flat at home altitude
-    terrain = None
-
-    @property
-    def sequencer(self):
-        return self._sequencer
-
-    @sequencer.setter
-    def sequencer(self, seq) -> None:
-        self._sequencer = seq
-        if seq is not None:
-            seq.terrain = self.terrain
-
-    def terrain_problem(self) -> str | None:
-        """The pre-arm reason when a terrain-frame item of the mission has no terrain
-        data under it (ArduPilot refuses to arm so), else None."""
-        return terrain_problem(self.mission, self.terrain)
-
+    vehicle_kind = "quad"
     mav_type = MAV.MAV_TYPE_QUADROTOR
     modes = CopterMode
     implemented_modes = IMPLEMENTED_COPTER_MODES
@@ -352,29 +318,15 @@ class QuadVehicle:
         self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
 
     # ------------------------------------------------------------------ arming ---
-    def arm_checks(self) -> str | None:
-        nav = self.nav_state
-        if nav is None or not nav.aligned:
-            return "navigation not aligned"
-        if not nav.healthy:
-            return "navigation unhealthy"
-        if self.gps_fix_type < 3:
-            return "no 3D fix"
-        if self.mode == CopterMode.AUTO and (self.mission is None or len(self.mission) < 2):
-            return "no valid mission"
-        return (self.geofence.arm_problem(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
-                or self.terrain_problem())
+    def _mission_needed(self) -> bool:
+        return self.mode == CopterMode.AUTO      # a copter arms without one outside AUTO
 
-    def arm(self, t_us: int, truth=None) -> str | None:
-        reason = self.arm_checks()
-        if reason is not None:
-            return reason
-        nav = self.nav_state
-        self.home_frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
+    _home_alt_format = ".2f"
+
+    def _arming(self, nav: NavState) -> None:
+        """At arming: guidance in home's frame from here, on the ground."""
         self._home_nav_p = tuple(float(c) for c in nav.p_ned)
         self.p_home = (0.0, 0.0, 0.0)
-        if truth is not None:
-            self.home_truth_alt_m = truth.alt_m
         if self.mission is not None:
             self.sequencer = CopterMissionSequencer(self.mission, self.home_frame, self.params,
                                                     self.navigator)
@@ -385,19 +337,6 @@ class QuadVehicle:
         self.on_ground = True
         self.flying = False
         self.mission_landed = False
-        self.armed = True
-        self.log.event(t_us * 1e-6, f"armed; home {math.degrees(nav.lat_rad):.7f} "
-                                    f"{math.degrees(nav.lon_rad):.7f} {nav.alt_m:.2f} m")
-        return None
-
-    def disarm(self, t_us: int, force: bool = False) -> str | None:
-        if not self.armed:
-            return None
-        if not self.on_ground and not force:
-            return "Disarm refused: flying"
-        self.armed = False
-        self.log.event(t_us * 1e-6, "disarmed")
-        return None
 
     def set_mode(self, mode, t_us: int) -> str | None:
         try:
@@ -453,37 +392,12 @@ class QuadVehicle:
     def landed(self) -> bool:
         return not self.armed or self.on_ground
 
-    def current_seq(self) -> int:
-        if self.sequencer is None:
-            return 1 if self.mission is not None and len(self.mission) > 1 else 0
-        return min(self.sequencer.current, max(len(self.sequencer.items) - 1, 0))
-
-    def reached_events(self) -> list[tuple[int, int]]:
-        return list(self.sequencer.reached) if self.sequencer is not None else []
-
-    def set_mission(self, mission: Mission, t_us: int) -> str | None:
-        if len(mission) < 1:
-            return "empty mission"
-        problem = validate_mission(mission.items, "quad")
-        if problem is not None:
-            return f"item {problem.seq}: {problem.text}"
-        outside = self.geofence.mission_problem(mission.items, home_ll(self))
-        if outside is not None:
-            return outside
-        self.mission = mission
+    def _load_mission(self, mission: Mission) -> None:
+        """Armed without a mission (outside AUTO), a new one gets its sequencer now."""
         if self.sequencer is not None:
             self.sequencer.load(mission)
         elif self.home_frame is not None:
             self.sequencer = CopterMissionSequencer(mission, self.home_frame, self.params, self.navigator)
-        self.log.event(t_us * 1e-6, f"mission replaced: {len(mission) - 1} items")
-        return None
-
-    def set_current(self, seq: int, t_us: int) -> str | None:
-        if self.mission is None or not 0 < seq < len(self.mission):
-            return f"no mission item {seq}"
-        if self.sequencer is not None:
-            self.sequencer.set_current(seq)
-        return None
 
     def set_home(self, lat_rad: float, lon_rad: float, alt_m: float, t_us: int) -> str | None:
         """Move home: guidance positions shift to the new frame."""
@@ -504,36 +418,10 @@ class QuadVehicle:
         self.log.event(t_us * 1e-6, "home moved")
         return None
 
-    def set_fence(self, items, t_us: int) -> str | None:
-        """A new geofence (MAV_MISSION_TYPE_FENCE items), checked whole; () clears it."""
-        problem = self.geofence.set_fence(items)
-        if problem is not None:
-            return problem.text
-        self.log.event(t_us * 1e-6, f"fence: {len(self.geofence.fence_items)} items")
-        return None
-
-    def set_rally(self, items, t_us: int) -> str | None:
-        """New rally points (MAV_MISSION_TYPE_RALLY items); () clears them."""
-        problem = self.geofence.set_rally(items)
-        if problem is not None:
-            return problem.text
-        self.log.event(t_us * 1e-6, f"rally points: {len(self.geofence.rally_items)}")
-        return None
-
-    def set_param(self, name: str, value: float) -> str | None:
-        from .params import ParamError
-        if name == "FENCE_ACTION":
-            why = self.geofence.action_problem(value)
-            if why is not None:
-                return why
-        try:
-            self.params.set(name, value)
-        except ParamError as e:
-            return str(e)
+    def _param_changed(self, name: str) -> None:
         self.ctrl.configure()
         self.navigator.traj.w = self.params["WPNAV_SMOOTH"]
         self.log_rows.div = max(1, int(self.params["QD_LOG_DIV"]))
-        return None
 
     def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float,
                           t_us: int) -> str | None:
@@ -688,11 +576,6 @@ class QuadVehicle:
 
     _touchdown_pending = False
 
-    def notice(self, t_s: float, severity: int, text: str) -> None:
-        """Something to tell the ground stations (STATUSTEXT) and the flight log."""
-        self.notices.append((t_s, severity, text))
-        self.log.event(t_s, text)
-
     def _mission_set_home(self, sq: CopterMissionSequencer, t_us: int) -> None:
         """A mission's DO_SET_HOME: here (the navigation solution) or the item's place."""
         req = sq.home_request
@@ -719,10 +602,7 @@ class QuadVehicle:
                   and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
         mon.update(t_us, flying, self._motors,
                    (f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]), omega, self.ctrl.mixer.thrust_of)
-        if len(mon.events) > self._fdi_events:
-            for t_s, _sev, text in mon.events[self._fdi_events:]:
-                self.log.event(t_s, text)
-            self._fdi_events = len(mon.events)
+        self._forward_events(mon)
         if mon.accommodation != self.ctrl.mixer.eff:
             self.ctrl.mixer.set_effectiveness(mon.accommodation)
         if mon.failsafe == "LAND":
@@ -777,15 +657,7 @@ class QuadVehicle:
             return
         p = self.p_home
         er, ep, ey = self.euler
-        if truth is not None:
-            p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
-            tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
-            tv = truth.v_ned.tolist()
-            t_alt, t_as = truth.alt_m, truth.airspeed_mps
-        else:
-            p_tru = (math.nan, math.nan, math.nan)
-            tr = tp = ty = t_alt = t_as = math.nan
-            tv = (math.nan, math.nan, math.nan)
+        p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         alt0 = hf.alt0_m
@@ -799,15 +671,7 @@ class QuadVehicle:
             tgt_row = (tp_[0], tp_[1], alt0 - tp_[2], tgt.v_ned[0], tgt.v_ned[1], tgt.v_ned[2],
                        tgt.goal_ne[0], tgt.goal_ne[1], tgt.leg_a[0], tgt.leg_a[1])
             hold = float(tgt.hold)
-        sig = _NAN9
-        out_sig = getattr(self.nav, "output_sigmas9", None)
-        if out_sig is not None:
-            sig = out_sig()
-        if gps is not None:
-            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
-            gps_row = (g[0], g[1], gps.alt_m)
-        else:
-            gps_row = (math.nan, math.nan, math.nan)
+        sig, gps_row = self._nav_rows(hf, gps)
         seq = float(tgt.seq) if tgt is not None else 0.0
         leg = float(tgt.leg_id) if tgt is not None else 0.0
         u = c.u
