@@ -69,11 +69,11 @@ def test_gps_position_and_velocity_noisy_both_named(seed):
 def test_gps_noise_x7_mmnsf_error_well_under_the_plain_ekf():
     # GIVEN GPS position noise x7 for 30 s, WHEN the MMNSF robust filter runs, THEN the
     # horizontal error over the fault is well under the plain EKF's on the same seed
-    # (replayed with FDI_RADAPT = 0). Issue 6 asks for at most half. Measured with the
-    # default receiver (0.36 m per axis): 0.51 (seed 1), 0.64 (seed 2), 0.50 (seed 3) --
-    # the robust filter's error during the fault is the filter's own error before it
-    # (seed 2: 0.35 m against 0.33 m), so the ratio is bounded by that floor over the
-    # plain EKF's error, not by the adaptation.
+    # (replayed with FDI_RADAPT = 0). Issue 6 asks for at most half; with the default
+    # receiver the robust filter's error during the fault is the filter's own error
+    # before it, so the ratio is bounded by that floor over the plain EKF's error, not by
+    # the adaptation: 0.55 here, on a seed where the floor allows it; other seeds fall
+    # short (docs/status.md, "Known short of their figures").
     cfg = RunConfig(scenario=Path(MISSIONS_DIR / "fault_gps_noise.toml"), duration_s=140.0, seed=1)
     s = Session(cfg)
     s.run()
@@ -115,7 +115,8 @@ def test_vertical_accelerometer_bias_isolated_to_accel_z():
     s, summ = _fly("fault_accel_z_bias.toml", 110.0)
     f = summ["faults"][0]
     # THEN detected within 3 s (a drift of the velocity innovations) and isolated to
-    #      accel_z by its bias-change test within 5 s (measured seed 1: 1.55 s, 2.25 s)
+    #      accel_z by its bias-change test within 5 s (the drift takes a second or two to
+    #      show; figures: docs/status.md, "Faults and the monitor")
     assert f["delay_s"] is not None and f["delay_s"] <= 3.0
     assert f["isolated"] == "accel_z" and f["isolated_all"] == ["accel_z"]
     assert f["isolated_s"] - f["at_s"] <= 5.0
@@ -135,8 +136,9 @@ def test_fault_free_flight_has_no_false_alarm(seed):
 
 def test_false_alarm_bench_seed_4_is_quiet():
     # GIVEN the fault-free flight that raised a false alarm with alpha = 1e-4 per test
-    # (seed 4, gps_vel at 1.02x threshold at 176 s), WHEN the detection threshold is set
-    # from the family-wise false-alarm probability per flight hour (FDI_PFA), THEN
+    # (seed 4, gps_vel: docs/status.md, "Why the monitor is built as it is"), WHEN the
+    # detection threshold is set from the family-wise false-alarm probability per flight
+    # hour (FDI_PFA), THEN
     # ``sitl bench --false-alarms`` (a short version) counts none, and the statistics
     # stay clear of their thresholds
     from tools.bench import run_false_alarms
@@ -160,9 +162,8 @@ def test_elevator_fault_classified_and_identified_within_20_percent_in_10s(scena
     # GIVEN the default monitor, WHEN the elevator sticks at 0.17 rad (0.05 above trim) or
     # loses half its effectiveness at 142 s, THEN the fault is an actuator fault on the
     # elevator, detected within 5 s, its parameter from the moment balance within 20 %
-    # 10 s after the onset, and the aircraft keeps flying. Measured: effectiveness 0.526 /
-    # 0.526 / 0.517 (seeds 1-3); stuck 0.161 / 0.158 / 0.163 / 0.164 / 0.159 / 0.182 /
-    # 0.169 / 0.171 / 0.167 / 0.182 (seeds 1-10, autopilot/monitor/actuator.py)
+    # 10 s after the onset (the issue's bound), and the aircraft keeps flying (figures:
+    # docs/status.md, "Faults and the monitor": stuck elevator, elevator at 50 %)
     s = Session(RunConfig(scenario=Path(MISSIONS_DIR / scenario), duration_s=154.0, seed=seed))
     s.run()
     summ = run_summary(s)
@@ -207,7 +208,9 @@ def test_quad_motor_thrust_70_percent_identified_and_the_quad_lands():
     from autopilot.link.codec import MAV
     st = Telemetry(s.vehicle).sys_status()
     assert not st.onboard_control_sensors_health & MAV.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    assert summ["max_tilt_deg"] <= 30.0      # measured 21.6 deg (rotors 1-4: 17.8-21.6)
+    # the tilt at the onset, before the compensation, stays inside the copter's 30 deg
+    # lean limit (figures: docs/status.md, "Faults and the monitor": rotor 1 at 70 %)
+    assert summ["max_tilt_deg"] <= 30.0
 
 
 def _fly_stuck_elevator(seed: int, duration_s: float, scenario="fault_elevator_stuck.toml", **params):
@@ -225,9 +228,9 @@ def test_stuck_elevator_height_flown_on_the_throttle_instead_of_climbing_away():
     #       mission asks for is no longer reachable
     # WHEN the monitor detects it, THEN the controller flies the height on the throttle
     #      ("elevator out", EOUT_ENABLE = 1, the default) and the monitor says it is stuck:
-    #      within about 35 m of the target where the airspeed loop alone climbs away at
-    #      full throttle (measured to 200 s, seed 2: max 30.8 m vs 188.5 m; whole flights,
-    #      seeds 1-10: alt_rms_m 6.8-9.7 m vs 184-239 m, airspeed >= 14.3 m/s)
+    #      within 40 m of the target (the lightly damped phugoid's swings, about 30 m)
+    #      where the airspeed loop alone climbs away at full throttle, at least three
+    #      times as far (figures: docs/status.md, "Faults and the monitor": stuck elevator)
     s, err_max, err_rms, v_min = _fly_stuck_elevator(2, 200.0)
     texts = [e[1] for e in s.log.events]
     assert any(t.startswith("FDI: elevator identified stuck at 0.1") for t in texts), texts
@@ -246,13 +249,14 @@ def test_stuck_elevator_height_flown_on_the_throttle_instead_of_climbing_away():
 def test_stuck_nose_down_elevator_flown_on_the_throttle_instead_of_into_the_ground():
     # GIVEN the elevator stuck 0.03 rad below trim at 142 s (fault_elevator_stuck_down.toml)
     # WHEN it is detected and the height is flown on the throttle, THEN the
-    #      aircraft is still flying at 200 s, within 80 m of its altitude (seed 1: 63.0 m
-    #      at worst, in the dive after the onset)
+    #      aircraft is still flying at 200 s, within 80 m of its altitude (the dive after
+    #      the onset, before the detection, loses most of it; docs/status.md, "Faults
+    #      and the monitor": stuck nose-down)
     s, err_max, _, _ = _fly_stuck_elevator(1, 200.0, "fault_elevator_stuck_down.toml")
     assert s.vehicle.ctrl.elevator_out and not s.crashed
     assert err_max <= 80.0
-    # AND it is identified stuck within 20 % 10 s after the onset (measured 0.0995 rad;
-    #     the loss-of-effectiveness fit alone read it as k = 0.31 then)
+    # AND it is identified stuck within 20 % 10 s after the onset (the issue's bound; a
+    #     loss-of-effectiveness fit alone reads it as a weakened surface)
     ident = next(i for t, i in s.vehicle.monitor.episodes[-1].ident_log if t >= 152.0)
     assert "stuck_rad" in ident and abs(ident["stuck_rad"] - 0.09) <= 0.2 * 0.09, ident
     # AND with the airspeed loop keeping the throttle it flies into the ground (176 s)
@@ -270,8 +274,10 @@ def test_elevator_working_again_after_ok_flies_on_with_height_and_airspeed_held(
     s.run()
     assert s.vehicle.ctrl.elevator_out and not s.crashed
     # THEN with the surface working the pitch loop holds the height and the airspeed
-    #      stays near its cruise value without a demand (measured 190-260 s, seeds 1-3:
-    #      within 2.6-3.3 m of the target altitude, airspeed 19.6-26.6 m/s)
+    #      stays near its cruise value without a demand: within 5 m of the target
+    #      altitude and 2 m/s of ARSPD_FBW_MIN..MAX, margins of about 1.5 m and 1.5 m/s
+    #      over what was measured (figures: docs/status.md, "Faults and the monitor":
+    #      elevator working again)
     a = s.log.arrays()
     late = a["t_s"] >= 190.0
     assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 5.0
@@ -282,9 +288,10 @@ def test_elevator_working_again_after_ok_flies_on_with_height_and_airspeed_held(
 def test_weakened_elevator_flies_on_with_elevator_out():
     # GIVEN the elevator at 50 % effectiveness from 142 s (the loss the monitor cannot yet
     #       tell from a stuck surface when it detects it), WHEN the height is flown on the
-    #       throttle from the detection on, THEN the pitch loop still holds the height and
-    #       the airspeed stays inside its limits (measured 142-230 s, seed 1: within 5.3 m,
-    #       23.5-30.0 m/s; whole flights, seeds 1-6: alt_rms_m 1.3-1.5 m, was 1.3-1.5)
+    #       throttle from the detection on, THEN the pitch loop still holds the height,
+    #       within 10 m (about twice the error measured), and the airspeed stays within
+    #       19-32 m/s (ARSPD_FBW_MIN..MAX, 20-30 m/s, and the gusts' metre or two)
+    #       (figures: docs/status.md, "Faults and the monitor": elevator at 50 %)
     s, err_max, _, v_min = _fly_stuck_elevator(1, 230.0, "fault_elevator_loe.toml")
     assert s.vehicle.ctrl.elevator_out and not s.crashed
     assert s.vehicle.monitor.elevator_stuck_rad is None
@@ -310,7 +317,8 @@ def test_elevator_stuck_in_the_climb_out_found_from_the_airframe_model(tmp_path)
     f = run_summary(s)["faults"][0]
     # WHEN the identifier starts from the Aerosonde's model (FDI_EL_MODEL = 1, default)
     # THEN detected within 3 s, identified stuck within 0.02 rad 10 s after the onset
-    #      (measured 1.71 s, 0.165 rad), the level trim announced, still flying
+    #      (docs/status.md, "Faults and the monitor": elevator stuck from launch), the
+    #      level trim announced, still flying
     assert f["kind"] == "actuator" and f["isolated"] == "elevator"
     assert f["delay_s"] is not None and f["delay_s"] <= 3.0
     assert "stuck_rad" in f["identified_10s"], f

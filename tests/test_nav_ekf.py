@@ -245,9 +245,9 @@ def test_accuracy_targets_on_the_simulator(long_run):
     sim, _, trace, _ = long_run
     a = accuracy(trace, sim, 60.0)
     # THEN the product's acceptance targets hold after the first minute:
-    #   nav_pos_h_rms <= 0.7 gps_pos_h_rms (this seed: 0.51; seeds 1-4: 0.51-0.58 -- the
-    #   white part is averaged out, the Gauss-Markov part only through GPS velocity over
-    #   windows longer than tau), roll/pitch RMS <= 0.5 deg, yaw RMS <= 2 deg,
+    #   nav_pos_h_rms <= 0.7 gps_pos_h_rms (the white part is averaged out, the
+    #   Gauss-Markov part only through GPS velocity over windows longer than tau;
+    #   figures: docs/status.md, "Navigation"), roll/pitch RMS <= 0.5 deg, yaw RMS <= 2 deg,
     #   >= 95 % of samples inside +-3 sigma for every position/velocity/attitude component
     assert a["ratio"] <= 0.7, a
     assert a["roll_rms_deg"] <= 0.5 and a["pitch_rms_deg"] <= 0.5, a
@@ -324,8 +324,9 @@ def test_barometric_height_reference_keeps_the_height_off_the_gps_wander():
                     assert s.p_ned[2] == pytest.approx(
                         filt.position_ned[2] - (filt.baro_bias - filt._bb0), abs=1e-9)
         spread[ref] = float(np.std(ez))
-    # THEN the output height on the barometer's datum moves by centimetres (measured
-    #      0.044 m), against 0.185 m when it follows the GPS's height (seed 3)
+    # THEN the output height on the barometer's datum moves by centimetres, under half
+    #      of what it moves when it follows the GPS's height, whose Gauss-Markov wander is
+    #      decimetres (figures: docs/status.md, "Navigation")
     assert spread[0] <= 0.07, spread
     assert spread[0] <= 0.5 * spread[1], spread
 

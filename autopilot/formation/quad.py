@@ -15,8 +15,8 @@ Sequence of one vehicle:
    and its guidance keeps its distances to the *setpoints* of the vehicles it follows
    (the seed's virtual target tracking, sec. 3.4): the formation is shaped on smooth
    references, and each vehicle's tracking and navigation errors stay its own instead
-   of adding up down the follower chain (measured: following the leaders' estimated
-   positions instead roughly doubled the distance errors).
+   of adding up down the follower chain (what following the estimated positions costs:
+   docs/status.md, "Formation flight").
 4. At the formation's common start time ``start_s`` (known to every vehicle from the
    formation file, as a synchronised launch time) its guidance starts: the virtual
    target integrates V_i of eq 3.20 and the quadrotor tracks it.
