@@ -32,11 +32,12 @@ def test_mavproxy_is_installed_by_the_test_extra():
 
 
 class MavProxy:
-    def __init__(self, url, cwd, *extra):
+    def __init__(self, url, cwd, *extra, env=None):
         self.proc = subprocess.Popen(
             [sys.executable, "-u", str(MAVPROXY), f"--master={url}", "--no-state",
              "--default-modules=wp,param,mode,arm,cmdlong,misc,ftp", *extra],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=cwd)
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=cwd,
+            env=env)
         self.lines: queue.Queue = queue.Queue()
         self.log: list[str] = []
         threading.Thread(target=self._read, daemon=True).start()
