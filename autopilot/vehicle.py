@@ -44,7 +44,7 @@ from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
 from .params import Param, ParamStore
-from .vehicle_base import TruthNav, VehicleBase
+from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase
 
 GUIDANCE_PARAMS = (
     Param("NAVL1_PERIOD", 17.0, 5.0, 60.0, "s", "L1 period: the cross-track response period"),
@@ -75,8 +75,7 @@ CRASH_CLIMB = 1.0       # climbing faster than this [m/s] is not resting on the 
 
 LOG_COLUMNS = (
     "t_s", "armed", "mode", "seq", "leg_id", "kind",
-    "truth_n_m", "truth_e_m", "truth_alt_m", "truth_roll_rad", "truth_pitch_rad", "truth_yaw_rad",
-    "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
+) + TRUTH_COLUMNS + (
     "est_n_m", "est_e_m", "est_alt_m", "est_roll_rad", "est_pitch_rad", "est_yaw_rad",
     "est_vn_mps", "est_ve_mps", "est_vd_mps", "est_airspeed_mps", "est_wind_n_mps", "est_wind_e_mps",
     # tgt_alt_m is the slew-limited altitude demand the control loops track
@@ -84,13 +83,7 @@ LOG_COLUMNS = (
     "leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m", "loiter_c_n_m", "loiter_c_e_m",
     "loiter_r_m", "loiter_dir", "xtrack_est_m",
     "ctl_aileron", "ctl_elevator", "ctl_rudder", "ctl_throttle",
-    # navigation filter: 1-sigma of its errors (NaN on truth; attitude as a NED-frame
-    # rotation vector, the error state of autopilot/nav), health, and the GPS fixes
-    # received this step (NaN when none), for scoring the estimate and the receiver
-    "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
-    "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
-    "gps_n_m", "gps_e_m", "gps_alt_m",
-) + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
+) + NAV_COLUMNS + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
 _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 LOG_DIV = 2          # flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix

@@ -29,6 +29,22 @@ from .mission.items import Mission, terrain_problem, validate_mission
 _NAN3 = (math.nan, math.nan, math.nan)
 _NAN9 = (math.nan,) * 9
 
+# the flight-log columns of the airframe-independent row parts, in their order: truth in
+# home's NED (``VehicleBase._truth_row``) ...
+TRUTH_COLUMNS = (
+    "truth_n_m", "truth_e_m", "truth_alt_m", "truth_roll_rad", "truth_pitch_rad", "truth_yaw_rad",
+    "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
+)
+# ... and the navigation filter: 1-sigma of its errors (NaN on truth; attitude as a
+# NED-frame rotation vector, the error state of autopilot/nav), health, and the GPS fixes
+# received this step (NaN when none), for scoring the estimate and the receiver
+# (``VehicleBase._nav_rows``, then ``nav.aligned``, ``nav.healthy``, the fix)
+NAV_COLUMNS = (
+    "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
+    "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
+    "gps_n_m", "gps_e_m", "gps_alt_m",
+)
+
 
 class TruthNav:
     """NavState from HIL_STATE_QUATERNION: the ``--nav truth`` debugging aid."""

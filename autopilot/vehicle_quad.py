@@ -48,7 +48,7 @@ from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
 from .params import Param, ParamStore
-from .vehicle_base import TruthNav, VehicleBase
+from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase
 
 RHO0 = 1.225
 R_AIR = 287.05287
@@ -65,8 +65,7 @@ QUAD_VEHICLE_PARAMS = (
 
 LOG_COLUMNS = (
     "t_s", "armed", "mode", "seq", "leg_id", "kind", "hold", "landed",
-    "truth_n_m", "truth_e_m", "truth_alt_m", "truth_roll_rad", "truth_pitch_rad", "truth_yaw_rad",
-    "truth_vn_mps", "truth_ve_mps", "truth_vd_mps", "truth_airspeed_mps",
+) + TRUTH_COLUMNS + (
     "est_n_m", "est_e_m", "est_alt_m", "est_roll_rad", "est_pitch_rad", "est_yaw_rad",
     "est_vn_mps", "est_ve_mps", "est_vd_mps",
     # the reference trajectory (home NED: tgt_alt_m is MSL like the plane's)
@@ -76,10 +75,7 @@ LOG_COLUMNS = (
     "cmd_roll_rad", "cmd_pitch_rad", "cmd_yaw_rad", "cmd_thrust_n",
     "u_roll_n", "u_pitch_n", "u_yaw_n",
     "motor_1", "motor_2", "motor_3", "motor_4",
-    # navigation filter sigmas, health and the GPS fixes (as the fixed-wing's log)
-    "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
-    "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
-    "gps_n_m", "gps_e_m", "gps_alt_m",
+) + NAV_COLUMNS + (
     # motor fault monitor (autopilot/monitor/motors.py): detection and isolation
     # statistics over their thresholds, rotor effectiveness estimates, fading factor
     "fdi_motor_det", "fdi_motor_iso", "fdi_gamma_1", "fdi_gamma_2", "fdi_gamma_3",
