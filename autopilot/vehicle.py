@@ -32,7 +32,7 @@ import math
 
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .fence.actions import fence_step, home_ll
-from .fence.geofence import FENCE_PARAMS, Geofence, rally_params
+from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
 from .guidance.landing import LAND_PARAMS
@@ -44,7 +44,7 @@ from .link.codec import MAV
 from .modes.plane import IMPLEMENTED_PLANE_MODES, PlaneMode
 from .monitor import FDI_PARAMS, LOG_COLUMNS as FDI_LOG_COLUMNS, SEV_WARNING, FaultMonitor
 from .params import Param, ParamStore
-from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase
+from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase, shared_param_declarations
 
 GUIDANCE_PARAMS = (
     Param("NAVL1_PERIOD", 17.0, 5.0, 60.0, "s", "L1 period: the cross-track response period"),
@@ -93,13 +93,7 @@ NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before ever
 def plane_param_declarations() -> list[Param]:
     decls = (list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(LAND_PARAMS) + list(CRASH_PARAMS)
              + list(FDI_PARAMS))
-    decls += list(FENCE_PARAMS) + list(rally_params("plane"))
-    try:
-        from .nav.ekf import NAV_PARAMS  # the navigation filter's own parameters
-        decls += list(NAV_PARAMS)
-    except ImportError:
-        pass
-    return decls
+    return decls + shared_param_declarations("plane")
 
 
 def make_nav(source: str, params: ParamStore):

@@ -22,9 +22,12 @@ from __future__ import annotations
 import math
 
 from .fence.actions import home_ll
+from .fence.geofence import FENCE_PARAMS, rally_params
 from .geo import LocalFrame, quat_to_euler
 from .messages import NavState, SensorFrame
 from .mission.items import Mission, terrain_problem, validate_mission
+from .nav.config import NAV_PARAMS
+from .params import Param
 
 _NAN3 = (math.nan, math.nan, math.nan)
 _NAN9 = (math.nan,) * 9
@@ -44,6 +47,13 @@ NAV_COLUMNS = (
     "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
     "gps_n_m", "gps_e_m", "gps_alt_m",
 )
+
+
+def shared_param_declarations(kind: str) -> list[Param]:
+    """The parameters both airframes declare, after their own (the PARAM table's order):
+    the geofence, the rally points (``kind``: "plane" / "quad") and the navigation
+    filter's."""
+    return list(FENCE_PARAMS) + list(rally_params(kind)) + list(NAV_PARAMS)
 
 
 class TruthNav:

@@ -36,7 +36,7 @@ import numpy as np
 
 from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
 from .fence.actions import fence_step, home_ll
-from .fence.geofence import FENCE_PARAMS, Geofence, rally_params
+from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
@@ -48,7 +48,7 @@ from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
 from .params import Param, ParamStore
-from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase
+from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase, shared_param_declarations
 
 RHO0 = 1.225
 R_AIR = 287.05287
@@ -90,13 +90,7 @@ _QUAD_FDI = ("FDI_ENABLE", "FDI_ALPHA", "FDI_PFA", "FDI_WIN", "FDI_CLR_T")
 def quad_param_declarations() -> list[Param]:
     decls = list(MULTIROTOR_PARAMS) + list(COPTER_GUIDANCE_PARAMS) + list(QUAD_VEHICLE_PARAMS)
     decls += [p for p in FDI_PARAMS if p.name in _QUAD_FDI] + list(MOTOR_PARAMS)
-    decls += list(FENCE_PARAMS) + list(rally_params("quad"))
-    try:
-        from .nav.config import NAV_PARAMS
-        decls += list(NAV_PARAMS)
-    except ImportError:
-        pass
-    return decls
+    return decls + shared_param_declarations("quad")
 
 
 class PilotInput:

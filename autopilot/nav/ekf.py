@@ -63,7 +63,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from .base import NavFilterBase
-from .config import NAV_PARAMS  # noqa: F401  (autopilot.vehicle declares them from here)
+from .config import NAV_PARAMS  # noqa: F401  (re-exported: the filter's parameters beside it)
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 
 
