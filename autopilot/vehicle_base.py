@@ -4,10 +4,12 @@ does not depend on the airframe.
 ``PlaneVehicle`` (autopilot/vehicle.py) and ``QuadVehicle`` (autopilot/vehicle_quad.py)
 both derive from ``VehicleBase``. It holds what is the same for both, written once:
 the terrain handed to the mission sequencer, the pre-arm checks of navigation, GPS,
-geofence and terrain, the mission, current item, fence and rally services of the
-ground station, the parameter changes (with the geofence's veto on FENCE_ACTION),
-the STATUSTEXT notices, and the pieces of the flight-log row that do not depend on
-the airframe (truth in home's frame, filter sigmas, the GPS fix). What differs stays in
+geofence and terrain, arming (home set from the navigation solution, as ArduPilot
+does) and disarming, the mission, current item, fence and rally services of the
+ground station, the parameter changes (with the geofence's veto on FENCE_ACTION) and
+the parameters both declare, the STATUSTEXT notices, and the pieces of the flight-log
+row that do not depend on the airframe (truth in home's frame, filter sigmas, the GPS
+fix) with their columns. What differs stays in
 each loop, reached through a few hooks named below: what arming and disarming reset,
 whether arming needs a mission, how a new mission reaches the sequencer, what a
 parameter change reconfigures.
