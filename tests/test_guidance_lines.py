@@ -94,3 +94,35 @@ def test_a_first_leg_too_short_to_join_is_joined_through(tmp_path, wind):
     leg = legs_of(s)[3]
     # before: item 2 reached on the old course, the 570 m line overshot by 40-65 m
     assert leg["xtrack_max_m"] < 12.0
+
+
+def test_a_cluster_of_waypoints_is_turned_past_onto_the_line_out_of_it(tmp_path):
+    # north 800 m to a cluster of four waypoints within 60 m of each other (each within
+    # the others' acceptance radius: all count on the way through), then a 500 m line
+    # east out of the last
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 800, 0, 60, 3), (WAYPOINT, 760, -5, 60, 3),
+            (WAYPOINT, 820, 10, 60, 3), (WAYPOINT, 790, -25, 60, 3),
+            (WAYPOINT, 800, 475, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(6.0, 250.0), duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    leg = legs_of(s)[6]
+    # before: the arc turned onto the line out of the first of the cluster, the line out
+    # of the cluster left to L1 at a large angle: overshot by about 100 m
+    assert leg["xtrack_max_m"] < 12.0 and leg["xtrack_rms_m"] < 4.0
+
+
+def test_a_short_leg_after_a_reversal_is_turned_past(tmp_path):
+    # north 900 m, a 161 deg reversal onto a 110 m leg (its end beyond the first's
+    # acceptance radius), then a 125 deg turn onto a 700 m line: the legs either side of
+    # the short one cross, and the vehicle flying the first passes within the short
+    # leg's end radius on the way
+    c = (900 + 110 * math.cos(math.radians(-161)), 110 * math.sin(math.radians(-161)))
+    d = (c[0] + 700 * math.cos(math.radians(74)), c[1] + 700 * math.sin(math.radians(74)))
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 900, 0, 60, 3), (WAYPOINT, *c, 60, 3),
+            (WAYPOINT, *d, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(4.3, 83.0), duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    leg = legs_of(s)[4]
+    # before: arrived at item 3 on the old course, the line out joined from across it,
+    # overshot by about 80 m
+    assert leg["xtrack_max_m"] < 12.0 and leg["xtrack_rms_m"] < 4.0

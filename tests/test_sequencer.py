@@ -131,15 +131,23 @@ def test_do_jump_repeats_then_continues_and_do_change_speed_applies():
 def test_loiter_turns_count_full_circles():
     m = mission(item(1, NAV_LOITER_TURNS, 0, 0, p=(2, 0, 100, 0)), item(2, NAV_WAYPOINT, 1000, 0))
     s = seq_for(m)
-    angles = np.linspace(0, 2 * 2 * math.pi + 0.3, 400)
-    kinds = []
+    angles = np.linspace(0, 3 * 2 * math.pi + 0.3, 600)
+    targets = []
     for k, a in enumerate(angles):
         t = s.update(k * 10_000, np.array([100 * math.cos(a), 100 * math.sin(a), -100.0]),
                      np.zeros(3), 0.0, 600.0)
-        kinds.append((t.kind, t.seq))
-    first_leg = next(i for i, kt in enumerate(kinds) if kt == ("line", 2))
-    assert angles[first_leg] == pytest.approx(4 * math.pi, abs=0.1)
-    assert kinds[0] == ("loiter", 1)
+        targets.append(t)
+    assert (targets[0].kind, targets[0].seq) == ("loiter", 1)
+    done = next(i for i, t in enumerate(targets) if t.seq == 2)
+    # two full turns, then on round the circle (at most one more turn) to where the arc
+    # onto the line out of its centre (north, here) touches it: on the side the vehicle
+    # comes from (clockwise: west of the line), ahead of the line's crossing
+    assert 4 * math.pi - 0.05 <= angles[done] < 6 * math.pi
+    exit_bearing = math.atan2(math.sin(angles[done]), math.cos(angles[done]))
+    assert -math.radians(60) < exit_bearing < -math.radians(10)
+    arc = targets[done]
+    assert arc.kind == "loiter" and arc.direction == -1 and arc.c_ne[1] < 0.0
+    assert math.hypot(*arc.c_ne) == pytest.approx(100.0 + arc.radius_m, rel=0.02)
 
 
 def test_relative_and_absolute_altitudes():
@@ -304,8 +312,11 @@ def test_loiter_to_alt_holds_until_the_altitude_is_reached():
                      np.array([-25 * math.sin(a), 25 * math.cos(a), 0.0]), 0.0, float(h))
         seqs.append(t.seq)
     first_leg = seqs.index(2)
-    # done the first time within 5 m of 700 m (LOITER_ALT_TOL_M), not before
-    assert 695.0 <= alts[first_leg] <= 695.2
+    # done the first time within 5 m of 700 m (LOITER_ALT_TOL_M), not before; then left
+    # where the arc onto the line out touches the circle, within one more turn (25 m)
+    assert 695.0 <= alts[first_leg] <= 695.0 + 25.0
+    exit_bearing = math.atan2(math.sin(ang[first_leg]), math.cos(ang[first_leg]))
+    assert -math.radians(60) < exit_bearing < -math.radians(10)
     assert all(q == 1 for q in seqs[:first_leg]) and seqs[-1] == 2
 
 
@@ -337,3 +348,27 @@ def test_a_step_too_steep_for_its_leg_is_flown_at_the_steepest_slope_said_once()
     trace = straight_north(s, 600.0, 1000.0, t0_s=30.0)
     assert trace[0][1].seq == 2 and trace[0][1].alt_m < 700.0
     assert trace[-1][1].alt_m > trace[0][1].alt_m
+
+
+@pytest.mark.parametrize("turns", [0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0])
+def test_a_loiter_is_left_onto_the_line_out_of_its_centre_wherever_its_turns_end(turns):
+    # GIVEN a loiter of radius 100 m (clockwise) left for a line east out of its centre,
+    # its turns ending anywhere round the circle (the class: where they end at or near
+    # the line's crossing, heading across it, a join from there overshoots by up to a
+    # turn radius or loops)
+    s = seq_for(mission(item(1, NAV_LOITER_TURNS, 0, 0, p=(turns, 0, 100, 0)),
+                        item(2, NAV_WAYPOINT, 0, 1500)))
+    s._prev_wp_ne = (-1000.0, 0.0)
+    trace = follow(s, (-100.0, 0.0), math.pi / 2, 4000, ds=2.5)
+    # THEN once on the line out (within 10 m of it, flying along it), the perfect follower
+    # neither strays from it again (a loop) nor overshoots it by more than 1 m: the
+    # circle is left by an arc that ends on it
+    pts = [(p, chi) for t, p, chi in trace if t.seq == 2]
+    xt = np.array([p[0] for p, _ in pts])           # east line: cross-track = north
+    along = np.array([math.cos(chi - math.pi / 2) for _, chi in pts])
+    cap = np.flatnonzero((np.abs(xt) <= 10.0) & (along > 0.0))
+    assert cap.size
+    x = xt[cap[0]:]
+    crossed = np.flatnonzero(np.sign(x) != np.sign(x[0]))
+    overshoot = float(np.max(np.abs(x[crossed[0]:]))) if crossed.size else 0.0
+    assert overshoot < 1.0 and np.max(np.abs(x)) <= 10.0

@@ -84,6 +84,7 @@ JOIN_XTRACK_M = 10.0
 JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
+SKIP_CHAIN = 4                  # waypoints of a cluster an arc may turn past
 LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
                                 # (inside the CAPTURE_M at which its scoring stops)
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
@@ -105,6 +106,20 @@ class NavTarget:
     heading_rad: float = 0.0     # takeoff heading hold
     land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
     climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
+
+
+def _passes_within(segments, p, radius: float) -> bool:
+    """A planned path comes within ``radius`` of point p."""
+    r2 = radius * radius
+    return any((n - p[0]) ** 2 + (e - p[1]) ** 2 <= r2 for n, e, _ in dubins.samples(segments))
+
+
+def _half_turn_tan(u1, u2) -> float:
+    """tan of half the turn from unit direction u1 to u2 (a fillet's tangent length
+    per metre of radius; large for a reversal)."""
+    cross = u1[0] * u2[1] - u1[1] * u2[0]
+    dchi = abs(math.atan2(cross, u1[0] * u2[0] + u1[1] * u2[1]))
+    return math.tan(min(0.5 * dchi, math.radians(89.0)))
 
 
 class MissionSequencer:
@@ -182,6 +197,7 @@ class MissionSequencer:
         self._loiter_captured = False
         self._loiter_radius: float | None = None
         self._loiter_entered = False   # the line into the loiter flown to its circle
+        self._loiter_exit = None       # (loiter angle to leave at, arc onto the next line)
         self._alt_reached = False
         if getattr(self, "landing", None) is not None and self.landing.phase == "approach":
             self.landing = None        # an approach left (a new item, a jump): flown afresh
@@ -208,6 +224,7 @@ class MissionSequencer:
         self._loiter_captured = False
         self._loiter_entered = False
         self._loiter_last_bearing = None
+        self._loiter_exit = None
         self._carry_path = self._through_tried = False
         self._fillet_at = None
         if self.landing is not None and self.landing.phase in ("flare", "go_around"):
@@ -340,9 +357,12 @@ class MissionSequencer:
         after, C->D, at the corner where their lines meet (``_skip_arc``, ``skip``
         True) where one fits: the vehicle turns once onto the line it will fly instead
         of arriving at B along A->B and joining C->D from there, which overshoots C->D
-        wherever the short leg turns sharply. ``skip`` is also True for an ordinary arc
-        past waypoints on B (duplicates), which count with B."""
-        lines = self._lines_after(b_ne, 2)
+        wherever the short leg turns sharply; likewise a cluster of waypoints within
+        each other's radius (the arc onto the line out of it, passing within each one's
+        radius), and a leg B->C too short for both its turns at the fillet radius where
+        the arc from A->B onto C->D passes within C's radius. ``skip`` is also True for
+        an ordinary arc past waypoints on B (duplicates), which count with B."""
+        lines = self._lines_after(b_ne, 2 + SKIP_CHAIN)
         if not lines:
             return 0.0, None, False
         ups = [it for it, _ in lines]
@@ -353,12 +373,35 @@ class MissionSequencer:
             return 0.0, None, False
         u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1)
         u2 = ((cn - b_ne[0]) / l2, (ce - b_ne[1]) / l2)
-        if ups[0] is not None and ups[0].command == MAV_CMD_NAV_WAYPOINT and len(ups) > 1 \
-                and l2 <= self._accept_radius(ups[0]):
-            # C counts the moment B does: the turn that matters is onto C->D
-            skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1])
-            if skip is not None:
+        # the waypoints after B that lie within their acceptance radius of B (a cluster:
+        # each counts the moment the vehicle comes within it, on the way)
+        chain = 0
+        while chain < len(ups) - 1 and ups[chain] is not None \
+                and ups[chain].command == MAV_CMD_NAV_WAYPOINT \
+                and math.hypot(lines[chain][1][0][0] - b_ne[0], lines[chain][1][0][1] - b_ne[1]) \
+                <= self._accept_radius(ups[chain]):
+            chain += 1
+        for k in range(chain - 1, -1, -1):
+            # C_k counts the moment B does (the ones before it on the way): the turn
+            # that matters is onto the line out of the cluster, C_k->D
+            skip = self._skip_arc(a_ne, u1, l1, lines[k][1][0], ups[k], lines[k + 1][1])
+            if skip is not None and all(
+                    _passes_within([skip[1]], lines[i][1][0], 0.9 * self._accept_radius(ups[i]))
+                    for i in range(k)):
                 return skip
+        if chain == 0 and len(ups) > 1 and ups[0] is not None \
+                and ups[0].command == MAV_CMD_NAV_WAYPOINT:
+            # B->C too short for both its turns at the fillet radius (a reversal, a
+            # zig-zag): one arc from A->B onto C->D where it passes within C's radius
+            (dn, de), short_d = lines[1][1]
+            l3 = math.hypot(dn - cn, de - ce)
+            if l3 - short_d >= 1.0:
+                u3 = ((dn - cn) / l3, (de - ce) / l3)
+                need = self.turn_radius_m() * (_half_turn_tan(u1, u2) + _half_turn_tan(u2, u3))
+                if need > l2 - short:
+                    skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1])
+                    if skip is not None:
+                        return skip
         arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short))
         if arc is not None:
             # past waypoints on B (counted at once, with B), the arc flies on
@@ -366,10 +409,11 @@ class MissionSequencer:
         return 0.0, None, False
 
     def _skip_arc(self, a_ne, u1, l1, c_ne, item_c, line_d):
-        """The arc from A->B onto C->D at the corner where their lines meet, starting
-        where C is within its acceptance radius (so C counts with B): (d, arc, True)
-        with d measured back from B, or None where the lines do not meet near B and C
-        or no arc fits."""
+        """The arc from A->B onto C->D at the corner where their lines meet: at the
+        fillet radius where that arc passes within C's acceptance radius (C counts on
+        it, as the vehicle comes within it), else starting where C is within its radius
+        (C counts with B): (d, arc, True) with d measured back from B, or None where the
+        lines do not meet near B and C or no arc fits."""
         cn, ce = c_ne
         (dn, de), short_d = line_d
         l3 = math.hypot(dn - cn, de - ce)
@@ -387,14 +431,19 @@ class MissionSequencer:
         accept = self._accept_radius(item_c)
         if t > l1 + accept or sc < -accept:
             return None
-        # the arc starts where C is within (0.9 of) its radius: |C - X + d u1| <= R_c
         rc = 0.9 * accept
+        room2 = 0.5 * (l3 - short_d - max(sc, 0.0))
+        arc = self._corner_arc(x, u1, u3, t, room2)
+        if arc is not None and t - arc[0] <= l1 and _passes_within([arc[1]], c_ne, rc):
+            # the arc at its full radius passes within C's radius: C counts on it
+            return l1 - (t - arc[0]), arc[1], True
+        # else the arc starts where C is within (0.9 of) its radius: |C - X + d u1| <= R_c
         c13 = u1[0] * u3[0] + u1[1] * u3[1]
         disc = sc * sc * c13 * c13 - sc * sc + rc * rc
         if disc <= 0.0:
             return None
         d_max = sc * c13 + math.sqrt(disc)
-        arc = self._corner_arc(x, u1, u3, min(t, d_max), 0.5 * (l3 - short_d - max(sc, 0.0)))
+        arc = self._corner_arc(x, u1, u3, min(t, d_max), room2)
         if arc is None:
             return None
         d, seg = arc
@@ -402,6 +451,11 @@ class MissionSequencer:
         if t - d > l1 or math.hypot(cn - start[0], ce - start[1]) > rc + 1e-6:
             return None
         return l1 - (t - d), seg, True
+
+    def _bank_limit_radius_m(self) -> float:
+        """The turn radius at the bank limit and the airspeed (no wind)."""
+        v_air = self.airspeed_mps
+        return v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
 
     def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float):
         """The fillet at corner X from direction u1 to u2: (d, arc) with d its tangent
@@ -418,8 +472,7 @@ class MissionSequencer:
         if d <= 0.0:
             return None
         r = d / t
-        v_air = self.airspeed_mps
-        r_min = v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+        r_min = self._bank_limit_radius_m()
         if r < r_min:
             # legs too short for a turn this sharp: no arc can be flown
             return None
@@ -800,6 +853,16 @@ class MissionSequencer:
             xt = (p_ne[0] - a_ne[0]) * -te + (p_ne[1] - a_ne[1]) * tn
         else:
             along = xt = 0.0
+        if self._carry_path and self._path and dist <= accept:
+            return None   # passed within its radius on an arc carried past it
+        if not self._joined and self._skip_join and self._path and length > 1e-3 \
+                and not self._path_ends_on(a_ne, b_ne) \
+                and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
+            # an arc carried past items counted at once (a cluster of waypoints within
+            # each other's radius) that turns onto another line than this leg's: the
+            # leg is joined by a planned turn instead of left to L1 at a large angle
+            self._path = []
+            self._skip_join = self._carry_path = False
         if not self._joined:
             self._joined = True
             if length <= 1e-3:
@@ -844,6 +907,21 @@ class MissionSequencer:
             if self._path_kind == "join":
                 self._leg_start_alt = alt    # the leg's slope goes on from here
         return "leg"
+
+    def _path_ends_on(self, a_ne, b_ne, tol_m: float = 3.0) -> bool:
+        """The planned path ends on the line A->B, along it (within ``tol_m`` of the
+        line and 5 degrees of its course)."""
+        seg = self._path[-1]
+        if seg[0] == "line":
+            end, chi = seg[2], math.atan2(seg[2][1] - seg[1][1], seg[2][0] - seg[1][0])
+        else:
+            _, c, r, d, ang, start = seg
+            b = math.atan2(start[1] - c[1], start[0] - c[0]) + d * ang
+            end, chi = (c[0] + r * math.cos(b), c[1] + r * math.sin(b)), b + d * 0.5 * math.pi
+        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        un, ue = (b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln
+        xt = (end[0] - a_ne[0]) * -ue + (end[1] - a_ne[1]) * un
+        return abs(xt) <= tol_m and abs(wrap_pi(chi - math.atan2(ue, un))) <= math.radians(5.0)
 
     def _steepest_slope(self, dh: float, a_ne, b_ne) -> float:
         """The steepest slope the vehicle flies along A->B: its demand slew rate (or the
@@ -1089,12 +1167,57 @@ class MissionSequencer:
                 self._alt_reached = self._alt_reached or abs(alt_m - alt) <= LOITER_ALT_TOL_M
                 done = self._alt_reached
             if done:
-                self._prev_wp_ne = c_ne
-                self._prev_alt = alt
-                self._advance(t_us)
-                return None
+                if self._loiter_exit is None:
+                    self._loiter_exit = self._plan_loiter_exit(c_ne, radius, direction, bearing)
+                exit_angle, arc = self._loiter_exit
+                if self._loiter_angle >= exit_angle:
+                    self._prev_wp_ne = c_ne
+                    self._prev_alt = alt
+                    self._advance(t_us)
+                    if arc is not None:
+                        # onto the next line by the planned arc: no join to plan
+                        self._start_path([arc], "fillet", t_us)
+                        self._skip_join = True
+                    return None
         return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
                          c_ne=c_ne, radius_m=radius, direction=direction)
+
+    def _plan_loiter_exit(self, c_ne, radius: float, direction: int, bearing: float):
+        """Where a finished loiter is left, as (loiter angle to leave at, arc): the
+        line out of a loiter starts at its centre and crosses its circle at right
+        angles, so a vehicle that leaves the circle wherever its turns happen to end
+        must turn up to 90 degrees or more onto that line and overshoots it by up to a
+        turn radius (or loops), scored as cross-track. Instead the circle is flown on,
+        at most one more turn, to the point T where an arc of the join radius R
+        turning the other way touches both the circle and the line (its centre O is
+        R + r from the centre C and R beside the line, on the side the vehicle comes
+        from), and that arc puts the vehicle on the line tangentially, sqrt(r^2 + 2rR)
+        from C. (ArduPlane leaves at once, or, with the loiter's "heading required"
+        flag, once heading towards the next waypoint; either joins the line at an
+        angle.) Left at once (arc None) where no line follows or the arc would not end
+        on it before its end."""
+        now = (self._loiter_angle, None)
+        lines = self._lines_after(c_ne, 1)
+        if not lines:
+            return now
+        (pn, pe), short = lines[0][1]
+        l2 = math.hypot(pn - c_ne[0], pe - c_ne[1])
+        r_arc = self.turn_radius_m(wind=True)
+        along = math.sqrt(radius * radius + 2.0 * radius * r_arc)
+        if l2 < 1.0 or along > l2 - short - 5.0:
+            return now
+        u = ((pn - c_ne[0]) / l2, (pe - c_ne[1]) / l2)
+        side = -direction          # the side of the line the vehicle comes from
+        o = (c_ne[0] + along * u[0] - side * r_arc * u[1], c_ne[1] + along * u[1] + side * r_arc * u[0])
+        b_t = math.atan2(o[1] - c_ne[1], o[0] - c_ne[0])
+        t = (c_ne[0] + radius * math.cos(b_t), c_ne[1] + radius * math.sin(b_t))
+        chi_t = b_t + direction * 0.5 * math.pi
+        psi = math.atan2(u[1], u[0])
+        angle = (-direction * (psi - chi_t)) % (2.0 * math.pi)
+        if angle > math.pi:
+            return now
+        remaining = (direction * (b_t - bearing)) % (2.0 * math.pi)
+        return self._loiter_angle + remaining, ("arc", o, r_arc, -direction, angle, t)
 
     def _loiter_approach(self, t_us, item, c_ne, radius, p_ne, chi, alt) -> NavTarget | None:
         """The line into a loiter: from the previous item to the loiter's centre, joined
