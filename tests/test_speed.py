@@ -234,3 +234,36 @@ def test_quadrotor_flight_step_is_the_plants_law():
     assert np.max(np.abs(out[6:10] - q1 / np.linalg.norm(q1))) < 1e-12
     assert np.max(np.abs(out[17:20] - R.T @ (drag - T1.sum() * R[:, 2]) / af.mass_kg)) < 1e-12
     assert out[20] == 0.0
+
+
+def test_settled_heap_freezes_for_the_flight_and_gives_every_object_back():
+    """autopilot/heap.py: inside the block the objects that existed are frozen (the
+    collector skips them) while what the block allocates is collected as usual; after
+    it nothing stays frozen, so a reference cycle dropped during the flight is
+    reclaimed (a campaign worker flying run after run does not grow)."""
+    import gc
+    import weakref
+
+    from autopilot.heap import settled_heap
+
+    class Node:
+        pass
+
+    before = Node()
+    before.self = before                       # a cycle: only the collector frees it
+    gone_before = weakref.ref(before)
+    assert gc.get_freeze_count() == 0
+    with settled_heap():
+        assert gc.get_freeze_count() > 1000    # the interpreter's and numpy's objects at least
+        del before
+        gc.collect()
+        assert gone_before() is not None       # frozen: not scanned, not freed
+        during = Node()
+        during.self = during
+        gone_during = weakref.ref(during)
+        del during
+        gc.collect()
+        assert gone_during() is None           # allocated in the block: collected as usual
+    assert gc.get_freeze_count() == 0
+    gc.collect()
+    assert gone_before() is None               # given back: reclaimed
