@@ -267,3 +267,70 @@ def test_settled_heap_freezes_for_the_flight_and_gives_every_object_back():
     assert gc.get_freeze_count() == 0
     gc.collect()
     assert gone_before() is None               # given back: reclaimed
+
+
+def _spd(rng, n):
+    A = rng.standard_normal((n, n))
+    return A @ A.T + n * np.eye(n)
+
+
+def test_ekf_covariance_prediction_matches_the_equation():
+    """ekf.predict_covariance against P' = F P F^T + diag(q) (+ qs) with F written out."""
+    from autopilot.nav.ekf import predict_covariance
+    rng = np.random.default_rng(11)
+    for n in (19, 21):                               # quadrotor, fixed-wing
+        P = _spd(rng, n)
+        T, a = 0.04, 0.999
+        S = tuple(rng.standard_normal(3) * 0.4)
+        Rs = tuple(rng.standard_normal(9) * 0.04)
+        q = rng.uniform(0, 1e-4, n)
+        qs = rng.uniform(0, 1e-5, 18)
+        qs_idx = np.array([i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
+                           for j in range(blk.start, blk.stop)])
+        F = np.eye(n)
+        F[POS, VEL] = T * np.eye(3)
+        sx, sy, sz = S
+        F[VEL, ATT] = -np.array([[0.0, -sz, sy], [sz, 0.0, -sx], [-sy, sx, 0.0]])
+        F[VEL, ABIAS] = F[ATT, GBIAS] = -np.reshape(Rs, (3, 3))
+        F[GPSB, GPSB] = a * np.eye(3)
+        want = F @ P @ F.T + np.diag(q)
+        want.flat[qs_idx] += qs
+        got = predict_covariance(P, T, S, Rs, a, q, qs, qs_idx)
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+        d = got - predict_covariance(P, T, S, Rs, a, q, np.zeros(0), qs_idx)
+        assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
+        d.flat[qs_idx] = 0.0
+        assert not d.any()                           # without qs: nothing else changes
+
+
+def test_ekf_joseph_update_matches_the_equation():
+    """ekf.joseph_update against K = P H^T S^-1, dx = K y, the Joseph form, symmetrised
+    and clamped; a non positive definite S is refused with nothing changed."""
+    from autopilot.nav.ekf import joseph_update
+    rng = np.random.default_rng(12)
+    n, m = 21, 7
+    P = _spd(rng, n) * 1e-2
+    H = np.zeros((m, n))
+    for k in range(m):                               # a few states per row, as the models
+        H[k, rng.choice(n, 2, replace=False)] = rng.standard_normal(2)
+    R = rng.uniform(0.1, 2.0, m)
+    y = rng.standard_normal(m)
+    floor = np.full(n, 1e-9)
+    ceil = np.full(n, 0.05)                          # some diagonal entries hit the ceiling
+    PHt = P @ H.T
+    S = H @ PHt
+    K = PHt @ np.linalg.inv(S + np.diag(R))
+    A = np.eye(n) - K @ H
+    want = A @ P @ A.T + K @ np.diag(R) @ K.T
+    want = 0.5 * (want + want.T)
+    want[np.diag_indices(n)] = np.clip(want.diagonal(), floor, ceil)
+    dx, got, ok = joseph_update(P, H, PHt, S, R, y, floor, ceil)
+    assert ok
+    assert np.abs(dx - K @ y).max() <= 1e-12 * np.abs(K @ y).max()
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert (got.diagonal() <= ceil).all() and (got == got.T).all()
+    bad = S.copy()
+    bad[0, 0] = -1.0 - R[0]                          # S + R with a negative pivot
+    dx, same, ok = joseph_update(P, H, PHt, bad, R, y, floor, ceil)
+    assert not ok and same is P
+
