@@ -334,3 +334,37 @@ def test_ekf_joseph_update_matches_the_equation():
     dx, same, ok = joseph_update(P, H, PHt, bad, R, y, floor, ceil)
     assert not ok and same is P
 
+
+def test_rotor_effectiveness_update_matches_the_equation():
+    """monitor/stats.stage2_update against stage 2's Kalman step written in numpy: the
+    rotors' 4 x 4 (motors.py) and the elevator's one row over [k, s] (actuator.py)."""
+    from autopilot.monitor.stats import stage2_update
+    rng = np.random.default_rng(13)
+    t = rng.uniform(1.0, 3.0, 4)
+    H = np.array(((t[0], t[1], t[2], t[3]), (0.0, t[1], 0.0, -t[3]), (-t[0], 0.0, t[2], 0.0),
+                  (t[0], -t[1], t[2], -t[3])))
+    P = _spd(rng, 4) * 1e-3
+    gamma = rng.uniform(0.6, 1.1, 4)
+    e = rng.standard_normal(4) * 0.1
+    r = rng.uniform(0.01, 0.1, 4)
+    q = 3e-5
+    Pm = P + q * np.eye(4)
+    S = H @ Pm @ H.T + np.diag(r)
+    K = Pm @ H.T @ np.linalg.inv(S)
+    A = np.eye(4) - K @ H
+    want_P = A @ Pm @ A.T + K @ np.diag(r) @ K.T
+    want_P = 0.5 * (want_P + want_P.T)
+    g, P1 = stage2_update(gamma, P, H, e, r, q)
+    assert np.abs(g - (gamma + K @ e)).max() <= 1e-12
+    assert np.abs(P1 - want_P).max() <= 1e-12 * np.abs(want_P).max()
+    assert (P1 == P1.T).all()
+    # the elevator's: H = [delta_cmd, 1], scalar R (actuator.py before the kernel)
+    Hr, Pg, R = np.array([0.3, 1.0]), np.array([[2e-4, 1e-5], [1e-5, 3e-4]]), 0.02
+    gam, e1 = np.array([0.9, 0.01]), 0.05
+    Pq = Pg + np.eye(2) * q
+    K = Pq @ Hr / (float(Hr @ Pq @ Hr) + R)
+    A = np.eye(2) - np.outer(K, Hr)
+    want_P = A @ Pq @ A.T + np.outer(K, K) * R
+    g, P1 = stage2_update(gam, Pg, Hr.reshape(1, 2), np.array((e1,)), np.array((R,)), q)
+    assert np.abs(g - (gam + K * e1)).max() <= 1e-15
+    assert np.abs(P1 - want_P).max() <= 1e-12 * np.abs(want_P).max()

@@ -381,7 +381,8 @@ class InsGpsEkf(NavFilterBase):
     def _fuse_rows(self, batch, rows) -> None:
         H, PHt, S, R, y = batch.H, self._PHt, self._S, batch.R, batch.y
         if rows is not None:
-            H, PHt, R, y = H[rows], PHt[:, rows], R[rows], y[rows]
+            # (one memory layout for every call: one compiled kernel)
+            H, PHt, R, y = H[rows], np.ascontiguousarray(PHt[:, rows]), R[rows], y[rows]
             S = S[np.ix_(rows, rows)]
         # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P (kernel above)
         dx, P, ok = joseph_update(self._P, H, PHt, S, R, y, self._floor, self._ceil)
