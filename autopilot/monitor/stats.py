@@ -51,7 +51,7 @@ import math
 import numpy as np
 from scipy.special import gammaincinv as _gammaincinv
 
-from autopilot.jit import kernel
+from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
 
 def chi2_threshold(alpha: float, dof: int) -> float:
@@ -189,27 +189,32 @@ def stage2_update(gamma, P, H, e, r, q):
         gamma' = gamma + K e
         P' = (I - K H) P- (I - K H)^T + K diag(r) K^T     (Joseph form), symmetrised
 
-    H is m x n (m measurements of n parameters). Returns (gamma', P')."""
+    H is m x n (m measurements of n parameters). Returns (gamma', P'); unchanged copies
+    when S is not positive definite (it always is: r > 0)."""
     n = gamma.shape[0]
     m = H.shape[0]
     Pm = P.copy()
     for i in range(n):
         Pm[i, i] += q
-    HP = np.zeros((m, n))
-    for i in range(m):
-        for k in range(n):
-            h = H[i, k]
+    PHt = np.zeros((n, m))                      # P- H^T
+    for i in range(n):
+        for k in range(m):
+            acc = 0.0
             for j in range(n):
-                HP[i, j] += h * Pm[k, j]
-    S = np.zeros((m, m))
+                acc += Pm[i, j] * H[k, j]
+            PHt[i, k] = acc
+    S = np.zeros((m, m))                        # H P- H^T
     for i in range(m):
         for j in range(m):
             acc = 0.0
             for k in range(n):
-                acc += HP[i, k] * H[j, k]
+                acc += H[i, k] * PHt[k, j]
             S[i, j] = acc
-        S[i, i] += r[i]
-    KT = np.linalg.solve(S, HP)                 # K^T = S^-1 H P-   (S, P- symmetric)
+    L = np.zeros((m, m))
+    if not cholesky_lower(S, r, L):
+        return gamma.copy(), P.copy()           # not positive definite: no update
+    KT = np.empty((m, n))                       # K^T = S^-1 (P- H^T)^T
+    cholesky_gain(L, PHt, KT)
     g = gamma.copy()
     A = np.eye(n)                               # I - K H
     for k in range(m):

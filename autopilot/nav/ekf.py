@@ -66,7 +66,7 @@ import math
 
 import numpy as np
 
-from autopilot.jit import kernel
+from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
 from .base import NavFilterBase
 from .config import NAV_PARAMS  # noqa: F401  (autopilot.vehicle declares them from here)
@@ -154,34 +154,12 @@ def joseph_update(P, H, PHt, S, R, y, floor, ceil):
     positive definite."""
     n = P.shape[0]
     m = H.shape[0]
-    # S + R = L L^T
+    # S + R = L L^T;  K^T = (L L^T)^-1 (P H^T)^T
     L = np.zeros((m, m))
-    for j in range(m):
-        d = S[j, j] + R[j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            return np.zeros(n), P, False
-        d = math.sqrt(d)
-        L[j, j] = d
-        for i in range(j + 1, m):
-            t = S[i, j]
-            for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / d
-    # K^T = S^-1 (P H^T)^T: forward then back substitution, one column of K^T per state
+    if not cholesky_lower(S, R, L):
+        return np.zeros(n), P, False
     KT = np.empty((m, n))
-    for c in range(n):
-        for i in range(m):
-            t = PHt[c, i]
-            for k in range(i):
-                t -= L[i, k] * KT[k, c]
-            KT[i, c] = t / L[i, i]
-        for i in range(m - 1, -1, -1):
-            t = KT[i, c]
-            for k in range(i + 1, m):
-                t -= L[k, i] * KT[k, c]
-            KT[i, c] = t / L[i, i]
+    cholesky_gain(L, PHt, KT)
     # dx = K y
     dx = np.zeros(n)
     for k in range(m):
