@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import heap
 from .link.hil import AutopilotHilEnd
 from .link.transports import TransportError, open_url
 from .log.flightlog import FlightLog
@@ -123,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr, flush=True)
     last_rx = time.monotonic()
     t_s = 0.0
+    heap.settle()              # what exists now kept out of the collector (heap.py)
     try:
         while t_s < args.duration:
             steps = end.poll(timeout_s=0.5 if gcs is None else 0.005)
@@ -146,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        heap.release()
         transport.close()
         if gcs is not None:
             gcs.close()

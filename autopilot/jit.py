@@ -16,6 +16,7 @@ result depends only on its own order of operations.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 import numba
@@ -44,3 +45,47 @@ event.register("numba:compile", _CompileNotice())
 def kernel(fn):
     """``numba.njit(cache=True)``: compiled at its first call, cached on disk."""
     return numba.njit(cache=True, fastmath=False, nogil=True)(fn)
+
+
+# ------------------------------------------------- shared linear algebra kernels --
+# (numba's own np.linalg binds LAPACK at compile time: about ten seconds of a fresh
+# install's first run for one call of np.linalg.solve; these loops compile in a second)
+
+@kernel
+def cholesky_lower(S, r, L):
+    """L with L L^T = S + diag(r) (the innovation covariance of a Kalman update, S = H P
+    H^T, r the measurement variances), written into ``L`` (m x m, zeros above the
+    diagonal). False when S + diag(r) is not positive definite (L is then unfinished)."""
+    m = S.shape[0]
+    for j in range(m):
+        d = S[j, j] + r[j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        d = math.sqrt(d)
+        L[j, j] = d
+        for i in range(j + 1, m):
+            t = S[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / d
+    return True
+
+
+@kernel
+def cholesky_gain(L, PHt, KT):
+    """K^T = (L L^T)^-1 (P H^T)^T, the Kalman gain transposed (m x n), by forward then
+    back substitution, one column of K^T (one state) at a time."""
+    m = L.shape[0]
+    for c in range(PHt.shape[0]):
+        for i in range(m):
+            t = PHt[c, i]
+            for k in range(i):
+                t -= L[i, k] * KT[k, c]
+            KT[i, c] = t / L[i, i]
+        for i in range(m - 1, -1, -1):
+            t = KT[i, c]
+            for k in range(i + 1, m):
+                t -= L[k, i] * KT[k, c]
+            KT[i, c] = t / L[i, i]

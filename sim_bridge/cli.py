@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+from autopilot import heap
 from autopilot.link.transports import TransportError, open_url
 
 from .sensors.params import GPS_PRESETS, SensorParams
@@ -74,6 +75,7 @@ def main(argv: list[str] | None = None) -> int:
         deadline = time.monotonic() + args.accept_timeout
         while transport.peer is None and time.monotonic() < deadline:
             transport.recv(0.5)
+    heap.settle()              # what exists now kept out of the collector (autopilot/heap.py)
     t0 = time.perf_counter()
     try:
         while bridge.t_us * 1e-6 < args.duration:
@@ -88,6 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        heap.release()
         transport.close()
     wall = time.perf_counter() - t0
     print(f"sim-bridge: {bridge.t_us * 1e-6:.1f} s simulated in {wall:.1f} s wall "

@@ -72,7 +72,7 @@ def test_r_hook_scales_the_rows_it_names(sim):
 def test_q_hook_fades_the_process_noise():
     f = InsGpsEkf(PARAMS, "plane", CFG.origin())
     f._process_noise(0.01)
-    q = f._Q.diagonal().copy()
+    q = f._q.copy()                                      # diag Q of the 0.01 s step
     lam = np.ones(21)
     lam[12:15] = 50.0                                    # gyro bias states
     f.q_scale_hook = lambda dt: lam

@@ -234,3 +234,137 @@ def test_quadrotor_flight_step_is_the_plants_law():
     assert np.max(np.abs(out[6:10] - q1 / np.linalg.norm(q1))) < 1e-12
     assert np.max(np.abs(out[17:20] - R.T @ (drag - T1.sum() * R[:, 2]) / af.mass_kg)) < 1e-12
     assert out[20] == 0.0
+
+
+def test_settled_heap_freezes_for_the_flight_and_gives_every_object_back():
+    """autopilot/heap.py: inside the block the objects that existed are frozen (the
+    collector skips them) while what the block allocates is collected as usual; after
+    it nothing stays frozen, so a reference cycle dropped during the flight is
+    reclaimed (a campaign worker flying run after run does not grow)."""
+    import gc
+    import weakref
+
+    from autopilot.heap import settled_heap
+
+    class Node:
+        pass
+
+    before = Node()
+    before.self = before                       # a cycle: only the collector frees it
+    gone_before = weakref.ref(before)
+    assert gc.get_freeze_count() == 0
+    with settled_heap():
+        assert gc.get_freeze_count() > 1000    # the interpreter's and numpy's objects at least
+        del before
+        gc.collect()
+        assert gone_before() is not None       # frozen: not scanned, not freed
+        during = Node()
+        during.self = during
+        gone_during = weakref.ref(during)
+        del during
+        gc.collect()
+        assert gone_during() is None           # allocated in the block: collected as usual
+    assert gc.get_freeze_count() == 0
+    gc.collect()
+    assert gone_before() is None               # given back: reclaimed
+
+
+def _spd(rng, n):
+    A = rng.standard_normal((n, n))
+    return A @ A.T + n * np.eye(n)
+
+
+def test_ekf_covariance_prediction_matches_the_equation():
+    """ekf.predict_covariance against P' = F P F^T + diag(q) (+ qs) with F written out."""
+    from autopilot.nav.ekf import predict_covariance
+    rng = np.random.default_rng(11)
+    for n in (19, 21):                               # quadrotor, fixed-wing
+        P = _spd(rng, n)
+        T, a = 0.04, 0.999
+        S = tuple(rng.standard_normal(3) * 0.4)
+        Rs = tuple(rng.standard_normal(9) * 0.04)
+        q = rng.uniform(0, 1e-4, n)
+        qs = rng.uniform(0, 1e-5, 18)
+        qs_idx = np.array([i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
+                           for j in range(blk.start, blk.stop)])
+        F = np.eye(n)
+        F[POS, VEL] = T * np.eye(3)
+        sx, sy, sz = S
+        F[VEL, ATT] = -np.array([[0.0, -sz, sy], [sz, 0.0, -sx], [-sy, sx, 0.0]])
+        F[VEL, ABIAS] = F[ATT, GBIAS] = -np.reshape(Rs, (3, 3))
+        F[GPSB, GPSB] = a * np.eye(3)
+        want = F @ P @ F.T + np.diag(q)
+        want.flat[qs_idx] += qs
+        got = predict_covariance(P, T, S, Rs, a, q, qs, qs_idx)
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+        d = got - predict_covariance(P, T, S, Rs, a, q, np.zeros(0), qs_idx)
+        assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
+        d.flat[qs_idx] = 0.0
+        assert not d.any()                           # without qs: nothing else changes
+
+
+def test_ekf_joseph_update_matches_the_equation():
+    """ekf.joseph_update against K = P H^T S^-1, dx = K y, the Joseph form, symmetrised
+    and clamped; a non positive definite S is refused with nothing changed."""
+    from autopilot.nav.ekf import joseph_update
+    rng = np.random.default_rng(12)
+    n, m = 21, 7
+    P = _spd(rng, n) * 1e-2
+    H = np.zeros((m, n))
+    for k in range(m):                               # a few states per row, as the models
+        H[k, rng.choice(n, 2, replace=False)] = rng.standard_normal(2)
+    R = rng.uniform(0.1, 2.0, m)
+    y = rng.standard_normal(m)
+    floor = np.full(n, 1e-9)
+    ceil = np.full(n, 0.05)                          # some diagonal entries hit the ceiling
+    PHt = P @ H.T
+    S = H @ PHt
+    K = PHt @ np.linalg.inv(S + np.diag(R))
+    A = np.eye(n) - K @ H
+    want = A @ P @ A.T + K @ np.diag(R) @ K.T
+    want = 0.5 * (want + want.T)
+    want[np.diag_indices(n)] = np.clip(want.diagonal(), floor, ceil)
+    dx, got, ok = joseph_update(P, H, PHt, S, R, y, floor, ceil)
+    assert ok
+    assert np.abs(dx - K @ y).max() <= 1e-12 * np.abs(K @ y).max()
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert (got.diagonal() <= ceil).all() and (got == got.T).all()
+    bad = S.copy()
+    bad[0, 0] = -1.0 - R[0]                          # S + R with a negative pivot
+    dx, same, ok = joseph_update(P, H, PHt, bad, R, y, floor, ceil)
+    assert not ok and same is P
+
+
+def test_rotor_effectiveness_update_matches_the_equation():
+    """monitor/stats.stage2_update against stage 2's Kalman step written in numpy: the
+    rotors' 4 x 4 (motors.py) and the elevator's one row over [k, s] (actuator.py)."""
+    from autopilot.monitor.stats import stage2_update
+    rng = np.random.default_rng(13)
+    t = rng.uniform(1.0, 3.0, 4)
+    H = np.array(((t[0], t[1], t[2], t[3]), (0.0, t[1], 0.0, -t[3]), (-t[0], 0.0, t[2], 0.0),
+                  (t[0], -t[1], t[2], -t[3])))
+    P = _spd(rng, 4) * 1e-3
+    gamma = rng.uniform(0.6, 1.1, 4)
+    e = rng.standard_normal(4) * 0.1
+    r = rng.uniform(0.01, 0.1, 4)
+    q = 3e-5
+    Pm = P + q * np.eye(4)
+    S = H @ Pm @ H.T + np.diag(r)
+    K = Pm @ H.T @ np.linalg.inv(S)
+    A = np.eye(4) - K @ H
+    want_P = A @ Pm @ A.T + K @ np.diag(r) @ K.T
+    want_P = 0.5 * (want_P + want_P.T)
+    g, P1 = stage2_update(gamma, P, H, e, r, q)
+    assert np.abs(g - (gamma + K @ e)).max() <= 1e-12
+    assert np.abs(P1 - want_P).max() <= 1e-12 * np.abs(want_P).max()
+    assert (P1 == P1.T).all()
+    # the elevator's: H = [delta_cmd, 1], scalar R (actuator.py before the kernel)
+    Hr, Pg, R = np.array([0.3, 1.0]), np.array([[2e-4, 1e-5], [1e-5, 3e-4]]), 0.02
+    gam, e1 = np.array([0.9, 0.01]), 0.05
+    Pq = Pg + np.eye(2) * q
+    K = Pq @ Hr / (float(Hr @ Pq @ Hr) + R)
+    A = np.eye(2) - np.outer(K, Hr)
+    want_P = A @ Pq @ A.T + np.outer(K, K) * R
+    g, P1 = stage2_update(gam, Pg, Hr.reshape(1, 2), np.array((e1,)), np.array((R,)), q)
+    assert np.abs(g - (gam + K * e1)).max() <= 1e-15
+    assert np.abs(P1 - want_P).max() <= 1e-12 * np.abs(want_P).max()

@@ -54,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.heap import settled_heap
 from autopilot.formation import FormationGuidance, FormationSpec, load_formation
 from autopilot.formation.geometry import dist
 from autopilot.formation.peers import PeerTable, PositionPublisher
@@ -395,36 +396,37 @@ def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool =
     end_us = int((QUAD_START_S + duration_s) * 1e6)
     k = 0
     t_us = 0
-    wall0 = time.perf_counter()
-    try:
-        while t_us < end_us:
-            for dst, data in net.due(t_us):
-                by_id[dst].vehicle.peers.receive(data)
+    with settled_heap():       # the objects built so far kept out of the collector
+        wall0 = time.perf_counter()
+        try:
+            while t_us < end_us:
+                for dst, data in net.due(t_us):
+                    by_id[dst].vehicle.peers.receive(data)
+                for m in members:
+                    m.step()
+                    ob = m.vehicle.outbox
+                    if ob:
+                        for data in ob:
+                            net.send(m.vid, t_us, data)
+                        ob.clear()
+                t_us = members[0].bridge.t_us
+                k += 1
+                if k % log_every == 0:
+                    ps = [m.truth_form(origin) for m in members]
+                    des = [m.vehicle.last_guidance.p_des if m.vehicle.last_guidance is not None
+                           else m.vehicle.start_ned for m in members]
+                    rec.add(t_us * 1e-6, ps, des)
+                    if t_us * 1e-6 > QUAD_START_S and done.check(t_us * 1e-6, ps):
+                        break
+                    if any(m.plant.crashed for m in members):
+                        break
+        except KeyboardInterrupt:
+            pass
+        finally:
             for m in members:
-                m.step()
-                ob = m.vehicle.outbox
-                if ob:
-                    for data in ob:
-                        net.send(m.vid, t_us, data)
-                    ob.clear()
-            t_us = members[0].bridge.t_us
-            k += 1
-            if k % log_every == 0:
-                ps = [m.truth_form(origin) for m in members]
-                des = [m.vehicle.last_guidance.p_des if m.vehicle.last_guidance is not None
-                       else m.vehicle.start_ned for m in members]
-                rec.add(t_us * 1e-6, ps, des)
-                if t_us * 1e-6 > QUAD_START_S and done.check(t_us * 1e-6, ps):
-                    break
-                if any(m.plant.crashed for m in members):
-                    break
-    except KeyboardInterrupt:
-        pass
-    finally:
-        for m in members:
-            if m.gcs is not None:
-                m.gcs.close()
-    wall = time.perf_counter() - wall0
+                if m.gcs is not None:
+                    m.gcs.close()
+        wall = time.perf_counter() - wall0
     t, P, Pd = rec.arrays()
     out = {"vehicles": len(members), "model": "quad", "sim_time_s": round(t_us * 1e-6, 3),
            "formation_start_s": QUAD_START_S, "wall_s": round(wall, 3),

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.heap import settled_heap
 from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.mission.files import MissionFileError, save_waypoints
@@ -253,6 +254,10 @@ class Session:
     _left_ground = False     # the aircraft has been off its launcher / runway
 
     def run(self) -> None:
+        with settled_heap():   # the objects built so far kept out of the collector (autopilot/heap.py)
+            self._run()
+
+    def _run(self) -> None:
         cfg = self.cfg
         end_s = cfg.duration_s
         t0 = time.perf_counter()

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from .stats import WindowChi2, family_alpha
+from .stats import WindowChi2, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
 BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
@@ -302,12 +302,9 @@ class ElevatorIdentifier:
             hqh = self.q_gamma * (dcmd * dcmd + 1.0)
             lam = min(max(1.0, (C - float(H @ Pg @ H) - R) / hqh), 1e6)
         self.lam = lam
-        Pg = Pg + np.eye(2) * (self.q_gamma * lam)
-        S = float(H @ Pg @ H) + R
-        K = Pg @ H / S
-        self.gamma = self.gamma + K * e
-        A = np.eye(2) - np.outer(K, H)
-        self.P_gamma = A @ Pg @ A.T + np.outer(K, K) * R       # Joseph form
+        # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
+        self.gamma, self.P_gamma = stage2_update(self.gamma, Pg, H.reshape(1, 2), np.array((e,)),
+                                                 np.array((R,)), self.q_gamma * lam)
 
     def identified(self, stuck_below: float = 0.25, stuck: bool = False) -> dict:
         """The fault parameters as the summary reports them: from the moment balance

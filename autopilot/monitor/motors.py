@@ -31,7 +31,7 @@ import numpy as np
 from autopilot.params import Param
 
 from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
-from .stats import WindowChi2, chi2_threshold, family_alpha
+from .stats import WindowChi2, chi2_threshold, family_alpha, stage2_update
 
 LP_TAU_S = 0.1            # low-pass of every balance signal [s]
 KF_PERIOD_S = 0.1         # stage 2 (Kalman filter) period [s]
@@ -55,6 +55,7 @@ MOTOR_PARAMS = (
     Param("FDI_MOT_WARM", 10.0, 1.0, 120.0, "s", "seconds of flight that teach the healthy "
           "residual before the motor test runs"),
 )
+
 
 
 class MotorMonitor:
@@ -205,28 +206,22 @@ class MotorMonitor:
         sd = np.sqrt(var)
         # stage 2: Kalman filter over gamma, measurement y / c = H gamma
         z = y / self.c
-        R = np.diag(var / (self.c * self.c))
-        Q = np.eye(4) * (Q_RATE * Q_RATE * kf)
+        r = var / (self.c * self.c)               # R = diag(r)
+        q = Q_RATE * Q_RATE * kf                  # Q = q I
         e = z - H @ self.gamma
         lam = 1.0
         if self.detected and self._e_ring:
             # fading factor (2.35-2.39) from the window of innovations, on innovations
             # whitened by R^-1/2 so that the rows (newtons of thrust and of moment / arm)
             # weigh alike: tr(W C W) = sum_i C_ii / R_ii
-            w = 1.0 / np.diag(R)
+            w = 1.0 / r
             C = sum(v * v for v in self._e_ring) / len(self._e_ring)      # diag of (2.35)
             hph = np.einsum("ij,jk,ik->i", H, self.P, H)
-            hqh = float(np.einsum("ij,jk,ik->i", H, Q, H) @ w)
+            hqh = float(np.einsum("ij,jk,ik->i", H, np.eye(4) * q, H) @ w)
             if hqh > 0.0:
                 lam = max(1.0, (float(C @ w) - float(hph @ w) - 4.0) / hqh)
         self.lam = lam
-        P = self.P + lam * Q                                        # (2.40)
-        S = H @ P @ H.T + R
-        K = np.linalg.solve(S, H @ P).T                            # P H^T S^-1
-        self.gamma = self.gamma + K @ e
-        IKH = np.eye(4) - K @ H
-        self.P = IKH @ P @ IKH.T + K @ R @ K.T                     # Joseph form
-        self.P = 0.5 * (self.P + self.P.T)
+        self.gamma, self.P = stage2_update(self.gamma, self.P, H, e, r, lam * q)   # (2.40), Joseph
         self._e_ring.append(e)
         if len(self._e_ring) > self.win.M:
             self._e_ring.pop(0)

@@ -48,7 +48,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from scipy.special import gammaincinv as _gammaincinv
+
+from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
 
 def chi2_threshold(alpha: float, dof: int) -> float:
@@ -173,3 +176,70 @@ class WindowChi2:
     @property
     def ratio_iso(self) -> float:
         return self.gamma / self.thr_iso if self.n >= self.M else 0.0
+
+
+@kernel
+def stage2_update(gamma, P, H, e, r, q):
+    """Stage 2 of the two-stage filters (the elevator's [k, s], actuator.py; the rotors'
+    effectiveness, motors.py): one Kalman step over the fault parameters gamma (eqs
+    2.20-2.24) with the faded process noise of eq 2.40, innovation ``e`` = z - H gamma:
+
+        P- = P + q I                       (q = lambda Q, Q = q0 I)
+        S = H P- H^T + diag(r),   K = P- H^T S^-1
+        gamma' = gamma + K e
+        P' = (I - K H) P- (I - K H)^T + K diag(r) K^T     (Joseph form), symmetrised
+
+    H is m x n (m measurements of n parameters). Returns (gamma', P'); unchanged copies
+    when S is not positive definite (it always is: r > 0)."""
+    n = gamma.shape[0]
+    m = H.shape[0]
+    Pm = P.copy()
+    for i in range(n):
+        Pm[i, i] += q
+    PHt = np.zeros((n, m))                      # P- H^T
+    for i in range(n):
+        for k in range(m):
+            acc = 0.0
+            for j in range(n):
+                acc += Pm[i, j] * H[k, j]
+            PHt[i, k] = acc
+    S = np.zeros((m, m))                        # H P- H^T
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for k in range(n):
+                acc += H[i, k] * PHt[k, j]
+            S[i, j] = acc
+    L = np.zeros((m, m))
+    if not cholesky_lower(S, r, L):
+        return gamma.copy(), P.copy()           # not positive definite: no update
+    KT = np.empty((m, n))                       # K^T = S^-1 (P- H^T)^T
+    cholesky_gain(L, PHt, KT)
+    g = gamma.copy()
+    A = np.eye(n)                               # I - K H
+    for k in range(m):
+        for i in range(n):
+            g[i] += KT[k, i] * e[k]
+            for j in range(n):
+                A[i, j] -= KT[k, i] * H[k, j]
+    AP = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            a = A[i, k]
+            for j in range(n):
+                AP[i, j] += a * Pm[k, j]
+    out = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += AP[i, k] * A[j, k]
+            for k in range(m):
+                acc += KT[k, i] * r[k] * KT[k, j]
+            out[i, j] = acc
+    for i in range(n):
+        for j in range(i + 1, n):
+            v = 0.5 * (out[i, j] + out[j, i])
+            out[i, j] = v
+            out[j, i] = v
+    return g, out
