@@ -346,6 +346,10 @@ def test_stuck_elevator_without_level_trim_flown_at_full_throttle_wings_level(tm
     assert a["ctl_throttle"][after].min() >= 0.99
     assert np.degrees(np.abs(a["truth_roll_rad"][after])).max() <= 12.0
     assert not s.crashed and f["height_lost_m"] <= 80.0
+    # AND it is identified stuck within 0.01 rad 10 s after the onset (measured 0.0492;
+    #     read as weakened, `effectiveness` 0.16, before the residual test was also made
+    #     after z's transient)
+    assert abs(f["identified_10s"].get("stuck_rad", 1.0) - 0.05) <= 0.01, f
 
 
 def test_stuck_elevator_without_level_trim_terminates_with_fdi_el_term(tmp_path):
