@@ -151,6 +151,7 @@ class PlaneVehicle(VehicleBase):
         self.log_rows = RowSchedule(LOG_DIV)
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.crash: str | None = None           # why crash detection disarmed the vehicle
+        self.terminated = False                 # flight termination (the monitor's FDI_EL_TERM)
         self._launch_us: int | None = None      # crash detection: the launch ...
         self._airborne = False                  # ... has been followed by flight
         self._ground_since_us: int | None = None
@@ -299,8 +300,16 @@ class PlaneVehicle(VehicleBase):
                 self.ctrl.set_elevator_out(eout)
                 mon.announce(t_us * 1e-6, SEV_WARNING, "elevator out: height flown on the throttle"
                               if eout else "elevator out: off")
-            if eout and mon.elevator_trim_mps != self.ctrl.eout_trim_mps:
-                self.ctrl.set_elevator_trim(mon.elevator_trim_mps)   # the model's trim speed
+            if eout and (mon.elevator_trim_mps, mon.elevator_bank_max_rad, mon.elevator_full_throttle) != (
+                    self.ctrl.eout_trim_mps, self.ctrl.eout_bank_max_rad, self.ctrl.eout_full_throttle):
+                # the model's trim speed, steepest level turn, and full throttle if no trim
+                self.ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
+                                            mon.elevator_full_throttle)
+            if mon.terminate and not self.terminated and self.armed:
+                # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
+                # terminate_vehicle): throttle closed, aileron, elevator and rudder full
+                self.terminated = True
+                mon.announce(t_us * 1e-6, 0, "flight termination: throttle closed, surfaces full")
             if mon.failsafe == "RTL" and self.armed and self.mode not in (PlaneMode.RTL, PlaneMode.MANUAL):
                 mon.failsafe = None
                 self.set_mode(PlaneMode.RTL, t_us)
@@ -323,6 +332,8 @@ class PlaneVehicle(VehicleBase):
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
             controls = self._fly(nav, dt, t_us)
+            if self.terminated:
+                controls = (1.0, 1.0, 1.0, 0.0)
         if self.armed and self.sequencer is not None:
             self._land_disarm(t_us)
         if mon is not None:

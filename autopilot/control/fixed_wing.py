@@ -30,10 +30,13 @@ Loops are named by what they close:
                           EOUT_SPD_TAU (phugoid damping: thrust against the speed swing),
                           and the height demand slewed at EOUT_DEM_RATE. It engages at the
                           detection, before the monitor has told a stuck surface from a
-                          weakened one (seconds, tens of seconds in turbulence). Once the
-                          monitor has identified the surface stuck, V_mean is the airspeed
-                          the airframe's model says that deflection trims to
-                          (``set_elevator_trim``): the low-passed mean lags the speed change
+                          weakened one (seconds, tens of seconds in turbulence). From the
+                          detection on, V_mean is the airspeed the airframe's model says
+                          the deflection flown (once identified, the stuck one) trims to
+                          (``set_elevator_trim``), the bank is limited to the steepest
+                          level turn of that trim (not under EOUT_BANK_MIN_DEG), and where
+                          the model has no level trim the throttle is full while under the
+                          height demand: the low-passed mean lags the speed change
                           the fault starts, and a nose-down stuck elevator's dive then read
                           as a speed swing to damp with less throttle, where the least height
                           loss needs the most (with the angle of attack fixed, the flight-
@@ -74,6 +77,9 @@ from ..params import Param
 from .pid import Pid
 
 G = 9.80665
+# elevator out: the bank limit never under this, so that the aircraft can still turn back
+# to its mission where the model has no level turn (a 10 deg turn costs 1.5 % of the lift)
+EOUT_BANK_MIN_DEG = 10.0
 
 FW_PARAMS = (
     Param("RLL_KP", 1.2, 0.0, 10.0, "1/rad", "roll angle to aileron, proportional"),
@@ -154,6 +160,8 @@ class FixedWingController:
         self.eout_pid = Pid(p["EOUT_THR_KP"], p["EOUT_THR_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.5)
         self._eout_v_mean: float | None = None  # airspeed low-passed while the elevator is out
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
+        self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
+        self.eout_full_throttle = False          # the model has no level trim for it
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -161,14 +169,21 @@ class FixedWingController:
             self.eout_pid.reset()
             self._eout_v_mean = None
         if not out:
-            self.eout_trim_mps = None
+            self.eout_trim_mps = self.eout_bank_max_rad = None
+            self.eout_full_throttle = False
         self.elevator_out = out
 
-    def set_elevator_trim(self, trim_mps: float | None) -> None:
+    def set_elevator_trim(self, trim_mps: float | None, bank_max_rad: float | None = None,
+                          full_throttle: bool = False) -> None:
         """The airspeed the airframe's model says the stuck elevator trims to (level
         flight): the phugoid damping acts about it instead of about the low-passed
-        airspeed, which lags the speed change the fault starts (module docstring)."""
+        airspeed, which lags the speed change the fault starts (module docstring); the
+        steepest bank of a level turn at that trim (not under EOUT_BANK_MIN_DEG); and
+        whether the model has no level trim for it, when the throttle is full while the
+        aircraft is under its height demand."""
         self.eout_trim_mps = trim_mps
+        self.eout_bank_max_rad = bank_max_rad
+        self.eout_full_throttle = full_throttle
 
     def reset(self) -> None:
         self.alt_dem_m = None
@@ -191,6 +206,8 @@ class FixedWingController:
         omega = nav.omega_b
         v_air = max(nav.airspeed_mps, 5.0)
         roll_lim = math.radians(p["ROLL_LIMIT_DEG"])
+        if self.elevator_out and self.eout_bank_max_rad is not None:
+            roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
         phi_c = min(max(bank_cmd_rad, -roll_lim), roll_lim)
 
         # altitude to climb rate (outer), climb rate to pitch (middle)
@@ -252,6 +269,8 @@ class FixedWingController:
                 self._eout_v_mean = self.eout_trim_mps
             thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, rate=0.0,
                                        feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
+            if self.eout_full_throttle and nav.alt_m < self.alt_dem_m:
+                thr = p["THR_MAX"]     # no level trim: the least height loss
         else:
             thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
                                         feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)

@@ -36,6 +36,8 @@ FIT_WARMUP_S = 30.0             # ... and not on the first seconds of flight (ta
 K_MIN, K_MAX = 0.05, 1.2        # a loss-of-effectiveness k outside this: stuck
 SAT_SHARE = 0.5                 # command saturated this share of the window: stuck
 RSS_STUCK = 0.05                # stuck fit's residual under this share of the other's: stuck
+SETTLE_S = 3.0                  # the stuck-or-weakened test also on the samples this long
+                                # after the window's start (1 s before the detection) [s]
 IDENT_WIN_S = 4.0               # identification over the last seconds of the fault [s]
 TEST_DIV = 5                    # detection test on every 5th balance sample (2 Hz)
 RES_TAU_S = 60.0                # healthy residual variance, exponential weighting [s]
@@ -168,6 +170,16 @@ class MomentBalance:
         # than a loss of effectiveness when the command moves and z does not
         rss_stuck = float(np.sum((z - s_now) ** 2))
         rss_loe = float(np.sum((z - k * d) ** 2))
+        # the same test after the onset's transient (SETTLE_S after the window's start):
+        # z settles on a stuck position a few BAL_TAU_S after the onset, and the
+        # transient's spread counted against the stuck hypothesis
+        late = np.array([r[0] >= since_us + SETTLE_S * 1e6 for r in h])
+        if late.sum() >= 20:
+            zl, dl = z[late], d[late]
+            ddl = float(dl @ dl)
+            kl = float(zl @ dl) / ddl if ddl > 0.0 else 0.0
+            if float(np.sum((zl - zl.mean()) ** 2)) < RSS_STUCK * float(np.sum((zl - kl * dl) ** 2)):
+                rss_stuck = 0.0
         if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
                 or rss_stuck < RSS_STUCK * rss_loe):
             return {"stuck_rad": round(s_pos, 4)}

@@ -81,6 +81,9 @@ FDI_PARAMS = (
           is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
+    Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
+          "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
+          "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
     Param("FDI_DR_TIME", 60.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
@@ -93,6 +96,8 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
+                                # with no level trim in a row: said (and terminated)
 _GPS_HZ = 5.0                   # GPS fix rate (SensorParams.gps_rate_hz, u-blox M8N) [Hz]
 _AUX_HZ = 25.0                  # baro, mag, airspeed fusion rate of the filter (nav/base.py) [Hz]
 
@@ -217,6 +222,11 @@ class FaultMonitor:
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
         self.elevator_trim_mps: float | None = None    # level trim airspeed of that (model)
+        self.elevator_bank_max_rad: float | None = None  # steepest level turn at that trim
+        self.elevator_full_throttle = False   # the model has no level trim: full throttle
+        self.terminate = False                # flight termination asked (FDI_EL_TERM)
+        self._el_trim_said = 0        # the reaction said: 0 not yet, 1 a trim, 2 none
+        self._el_notrim_n = 0
         self._el_k = 0                        # vehicle steps seen by observe_controls
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
@@ -335,6 +345,7 @@ class FaultMonitor:
                                                       f"(statistic {el.ratio / self.p['FDI_ACT_THR']:.1f}x threshold)"))
                 self.events.append((t_s, SEV_CRITICAL, "FDI: elevator actuator fault isolated, "
                                                        "Q adaptation on"))
+                self._elevator_provisional(t_s, count=False)
             return
         ep = self.episodes[-1]
         if ep.kind == "actuator" and t_s >= self._ident_next_s:
@@ -348,25 +359,68 @@ class FaultMonitor:
                                                            f"{stuck:.3f} rad"))
                 self.elevator_stuck_rad = stuck
                 self._elevator_trim(t_s, stuck)
+            else:
+                self._elevator_provisional(t_s)
 
-    def _elevator_trim(self, t_s: float, stuck: float) -> None:
-        """The level flight the airframe's model gives the stuck elevator: its trim
-        airspeed, and whether full throttle holds it (else the aircraft descends
-        whatever the throttle: said once)."""
+    def _elevator_provisional(self, t_s: float, count: bool = True) -> None:
+        """Until the surface is identified stuck: the reaction of the deflection the
+        aircraft flies with now (the balance's z over the last second). A stuck surface's
+        dive starts at the onset, seconds before the identification, and the least height
+        loss needs the reaction then; a weakened one is flown by its pitch loop, and z is
+        the deflection that holds the present speed, so its trim speed is about that."""
+        if self.elevator_stuck_rad is not None or self.elevator is None:
+            return
+        h = self.elevator.balance.hist
+        if not h:
+            return
+        t_end = h[-1][0] - 1_000_000
+        zs = [z for (t, z, _) in h if t >= t_end]
+        self._elevator_trim(t_s, sum(zs) / len(zs), final=False, count=count)
+
+    def _elevator_trim(self, t_s: float, stuck: float, final: bool = True, count: bool = True) -> None:
+        """The reaction the airframe's model gives an elevator held at ``stuck``
+        (docs/monitor.md, "Elevator identification"): its level trim airspeed (the
+        speed the throttle's phugoid damping acts about); the steepest level turn, where
+        the trim speed of the load factor 1 / cos(bank) reaches the fastest level flight,
+        ``cos(bank_max) = (V_trim / V_level_max)^2``; and, where no level trim exists,
+        full throttle (the least height loss: at the trim speed the flight-path angle
+        grows with the thrust) and, with FDI_EL_TERM, flight termination. Said once, at
+        the stuck identification (``final``) or at the NOTRIM_N-th provisional reading in
+        a row with no level trim."""
         m = self.airframe
         if m is None:
             return
         v = m.trim_airspeed(stuck)
-        first = self.elevator_trim_mps is None
+        none = v is None or v > m.v_level_max_mps
         self.elevator_trim_mps = v
-        if not first:
-            return
-        if v is None or v > m.v_level_max_mps or v < m.v_level_min_mps:
+        self.elevator_full_throttle = none
+        self.elevator_bank_max_rad = 0.0 if none else math.acos(min((v / m.v_level_max_mps) ** 2, 1.0))
+        if not final:
+            # a deflection with no level trim for NOTRIM_N provisional readings in a row:
+            # the dive needs no identification to be answered (a weakened surface held
+            # there is no more flyable than a stuck one)
+            if count:
+                self._el_notrim_n = self._el_notrim_n + 1 if none else 0
+            if self._el_notrim_n < NOTRIM_N or self._el_trim_said:
+                return
+        elif self._el_trim_said == (none or v < m.v_level_min_mps) + 1:
+            return      # (said again only where the identification changed the verdict)
+        self._el_trim_said = (none or v < m.v_level_min_mps) + 1
+        if none or v < m.v_level_min_mps:
             what = "none" if v is None else f"{v:.0f} m/s"
-            self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator stuck: no level trim ({what}): "
-                                                   f"full throttle, descending"))
+            if self.p["FDI_EL_TERM"] >= 1:
+                self.terminate = True
+                self.events.append((t_s, 0, f"FDI: elevator stuck: no level trim ({what}): "
+                                            f"flight termination"))
+            elif none:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator stuck: no level trim ({what}): "
+                                                       f"full throttle, wings level, descending"))
+            else:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: elevator stuck: no level trim ({what}, "
+                                                       f"under the stall)"))
         else:
-            self.events.append((t_s, SEV_WARNING, f"FDI: elevator stuck: level trim {v:.0f} m/s"))
+            self.events.append((t_s, SEV_WARNING, f"FDI: elevator stuck: level trim {v:.0f} m/s, "
+                                                  f"bank up to {math.degrees(self.elevator_bank_max_rad):.0f} deg"))
 
     def announce(self, t_s: float, severity: int, text: str) -> None:
         """A reaction of the vehicle to a finding of the monitor (e.g. its controller
