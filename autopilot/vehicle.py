@@ -231,6 +231,8 @@ class PlaneVehicle:
         if truth is not None:
             self.home_truth_alt_m = truth.alt_m
         self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
+        # the mission's RTL item goes to the nearest rally point as RTL mode does
+        self.sequencer.rally_point = lambda lat, lon: self.geofence.rally_for_rtl(lat, lon, home_ll(self))
         self.ctrl.reset()
         self.crash = None
         self._launch_us = self._ground_since_us = None
@@ -265,6 +267,8 @@ class PlaneVehicle:
                 nav = self.nav_state  # circle where we are, at this height
                 self.hold = self._hold_at(nav.lat_rad, nav.lon_rad, nav.alt_m)
             self.rtl_hold = None
+            if mode == PlaneMode.RTL and self.sequencer is not None:
+                self.sequencer.forget_rtl_destination()   # chosen afresh from here
             if mode == PlaneMode.RTL and self.nav_state is not None:
                 # the nearest rally point when it is nearer than home: loiter there
                 nav = self.nav_state
