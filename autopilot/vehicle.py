@@ -662,7 +662,8 @@ class PlaneVehicle:
             bank = 0.0                           # on the skids: wings level (landing.py)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
                                 euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
-                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None)
+                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None,
+                                spd_weight=tgt.spd_weight)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step

@@ -105,6 +105,7 @@ class NavTarget:
     heading_rad: float = 0.0     # takeoff heading hold
     land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
     climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
+    spd_weight: float = 1.0      # the speed priority's weight (the landing approach: TECS_LAND_SPDWGT)
 
 
 class MissionSequencer:
@@ -1171,7 +1172,8 @@ class MissionSequencer:
         if land.phase == "ground" and land.landed_us == t_us:
             self.say(t_us, SEV_INFO, "Landed")
         return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
-                         b_ne=land.line_end(), land=land.phase, climb_mps=climb)
+                         b_ne=land.line_end(), land=land.phase, climb_mps=climb,
+                         spd_weight=land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0)
 
     def go_around(self, t_us: int, why: str, alt_m: float | None = None) -> str | None:
         """Abandon the approach (MAV_CMD_DO_GO_AROUND, or an unsafe approach): climb
