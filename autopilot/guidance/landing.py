@@ -9,9 +9,10 @@ Phases (``Landing.phase``):
   pitch the slope, as on any leg, except that the speed priority (the pitch giving up
   height for airspeed, control/fixed_wing.py SPD_PRIO) is weighted by TECS_LAND_SPDWGT,
   -1 sliding from 1 at A to 0 at B as ArduPlane's TECS does: with full weight a gust's
-  airspeed swing of 3-4 m/s pushed the aircraft 2-3 m off the glide slope over the last
-  few hundred metres, and the flare (a height trigger) then started anywhere from 30 to
-  160 m before the land point.
+  airspeed swing of 3-4 m/s pushes the aircraft 2-3 m off the glide slope over the last
+  few hundred metres, and the flare (a height trigger) then starts anywhere from 30 to
+  160 m before the land point. (The Aerosonde's parameter file keeps 1: faded, the
+  fault monitor read a go-around's climb as an elevator fault, docs/status.md.)
 * ``flare``: from LAND_FLARE_ALT above the land point, or LAND_FLARE_SEC before the
   ground at the glide slope's sink rate, whichever comes first (ArduPlane's two
   triggers; the slope's sink, not the measured one, so that a gust's sink does not
