@@ -165,6 +165,8 @@ class PlaneVehicle(VehicleBase):
     def _arming(self, nav: NavState) -> None:
         """At arming: the mission from its start, crash detection from the launch."""
         self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
+        # the mission's RTL item goes to the nearest rally point as RTL mode does
+        self.sequencer.rally_point = lambda lat, lon: self.geofence.rally_for_rtl(lat, lon, home_ll(self))
         self.ctrl.reset()
         self.crash = None
         self._launch_us = self._ground_since_us = None
@@ -188,6 +190,8 @@ class PlaneVehicle(VehicleBase):
                 nav = self.nav_state  # circle where we are, at this height
                 self.hold = self._hold_at(nav.lat_rad, nav.lon_rad, nav.alt_m)
             self.rtl_hold = None
+            if mode == PlaneMode.RTL and self.sequencer is not None:
+                self.sequencer.forget_rtl_destination()   # chosen afresh from here
             if mode == PlaneMode.RTL and self.nav_state is not None:
                 # the nearest rally point when it is nearer than home: loiter there
                 nav = self.nav_state
@@ -531,7 +535,8 @@ class PlaneVehicle(VehicleBase):
             bank = 0.0                           # on the skids: wings level (landing.py)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
                                 euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
-                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None)
+                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None,
+                                spd_weight=tgt.spd_weight)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step

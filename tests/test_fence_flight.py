@@ -309,3 +309,37 @@ def test_sitl_run_names_a_malformed_fence_or_rally_file(tmp_path):
     assert "bad.fence: 3 points: a return point, at least 3 vertices" in r.stderr, r.stderr
     with pytest.raises(MissionFileError, match=":1: expected 'RALLY LAT LON ALT"):
         loads_rally("RALLY -35.36 149.17 80\n", "bad.rally")
+
+
+def test_plane_missions_rtl_item_goes_to_the_nearest_rally_point_and_loiters_there(tmp_path):
+    # GIVEN a plane mission ending in NAV_RETURN_TO_LAUNCH after a waypoint 900 m east,
+    # and a rally point 300 m north of that waypoint (nearer than home)
+    wp = (-35.363262, 149.175137)
+    rp = (-35.360562, 149.175137)
+    (tmp_path / "m.waypoints").write_text(
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t-35.363262\t149.165237\t584\t1\n"
+        "1\t0\t3\t22\t15\t0\t0\t0\t0\t0\t40\t1\n"
+        f"2\t0\t3\t16\t0\t0\t0\t0\t{wp[0]}\t{wp[1]}\t60\t1\n"
+        "3\t0\t3\t20\t0\t0\t0\t0\t0\t0\t0\t1\n")
+    (tmp_path / "r.rally").write_text(f"RALLY {rp[0]} {rp[1]} 80 0 0 0\n")
+    s = Session(RunConfig(mission=tmp_path / "m.waypoints", rally=tmp_path / "r.rally", seed=2,
+                          duration_s=400.0))
+    v = s.vehicle
+    while s.t_s < 400.0 and not (v.sequencer is not None and v.sequencer.rtl_established):
+        s.step()
+    t_est = s.t_s
+    while s.t_s < t_est + 30.0:
+        s.step()
+    summary = run_summary(s)
+    t, dn, de, a = _truth_ne(s, *rp)
+    late = t > t_est
+    r = v.sequencer.home_loiter_radius_m(0)
+    # THEN the RTL item is flown to the rally point (said), and the plane circles it at
+    # its height: not home, which is 900 m further
+    assert v.sequencer.rtl_established and summary["completed"] is True
+    assert "RTL: to rally point -35.3605620 149.1751370" in [x for _, _, x in v.notices]
+    d = np.hypot(dn, de)[late]
+    assert np.all(np.abs(d - r) < 25.0), (d.min(), d.max(), r)
+    h = a["truth_alt_m"][np.isfinite(a["truth_alt_m"])][-50:] - v.home_truth_alt_m
+    assert np.all(np.abs(h - 80.0) < 5.0), (h.min(), h.max())
+    print(f"plane mission RTL at the rally point: radius {r:.0f} m, distance {d.min():.1f}-{d.max():.1f} m")

@@ -204,3 +204,18 @@ def test_a_real_flight_passes_and_scores_against_the_mission(tmp_path):
     assert lines.shape == (len(legs), 5) and len(legs) >= 3
     assert np.allclose(lines[:, 3:], [g["b"] for g in legs])
     assert (tmp_path / "track.png") in make_report(tmp_path)
+
+
+def test_a_go_around_re_flying_its_landing_sequence_keeps_the_mission_order():
+    from autopilot.mission.files import load_mission
+    from tools.invariants import order_figure
+    from tools.runner import MISSIONS_DIR
+    m = load_mission(MISSIONS_DIR / "default_land.plan")     # DO_LAND_START 12, 13, 14, NAV_LAND 15
+    body = [1, 3, 4, 5, 6, 7, 8, 5, 6, 7, 8, 10, 11]
+    ev = lambda seqs: [(i, s) for i, s in enumerate(seqs)]   # noqa: E731
+    assert order_figure(m, ev(body + [13, 14, 15])) == (0, None)
+    # aborted on short final, flown again from the DO_LAND_START: still in order
+    assert order_figure(m, ev(body + [13, 14, 13, 14, 15])) == (0, None)
+    assert order_figure(m, ev(body + [13, 13, 14, 15])) == (0, None)
+    # going back out of the landing sequence is not a go-around
+    assert order_figure(m, ev(body + [13, 14, 10, 13, 14, 15]))[0] > 0

@@ -60,9 +60,10 @@ def test_landing_in_crosswind_and_light_turbulence(seed, wind):
     assert summary["completed"] is True               # every item, the NAV_LAND last
     assert summary["invariants_passed"] is True
     assert summary["mission_items_reached"] == summary["mission_items_total"]
-    # along the approach: within 40 m, what seeds 1-10 reach with a few metres' margin;
-    # the issue's 25 m (p95) is not met yet (docs/status.md, landing)
-    assert_landed(summary, along_m=40.0)
+    # along the approach: within 30 m, what seeds 1-10 reach (worst 27.3 m; here seed 6
+    # 25.7 m); the issue's 25 m at the 95th percentile is not met yet (docs/status.md,
+    # landing: the navigation height's drift since arming)
+    assert_landed(summary, along_m=30.0)
     assert summary["landing"]["go_arounds"] == 0
     assert not s.vehicle.armed and s.vehicle.land_done
     texts = [t for _, _, t in s.vehicle.notices]
@@ -206,3 +207,42 @@ def test_the_nearest_do_land_start_is_chosen():
     assert seq.landing_start_seq((1100.0, -900.0)) == len(items)
     assert seq.landing_start_seq((0.0, 0.0)) == 12
     assert np.isfinite(seq.item_ne(extra[1])[0])
+
+
+def test_the_flare_is_steered_to_the_land_point():
+    from autopilot.guidance.landing import FLARE_TAU_MAX, FLARE_TAU_MIN, flare_tau
+    # the time constant whose exponential reaches the ground from h in t_go
+    tau = flare_tau(2.0, 4.0, 0.25, 0.5, 8.0)
+    assert tau * math.log1p(2.0 / (tau * 0.25)) == pytest.approx(4.0, abs=1e-3)
+    assert flare_tau(2.0, 5.0, 0.25, 0.5, 8.0) > tau                 # more time: gentler
+    assert flare_tau(2.0, 0.1, 0.25, 0.5, 8.0) == 0.5                # clamped
+    assert flare_tau(2.0, 60.0, 0.25, 0.5, 8.0) == 8.0
+    params = ParamStore(plane_param_declarations())
+    s_td, tau0 = params["TECS_LAND_SINK"], params["LAND_FLARE_SEC"]
+
+    def demand(along_m, h_m=1.0, gs=25.0):
+        # a flare at h_m above the land point, along_m from A on a 1 km approach
+        land = Landing(params, (0.0, 0.0), (0.0, -1000.0), 650.0, 600.0, gs)
+        land._sink_mean = 1.25
+        v = np.array([0.0, -gs, 1.0])
+        land.step(0, (0.0, -along_m), 600.0 + h_m, v, gs)
+        assert land.phase == "flare"
+        _, climb = land.step(20000, (0.0, -along_m - 0.5), 600.0 + h_m, v, gs)
+        return -climb, land.flare_tau_s
+
+    # the same height nearer the point (a float): more sink; farther (early): less
+    far, mid, near = demand(900.0), demand(950.0), demand(985.0)
+    assert far[0] < mid[0] < near[0]
+    assert FLARE_TAU_MIN * tau0 <= near[1] < mid[1] < far[1] <= FLARE_TAU_MAX * tau0
+    # past the point: TECS_LAND_SRC more per metre, on top of the shortest time constant's
+    past = demand(1020.0, h_m=0.3)
+    assert past[1] == FLARE_TAU_MIN * tau0
+    assert past[0] > s_td + params["TECS_LAND_SRC"] * 15.0
+
+
+def test_the_speed_priority_fades_out_along_the_approach():
+    params = ParamStore(plane_param_declarations())
+    land = Landing(params, (0.0, 0.0), (0.0, -1000.0), 650.0, 600.0, 25.0)
+    assert [land.speed_weight(x) for x in (0.0, 500.0, 1000.0, 1100.0)] == [1.0, 0.5, 0.0, 0.0]
+    params["TECS_LAND_SPDWGT"] = 0.3
+    assert land.speed_weight(100.0) == 0.3

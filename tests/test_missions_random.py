@@ -13,10 +13,11 @@ import pytest
 
 from autopilot.geo import LocalFrame
 from autopilot.mission.files import dumps_waypoints, load_mission, loads_waypoints
-from autopilot.mission.items import (DO_CHANGE_SPEED, DO_JUMP, NAV_LAND, NAV_LOITER_TIME,
+from autopilot.mission.items import (DO_CHANGE_SPEED, DO_JUMP, DO_LAND_START, NAV_LAND, NAV_LOITER_TIME,
                                      NAV_LOITER_TURNS, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF,
                                      NAV_WAYPOINT)
-from tools.missions_random import (LEG_MAX_M, PLANE_R_MIN_M, TIME_BUDGET_S, estimate_time_s,
+from tools.missions_random import (LAND_APPROACH_M, LAND_NEAR_HOME_M, LAND_POINT_H_M, LAND_SLOPE,
+                                   LEG_MAX_M, PLANE_R_MIN_M, TIME_BUDGET_S, estimate_time_s,
                                    mission_for_seed, random_mission, resolve_order)
 
 REPO = Path(__file__).resolve().parent.parent
@@ -63,10 +64,27 @@ def test_valid_bounded_and_deterministic(vehicle, planes, quads):
         order = resolve_order(m)
         assert order[0] == 1 and len(order) < 2000             # the jumps end
         pos = _positions(m)
-        for (_, n0, e0), (_, n1, e1) in zip(pos, pos[1:]):
+        for (_, n0, e0), (s1, n1, e1) in zip(pos, pos[1:]):
+            if any(m[k].command == DO_LAND_START for k in range(1, s1)):
+                continue     # the way back to the landing is a return home's, any length
             assert math.hypot(n1 - n0, e1 - e0) <= LEG_MAX_M + 1.0
-        if vehicle == "plane":
-            assert all(it.command != NAV_LAND for it in m)    # the fixed-wing does not land
+        if vehicle == "plane" and any(it.command == NAV_LAND for it in m):
+            # the plane's landing: DO_LAND_START, a line-up, the approach's first point, NAV_LAND
+            # on home's ground near home, last, on a glide slope it can fly
+            assert [it.command for it in m.items[-4:]] == [DO_LAND_START, NAV_WAYPOINT, NAV_WAYPOINT, NAV_LAND]
+            d, a, b = _positions(m)[-3:]
+            # joined from the mission's last height by a base leg square to the final, at
+            # most a 6 % slope to the approach's first point
+            u = ((b[1] - a[1]), (b[2] - a[2]))
+            dist_da = math.hypot(a[1] - d[1], a[2] - d[2])
+            assert abs((a[1] - d[1]) * u[0] + (a[2] - d[2]) * u[1]) < 1e-3 * dist_da * math.hypot(*u) + 1.0
+            assert abs(_h(m, a[0]) - _h(m, d[0])) <= 0.06 * dist_da + 0.2
+            length = math.hypot(b[1] - a[1], b[2] - a[2])
+            assert LAND_APPROACH_M[0] - 1.0 <= length <= LAND_APPROACH_M[1] + 1.0
+            assert m[-1].z_alt_m == LAND_POINT_H_M and math.hypot(b[1], b[2]) <= LAND_NEAR_HOME_M + 1.0
+            slope = (_h(m, a[0]) - m[-1].z_alt_m) / length
+            assert LAND_SLOPE[0] - 1e-3 <= slope <= LAND_SLOPE[1] + 1e-3
+            assert sum(it.command == NAV_LAND for it in m) == 1
     # a pure function of (vehicle, seed)
     assert dumps_waypoints(mission_for_seed(vehicle, 17)[0]) == dumps_waypoints(sample[17])
     texts = {dumps_waypoints(m) for m in sample}
@@ -142,6 +160,8 @@ def test_the_distribution_is_broad(planes, quads):
                     seen.add("quad climb or descent speed")
             last = m.items[-1].command
             end = {NAV_RETURN_TO_LAUNCH: "rtl", NAV_LAND: "land"}.get(last, "none")
+            if vehicle == "plane" and end == "land":
+                end = "landing"   # a landing sequence (DO_LAND_START, approach, NAV_LAND)
             seen.add(f"{vehicle} ends {end}")
             h_rel = [it.z_alt_m - (0 if it.frame in (3, 6) else home.z_alt_m)
                      for it in m.items[1:] if it.command in (NAV_WAYPOINT,)]
@@ -157,7 +177,7 @@ def test_the_distribution_is_broad(planes, quads):
                 "loiter radius below the minimum turn radius", "loiter radius over 500 m",
                 "loiter turns", "loiter time", "jump repeat 0", "jump repeat 3",
                 "jump over a jump", "speed within limits", "speed outside limits",
-                "plane ends rtl", "plane ends none", "quad ends rtl", "quad ends land",
+                "plane ends rtl", "plane ends none", "plane ends landing", "quad ends rtl", "quad ends land",
                 "quad ends none", "height step steeper than the plane climbs",
                 "CONDITION_DELAY", "CONDITION_DISTANCE", "CONDITION_YAW", "NAV_DELAY",
                 "NAV_LOITER_TO_ALT", "quad waypoint 'here'", "quad climb or descent speed",
@@ -256,3 +276,23 @@ def test_sitl_missions_sample_flies_and_counts(tmp_path):
     assert "xtrack_mission_rms_m" in r.stderr and "p95" in r.stderr
     bad = _sitl("missions", "sample", "--seeds", "5-2", cwd=tmp_path)
     assert bad.returncode == 2 and "--seeds" in bad.stderr
+
+
+def test_the_planes_landing_ending_has_its_own_stream():
+    # a plane seed that does not draw a landing is the mission it was before landings
+    # existed: the generator without the landing stream draws the same mission
+    import numpy as np
+    from tools.missions_random import VEHICLES
+    landing = no_landing = 0
+    for seed in range(40):
+        m, notes = mission_for_seed("plane", seed)
+        rng = np.random.default_rng([seed, VEHICLES.index("plane")])
+        ground = np.random.default_rng([seed, VEHICLES.index("plane"), 2])
+        without = random_mission("plane", rng, None, ground, None)[0]
+        if any(it.command == NAV_LAND for it in m):
+            landing += 1
+            assert m[1] == without[1]                 # the same take-off, home and start
+        else:
+            no_landing += 1
+            assert m == without
+    assert landing >= 8 and no_landing >= 20

@@ -43,7 +43,9 @@ concerned, ``"seq"``, or null):
 * ``mission_order``: the navigation items reached are exactly those of the resolved
   order (``expected_order``), and the end of the mission was flown (the sequencer
   finished: the fixed-wing's loiter over home established, the quad landed; not crashed). Figure: the
-  number of expected visits not matched in order (the first mismatch onwards).
+  number of expected visits not matched in order (the first mismatch onwards). A
+  fixed-wing go-around (an aborted approach, guidance/landing.py) flies its landing
+  sequence again from its DO_LAND_START: the passes it abandoned are not counted.
 * ``time_bound``: done (completed) within ``TIME_FACTOR`` x the mission's time estimate
   at the worst-wind ground speed (``missions_random.estimate_time_s`` with every speed
   scaled by (lowest airspeed - wind) / cruise airspeed for the fixed-wing; the quad flies
@@ -82,7 +84,7 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame
-from autopilot.mission.items import (NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TO_ALT,
+from autopilot.mission.items import (DO_LAND_START, NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TO_ALT,
                                      NAV_LOITER_TURNS, NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH,
                                      NAV_TAKEOFF, Mission)
 
@@ -245,7 +247,8 @@ def order_figure(mission: Mission, events) -> tuple[int, int | None]:
     """Expected visits not matched in order (from the first mismatch on), and the
     expected item at the first mismatch (None if all matched)."""
     expected = expected_order(mission)
-    actual = [seq for _t, seq in events if 0 < seq < len(mission) and mission[seq].command in NAV_FLOWN]
+    actual = _without_abandoned_approaches(
+        mission, [seq for _t, seq in events if 0 < seq < len(mission) and mission[seq].command in NAV_FLOWN])
     n = 0
     for e, g in zip(expected, actual):
         if e != g:
@@ -254,6 +257,29 @@ def order_figure(mission: Mission, events) -> tuple[int, int | None]:
     missing = len(expected) - n
     extra = 0 if len(actual) <= len(expected) or missing else len(actual) - len(expected)
     return missing + extra, (expected[n] if missing else None)
+
+
+def _without_abandoned_approaches(mission: Mission, actual: list[int]) -> list[int]:
+    """The visits less the passes through a landing sequence (the items after a
+    DO_LAND_START, up to its NAV_LAND) that a go-around abandoned: a visit that goes back
+    within the same sequence drops the earlier pass from that item on."""
+    seq_of: dict[int, int] = {}          # item -> the DO_LAND_START of its sequence
+    start = None
+    for it in mission.items[1:]:
+        if it.command == DO_LAND_START:
+            start = it.seq
+        elif start is not None:
+            seq_of[it.seq] = start
+            if it.command == NAV_LAND:
+                start = None
+    out: list[int] = []
+    for s in actual:
+        ls = seq_of.get(s)
+        if ls is not None and out and seq_of.get(out[-1]) == ls and out[-1] >= s:
+            while out and seq_of.get(out[-1]) == ls and out[-1] >= s:
+                out.pop()
+        out.append(s)
+    return out
 
 
 def time_bound_s(mission: Mission, vehicle: str, wind_mps: float, params) -> float:

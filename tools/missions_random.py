@@ -20,7 +20,14 @@ source of ``sitl run``. What is drawn (the classes users' missions fall into):
   radius) to 1 km, both directions (negative radius: counter-clockwise);
 * DO_JUMP backwards with repeat 0-3, jumps over jumps; DO_CHANGE_SPEED in and out of
   the airframe's limits (and -1, no change);
-* the end: RTL, NAV_LAND (quad only: the fixed-wing does not land), or nothing;
+* the end: RTL, NAV_LAND, or nothing; the plane's NAV_LAND is a landing sequence
+  (DO_LAND_START, a waypoint abeam the approach at the mission's last height, a base leg
+  descending at 6 % to the approach's first point 800-1500 m out on a 3.5-5 % glide slope, NAV_LAND
+  on the ground at home's elevation within 300 m of home, from any direction; the way
+  back to it is a return home's, of any length), drawn in
+  ``PLANE_LANDING_P`` of the missions on a stream of its own (``mission_for_seed``): a
+  seed that does not draw it keeps the mission it had before landings existed, one that
+  does keeps its home, take-off and first waypoint, its body drawn for the longer end;
 * in one mission in twenty, a waypoint at home on the ground before the take-off (a
   file's home line uploaded as an item, as MAVSDK does for ArduPilot).
 
@@ -40,7 +47,7 @@ import numpy as np
 from autopilot.geo import LocalFrame
 from autopilot.mission.files import dumps_waypoints
 from autopilot.mission.items import (CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW,
-                                     DO_CHANGE_SPEED, DO_JUMP, FRAME_GLOBAL,
+                                     DO_CHANGE_SPEED, DO_JUMP, DO_LAND_START, FRAME_GLOBAL,
                                      FRAME_GLOBAL_RELATIVE_ALT, FRAME_GLOBAL_RELATIVE_ALT_INT,
                                      FRAME_MISSION, NAV_COMMANDS, NAV_DELAY, NAV_LAND,
                                      NAV_LOITER_TIME, NAV_LOITER_TO_ALT, NAV_LOITER_TURNS,
@@ -53,6 +60,13 @@ LEG_MIN_M = {"plane": 30.0, "quad": 3.0}
 LEG_MAX_M = 3000.0
 ITEMS_MIN, ITEMS_MAX = 2, 20      # items after home
 GROUND_WAYPOINT_P = 0.05          # a waypoint at home on the ground before the take-off
+PLANE_LANDING_P = 0.3             # a plane's mission ends in a landing sequence
+LAND_APPROACH_M = (800.0, 1500.0)  # the plane's final approach: its length
+LAND_SLOPE = (0.035, 0.05)        # and glide slope (the Aerosonde's 1 km from 45 m: 4.5 %)
+LAND_NEAR_HOME_M = 300.0          # the land point within this of home (on home's ground)
+LAND_POINT_H_M = -1.5             # its height above home: the ground under the catapult rail
+LAND_DESCENT = 0.06               # the descent (climb) to the approach's height: its slope
+LAND_LINE_UP_M = 300.0            # and a straight line-up before it
 
 # Performance assumed by the time estimate (the default parameters of the airframes).
 PLANE_TRIM_MPS, PLANE_SPEED_LIMITS = 25.0, (20.0, 30.0)   # TRIM_ARSPD, ARSPD_FBW_MIN/MAX
@@ -84,14 +98,17 @@ def mission_for_seed(vehicle: str, seed: int, budget_s: float | None = None
         raise ValueError(f"seed must be >= 0, got {seed}")
     rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle)])
     ground_rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle), 2])
-    return random_mission(vehicle, rng, budget_s, ground_rng)
+    land_rng = np.random.default_rng([int(seed), VEHICLES.index(vehicle), 3])
+    return random_mission(vehicle, rng, budget_s, ground_rng, land_rng)
 
 
 def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | None = None,
-                   ground_rng: np.random.Generator | None = None) -> tuple[Mission, list[str]]:
+                   ground_rng: np.random.Generator | None = None,
+                   land_rng: np.random.Generator | None = None) -> tuple[Mission, list[str]]:
     """Draw one valid mission (item 0 = home) and notes saying what was drawn;
-    ``ground_rng`` draws whether a waypoint at home on the ground comes first (its own
-    stream, so the rest of the mission is the same draw either way)."""
+    ``ground_rng`` draws whether a waypoint at home on the ground comes first, and
+    ``land_rng`` whether (and where) a plane's mission ends in a landing sequence (their
+    own streams, so that the missions drawn without them stay the same draws)."""
     plane = vehicle == "plane"
     budget = TIME_BUDGET_S[vehicle] if budget_s is None else float(budget_s)
     lat, lon, alt0, home_note = _draw_home(rng)
@@ -151,7 +168,11 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
 
     ending = str(rng.choice(["rtl", "land", "none"], p=[0.35, 0.35, 0.3]) if not plane
                  else rng.choice(["rtl", "none"], p=[0.6, 0.4]))
-    n_body = n_target - (1 if ending != "none" else 0)
+    if plane and land_rng is not None and land_rng.random() < PLANE_LANDING_P:
+        ending = "landing"
+    n_end = {"none": 0, "rtl": 1, "land": 1, "landing": 4}[ending]
+    land_draw = _draw_landing(land_rng) if ending == "landing" else None
+    n_body = max(n_target - n_end, len(d.items))
     item_notes: dict[int, str] = {}      # seq -> what was drawn there
     for _ in range(200):
         if len(d.items) >= n_body:
@@ -189,21 +210,60 @@ def random_mission(vehicle: str, rng: np.random.Generator, budget_s: float | Non
         pos = None if here else _offset(_last_position(d), _leg_length(rng, vehicle) * 0.2,
                                         float(rng.uniform(0.0, 2 * math.pi)))
         d.items.append((NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, pos, 0.0))
+    elif ending == "landing":
+        d.items += _landing_sequence(land_draw, _last_height(d))
     mission = _to_mission(d, frame)
-    while estimate_time_s(mission, vehicle) > budget and len(d.items) > (3 if ending != "none" else 2):
-        # the end item took it over: give up the last items before it (jumps only
-        # go backwards, so no jump loses its target)
-        del d.items[-2 if ending != "none" else -1]
+    while estimate_time_s(mission, vehicle) > budget and len(d.items) > 2 + n_end:
+        # the end took it over: give up the last items before it (jumps only go
+        # backwards, so no jump loses its target)
+        del d.items[-(n_end + 1)]
+        if ending == "landing":   # the descent to the approach starts at the new last height
+            d.items[-n_end:] = _landing_sequence(land_draw, _last_height(_Draft(vehicle, d.items[:-n_end], [])))
         mission = _to_mission(d, frame)
     d.notes += [f"item {seq}: {note}" for seq, note in sorted(item_notes.items())
-                if seq < len(mission) - (1 if ending != "none" else 0)]
+                if seq < len(mission) - n_end]
     d.notes.append(_geometry_note(mission, vehicle))
     d.notes.append({"rtl": "ends in RTL", "land": "ends in NAV_LAND "
                     + ("here" if ending == "land" and d.items[-1][6] is None else "at a point"),
+                    "landing": "ends in a landing sequence: "
+                    + (_landing_note(d.items[-2:]) if ending == "landing" else ""),
                     "none": "ends with no end item"}[ending])
     d.notes.append(f"{len(mission) - 1} items; estimated {estimate_time_s(mission, vehicle):.0f} s "
                    f"in still air")
     return mission, d.notes
+
+
+def _draw_landing(rng) -> tuple:
+    """The landing's draws: land point, approach length, course, glide slope."""
+    b = _offset((0.0, 0.0), float(rng.uniform(0.0, LAND_NEAR_HOME_M)), float(rng.uniform(0.0, 2 * math.pi)))
+    return b, float(rng.uniform(*LAND_APPROACH_M)), float(rng.uniform(0.0, 2 * math.pi)), \
+        float(rng.uniform(*LAND_SLOPE)), float(rng.choice([-1.0, 1.0]))
+
+
+def _landing_sequence(draw, h_prev: float) -> list:
+    """The plane's landing as ArduPlane users plan it: DO_LAND_START (where RTL_AUTOLAND
+    and a go-around join it), a waypoint abeam the approach's first point (a base leg,
+    left or right) at the height flown before, from which the aircraft descends (or
+    climbs) at LAND_DESCENT to that point, then NAV_LAND on home's ground near home: the
+    final approach is joined at its height, whatever height the mission ended at. (On the
+    extended centreline instead, the base leg and the final are one line, and the
+    aircraft joins the final before it has descended.)"""
+    b, length, course, slope, side = draw
+    h_a = round(LAND_POINT_H_M + length * slope, 1)
+    a = _offset(b, -length, course)
+    d = _offset(a, abs(h_prev - h_a) / LAND_DESCENT + LAND_LINE_UP_M, course + side * math.pi / 2)
+    return [(DO_LAND_START, FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, (0.0, 0.0), 0.0),
+            (NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, d, round(h_prev, 1)),
+            (NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, a, h_a),
+            (NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, 0.0, 0.0, b, LAND_POINT_H_M)]
+
+
+def _landing_note(items) -> str:
+    (_, _, _, _, _, _, a, h_a), (_, _, _, _, _, _, b, _) = items
+    length = math.hypot(b[0] - a[0], b[1] - a[1])
+    course = math.degrees(math.atan2(b[1] - a[1], b[0] - a[0])) % 360.0
+    return (f"approach {length:.0f} m on course {course:.0f} deg from {h_a:.0f} m, NAV_LAND "
+            f"{math.hypot(*b):.0f} m from home")
 
 
 def _geometry_note(mission: Mission, vehicle: str) -> str:

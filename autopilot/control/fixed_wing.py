@@ -16,7 +16,9 @@ Loops are named by what they close:
                           unable to hold airspeed (a climb beyond the aircraft's excess
                           power, or a dive at idle), trade height for speed rather than
                           stall or overspeed; the idea of TECS (Lambregts 1983) in its
-                          simplest form
+                          simplest form. Weighted (``spd_weight``) on a landing approach,
+                          down to 0 at the land point (TECS_LAND_SPDWGT, as ArduPlane's
+                          TECS): there the glide slope comes first
 * airspeed from throttle: dt = THR_TRIM + kp (V_c - V) + ki int(...) + THR_CLMB_FF hdot_c
 * yaw damper / turn coordination from rudder: dr = kd (r_c - r), r_c = g tan(phi) cos(theta) / V
 * elevator out:           once the fault monitor has found an elevator actuator fault
@@ -196,11 +198,14 @@ class FixedWingController:
                euler: tuple[float, float, float] | None = None,
                climb_override: float | None = None,
                pitch_max_rad: float | None = None,
-               climb_kp: float | None = None) -> tuple[float, float, float, float]:
+               climb_kp: float | None = None,
+               spd_weight: float = 1.0) -> tuple[float, float, float, float]:
         """``climb_override``: fly this climb rate [m/s] instead of the altitude (the
         landing flare: height, not airspeed, is what matters then, so no speed
         priority), with the proportional gain ``climb_kp`` if given;
-        ``pitch_max_rad``: a pitch ceiling below PTCH_LIM_MAX_DEG."""
+        ``pitch_max_rad``: a pitch ceiling below PTCH_LIM_MAX_DEG; ``spd_weight``
+        scales the speed priority (0 on a landing's short final: the pitch holds the glide
+        slope, the throttle the airspeed; guidance/landing.py TECS_LAND_SPDWGT)."""
         p = self.params
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b
@@ -235,7 +240,7 @@ class FixedWingController:
             # (should the surface work again) trade height for speed
             dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
         if abs(dv) > db and climb_override is None:
-            hdot_c -= p["SPD_PRIO"] * (dv - math.copysign(db, dv))
+            hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
         scale = min(max(q_ratio, 0.5), 2.0)

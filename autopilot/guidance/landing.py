@@ -6,17 +6,31 @@ Phases (``Landing.phase``):
   (a straight line, extended past B), on a glide slope from A's altitude down to the
   ground, at the approach airspeed TECS_LAND_ARSPD (-1: midway between ARSPD_FBW_MIN
   and TRIM_ARSPD, as ArduPlane reads it). The throttle holds the airspeed and the
-  pitch the slope, as on any leg.
+  pitch the slope, as on any leg, except that the speed priority (the pitch giving up
+  height for airspeed, control/fixed_wing.py SPD_PRIO) is weighted by TECS_LAND_SPDWGT,
+  -1 sliding from 1 at A to 0 at B as ArduPlane's TECS does: with full weight a gust's
+  airspeed swing of 3-4 m/s pushes the aircraft 2-3 m off the glide slope over the last
+  few hundred metres, and the flare (a height trigger) then starts anywhere from 30 to
+  160 m before the land point. (The Aerosonde's parameter file keeps 1: faded, the
+  fault monitor read a go-around's climb as an elevator fault, docs/status.md.)
 * ``flare``: from LAND_FLARE_ALT above the land point, or LAND_FLARE_SEC before the
   ground at the glide slope's sink rate, whichever comes first (ArduPlane's two
   triggers; the slope's sink, not the measured one, so that a gust's sink does not
   start the flare high).
   The throttle goes to idle and the pitch flies a sink-rate demand
-  hdot = -min(s_app, h / LAND_FLARE_SEC + TECS_LAND_SINK): the approach sink s_app (its
-  mean over the last ``SINK_MEAN_S``, the glide slope's at most) until the exponential
-  flare law's demand falls under it, then the classic
-  exponential flare (the height decays with time constant LAND_FLARE_SEC towards a
-  touchdown at TECS_LAND_SINK). The pitch is held at no less than LAND_PITCH_DEG
+  hdot = -min(s_app, h' / tau + TECS_LAND_SINK + TECS_LAND_SRC d_past): the approach
+  sink s_app (its mean over the last ``SINK_MEAN_S``, the glide slope's at most) until
+  the exponential flare law's demand falls under it, then the classic exponential flare
+  (the height decays with time constant tau towards a touchdown at TECS_LAND_SINK).
+  The flare is steered to the land point: tau is, at every step, the time constant
+  whose exponential reaches the ground from the height h in the time the aircraft needs
+  to B at its ground speed along the approach, tau ln(1 + h / (tau s_td)) = t_go
+  (``flare_tau``), kept within ``FLARE_TAU_MIN``..``FLARE_TAU_MAX`` times
+  LAND_FLARE_SEC: a float (a gust's airspeed, a flare started late) shortens it and
+  sinks more, a flare started early lengthens it. Past B, ArduPlane's TECS_LAND_SRC
+  adds sink per metre flown beyond the point (d_past). h' is the height LAND_FLR_LAG
+  ahead (h less the last demand times the lag), a lead against the lag of the
+  aircraft's sink rate behind the demand. The pitch is held at no less than LAND_PITCH_DEG
   (ArduPlane's LAND_PITCH_CD) and no more than LAND_PITCH_MAX; the bank is limited as
   just after launch (TKOFF_LVL_BANK).
   The climb rate is flown with its own gain, LAND_FLR_CLMB_KP (ArduPlane's TECS
@@ -69,6 +83,8 @@ LAND_PARAMS = (
     Param("TECS_LAND_SINK", 0.25, 0.0, 2.0, "m/s", "sink rate the flare ends at (touchdown)"),
     Param("LAND_FLR_CLMB_KP", 0.08, 0.0, 2.0, "rad s/m", "climb-rate error to pitch in the flare"),
     Param("LAND_FLR_LAG", 0.4, 0.0, 3.0, "s", "lag of the sink rate behind the flare law's demand (places the aim point)"),
+    Param("TECS_LAND_SRC", 0.02, -2.0, 2.0, "1/s", "flare sink rate added per metre flown past the land point (ArduPlane's TECS_LAND_SRC)"),
+    Param("TECS_LAND_SPDWGT", -1.0, -1.0, 2.0, "", "the speed priority's weight on the approach (-1: from 1 at its start to 0 at the land point)"),
     Param("RTL_AUTOLAND", 0, 0, 3, "", "RTL lands through the nearest DO_LAND_START: 0 no, 1 after reaching home, 2 at once, 3 only for a go-around", is_int=True),
     Param("LAND_ABORT_ALT", 30.0, 5.0, 300.0, "m", "go-around climb altitude above home when neither the command nor the NAV_LAND gives one"),
     Param("LAND_AB_CHK_ALT", 20.0, 0.0, 200.0, "m", "the approach is checked (LAND_AB_*) below this height above the land point"),
@@ -81,6 +97,33 @@ AB_SPD_TAU_S = 1.0     # the airspeed mean the overspeed abort reads [s]
 STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
 SINK_MEAN_S = 1.0      # the approach's sink rate the flare starts from: its mean over this [s]
 TOUCH_S = 0.3          # sink rate under TECS_LAND_SINK / 2 this long in the flare: touched down [s]
+FLARE_TAU_MIN = 0.75   # the flare's time constant, steered to the land point, at least this
+FLARE_TAU_MAX = 2.0    # and at most this, times LAND_FLARE_SEC
+
+
+def flare_tau(h_m: float, t_go_s: float, s_td: float, lo: float, hi: float) -> float:
+    """The time constant tau of the exponential flare hdot = -(h / tau + s_td) that
+    reaches the ground from ``h_m`` in ``t_go_s`` seconds: T(tau) = tau ln(1 + h /
+    (tau s_td)) = t_go, clamped to [lo, hi]. T grows monotonically with tau (from 0 to
+    h / s_td), so the root is bracketed and found by bisection (on log tau)."""
+    if h_m <= 0.0 or s_td <= 0.0:
+        return lo
+
+    def t_of(tau):
+        return tau * math.log1p(h_m / (tau * s_td))
+
+    if t_of(lo) >= t_go_s:
+        return lo
+    if t_of(hi) <= t_go_s:
+        return hi
+    a, b = math.log(lo), math.log(hi)
+    for _ in range(24):
+        m = 0.5 * (a + b)
+        if t_of(math.exp(m)) < t_go_s:
+            a = m
+        else:
+            b = m
+    return math.exp(0.5 * (a + b))
 
 
 def approach_airspeed(params) -> float:
@@ -146,6 +189,8 @@ class Landing:
         self._slow_since: int | None = None
         self._sink_mean: float | None = None
         self._sink_us: int | None = None
+        self.flare_tau_s: float | None = None          # the flare's time constant of the moment
+        self._s_dem: float | None = None                # the flare's sink demand, last step
 
     def along(self, p_ne) -> float:
         return (p_ne[0] - self.a_ne[0]) * self.u[0] + (p_ne[1] - self.a_ne[1]) * self.u[1]
@@ -161,6 +206,16 @@ class Landing:
         """The glide slope's altitude at ``along`` metres from A (MSL)."""
         a = min(max(along, 0.0), self.aim_along)
         return self.alt_b + self.slope * (self.aim_along - a)
+
+    def speed_weight(self, along: float) -> float:
+        """The weight of the speed priority (control/fixed_wing.py SPD_PRIO) on the
+        approach: TECS_LAND_SPDWGT, or with -1 (ArduPlane's default, its TECS sliding
+        scale) 1 at the approach's start down to 0 at the land point: near the ground the
+        pitch holds the glide slope and the throttle alone the airspeed."""
+        w = self.params["TECS_LAND_SPDWGT"]
+        if w >= 0.0:
+            return min(w, 2.0)
+        return min(max(1.0 - along / self.length, 0.0), 1.0)
 
     def unsafe(self, p_ne, alt_m: float, airspeed_mps: float, t_us: int) -> str | None:
         """Why the approach must be abandoned, or None: below LAND_AB_CHK_ALT above the
@@ -222,6 +277,20 @@ class Landing:
             self.landed_us = t_us
         if self.phase == "approach":
             return self.glide_alt(along), None
-        tau = p["LAND_FLARE_SEC"]
-        s_dem = min(self._sink_app, max(h, 0.0) / tau + p["TECS_LAND_SINK"])
+        # the flare steered to the land point: the time constant that brings the height
+        # flown to the ground at B at the ground speed flown, within FLARE_TAU_MIN..MAX
+        # of LAND_FLARE_SEC; past B, TECS_LAND_SRC more sink per metre (ArduPlane's)
+        tau0, s_td = p["LAND_FLARE_SEC"], p["TECS_LAND_SINK"]
+        to_go = self.length - along
+        gs_along = max(float(v_ned[0]) * self.u[0] + float(v_ned[1]) * self.u[1], 1.0)
+        if to_go > 0.0:
+            tau = flare_tau(max(h, 0.0), to_go / gs_along, s_td, FLARE_TAU_MIN * tau0, FLARE_TAU_MAX * tau0)
+        else:
+            tau = FLARE_TAU_MIN * tau0
+        self.flare_tau_s = tau
+        # the law read LAND_FLR_LAG ahead (the height the aircraft will be at when its
+        # sink rate has followed the demand): a lead against that lag
+        h_lead = max(h - (self._s_dem if self._s_dem is not None else sink) * p["LAND_FLR_LAG"], 0.0)
+        s_dem = min(self._sink_app, h_lead / tau + s_td + p["TECS_LAND_SRC"] * max(-to_go, 0.0))
+        self._s_dem = s_dem
         return self.alt_b, -s_dem

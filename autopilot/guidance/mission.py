@@ -106,6 +106,7 @@ class NavTarget:
     heading_rad: float = 0.0     # takeoff heading hold
     land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
     climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
+    spd_weight: float = 1.0      # the speed priority's weight (the landing approach: TECS_LAND_SPDWGT)
 
 
 def _passes_within(segments, p, radius: float) -> bool:
@@ -129,6 +130,9 @@ class MissionSequencer:
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.terrain = None   # (lat_deg, lon_deg) -> terrain height [m MSL] or None
         self.home_request = None  # DO_SET_HOME: (lat_rad, lon_rad, alt_m) or "here"
+        # the nearest rally point for an RTL, or None for home: (lat_deg, lon_deg) of the
+        # vehicle -> (lat_deg, lon_deg, alt_m MSL) or None (the vehicle's geofence rules)
+        self.rally_point = None
         self.load(mission)
 
     # ------------------------------------------------------------------ set-up ---
@@ -154,6 +158,7 @@ class MissionSequencer:
         self.finished = False          # past the last item
         self.rtl_established = False
         self._rtl_radius: float | None = None
+        self._rtl_dest: tuple | None = None   # RTL's point: ((n, e) of home, alt MSL or None)
         self.launched = False          # left the ground (an item counted on the launcher is not)
         self.landing: Landing | None = None   # the NAV_LAND approach being flown
         self.land_complete = False     # landed at the end of the mission (NAV_LAND)
@@ -207,6 +212,7 @@ class MissionSequencer:
         self.current = seq
         self.finished = False
         self.rtl_established = False
+        self._rtl_dest = None
         self._on_circle_since_us = None
         self.leg_id += 1
         self._path = []
@@ -246,6 +252,8 @@ class MissionSequencer:
         self._prev_wp_ne = mv(self._prev_wp_ne)
         self._leg_start = mv(self._leg_start)
         self._takeoff_start_ne = mv(self._takeoff_start_ne)
+        if self._rtl_dest is not None:
+            self._rtl_dest = (mv(self._rtl_dest[0]), self._rtl_dest[1])
         if self._nav_pos is not None:
             self._nav_pos = (mv(self._nav_pos[0]), self._nav_pos[1])
         self._path = []
@@ -1287,7 +1295,8 @@ class MissionSequencer:
         if land.phase == "ground" and land.landed_us == t_us:
             self.say(t_us, SEV_INFO, "Landed")
         return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
-                         b_ne=land.line_end(), land=land.phase, climb_mps=climb)
+                         b_ne=land.line_end(), land=land.phase, climb_mps=climb,
+                         spd_weight=land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0)
 
     def go_around(self, t_us: int, why: str, alt_m: float | None = None) -> str | None:
         """Abandon the approach (MAV_CMD_DO_GO_AROUND, or an unsafe approach): climb
@@ -1364,23 +1373,48 @@ class MissionSequencer:
         rtl = self.params["RTL_ALT"]
         return self.home_alt_m + rtl if rtl > 0 else self._prev_alt
 
+    def forget_rtl_destination(self) -> None:
+        """A new RTL (the mode entered): its point is chosen again from where it starts."""
+        self._rtl_dest = None
+
+    def rtl_destination(self, t_us: int, p_ne) -> tuple:
+        """Where an RTL goes, chosen once per RTL from where the vehicle is then: the
+        nearest rally point when the vehicle's rules pick one (``rally_point``; ArduPlane's
+        RTL, mission item or mode, goes to the best rally point or home alike), else home.
+        ((n, e) from home [m], altitude MSL, or None for RTL_ALT's)."""
+        if self._rtl_dest is None:
+            rally = None
+            if self.rally_point is not None:
+                lat, lon, _ = self.frame.to_geodetic_fast((p_ne[0], p_ne[1], 0.0))
+                rally = self.rally_point(math.degrees(lat), math.degrees(lon))
+            if rally is None:
+                self._rtl_dest = ((0.0, 0.0), None)
+            else:
+                q = self.frame.to_ned_fast(math.radians(rally[0]), math.radians(rally[1]), self.frame.alt0_m)
+                self._rtl_dest = ((float(q[0]), float(q[1])), rally[2])
+                self.say(t_us, SEV_INFO, f"RTL: to rally point {rally[0]:.7f} {rally[1]:.7f}")
+        return self._rtl_dest
+
     def _rtl(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
-        """Fly the leg to home, then loiter over it (the mission ends there)."""
+        """Fly the leg to home (or the nearest rally point, ``rtl_destination``), then
+        loiter over it (the mission ends there)."""
         if self._leg_start is None:
             self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
             self._leg_start_alt = self._prev_alt
-        b_ne = (0.0, 0.0)
+        dest, dest_alt = self.rtl_destination(t_us, p_ne)
+        b_ne = dest
         radius = self.home_loiter_radius_m(t_us)
-        alt_b = self.rtl_alt_m()
+        alt_b = self.rtl_alt_m() if dest_alt is None else dest_alt
         a0 = self._leg_start
-        length0 = math.hypot(a0[0], a0[1])
+        length0 = math.hypot(a0[0] - b_ne[0], a0[1] - b_ne[1])
         r = self._leg(t_us, item.seq, a0, b_ne, p_ne, chi, 1.5 * radius, max(length0 - radius, 0.0), alt_b)
         if r is not None and r != "leg":
             return r
         a_ne = self._leg_start
-        length = math.hypot(a_ne[0], a_ne[1])
-        dist = math.hypot(p_ne[0], p_ne[1])
-        along = ((p_ne[0] - a_ne[0]) * (-a_ne[0]) + (p_ne[1] - a_ne[1]) * (-a_ne[1])) / length if length > 1e-3 else length
+        length = math.hypot(a_ne[0] - b_ne[0], a_ne[1] - b_ne[1])
+        dist = math.hypot(p_ne[0] - b_ne[0], p_ne[1] - b_ne[1])
+        along = ((p_ne[0] - a_ne[0]) * (b_ne[0] - a_ne[0]) + (p_ne[1] - a_ne[1]) * (b_ne[1] - a_ne[1])) / length \
+            if length > 1e-3 else length
         if r is None or dist <= radius * 1.5 or along >= length - radius:
             self._prev_wp_ne = b_ne
             self._prev_alt = alt_b
@@ -1391,8 +1425,9 @@ class MissionSequencer:
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
 
     def _rtl_loiter(self, t_us, p_ne, alt_m) -> NavTarget:
+        c_ne, dest_alt = self.rtl_destination(t_us, p_ne)
         radius = self.home_loiter_radius_m(t_us)
-        r = math.hypot(p_ne[0], p_ne[1])
+        r = math.hypot(p_ne[0] - c_ne[0], p_ne[1] - c_ne[1])
         # established: on the circle (within 20 % of its radius) for the time a quarter
         # turn takes, so the summary and the end of a run see the loiter actually flown
         if abs(r - radius) < 0.2 * radius:
@@ -1403,6 +1438,6 @@ class MissionSequencer:
                 self.rtl_established = True
         elif not self.rtl_established:
             self._on_circle_since_us = None
-        alt = self.rtl_alt_m() if self._prev_alt is not None else alt_m
+        alt = dest_alt if dest_alt is not None else self.rtl_alt_m() if self._prev_alt is not None else alt_m
         return NavTarget("loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
-                         c_ne=(0.0, 0.0), radius_m=radius, direction=1)
+                         c_ne=c_ne, radius_m=radius, direction=1)
