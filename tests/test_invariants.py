@@ -219,3 +219,26 @@ def test_a_go_around_re_flying_its_landing_sequence_keeps_the_mission_order():
     assert order_figure(m, ev(body + [13, 13, 14, 15])) == (0, None)
     # going back out of the landing sequence is not a go-around
     assert order_figure(m, ev(body + [13, 14, 10, 13, 14, 15]))[0] > 0
+
+
+def test_a_go_around_is_scored_on_the_last_approach_not_across_its_circuit():
+    """Out to A, to B, down the final towards the land point, a go-around half-way (a
+    circuit 500 m off the final) back to B and the final flown again: the final is
+    scored on the last pass from B (before: from the first, the circuit counted as 500 m
+    of cross-track)."""
+    m = _mission([(22, 3, 0, 0, 0, None, None, 50), (16, 3, 0, 0, 0, 1000.0, 0.0, 50),
+                  (16, 3, 0, 0, 0, 1000.0, 1000.0, 50), (21, 3, 0, 0, 0, 0.0, 1000.0, 0)])
+    pts = [(0, 0), (1000, 0), (1000, 1000), (500, 1000), (500, 1500), (1200, 1500),
+           (1000, 1000), (0, 1000)]
+    a = _log(pts, [2, 3, 4, 4, 4, 4, 4])
+    t = a["t_s"]
+    i_a = int(np.flatnonzero(a["seq"] == 3)[0]) - 1
+    i_b = int(np.flatnonzero(a["seq"] == 4)[0]) - 1
+    i_b2 = int(np.argmin(np.hypot(a["truth_n_m"] - 1000.0, a["truth_e_m"] - 1000.0)
+                         + 1e6 * (t < t[i_b] + 30.0)))
+    ev = [(0, 1), (int(round(t[i_a] * 1e6)), 2), (int(round(t[i_b] * 1e6)), 3),
+          (int(round(t[i_b2] * 1e6)), 3)]
+    rms, mx, legs = xtrack_mission(a, m, HOME, "plane", ev, PARAMS)
+    final = [g for g in legs if g["seq"] == 4][0]
+    assert final["xtrack_max_m"] is not None and final["xtrack_max_m"] < 1.0
+    assert mx < 1.0

@@ -16,7 +16,8 @@ The mission's lines (``mission_legs``)
 
 Cross-track against them (``xtrack_mission``)
     Each line is scored over its leg: from the sequencer's counting of the item before
-    it (the take-off, for the first) to its own counting, the k-th visit of an item
+    it (the take-off, for the first; its last counting where a go-around flew the pass
+    again) to its own counting, the k-th visit of an item
     matched to the k-th reached event of that item. For a fixed-wing loiter the leg ends
     earlier, where the vehicle reaches the circle (the radius it flew, which is wider
     than the one written where that is under the minimum turn radius; LOITER_RAD for 0;
@@ -178,6 +179,12 @@ def leg_windows(mission: Mission, legs: list[dict], events, t_end: float) -> lis
             out.append(None)
             continue
         end = times[v] if times[v] is not None else t_end
+        # a pass flown again before the leg's end came (a go-around's second approach
+        # through its landing sequence): the leg is scored on the last pass, not across
+        # the go-around's climb-out and circuit
+        again = [t for t, q in nav if q == order[v - 1] and start < t < end]
+        if again:
+            start = again[-1]
         out.append((start, end))
     return out
 
