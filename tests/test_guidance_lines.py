@@ -9,7 +9,10 @@ found by the random-mission sample and fixed as classes):
 3. a leg too short for a fillet, followed by a sharp turn, is turned once, from the line
    before it onto the line after it (not arrived at on the old course, then overshot);
 4. a first leg too short to be joined and turned off again is joined through its
-   waypoint onto the leg after it.
+   waypoint onto the leg after it;
+5. an arc hands over to the next segment before its end by the roll's lag (twice that
+   where the next arc turns the other way), so the vehicle does not run on past the
+   tangent point at the old bank.
 
 Each flown headless in the simulator in light turbulence and a moderate wind; the figure
 asserted is the cross-track against the line concerned (``tools.invariants``), with
@@ -126,3 +129,23 @@ def test_a_short_leg_after_a_reversal_is_turned_past(tmp_path):
     # before: arrived at item 3 on the old course, the line out joined from across it,
     # overshot by about 80 m
     assert leg["xtrack_max_m"] < 12.0 and leg["xtrack_rms_m"] < 4.0
+
+
+def test_an_s_turn_between_arcs_at_the_bank_limit_hands_over_the_roll_early(tmp_path):
+    # a Z: east 900 m, a 135 deg right turn onto a 450 m leg, a 135 deg left turn back
+    # east: the two fillets share the short leg and meet on it (radius about 93 m, the
+    # bank limit at the ground speed downwind), so the bank reverses from one limit to
+    # the other where they meet; the wind from the north-east is behind the vehicle as
+    # the second arc starts
+    b = (0.0, 900.0)
+    c = (b[0] + 450 * math.cos(math.radians(225)), b[1] + 450 * math.sin(math.radians(225)))
+    d = (c[0], c[1] + 800.0)
+    rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 0, 300, 60, 3), (WAYPOINT, *b, 60, 3),
+            (WAYPOINT, *c, 60, 3), (WAYPOINT, *d, 60, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(5.0, 45.0), duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    # against the arcs and lines flown (the mission's lines are scored from 10 m, which
+    # the second arc, turning onto its line, is within all along): before, the bank
+    # changed at the tangent point and the second arc, flown at the bank limit from its
+    # start, ran 8 m wide of the circle (1.2 m rms)
+    assert summary["xtrack_max_m"] < 6.5 and summary["xtrack_rms_m"] < 1.1

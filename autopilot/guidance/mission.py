@@ -17,7 +17,10 @@ circular arc of radius R tangent to both legs, which starts d = R tan(dchi/2) be
 waypoint and ends d after it on the next leg (dchi the course change). R is the radius
 of a coordinated turn at a nominal bank (TURN_BANK_DEG) and the highest ground speed
 expected (TURN_GS_FACTOR times the airspeed), shrunk when the legs are too short for it. The arc is tracked by the same L1 law as a
-loiter circle, so the vehicle rolls out on the new leg instead of overshooting it.
+loiter circle, so the vehicle rolls out on the new leg instead of overshooting it; it is
+handed over to the next segment the roll's lag (ROLL_LEAD_S, twice that where the next
+arc turns the other way) before its end, half the roll flown on each side of the tangent
+point.
 
 Joins: every other transition onto a leg (after a takeoff, a loiter, a DO_JUMP whose
 turn could not be filleted, RTL, a mode change back to AUTO, MISSION_SET_CURRENT) is
@@ -87,6 +90,8 @@ SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope 
 SKIP_CHAIN = 4                  # waypoints of a cluster an arc may turn past
 LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
                                 # (inside the CAPTURE_M at which its scoring stops)
+ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
+                                # change of its bank) before its end: the roll's lag
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
@@ -511,7 +516,8 @@ class MissionSequencer:
                     self._seg_start = False
                 self._seg_angle += direction * wrap_pi(bearing - self._seg_last)
                 self._seg_last = bearing
-                if self._seg_angle >= angle - 0.02 or self._seg_angle < -0.5 * math.pi:
+                if self._seg_angle >= angle - 0.02 - self._roll_lead_rad(r, direction) \
+                        or self._seg_angle < -0.5 * math.pi:
                     self._next_segment()
                     continue
                 return NavTarget("loiter", seq, self.leg_id, alt, self.airspeed_mps,
@@ -525,6 +531,19 @@ class MissionSequencer:
                 continue
             return NavTarget("direct", seq, self.leg_id, alt, self.airspeed_mps, a_ne=a, b_ne=b)
         return None
+
+    def _roll_lead_rad(self, r: float, direction: int) -> float:
+        """How much of an arc's course change is left to the roll: the bank the arc
+        flies is changed to the next segment's (level for a line, the other way for the
+        next arc of an S-turn) ROLL_LEAD_S per bank change of the arc's bank before
+        the arc's end, half the roll's transition flown on each side of the tangent
+        point, so the vehicle neither runs on past it nor under-turns the next arc."""
+        gs = math.hypot(float(self._v_ned[0]), float(self._v_ned[1]))
+        nxt = self._path[1] if len(self._path) > 1 else None
+        if nxt is not None and nxt[0] == "arc" and nxt[3] == direction:
+            return 0.0
+        changes = 2.0 if nxt is not None and nxt[0] == "arc" else 1.0
+        return min(changes * ROLL_LEAD_S * gs / r, 0.5)
 
     def _next_segment(self) -> None:
         self._path.pop(0)
