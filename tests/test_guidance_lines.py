@@ -12,7 +12,9 @@ found by the random-mission sample and fixed as classes):
    waypoint onto the leg after it;
 5. an arc hands over to the next segment before its end by the roll's lag (twice that
    where the next arc turns the other way), so the vehicle does not run on past the
-   tangent point at the old bank.
+   tangent point at the old bank;
+6. a DO_JUMP loop over waypoints within each other's radius (counted all at once, as
+   many as the loop repeats) is turned past like any cluster.
 
 Each flown headless in the simulator in light turbulence and a moderate wind; the figure
 asserted is the cross-track against the line concerned (``tools.invariants``), with
@@ -26,6 +28,7 @@ from tools.invariants import mission_legs, xtrack_mission
 from test_guidance_joins import RTL, TAKEOFF, WAYPOINT, fly
 
 LOITER_TIME = 19
+DO_JUMP = 177
 
 
 def legs_of(s):
@@ -149,3 +152,20 @@ def test_an_s_turn_between_arcs_at_the_bank_limit_hands_over_the_roll_early(tmp_
     # changed at the tangent point and the second arc, flown at the bank limit from its
     # start, ran 8 m wide of the circle (1.2 m rms)
     assert summary["xtrack_max_m"] < 6.5 and summary["xtrack_rms_m"] < 1.1
+
+
+def test_a_jump_loop_over_waypoints_within_each_others_radius_is_turned_past(tmp_path):
+    # a 210 m leg at -53 deg to a pair of waypoints 50 m apart (within each other's
+    # radius), a DO_JUMP back over the pair three times (all of it counted the moment
+    # the vehicle arrives: eight waypoints at one place), then an 88 deg turn onto a
+    # 770 m line
+    rows = [(TAKEOFF, None, None, 100, 3), (WAYPOINT, 127, -166, 100, 3), (WAYPOINT, 210, -275, 100, 3),
+            (WAYPOINT, 177, -237, 100, 3), (DO_JUMP, None, None, 0, 2, 3, 3), (WAYPOINT, 803, 206, 100, 3),
+            (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(7.7, 104.0), duration_s=400.0)
+    assert summary["completed"] is True and summary["invariants_passed"] is True
+    leg = legs_of(s)[6]
+    # before: the arc could turn past four of the cluster's waypoints, not the eight the
+    # loop counts, so the vehicle arrived on the old course and joined the line out by
+    # a loop the other way: 151 m (83 m rms)
+    assert leg["xtrack_max_m"] < 25.0 and leg["xtrack_rms_m"] < 8.0

@@ -87,7 +87,7 @@ JOIN_XTRACK_M = 10.0
 JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
-SKIP_CHAIN = 4                  # waypoints of a cluster an arc may turn past
+SKIP_CHAIN = 12                 # waypoints of a cluster an arc may turn past
 LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
                                 # (inside the CAPTURE_M at which its scoring stops)
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
