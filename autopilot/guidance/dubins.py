@@ -128,20 +128,48 @@ def path_cost(segments, a, u, side: float, cross_tol_m: float) -> tuple[float, f
     ``cross_tol_m`` (when the path starts on one side: ``side`` +-1, else 0) also counts
     as straying."""
     psi = math.atan2(u[1], u[0])
+    a0, a1, un, ue = a[0], a[1], u[0], u[1]
     cross = 0.0
     captured = False
     after = 0.0       # furthest from the line after the capture
     xt2 = 0.0
-    for n, e, chi in samples(segments):
-        x = (n - a[0]) * -u[1] + (e - a[1]) * u[0]
-        if not captured:
-            if side != 0.0:
-                cross = max(cross, -side * x)
-            if abs(x) <= CAPTURE_M and math.cos(chi - psi) > 0.0:
-                captured = True
-        if captured:
-            after = max(after, abs(x))
-            xt2 += x * x * SAMPLE_M
+    # the points of ``samples(segments)``, computed here as there (the same arithmetic,
+    # without a generator's call per point: a join's planning scores a few hundred paths)
+    for sg in segments:
+        if sg[0] == "line":
+            _, (n0, e0), (n1, e1) = sg
+            dn, de = n1 - n0, e1 - e0
+            ln = math.hypot(dn, de)
+            ahead = math.cos(math.atan2(de, dn) - psi) > 0.0
+            n = max(int(ln / SAMPLE_M), 1)
+            for k in range(n + 1):
+                x = (n0 + dn * k / n - a0) * -ue + (e0 + de * k / n - a1) * un
+                if not captured:
+                    if side != 0.0 and -side * x > cross:
+                        cross = -side * x
+                    if ahead and abs(x) <= CAPTURE_M:
+                        captured = True
+                if captured:
+                    if abs(x) > after:
+                        after = abs(x)
+                    xt2 += x * x * SAMPLE_M
+        else:
+            _, c, r, d, ang, start = sg
+            c0, c1 = c
+            b0 = math.atan2(start[1] - c1, start[0] - c0)
+            n = max(int(r * ang / SAMPLE_M), 1)
+            for k in range(n + 1):
+                b = b0 + d * ang * k / n
+                x = (c0 + r * math.cos(b) - a0) * -ue + (c1 + r * math.sin(b) - a1) * un
+                if not captured:
+                    if side != 0.0 and -side * x > cross:
+                        cross = -side * x
+                    if abs(x) <= CAPTURE_M and math.cos(b + d * 0.5 * math.pi - psi) > 0.0:
+                        captured = True
+                if captured:
+                    if abs(x) > after:
+                        after = abs(x)
+                    xt2 += x * x * SAMPLE_M
     stray = max(max(cross - cross_tol_m, 0.0), after - CAPTURE_M)
     return STRAY_WEIGHT * stray + XT2_WEIGHT * xt2, stray
 
