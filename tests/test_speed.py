@@ -368,3 +368,78 @@ def test_rotor_effectiveness_update_matches_the_equation():
     g, P1 = stage2_update(gam, Pg, Hr.reshape(1, 2), np.array((e1,)), np.array((R,)), q)
     assert np.abs(g - (gam + K * e1)).max() <= 1e-15
     assert np.abs(P1 - want_P).max() <= 1e-12 * np.abs(want_P).max()
+
+
+def test_ukf_predict_is_sigma_points_then_propagation_then_moments():
+    """The one-call prediction gives bit for bit what its three steps give (filterpy's
+    sigma points, the mechanisation, the unscented transform), and the eigen square
+    root's path when the covariance is not positive definite."""
+    from autopilot.nav.ukf import (UKF_ALPHA, UKF_BETA, UKF_KAPPA, _SigmaPoints, _robust_sqrt,
+                                   ukf_moments, ukf_predict)
+    rng = np.random.default_rng(11)
+    n = 21
+    pts = _SigmaPoints(n, alpha=UKF_ALPHA, beta=UKF_BETA, kappa=UKF_KAPPA, sqrt_method=_robust_sqrt)
+    A = rng.standard_normal((n, n)) * 0.05
+    P = A @ A.T + np.diag(np.full(n, 1e-3))
+    x = rng.standard_normal(n) * 1e-3
+    nom = (120.0, -40.0, -95.0, 18.0, 9.0, -1.5, 0.9, 0.1, 0.2, 0.37, 1e-3, -2e-3, 5e-4, .05, -.02, .1)
+    c = np.array(nom + (120.18, -39.91, -95.015, 18.01, 9.0, -1.49, 0.9, 0.1, 0.2, 0.37,
+                        0.8, 0.3, -9.6, 0.05, 0.2, -0.3, 0.0, 5e-5, -4e-5, 9.797, 0.99))
+    q, floor, ceil = rng.random(n) * 1e-6, np.full(n, 1e-12), np.full(n, 1e4)
+    qs, idx = np.array([1e-5]), np.array([6 * n + 6])
+    sf_ref, x_ref, P_ref = np.empty((2 * n + 1, n)), np.empty(n), np.empty((n, n))
+    propagate_sigmas(pts.sigma_points(x, P), 0.01, c, sf_ref)
+    ukf_moments(sf_ref, pts.Wm, pts.Wc, q, qs, idx, floor, ceil, x_ref, P_ref)
+    sig, sf, x1, P1 = (np.empty((2 * n + 1, n)), np.empty((2 * n + 1, n)), np.empty(n),
+                       np.empty((n, n)))
+    ukf_predict(x, P, UKF_ALPHA ** 2 * (n + UKF_KAPPA), 0.01, c, pts.Wm, pts.Wc, q, qs, idx,
+                floor, ceil, sig, sf, x1, P1)
+    assert np.array_equal(sf, sf_ref) and np.array_equal(x1, x_ref) and np.array_equal(P1, P_ref)
+    P[3, 3] = -1e-9                                      # not positive definite: refused
+    try:
+        ukf_predict(x, P, 1.0, 0.01, c, pts.Wm, pts.Wc, q, qs, idx, floor, ceil, sig, sf, x1, P1)
+    except np.linalg.LinAlgError:
+        pass
+    else:
+        raise AssertionError("a covariance that is not positive definite was accepted")
+
+
+def test_join_cost_is_scored_on_the_paths_samples():
+    """dubins.path_cost, written without the generator, scores exactly what the
+    mission's cross-track scores on ``samples()`` (the rule written out once more
+    here), for joins from every side and course."""
+    from autopilot.guidance import dubins
+    rng = np.random.default_rng(4)
+
+    def ref(segments, a, u, side, tol):
+        psi = math.atan2(u[1], u[0])
+        cross = after = xt2 = 0.0
+        captured = False
+        for n, e, chi in dubins.samples(segments):
+            x = (n - a[0]) * -u[1] + (e - a[1]) * u[0]
+            if not captured:
+                if side != 0.0:
+                    cross = max(cross, -side * x)
+                if abs(x) <= dubins.CAPTURE_M and math.cos(chi - psi) > 0.0:
+                    captured = True
+            if captured:
+                after = max(after, abs(x))
+                xt2 += x * x * dubins.SAMPLE_M
+        stray = max(max(cross - tol, 0.0), after - dubins.CAPTURE_M)
+        return dubins.STRAY_WEIGHT * stray + dubins.XT2_WEIGHT * xt2, stray
+
+    scored = 0
+    for _ in range(40):
+        p = tuple(rng.uniform(-400.0, 400.0, 2))
+        chi = rng.uniform(-math.pi, math.pi)
+        a, b = (0.0, 0.0), tuple(rng.uniform(-600.0, 600.0, 2))
+        ln = math.hypot(*b)
+        u = (b[0] / ln, b[1] / ln)
+        for side in (-1.0, 0.0, 1.0):
+            for s in (0.0, 0.5 * ln, ln):
+                q = (s * u[0], s * u[1])
+                for _, segs in dubins.csc_words(p, chi, q, math.atan2(u[1], u[0]), 80.0):
+                    got = dubins.path_cost(segs, a, u, side, 2.0)
+                    assert got == ref(segs, a, u, side, 2.0)
+                    scored += got[0] > 0.0
+    assert scored > 100                                  # the paths did cost something

@@ -28,6 +28,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from autopilot.jit import kernel
+
 TWO_PI = 2.0 * math.pi
 _MIN_ARC_RAD = math.radians(3.0)   # arcs smaller than this are flown as straight lines
 _MIN_LINE_M = 1.0
@@ -126,22 +130,67 @@ def path_cost(segments, a, u, side: float, cross_tol_m: float) -> tuple[float, f
     flown (XT2_WEIGHT per m^3) and any straying beyond CAPTURE_M again (STRAY_WEIGHT per
     metre); before it, crossing to the far side of the line by more than
     ``cross_tol_m`` (when the path starts on one side: ``side`` +-1, else 0) also counts
-    as straying."""
+    as straying.
+
+    The points are ``samples(segments)``'s, scored by :func:`_path_cost` (a join's
+    planning scores a few thousand paths of a few hundred points); what depends on a
+    segment only (a line's length and whether it heads along u, an arc's start bearing)
+    is computed here, with Python's math as ``samples`` does."""
     psi = math.atan2(u[1], u[0])
+    rows = np.empty((len(segments), 7))
+    for i, sg in enumerate(segments):
+        if sg[0] == "line":
+            _, (n0, e0), (n1, e1) = sg
+            ln = math.hypot(n1 - n0, e1 - e0)
+            ahead = math.cos(math.atan2(e1 - e0, n1 - n0) - psi) > 0.0
+            rows[i] = (0.0, n0, e0, n1, e1, ln, 1.0 if ahead else 0.0)
+        else:
+            _, c, r, d, ang, start = sg
+            rows[i] = (1.0, c[0], c[1], r, ang, math.atan2(start[1] - c[1], start[0] - c[0]), d)
+    return _path_cost(rows, a[0], a[1], u[0], u[1], psi, side, cross_tol_m)
+
+
+@kernel
+def _path_cost(rows, a0, a1, un, ue, psi, side, cross_tol_m):
+    """:func:`path_cost` over the points of ``samples()``. ``rows``: one segment each,
+    a line ``(0, n0, e0, n1, e1, length, 1 if it heads along u else 0)`` or an arc
+    ``(1, centre n, centre e, radius, angle, start bearing, direction)``."""
     cross = 0.0
     captured = False
     after = 0.0       # furthest from the line after the capture
     xt2 = 0.0
-    for n, e, chi in samples(segments):
-        x = (n - a[0]) * -u[1] + (e - a[1]) * u[0]
-        if not captured:
-            if side != 0.0:
-                cross = max(cross, -side * x)
-            if abs(x) <= CAPTURE_M and math.cos(chi - psi) > 0.0:
-                captured = True
-        if captured:
-            after = max(after, abs(x))
-            xt2 += x * x * SAMPLE_M
+    for i in range(rows.shape[0]):
+        if rows[i, 0] == 0.0:                             # a line
+            n0, e0, n1, e1, ln = rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5]
+            ahead = rows[i, 6] == 1.0
+            dn, de = n1 - n0, e1 - e0
+            n = max(int(ln / SAMPLE_M), 1)
+            for k in range(n + 1):
+                x = (n0 + dn * k / n - a0) * -ue + (e0 + de * k / n - a1) * un
+                if not captured:
+                    if side != 0.0 and -side * x > cross:
+                        cross = -side * x
+                    if ahead and abs(x) <= CAPTURE_M:
+                        captured = True
+                if captured:
+                    if abs(x) > after:
+                        after = abs(x)
+                    xt2 += x * x * SAMPLE_M
+        else:                                             # an arc, direction d
+            c0, c1, r, ang, b0, d = rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4], rows[i, 5], rows[i, 6]
+            n = max(int(r * ang / SAMPLE_M), 1)
+            for k in range(n + 1):
+                b = b0 + d * ang * k / n
+                x = (c0 + r * math.cos(b) - a0) * -ue + (c1 + r * math.sin(b) - a1) * un
+                if not captured:
+                    if side != 0.0 and -side * x > cross:
+                        cross = -side * x
+                    if abs(x) <= CAPTURE_M and math.cos(b + d * 0.5 * math.pi - psi) > 0.0:
+                        captured = True
+                if captured:
+                    if abs(x) > after:
+                        after = abs(x)
+                    xt2 += x * x * SAMPLE_M
     stray = max(max(cross - cross_tol_m, 0.0), after - CAPTURE_M)
     return STRAY_WEIGHT * stray + XT2_WEIGHT * xt2, stray
 

@@ -269,6 +269,19 @@ def _sigma_rows(x, A, out):
             out[n + k + 1, j] = x[j] - u
 
 
+@kernel
+def ukf_predict(x, P, scale, dt, c, Wm, Wc, q, qs, qs_idx, floor, ceil, sig, sf, x_out, P_out):
+    """The whole unscented prediction as one call: the sigma points of (x, P) with
+    ``A = scale P``, ``scale = alpha^2 (n + kappa)`` (:func:`_sigma_rows`), through the
+    mechanisation (:func:`propagate_sigmas`, into ``sf``) and back to (x, P) with the
+    process noise and the conditioning (:func:`ukf_moments`, into ``x_out``, ``P_out``).
+    ``sig``: scratch for the sigma points. Raises LinAlgError when A is not positive
+    definite (the caller then takes the eigen square root)."""
+    _sigma_rows(x, scale * P, sig)
+    propagate_sigmas(sig, dt, c, sf)
+    ukf_moments(sf, Wm, Wc, q, qs, qs_idx, floor, ceil, x_out, P_out)
+
+
 class _SigmaPoints(MerweScaledSigmaPoints):
     """filterpy's scaled sigma points, built by one kernel (a symmetric eigen square
     root when the covariance has lost positive definiteness to rounding)."""
@@ -291,15 +304,27 @@ class _ErrorStateUKF(UnscentedKalmanFilter):
     """filterpy's UKF as the holder of x, P, Q, the weights and the sigma points, its
     predict done by the kernels (:func:`propagate_sigmas`, :func:`ukf_moments`)."""
 
+    def __init__(self, dim_x, points, **kw):
+        super().__init__(dim_x=dim_x, points=points, **kw)
+        self._sig = np.empty((2 * dim_x + 1, dim_x))            # scratch: the sigma points
+        self._scale = points.alpha ** 2 * (dim_x + points.kappa)  # A = scale P (sigma_points)
+
     def predict(self, dt=None, c=None, q=None, qs=None, floor=None, ceil=None, qs_idx=None):
         """Sigma points of (x, P), through the process model, and back to (x, P) with
         the process noise ``q`` (diagonal) and the conditioning (:func:`ukf_moments`);
-        ``sigmas_f`` are left centred on the new x."""
-        sigmas = self.points_fn.sigma_points(self.x, self.P)
-        sf = self.sigmas_f = self.fx(sigmas, dt, c)
-        x = np.empty(self._dim_x)
-        P = np.empty((self._dim_x, self._dim_x))
-        ukf_moments(sf, self.Wm, self.Wc, q, qs, qs_idx, floor, ceil, x, P)
+        ``sigmas_f`` are left centred on the new x. One kernel call
+        (:func:`ukf_predict`) unless the covariance has lost positive definiteness."""
+        n = self._dim_x
+        sf = np.empty((2 * n + 1, n))
+        x = np.empty(n)
+        P = np.empty((n, n))
+        try:
+            ukf_predict(self.x, self.P, self._scale, dt, c, self.Wm, self.Wc,
+                        q, qs, qs_idx, floor, ceil, self._sig, sf, x, P)
+        except np.linalg.LinAlgError:
+            propagate_sigmas(self.points_fn.sigma_points(self.x, self.P), dt, c, sf)
+            ukf_moments(sf, self.Wm, self.Wc, q, qs, qs_idx, floor, ceil, x, P)
+        self.sigmas_f = sf
         self.x, self.P = x, P
 
 
@@ -312,7 +337,7 @@ class InsGpsUkf(NavFilterBase):
         n = self.n
         points = _SigmaPoints(n, alpha=UKF_ALPHA, beta=UKF_BETA, kappa=UKF_KAPPA,
                               sqrt_method=_robust_sqrt)
-        ukf = _ErrorStateUKF(dim_x=n, dim_z=1, dt=0.01, hx=None, fx=self._fx, points=points)
+        ukf = _ErrorStateUKF(n, points, dim_z=1, dt=0.01, hx=None, fx=None)
         ukf.x = np.zeros(n)
         ukf.P = np.eye(n)
         self._ukf = ukf
@@ -352,14 +377,6 @@ class InsGpsUkf(NavFilterBase):
         self._q_dt = dt
 
     # ------------------------------------------------------------------- predict --
-    def _fx(self, sig: np.ndarray, dt: float, c: np.ndarray) -> np.ndarray:
-        """Propagate error-state sigma points (rows) through the nonlinear mechanisation
-        (strapdown.py's equations, every sigma point with its own attitude and biases):
-        :func:`propagate_sigmas` (``c``: its constants)."""
-        out = np.empty_like(sig)
-        propagate_sigmas(sig, dt, c, out)
-        return out
-
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
         if dt != self._q_dt:
             self._process_noise(dt)
