@@ -81,6 +81,8 @@ FDI_PARAMS = (
           is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
+    Param("FDI_LAT_ID", 1.0, 0.0, 1.0, "bool", "aileron and rudder fault detection and identification "
+          "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
@@ -218,6 +220,16 @@ class FaultMonitor:
             model = self.airframe = MODELS.get(int(p["FDI_EL_MODEL"]))
             self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
                                                model=model)
+        # aileron and rudder identification, autopilot/monitor/lateral.py
+        self.lateral = None
+        if p["FDI_ACT_ID"] >= 1 and p["FDI_LAT_ID"] >= 1 and int(p["FDI_EL_MODEL"]) >= 1:
+            from .lateral import LAT_MODELS, LateralIdentifier
+            lat = LAT_MODELS.get(int(p["FDI_EL_MODEL"]))
+            if lat is not None:
+                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+                self.lateral_model = lat
+        self.stuck_surface: dict = {}          # "aileron"/"rudder" -> stuck position [rad] (latched)
+        self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
         self._ident_next_s = 0.0
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
@@ -315,8 +327,13 @@ class FaultMonitor:
         if self._el_k & 1:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
-        el.suspend(self.detected and self.episodes[-1].kind != "actuator")
+        sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
+        el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
+        lat = self.lateral
+        if lat is not None and len(controls) >= 4:
+            lat.suspend(sensor_fault)
+            lat.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
                 float(controls[3]) if len(controls) > 3 else 0.0,
                 None if f is None else -f[2] / G0)
@@ -329,6 +346,16 @@ class FaultMonitor:
             r_el = el.ratio / self.p["FDI_ACT_THR"]
             if r_el > self.peaks.get("elevator", 0.0):
                 self.peaks["elevator"] = r_el
+            if lat is not None:
+                for name, ax in lat.axes.items():
+                    r = ax.ratio / self.p["FDI_ACT_THR"]
+                    if r > self.peaks.get(name, 0.0):
+                        self.peaks[name] = r
+                name, r_lat = lat.worst()
+                r_lat /= self.p["FDI_ACT_THR"]
+                if quiet and r_lat > 1.0 and r_lat > r_el:
+                    self._lateral_detected(t_us, name, r_lat)
+                    return
             if quiet and r_el > 1.0:
                 # residual of the pitch model high, navigation innovations white: an
                 # actuator fault (the INS/GPS filter is insensitive to actuator faults)
@@ -348,6 +375,11 @@ class FaultMonitor:
                 self._elevator_provisional(t_s, count=False)
             return
         ep = self.episodes[-1]
+        if ep.kind == "actuator" and ep.isolated in ("aileron", "rudder"):
+            if t_s >= self._ident_next_s:
+                self._ident_next_s = t_s + 1.0
+                self._lateral_identify(t_s, ep)
+            return
         if ep.kind == "actuator" and t_s >= self._ident_next_s:
             self._ident_next_s = t_s + 1.0
             ep.identified = el.identified(stuck=self.elevator_stuck_rad is not None)
@@ -361,6 +393,77 @@ class FaultMonitor:
                 self._elevator_trim(t_s, stuck)
             else:
                 self._elevator_provisional(t_s)
+
+    def _lateral_detected(self, t_us: int, name: str, ratio: float) -> None:
+        """The lateral balance's residual over its threshold on ``name`` with the
+        navigation innovations white: an aileron or rudder actuator fault (an episode that
+        stays open, as the elevator's)."""
+        t_s = t_us * 1e-6
+        self.detected = True
+        self._quiet_us = None
+        ep = Episode(round(t_s, 3), name, name, round(t_s, 3), kind="actuator", isolated_all=[name])
+        ep.ident_log = []
+        self.episodes.append(ep)
+        self.isolated = name
+        self.lateral.freeze(t_us)
+        self.elevator.freeze(t_us)
+        self._ident_next_s = t_s + 1.0
+        self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {name} "
+                                              f"(statistic {ratio:.1f}x threshold)"))
+        self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} actuator fault isolated"))
+        # the reaction at once, from the deflection flown over the last second: a stuck
+        # aileron rolls the aircraft over within seconds (measured: 0.1 rad, 74 deg of bank
+        # 4 s after the onset), before the identification
+        h = self.lateral.axes[name].hist
+        t_end = h[-1][0] - 1_000_000 if h else 0
+        zs = [z for (t, z, _) in h if t >= t_end]
+        if zs:
+            self._lateral_reaction(t_s, name, sum(zs) / len(zs), final=False)
+
+    def _lateral_reaction(self, t_s: float, name: str, value: float, final: bool) -> None:
+        """The reaction the airframe's model gives ``name`` held at ``value`` [rad]:
+        the other surface's deflection that holds the wings level (LateralAero.counter;
+        for a stuck aileron the roll loop then acts through the rudder, with the
+        rolling-moment ratio of the two, LateralAero.roll_gain), and the steepest bank
+        the authority left on it gives: ROLL_LIMIT_DEG scaled by the share of its travel
+        not used to counter (a decision: the rolling moment of a coordinated turn is
+        small, what limits a turn is the margin left to roll out of it), not under
+        10 deg. Said by STATUSTEXT at the detection (provisional) and at the stuck
+        identification."""
+        m = self.lateral_model
+        from .actuator import MAX_DEFLECTION_RAD
+        counter = m.counter(name, value)
+        share = 1.0 - abs(counter) / MAX_DEFLECTION_RAD
+        other = "rudder" if name == "aileron" else "aileron"
+        self.surface_out = {"surface": name, "stuck_rad": value, "counter_rad": counter,
+                            "roll_gain": m.roll_gain(name), "authority": share}
+        if share <= 0.0:
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} stuck at {value:.3f} rad: the {other} "
+                                                   f"cannot hold the wings level ({counter:.2f} rad needed)"))
+        else:
+            what = "roll on the rudder" if name == "aileron" else "yaw damper off"
+            self.events.append((t_s, SEV_WARNING, f"FDI: {name} {'stuck' if final else 'out'} at {value:.3f} rad: "
+                                                  f"{other} {counter:+.3f} rad to counter, {what}, "
+                                                  f"{share:.0%} of its travel left for turns"))
+
+    def _lateral_identify(self, t_s: float, ep: Episode) -> None:
+        """Once a second: the surface's identification; stuck latches (said once)."""
+        name = ep.isolated
+        ident = self.lateral.identified(name, stuck=name in self.stuck_surface)
+        if ident is None:
+            return
+        ep.identified = ident
+        ep.ident_log.append((round(t_s, 3), ident))
+        stuck = ident.get("stuck_rad")
+        if stuck is not None:
+            if name not in self.stuck_surface:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} identified stuck at {stuck:.3f} rad"))
+                self._lateral_reaction(t_s, name, stuck, final=True)
+            elif self.surface_out is not None:
+                # the position refined as the transient settles (not said again)
+                self.surface_out["stuck_rad"] = stuck
+                self.surface_out["counter_rad"] = self.lateral_model.counter(name, stuck)
+            self.stuck_surface[name] = stuck
 
     def _elevator_provisional(self, t_s: float, count: bool = True) -> None:
         """Until the surface is identified stuck: the reaction of the deflection the
