@@ -115,6 +115,7 @@ FW_PARAMS = (
     Param("ARSPD_FBW_MIN", 20.0, 8.0, 80.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
     Param("LOUT_ENABLE", 1.0, 0.0, 1.0, "", "aileron or rudder out: once the fault monitor finds one stuck, counter it with the other surface and fly the roll on what is left (0: off)"),
+    Param("TOUT_ENABLE", 1.0, 0.0, 1.0, "", "throttle out: once the fault monitor finds the throttle stuck, fly the airspeed on the pitch and let the height be what the thrust gives (0: off)"),
     Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor finds an elevator actuator fault (0: off)"),
     Param("EOUT_THR_KP", 0.015, 0.0, 0.2, "1/m", "elevator out: height error to throttle, proportional"),
     Param("EOUT_THR_KI", 0.0008, 0.0, 0.05, "1/(m s)", "elevator out: height error to throttle, integral"),
@@ -167,6 +168,7 @@ class FixedWingController:
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
         self.eout_full_throttle = False          # the model has no level trim for it
         self.surface_out: dict | None = None     # a stuck aileron or rudder (monitor's surface_out)
+        self.throttle_out: dict | None = None    # a stuck throttle (monitor's throttle_out)
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -248,7 +250,19 @@ class FixedWingController:
             # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
             # (should the surface work again) trade height for speed
             dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
-        if abs(dv) > db and climb_override is None:
+        tout = self.throttle_out
+        if tout is not None and climb_override is None:
+            # throttle out: the airspeed on the pitch alone (no dead band); where the
+            # stuck throttle holds level flight the height demand still acts, traded
+            # against the airspeed as TECS does, else the height is given up: the glide
+            # at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
+            if tout["level"]:
+                hdot_c -= p["SPD_PRIO"] * dv
+            else:
+                v_t = max(tout["v_glide"], p["ARSPD_FBW_MIN"])
+                hdot_c = -p["SPD_PRIO"] * (v_t - v_air)
+            hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
+        elif abs(dv) > db and climb_override is None:
             hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2

@@ -157,11 +157,12 @@ class MomentBalance:
 
 
 def identify_hist(hist: list, since_us: int, stuck: bool = False,
-                  recent_us: int | None = None) -> dict | None:
+                  recent_us: int | None = None, d_max: float = MAX_DEFLECTION_RAD) -> dict | None:
     """The two hypotheses (2.23, 2.24) over the (t_us, z, delta_cmd) samples of ``hist``
     since ``since_us``; only the stuck one with ``stuck`` (a surface already found stuck). The stuck position is
     the mean of z since ``recent_us`` (the samples after the onset's transient) when
-    given and at least 10 samples hold it."""
+    given and at least 10 samples hold it; ``d_max`` the command's full travel (its
+    saturation counts for the stuck hypothesis)."""
     h = [r for r in hist if r[0] >= since_us]
     if len(h) < 10:
         return None
@@ -169,7 +170,7 @@ def identify_hist(hist: list, since_us: int, stuck: bool = False,
     d = np.array([r[2] for r in h])
     dd = float(d @ d)
     k = float(z @ d) / dd if dd > 0.0 else 0.0
-    sat = float(np.mean(np.abs(d) >= 0.98 * MAX_DEFLECTION_RAD))
+    sat = float(np.mean(np.abs(d) >= 0.98 * d_max))
     s_now = float(np.mean(z))
     recent = [r[1] for r in h if recent_us is not None and r[0] >= recent_us]
     s_pos = float(np.mean(recent)) if len(recent) >= 10 else s_now

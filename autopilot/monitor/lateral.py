@@ -129,12 +129,15 @@ AXES = ("aileron", "rudder")
 class _Axis:
     """One control's residual z - delta_cmd: its offset fit, variance and window test."""
 
-    def __init__(self, name: str, M: int, alpha: float, alpha_det: float):
+    def __init__(self, name: str, M: int, alpha: float, alpha_det: float,
+                 floor: float = LAT_RES_FLOOR_RAD, offset_sd: float = LAT_OFFSET_SD_RAD,
+                 fit_noise: float = LAT_FIT_NOISE_RAD):
         self.name = name
+        self.floor = floor
         self.win = WindowChi2(1, M, alpha, alpha_det)
         self.c = np.zeros(2)
-        self.P = np.eye(2) * (LAT_OFFSET_SD_RAD / LAT_FIT_NOISE_RAD) ** 2
-        self.r_var = LAT_RES_FLOOR_RAD ** 2
+        self.P = np.eye(2) * (offset_sd / fit_noise) ** 2
+        self.r_var = floor ** 2
         self.n_var = 0
         self.queue: list = []          # (t_us, phi, residual) waiting FIT_DELAY_S
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
@@ -163,7 +166,7 @@ class _Axis:
                 a = max(1.0 / self.n_var, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
                 self.r_var += a * (ro * ro - self.r_var)
         if k_test:
-            R = max(self.r_var, LAT_RES_FLOOR_RAD ** 2)
+            R = max(self.r_var, self.floor ** 2)
             self.win.push([r / math.sqrt(R)])
             self.ratio = self.win.ratio_det
 

@@ -83,6 +83,8 @@ FDI_PARAMS = (
           "threshold by this factor detects"),
     Param("FDI_LAT_ID", 1.0, 0.0, 1.0, "bool", "aileron and rudder fault detection and identification "
           "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
+    Param("FDI_THR_ID", 1.0, 0.0, 1.0, "bool", "throttle fault detection and identification (the "
+          "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True),
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
@@ -100,6 +102,7 @@ _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
 NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
                                 # with no level trim in a row: said (and terminated)
+RHO0_ISA = 1.225                # sea-level density [kg/m^3]
 _GPS_HZ = 5.0                   # GPS fix rate (SensorParams.gps_rate_hz, u-blox M8N) [Hz]
 _AUX_HZ = 25.0                  # baro, mag, airspeed fusion rate of the filter (nav/base.py) [Hz]
 
@@ -228,7 +231,16 @@ class FaultMonitor:
             if lat is not None:
                 self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
                 self.lateral_model = lat
-        self.stuck_surface: dict = {}          # "aileron"/"rudder" -> stuck position [rad] (latched)
+        # the throttle's, autopilot/monitor/throttle.py
+        self.throttle = None
+        if p["FDI_ACT_ID"] >= 1 and p["FDI_THR_ID"] >= 1 and int(p["FDI_EL_MODEL"]) >= 1:
+            from .throttle import THRUST_MODELS, ThrottleIdentifier
+            thm = THRUST_MODELS.get(int(p["FDI_EL_MODEL"]))
+            if thm is not None:
+                self.throttle = ThrottleIdentifier(thm, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+        self._act_idents = tuple(i for i in (self.lateral, self.throttle) if i is not None)
+        self.throttle_out: dict | None = None  # a stuck throttle's reaction (_throttle_reaction)
+        self.stuck_surface: dict = {}          # "aileron"/"rudder"/"throttle" -> stuck position (latched)
         self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
         self._ident_next_s = 0.0
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
@@ -330,10 +342,10 @@ class FaultMonitor:
         sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
         el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
-        lat = self.lateral
-        if lat is not None and len(controls) >= 4:
-            lat.suspend(sensor_fault)
-            lat.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
+        if len(controls) >= 4:
+            for ident in self._act_idents:
+                ident.suspend(sensor_fault)
+                ident.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
                 float(controls[3]) if len(controls) > 3 else 0.0,
                 None if f is None else -f[2] / G0)
@@ -346,16 +358,17 @@ class FaultMonitor:
             r_el = el.ratio / self.p["FDI_ACT_THR"]
             if r_el > self.peaks.get("elevator", 0.0):
                 self.peaks["elevator"] = r_el
-            if lat is not None:
-                for name, ax in lat.axes.items():
+            best, r_best = None, 0.0
+            for ident in self._act_idents:
+                for name, ax in ident.axes.items():
                     r = ax.ratio / self.p["FDI_ACT_THR"]
                     if r > self.peaks.get(name, 0.0):
                         self.peaks[name] = r
-                name, r_lat = lat.worst()
-                r_lat /= self.p["FDI_ACT_THR"]
-                if quiet and r_lat > 1.0 and r_lat > r_el:
-                    self._lateral_detected(t_us, name, r_lat)
-                    return
+                    if r > r_best:
+                        best, r_best = name, r
+            if quiet and r_best > 1.0 and r_best > r_el:
+                self._lateral_detected(t_us, best, r_best)
+                return
             if quiet and r_el > 1.0:
                 # residual of the pitch model high, navigation innovations white: an
                 # actuator fault (the INS/GPS filter is insensitive to actuator faults)
@@ -375,7 +388,7 @@ class FaultMonitor:
                 self._elevator_provisional(t_s, count=False)
             return
         ep = self.episodes[-1]
-        if ep.kind == "actuator" and ep.isolated in ("aileron", "rudder"):
+        if ep.kind == "actuator" and ep.isolated in ("aileron", "rudder", "throttle"):
             if t_s >= self._ident_next_s:
                 self._ident_next_s = t_s + 1.0
                 self._lateral_identify(t_s, ep)
@@ -405,7 +418,8 @@ class FaultMonitor:
         ep.ident_log = []
         self.episodes.append(ep)
         self.isolated = name
-        self.lateral.freeze(t_us)
+        for ident in self._act_idents:
+            ident.freeze(t_us)
         self.elevator.freeze(t_us)
         self._ident_next_s = t_s + 1.0
         self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {name} "
@@ -414,11 +428,46 @@ class FaultMonitor:
         # the reaction at once, from the deflection flown over the last second: a stuck
         # aileron rolls the aircraft over within seconds (measured: 0.1 rad, 74 deg of bank
         # 4 s after the onset), before the identification
-        h = self.lateral.axes[name].hist
+        h = self._ident_of(name).axes[name].hist
         t_end = h[-1][0] - 1_000_000 if h else 0
         zs = [z for (t, z, _) in h if t >= t_end]
         if zs:
-            self._lateral_reaction(t_s, name, sum(zs) / len(zs), final=False)
+            if name == "throttle":
+                self._throttle_reaction(t_s, min(max(sum(zs) / len(zs), 0.0), 1.0), final=False)
+            else:
+                self._lateral_reaction(t_s, name, sum(zs) / len(zs), final=False)
+
+    def _ident_of(self, name: str):
+        return next(i for i in self._act_idents if name in i.axes)
+
+    def _throttle_reaction(self, t_s: float, value: float, final: bool) -> None:
+        """The reaction to a throttle held at ``value`` (control/fixed_wing.py,
+        "throttle out"): the airspeed flown on the pitch, the height what the thrust
+        gives. Where the model (thrust curve against the level drag at TRIM_ARSPD) says
+        the throttle cannot hold level flight, the aircraft descends at the airspeed,
+        and the failsafe is RTL (ArduPlane's RTL, with RTL_AUTOLAND its landing), as
+        ArduPlane's battery / throttle failsafes choose; said by STATUSTEXT."""
+        m = self.throttle.model
+        v = 25.0
+        excess = m.thrust_at(value, v) - m.level_drag(v)
+        level = excess >= 0.0
+        # the glide: at the best lift-to-drag ratio's airspeed, C_L = sqrt(C_D0 / k)
+        # (Beard & McLain eq 4.11's polar), the controller never under ARSPD_FBW_MIN
+        cl_md = math.sqrt(m.CD0 / m.k_CD)
+        v_glide = math.sqrt(2.0 * m.mass_kg * G0 / (RHO0_ISA * m.wing_area_m2 * cl_md))
+        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide}
+        sink = max(-excess * v / (m.mass_kg * G0), 0.0)
+        if level:
+            self.events.append((t_s, SEV_WARNING, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
+                                                  f"airspeed flown on the pitch, height free "
+                                                  f"({excess * v / (m.mass_kg * G0):.1f} m/s of climb at {v:.0f} m/s)"))
+        else:
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
+                                                   f"no level flight ({sink:.1f} m/s sink at {v:.0f} m/s): "
+                                                   f"airspeed on the pitch, failsafe RTL"))
+            if not self._fs_done:
+                self._fs_done = True
+                self.failsafe = "RTL"
 
     def _lateral_reaction(self, t_s: float, name: str, value: float, final: bool) -> None:
         """The reaction the airframe's model gives ``name`` held at ``value`` [rad]:
@@ -449,13 +498,18 @@ class FaultMonitor:
     def _lateral_identify(self, t_s: float, ep: Episode) -> None:
         """Once a second: the surface's identification; stuck latches (said once)."""
         name = ep.isolated
-        ident = self.lateral.identified(name, stuck=name in self.stuck_surface)
+        ident = self._ident_of(name).identified(name, stuck=name in self.stuck_surface)
         if ident is None:
             return
         ep.identified = ident
         ep.ident_log.append((round(t_s, 3), ident))
-        stuck = ident.get("stuck_rad")
-        if stuck is not None:
+        stuck = ident.get("stuck_rad", ident.get("stuck"))
+        if stuck is not None and name == "throttle":
+            if name not in self.stuck_surface:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle identified stuck at {stuck:.2f}"))
+                self._throttle_reaction(t_s, stuck, final=True)
+            self.stuck_surface[name] = stuck
+        elif stuck is not None:
             if name not in self.stuck_surface:
                 self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} identified stuck at {stuck:.3f} rad"))
                 self._lateral_reaction(t_s, name, stuck, final=True)
