@@ -257,11 +257,17 @@ class FixedWingController:
             # against the airspeed as TECS does, else the height is given up: the glide
             # at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
             if tout["level"]:
-                hdot_c -= p["SPD_PRIO"] * dv
+                # the airspeed the model says the stuck thrust holds level, if slower
+                # than the demand; the height is what the excess thrust gives, the climb
+                # free up to twice CLMB_MAX (a throttle stuck at full climbs at 3 m/s at
+                # the cruise airspeed; flying faster to climb less was tried: the pitch
+                # loop could not hold the steeper climb a slowing down needs, and the
+                # airspeed went 3 m/s over ARSPD_FBW_MAX)
+                v_t = min(airspeed_cmd_mps, tout["v_fly"])
+                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), 2.0 * p["CLMB_MAX"])
             else:
                 v_t = max(tout["v_glide"], p["ARSPD_FBW_MIN"])
-                hdot_c = -p["SPD_PRIO"] * (v_t - v_air)
-            hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
+                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), p["CLMB_MAX"])
         elif abs(dv) > db and climb_override is None:
             hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])

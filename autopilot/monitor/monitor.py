@@ -446,26 +446,42 @@ class FaultMonitor:
         gives. Where the model (thrust curve against the level drag at TRIM_ARSPD) says
         the throttle cannot hold level flight, the aircraft descends at the airspeed,
         and the failsafe is RTL (ArduPlane's RTL, with RTL_AUTOLAND its landing), as
-        ArduPlane's battery / throttle failsafes choose; said by STATUSTEXT."""
+        ArduPlane's battery / throttle failsafes choose; where it can, at the fastest
+        airspeed from the cruise down whose level drag the stuck thrust meets. Said by
+        STATUSTEXT."""
         m = self.throttle.model
-        v = 25.0
-        excess = m.thrust_at(value, v) - m.level_drag(v)
-        level = excess >= 0.0
+        # the fastest airspeed, from the cruise (TRIM_ARSPD's default, 25 m/s) down to 1.3
+        # times the slowest level flight (the stall margin), where the stuck throttle's
+        # thrust still meets the level drag: the airspeed to fly on the pitch
+        v_min = 1.3 * (self.airframe.v_level_min_mps if self.airframe is not None else 15.0)
+        v_fly, excess = None, -1e9
+        for i in range(51):
+            v = 25.0 - i * (25.0 - v_min) / 50.0
+            e = m.thrust_at(value, v) - m.level_drag(v)
+            if e >= 0.0:
+                v_fly, excess = v, e
+                break
+            excess = max(excess, e)
+        level = v_fly is not None
+        v = v_fly if level else 25.0
         # the glide: at the best lift-to-drag ratio's airspeed, C_L = sqrt(C_D0 / k)
         # (Beard & McLain eq 4.11's polar), the controller never under ARSPD_FBW_MIN
         cl_md = math.sqrt(m.CD0 / m.k_CD)
         v_glide = math.sqrt(2.0 * m.mass_kg * G0 / (RHO0_ISA * m.wing_area_m2 * cl_md))
-        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide}
-        sink = max(-excess * v / (m.mass_kg * G0), 0.0)
+        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide, "v_fly": v}
+        sink = max(-excess * 25.0 / (m.mass_kg * G0), 0.0)
         if level:
             self.events.append((t_s, SEV_WARNING, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
-                                                  f"airspeed flown on the pitch, height free "
-                                                  f"({excess * v / (m.mass_kg * G0):.1f} m/s of climb at {v:.0f} m/s)"))
+                                                  f"airspeed {v:.0f} m/s flown on the pitch, height free "
+                                                  f"(up to {excess * v / (m.mass_kg * G0):.1f} m/s of climb)"))
         else:
             self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
-                                                   f"no level flight ({sink:.1f} m/s sink at {v:.0f} m/s): "
-                                                   f"airspeed on the pitch, failsafe RTL"))
-            if not self._fs_done:
+                                                   f"no level flight ({sink:.1f} m/s sink at 25 m/s): "
+                                                   f"airspeed on the pitch"
+                                                   + (", failsafe RTL" if final else "")))
+            # the failsafe on the identification, not on the detection's provisional
+            # reading (the first second's deflection carries the onset's transient)
+            if final and not self._fs_done:
                 self._fs_done = True
                 self.failsafe = "RTL"
 
