@@ -18,7 +18,8 @@ so the test is armed from the launch. What the model leaves out (the propeller's
 which grows with the throttle, and the small asymmetries of the airframe) is the
 residual's offset, learnt online per axis on ``[1, throttle (V_ref / V)^2]`` by
 recursive least squares with a prior of zero (the balance's refinement, as the
-elevator's), FIT_DELAY_S late so a fault is not learnt before it is detected.
+elevator's), FIT_DELAY_S late so a fault is not learnt before it is detected, and not
+in the first FIT_WARMUP_S of flight.
 
 Stage 2 (identification): once detected, the two hypotheses of :mod:`.actuator` over the
 samples since the detection: stuck (z constant while the command moves) or weakened
@@ -35,14 +36,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       RES_TAU_S, identify_hist)
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
+                       MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist)
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
 LAT_RES_FLOOR_RAD = 0.01       # floor of each axis' residual standard deviation [rad]
 LAT_OFFSET_SD_RAD = 0.05       # prior standard deviation of the learnt offset terms [rad]
-LAT_FIT_NOISE_RAD = 0.02       # each 10 Hz fit sample's weight against that prior [rad]
+LAT_FIT_NOISE_RAD = 0.1        # each 10 Hz fit sample's weight against that prior [rad]: the
+                               # low-passed samples are correlated (as the elevator's
+                               # BAL_NOISE_RAD); with 0.02 a few seconds of climb-out at full
+                               # throttle set the throttle term, read 0.12 rad off at 0.2
 TEST_DIV = 5                   # the window test on every 5th balance sample (2 Hz)
 V_REF = 25.0                   # [m/s]
 
@@ -187,6 +191,7 @@ class LateralIdentifier:
         self._t_us = None
         self._next_us = 0
         self._k = 0
+        self._t0_us = None
         self.frozen = False
         self.suspended = False
         self._fault_us = None
@@ -216,6 +221,8 @@ class LateralIdentifier:
              float(controls[3]) * (V_REF / V) ** 2]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
+            if self._t0_us is None:
+                self._t0_us = t_us
             return
         dt = (t_us - self._t_us) * 1e-6
         self._t_us = t_us
@@ -237,7 +244,10 @@ class LateralIdentifier:
         k_test = self._k >= TEST_DIV
         if k_test:
             self._k = 0
-        learn = not self.frozen and not self.suspended
+        # not learnt on the first FIT_WARMUP_S of flight (the launch and the climb-out at
+        # full throttle: not quasi-steady, and one throttle only), as the elevator's balance
+        learn = (not self.frozen and not self.suspended
+                 and t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
         self.axes["aileron"].step(t_us, phi, za, lp[5], learn, k_test)
         self.axes["rudder"].step(t_us, phi, zr, lp[6], learn, k_test)
 

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .actuator import BAL_PERIOD_US, BAL_TAU_S, IDENT_WIN_S, MAX_DEFLECTION_RAD, identify_hist
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
+                       identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
@@ -108,6 +109,7 @@ class ThrottleIdentifier:
         self._t_us = None
         self._next_us = 0
         self._k = 0
+        self._t0_us = None
         self.frozen = False
         self.suspended = False
         self._fault_us = None
@@ -131,6 +133,8 @@ class ThrottleIdentifier:
              float(controls[3])]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
+            if self._t0_us is None:
+                self._t0_us = t_us
             return
         dt = (t_us - self._t_us) * 1e-6
         self._t_us = t_us
@@ -150,7 +154,8 @@ class ThrottleIdentifier:
         if k_test:
             self._k = 0
         self.axes["throttle"].step(t_us, np.array((1.0, lp[3] / V_REF - 1.0)), z, lp[4],
-                                   not self.frozen and not self.suspended, k_test)
+                                   not self.frozen and not self.suspended
+                                   and t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
