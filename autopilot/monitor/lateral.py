@@ -41,7 +41,7 @@ from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDEN
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
-LAT_RES_FLOOR_RAD = 0.01       # floor of each axis' residual standard deviation [rad]
+LAT_RES_FLOOR_RAD = 0.015      # floor of each axis' residual standard deviation [rad]
 LAT_OFFSET_SD_RAD = 0.05       # prior standard deviation of the learnt offset terms [rad]
 LAT_FIT_NOISE_RAD = 0.1        # each 10 Hz fit sample's weight against that prior [rad]: the
                                # low-passed samples are correlated (as the elevator's
@@ -148,7 +148,9 @@ class _Axis:
         self.ratio = 0.0
         self.residual = 0.0
 
-    def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool, k_test: bool) -> None:
+    def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
+        """``learn``: True the offset and the variance are learnt, False the variance only
+        (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
         raw = z - d
         zc = z - float(phi @ self.c)            # z with the learnt offset removed
         r = zc - d
@@ -157,15 +159,16 @@ class _Axis:
         h.append((t_us, zc, d))
         while h and t_us - h[0][0] > 20e6:
             h.pop(0)
-        if learn:
+        if learn is not None:
             q = self.queue
             q.append((t_us, phi, raw, r))
             while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, rw, ro = q.pop(0)
-                Pp = self.P @ ph
-                g = Pp / (1.0 + ph @ Pp)
-                self.c = self.c + g * (rw - ph @ self.c)
-                self.P = self.P - np.outer(g, Pp)
+                if learn:
+                    Pp = self.P @ ph
+                    g = Pp / (1.0 + ph @ Pp)
+                    self.c = self.c + g * (rw - ph @ self.c)
+                    self.P = self.P - np.outer(g, Pp)
                 self.n_var += 1
                 a = max(1.0 / self.n_var, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
                 self.r_var += a * (ro * ro - self.r_var)
@@ -246,8 +249,10 @@ class LateralIdentifier:
             self._k = 0
         # not learnt on the first FIT_WARMUP_S of flight (the launch and the climb-out at
         # full throttle: not quasi-steady, and one throttle only), as the elevator's balance
-        learn = (not self.frozen and not self.suspended
-                 and t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
+        # (the residual's variance is learnt from the start: with the floor alone, moderate
+        # turbulence in the climb-out read 1.4 times the threshold 7 s after the launch)
+        learn = (None if self.frozen or self.suspended
+                 else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
         self.axes["aileron"].step(t_us, phi, za, lp[5], learn, k_test)
         self.axes["rudder"].step(t_us, phi, zr, lp[6], learn, k_test)
 

@@ -154,8 +154,8 @@ class ThrottleIdentifier:
         if k_test:
             self._k = 0
         self.axes["throttle"].step(t_us, np.array((1.0, lp[3] / V_REF - 1.0)), z, lp[4],
-                                   not self.frozen and not self.suspended
-                                   and t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
+                                   None if self.frozen or self.suspended
+                                   else t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
