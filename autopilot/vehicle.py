@@ -309,6 +309,21 @@ class PlaneVehicle(VehicleBase):
                 # the model's trim speed, steepest level turn, and full throttle if no trim
                 self.ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
                                             mon.elevator_full_throttle)
+            so = mon.surface_out if self.params["LOUT_ENABLE"] > 0 else None
+            if so is not self.ctrl.surface_out:
+                # a stuck aileron or rudder: countered with the other (control/fixed_wing.py)
+                new = self.ctrl.surface_out is None
+                self.ctrl.surface_out = so
+                if new:
+                    mon.announce(t_us * 1e-6, SEV_WARNING,
+                                 f"{so['surface']} out: roll flown on the "
+                                 f"{'rudder' if so['surface'] == 'aileron' else 'aileron'}")
+            to = mon.throttle_out if self.params["TOUT_ENABLE"] > 0 else None
+            if to is not self.ctrl.throttle_out:
+                # a stuck throttle: the airspeed on the pitch (control/fixed_wing.py)
+                if self.ctrl.throttle_out is None:
+                    mon.announce(t_us * 1e-6, SEV_WARNING, "throttle out: airspeed flown on the pitch")
+                self.ctrl.throttle_out = to
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full

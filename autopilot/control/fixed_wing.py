@@ -82,6 +82,7 @@ G = 9.80665
 # elevator out: the bank limit never under this, so that the aircraft can still turn back
 # to its mission where the model has no level turn (a 10 deg turn costs 1.5 % of the lift)
 EOUT_BANK_MIN_DEG = 10.0
+LAT_DEFLECTION_RAD = 0.35   # aileron and rudder deflection at a normalised command of 1 [rad]
 
 FW_PARAMS = (
     Param("RLL_KP", 1.2, 0.0, 10.0, "1/rad", "roll angle to aileron, proportional"),
@@ -113,6 +114,8 @@ FW_PARAMS = (
     Param("TRIM_ARSPD", 25.0, 10.0, 80.0, "m/s", "cruise airspeed"),
     Param("ARSPD_FBW_MIN", 20.0, 8.0, 80.0, "m/s", "minimum airspeed command"),
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
+    Param("LOUT_ENABLE", 1.0, 0.0, 1.0, "", "aileron or rudder out: once the fault monitor finds one stuck, counter it with the other surface and fly the roll on what is left (0: off)"),
+    Param("TOUT_ENABLE", 1.0, 0.0, 1.0, "", "throttle out: once the fault monitor finds the throttle stuck, fly the airspeed on the pitch and let the height be what the thrust gives (0: off)"),
     Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor finds an elevator actuator fault (0: off)"),
     Param("EOUT_THR_KP", 0.015, 0.0, 0.2, "1/m", "elevator out: height error to throttle, proportional"),
     Param("EOUT_THR_KI", 0.0008, 0.0, 0.05, "1/(m s)", "elevator out: height error to throttle, integral"),
@@ -164,6 +167,8 @@ class FixedWingController:
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
         self.eout_full_throttle = False          # the model has no level trim for it
+        self.surface_out: dict | None = None     # a stuck aileron or rudder (monitor's surface_out)
+        self.throttle_out: dict | None = None    # a stuck throttle (monitor's throttle_out)
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -213,6 +218,12 @@ class FixedWingController:
         roll_lim = math.radians(p["ROLL_LIMIT_DEG"])
         if self.elevator_out and self.eout_bank_max_rad is not None:
             roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
+        so = self.surface_out
+        if so is not None:
+            # aileron or rudder out: the bank the authority left gives (monitor.py,
+            # _lateral_reaction), never under EOUT_BANK_MIN_DEG
+            share = 1.0 - abs(so["counter_rad"]) / LAT_DEFLECTION_RAD
+            roll_lim = min(roll_lim, max(roll_lim * share, math.radians(EOUT_BANK_MIN_DEG)))
         phi_c = min(max(bank_cmd_rad, -roll_lim), roll_lim)
 
         # altitude to climb rate (outer), climb rate to pitch (middle)
@@ -239,7 +250,25 @@ class FixedWingController:
             # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
             # (should the surface work again) trade height for speed
             dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
-        if abs(dv) > db and climb_override is None:
+        tout = self.throttle_out
+        if tout is not None and climb_override is None:
+            # throttle out: the airspeed on the pitch alone (no dead band); where the
+            # stuck throttle holds level flight the height demand still acts, traded
+            # against the airspeed as TECS does, else the height is given up: the glide
+            # at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
+            if tout["level"]:
+                # the airspeed the model says the stuck thrust holds level, if slower
+                # than the demand; the height is what the excess thrust gives, the climb
+                # free up to twice CLMB_MAX (a throttle stuck at full climbs at 3 m/s at
+                # the cruise airspeed; flying faster to climb less was tried: the pitch
+                # loop could not hold the steeper climb a slowing down needs, and the
+                # airspeed went 3 m/s over ARSPD_FBW_MAX)
+                v_t = min(airspeed_cmd_mps, tout["v_fly"])
+                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), 2.0 * p["CLMB_MAX"])
+            else:
+                v_t = max(tout["v_glide"], p["ARSPD_FBW_MIN"])
+                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), p["CLMB_MAX"])
+        elif abs(dv) > db and climb_override is None:
             hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
             hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
         q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
@@ -287,6 +316,16 @@ class FixedWingController:
                                    scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
         dr = min(max(p["YAW_KD"] * (r_c - float(omega[2])), -1.0), 1.0)
+        if so is not None:
+            # aileron or rudder out: the other surface at the deflection that holds the
+            # wings level against it (the airframe's model), the roll loop on top of it;
+            # a stuck aileron's roll loop acts through the rudder, scaled by the ratio of
+            # their rolling moments (the Aerosonde's rudder rolls more than it yaws)
+            ff = so["counter_rad"] / LAT_DEFLECTION_RAD
+            if so["surface"] == "aileron":
+                dr = min(max(ff + so["roll_gain"] * da, -1.0), 1.0)
+            else:
+                da = min(max(da + ff, -1.0), 1.0)
 
         self.roll_cmd_rad, self.pitch_cmd_rad, self.climb_cmd_mps = phi_c, theta_c, hdot_c
         self.last = (da, de, dr, thr)

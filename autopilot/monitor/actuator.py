@@ -151,39 +151,47 @@ class MomentBalance:
         self.suspended = on
 
     def identify(self, since_us: int, stuck: bool = False, recent_us: int | None = None) -> dict | None:
-        """The two hypotheses (2.23, 2.24) over the samples since ``since_us``; only the
-        stuck one with ``stuck`` (a surface already found stuck). The stuck position is
-        the mean of z since ``recent_us`` (the samples after the onset's transient) when
-        given and at least 10 samples hold it."""
-        h = [r for r in self.hist if r[0] >= since_us]
-        if len(h) < 10:
-            return None
-        z = np.array([r[1] for r in h])
-        d = np.array([r[2] for r in h])
-        dd = float(d @ d)
-        k = float(z @ d) / dd if dd > 0.0 else 0.0
-        sat = float(np.mean(np.abs(d) >= 0.98 * MAX_DEFLECTION_RAD))
-        s_now = float(np.mean(z))
-        recent = [r[1] for r in h if recent_us is not None and r[0] >= recent_us]
-        s_pos = float(np.mean(recent)) if len(recent) >= 10 else s_now
-        # the two fits' residual sums of squares: a stuck surface explains z far better
-        # than a loss of effectiveness when the command moves and z does not
-        rss_stuck = float(np.sum((z - s_now) ** 2))
-        rss_loe = float(np.sum((z - k * d) ** 2))
-        # the same test after the onset's transient (SETTLE_S after the window's start):
-        # z settles on a stuck position a few BAL_TAU_S after the onset, and the
-        # transient's spread counted against the stuck hypothesis
-        late = np.array([r[0] >= since_us + SETTLE_S * 1e6 for r in h])
-        if late.sum() >= 20:
-            zl, dl = z[late], d[late]
-            ddl = float(dl @ dl)
-            kl = float(zl @ dl) / ddl if ddl > 0.0 else 0.0
-            if float(np.sum((zl - zl.mean()) ** 2)) < RSS_STUCK * float(np.sum((zl - kl * dl) ** 2)):
-                rss_stuck = 0.0
-        if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
-                or rss_stuck < RSS_STUCK * rss_loe):
-            return {"stuck_rad": round(s_pos, 4)}
-        return {"effectiveness": round(k, 3)}
+        """The two hypotheses (2.23, 2.24) over the samples since ``since_us``
+        (:func:`identify_hist`)."""
+        return identify_hist(self.hist, since_us, stuck, recent_us)
+
+
+def identify_hist(hist: list, since_us: int, stuck: bool = False,
+                  recent_us: int | None = None, d_max: float = MAX_DEFLECTION_RAD) -> dict | None:
+    """The two hypotheses (2.23, 2.24) over the (t_us, z, delta_cmd) samples of ``hist``
+    since ``since_us``; only the stuck one with ``stuck`` (a surface already found stuck). The stuck position is
+    the mean of z since ``recent_us`` (the samples after the onset's transient) when
+    given and at least 10 samples hold it; ``d_max`` the command's full travel (its
+    saturation counts for the stuck hypothesis)."""
+    h = [r for r in hist if r[0] >= since_us]
+    if len(h) < 10:
+        return None
+    z = np.array([r[1] for r in h])
+    d = np.array([r[2] for r in h])
+    dd = float(d @ d)
+    k = float(z @ d) / dd if dd > 0.0 else 0.0
+    sat = float(np.mean(np.abs(d) >= 0.98 * d_max))
+    s_now = float(np.mean(z))
+    recent = [r[1] for r in h if recent_us is not None and r[0] >= recent_us]
+    s_pos = float(np.mean(recent)) if len(recent) >= 10 else s_now
+    # the two fits' residual sums of squares: a stuck surface explains z far better
+    # than a loss of effectiveness when the command moves and z does not
+    rss_stuck = float(np.sum((z - s_now) ** 2))
+    rss_loe = float(np.sum((z - k * d) ** 2))
+    # the same test after the onset's transient (SETTLE_S after the window's start):
+    # z settles on a stuck position a few BAL_TAU_S after the onset, and the
+    # transient's spread counted against the stuck hypothesis
+    late = np.array([r[0] >= since_us + SETTLE_S * 1e6 for r in h])
+    if late.sum() >= 20:
+        zl, dl = z[late], d[late]
+        ddl = float(dl @ dl)
+        kl = float(zl @ dl) / ddl if ddl > 0.0 else 0.0
+        if float(np.sum((zl - zl.mean()) ** 2)) < RSS_STUCK * float(np.sum((zl - kl * dl) ** 2)):
+            rss_stuck = 0.0
+    if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
+            or rss_stuck < RSS_STUCK * rss_loe):
+        return {"stuck_rad": round(s_pos, 4)}
+    return {"effectiveness": round(k, 3)}
 
 
 class ElevatorIdentifier:

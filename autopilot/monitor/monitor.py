@@ -81,6 +81,10 @@ FDI_PARAMS = (
           is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
+    Param("FDI_LAT_ID", 1.0, 0.0, 1.0, "bool", "aileron and rudder fault detection and identification "
+          "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
+    Param("FDI_THR_ID", 1.0, 0.0, 1.0, "bool", "throttle fault detection and identification (the "
+          "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True),
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
@@ -98,6 +102,7 @@ _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
 NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
                                 # with no level trim in a row: said (and terminated)
+RHO0_ISA = 1.225                # sea-level density [kg/m^3]
 _GPS_HZ = 5.0                   # GPS fix rate (SensorParams.gps_rate_hz, u-blox M8N) [Hz]
 _AUX_HZ = 25.0                  # baro, mag, airspeed fusion rate of the filter (nav/base.py) [Hz]
 
@@ -218,6 +223,25 @@ class FaultMonitor:
             model = self.airframe = MODELS.get(int(p["FDI_EL_MODEL"]))
             self.elevator = ElevatorIdentifier(alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
                                                model=model)
+        # aileron and rudder identification, autopilot/monitor/lateral.py
+        self.lateral = None
+        if p["FDI_ACT_ID"] >= 1 and p["FDI_LAT_ID"] >= 1 and int(p["FDI_EL_MODEL"]) >= 1:
+            from .lateral import LAT_MODELS, LateralIdentifier
+            lat = LAT_MODELS.get(int(p["FDI_EL_MODEL"]))
+            if lat is not None:
+                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+                self.lateral_model = lat
+        # the throttle's, autopilot/monitor/throttle.py
+        self.throttle = None
+        if p["FDI_ACT_ID"] >= 1 and p["FDI_THR_ID"] >= 1 and int(p["FDI_EL_MODEL"]) >= 1:
+            from .throttle import THRUST_MODELS, ThrottleIdentifier
+            thm = THRUST_MODELS.get(int(p["FDI_EL_MODEL"]))
+            if thm is not None:
+                self.throttle = ThrottleIdentifier(thm, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+        self._act_idents = tuple(i for i in (self.lateral, self.throttle) if i is not None)
+        self.throttle_out: dict | None = None  # a stuck throttle's reaction (_throttle_reaction)
+        self.stuck_surface: dict = {}          # "aileron"/"rudder"/"throttle" -> stuck position (latched)
+        self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
         self._ident_next_s = 0.0
         self.elevator_fault_s: float | None = None     # an elevator actuator fault found (latched)
         self.elevator_stuck_rad: float | None = None   # latched once identified stuck
@@ -315,8 +339,13 @@ class FaultMonitor:
         if self._el_k & 1:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
-        el.suspend(self.detected and self.episodes[-1].kind != "actuator")
+        sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
+        el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
+        if len(controls) >= 4:
+            for ident in self._act_idents:
+                ident.suspend(sensor_fault)
+                ident.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
         el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
                 float(controls[3]) if len(controls) > 3 else 0.0,
                 None if f is None else -f[2] / G0)
@@ -329,6 +358,17 @@ class FaultMonitor:
             r_el = el.ratio / self.p["FDI_ACT_THR"]
             if r_el > self.peaks.get("elevator", 0.0):
                 self.peaks["elevator"] = r_el
+            best, r_best = None, 0.0
+            for ident in self._act_idents:
+                for name, ax in ident.axes.items():
+                    r = ax.ratio / self.p["FDI_ACT_THR"]
+                    if r > self.peaks.get(name, 0.0):
+                        self.peaks[name] = r
+                    if r > r_best:
+                        best, r_best = name, r
+            if quiet and r_best > 1.0 and r_best > r_el:
+                self._lateral_detected(t_us, best, r_best)
+                return
             if quiet and r_el > 1.0:
                 # residual of the pitch model high, navigation innovations white: an
                 # actuator fault (the INS/GPS filter is insensitive to actuator faults)
@@ -348,6 +388,11 @@ class FaultMonitor:
                 self._elevator_provisional(t_s, count=False)
             return
         ep = self.episodes[-1]
+        if ep.kind == "actuator" and ep.isolated in ("aileron", "rudder", "throttle"):
+            if t_s >= self._ident_next_s:
+                self._ident_next_s = t_s + 1.0
+                self._lateral_identify(t_s, ep)
+            return
         if ep.kind == "actuator" and t_s >= self._ident_next_s:
             self._ident_next_s = t_s + 1.0
             ep.identified = el.identified(stuck=self.elevator_stuck_rad is not None)
@@ -361,6 +406,134 @@ class FaultMonitor:
                 self._elevator_trim(t_s, stuck)
             else:
                 self._elevator_provisional(t_s)
+
+    def _lateral_detected(self, t_us: int, name: str, ratio: float) -> None:
+        """The lateral balance's residual over its threshold on ``name`` with the
+        navigation innovations white: an aileron or rudder actuator fault (an episode that
+        stays open, as the elevator's)."""
+        t_s = t_us * 1e-6
+        self.detected = True
+        self._quiet_us = None
+        ep = Episode(round(t_s, 3), name, name, round(t_s, 3), kind="actuator", isolated_all=[name])
+        ep.ident_log = []
+        self.episodes.append(ep)
+        self.isolated = name
+        for ident in self._act_idents:
+            ident.freeze(t_us)
+        self.elevator.freeze(t_us)
+        self._ident_next_s = t_s + 1.0
+        self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {name} "
+                                              f"(statistic {ratio:.1f}x threshold)"))
+        self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} actuator fault isolated"))
+        # the reaction at once, from the deflection flown over the last second: a stuck
+        # aileron rolls the aircraft over within seconds (measured: 0.1 rad, 74 deg of bank
+        # 4 s after the onset), before the identification
+        h = self._ident_of(name).axes[name].hist
+        t_end = h[-1][0] - 1_000_000 if h else 0
+        zs = [z for (t, z, _) in h if t >= t_end]
+        if zs:
+            if name == "throttle":
+                self._throttle_reaction(t_s, min(max(sum(zs) / len(zs), 0.0), 1.0), final=False)
+            else:
+                self._lateral_reaction(t_s, name, sum(zs) / len(zs), final=False)
+
+    def _ident_of(self, name: str):
+        return next(i for i in self._act_idents if name in i.axes)
+
+    def _throttle_reaction(self, t_s: float, value: float, final: bool) -> None:
+        """The reaction to a throttle held at ``value`` (control/fixed_wing.py,
+        "throttle out"): the airspeed flown on the pitch, the height what the thrust
+        gives. Where the model (thrust curve against the level drag at TRIM_ARSPD) says
+        the throttle cannot hold level flight, the aircraft descends at the airspeed,
+        and the failsafe is RTL (ArduPlane's RTL, with RTL_AUTOLAND its landing), as
+        ArduPlane's battery / throttle failsafes choose; where it can, at the fastest
+        airspeed from the cruise down whose level drag the stuck thrust meets. Said by
+        STATUSTEXT."""
+        m = self.throttle.model
+        # the fastest airspeed, from the cruise (TRIM_ARSPD's default, 25 m/s) down to 1.3
+        # times the slowest level flight (the stall margin), where the stuck throttle's
+        # thrust still meets the level drag: the airspeed to fly on the pitch
+        v_min = 1.3 * (self.airframe.v_level_min_mps if self.airframe is not None else 15.0)
+        v_fly, excess = None, -1e9
+        for i in range(51):
+            v = 25.0 - i * (25.0 - v_min) / 50.0
+            e = m.thrust_at(value, v) - m.level_drag(v)
+            if e >= 0.0:
+                v_fly, excess = v, e
+                break
+            excess = max(excess, e)
+        level = v_fly is not None
+        v = v_fly if level else 25.0
+        # the glide: at the best lift-to-drag ratio's airspeed, C_L = sqrt(C_D0 / k)
+        # (Beard & McLain eq 4.11's polar), the controller never under ARSPD_FBW_MIN
+        cl_md = math.sqrt(m.CD0 / m.k_CD)
+        v_glide = math.sqrt(2.0 * m.mass_kg * G0 / (RHO0_ISA * m.wing_area_m2 * cl_md))
+        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide, "v_fly": v}
+        sink = max(-excess * 25.0 / (m.mass_kg * G0), 0.0)
+        if level:
+            self.events.append((t_s, SEV_WARNING, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
+                                                  f"airspeed {v:.0f} m/s flown on the pitch, height free "
+                                                  f"(up to {excess * v / (m.mass_kg * G0):.1f} m/s of climb)"))
+        else:
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
+                                                   f"no level flight ({sink:.1f} m/s sink at 25 m/s): "
+                                                   f"airspeed on the pitch"
+                                                   + (", failsafe RTL" if final else "")))
+            # the failsafe on the identification, not on the detection's provisional
+            # reading (the first second's deflection carries the onset's transient)
+            if final and not self._fs_done:
+                self._fs_done = True
+                self.failsafe = "RTL"
+
+    def _lateral_reaction(self, t_s: float, name: str, value: float, final: bool) -> None:
+        """The reaction the airframe's model gives ``name`` held at ``value`` [rad]:
+        the other surface's deflection that holds the wings level (LateralAero.counter;
+        for a stuck aileron the roll loop then acts through the rudder, with the
+        rolling-moment ratio of the two, LateralAero.roll_gain), and the steepest bank
+        the authority left on it gives: ROLL_LIMIT_DEG scaled by the share of its travel
+        not used to counter (a decision: the rolling moment of a coordinated turn is
+        small, what limits a turn is the margin left to roll out of it), not under
+        10 deg. Said by STATUSTEXT at the detection (provisional) and at the stuck
+        identification."""
+        m = self.lateral_model
+        from .actuator import MAX_DEFLECTION_RAD
+        counter = m.counter(name, value)
+        share = 1.0 - abs(counter) / MAX_DEFLECTION_RAD
+        other = "rudder" if name == "aileron" else "aileron"
+        self.surface_out = {"surface": name, "stuck_rad": value, "counter_rad": counter,
+                            "roll_gain": m.roll_gain(name), "authority": share}
+        if share <= 0.0:
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} stuck at {value:.3f} rad: the {other} "
+                                                   f"cannot hold the wings level ({counter:.2f} rad needed)"))
+        else:
+            what = "roll on the rudder" if name == "aileron" else "yaw damper off"
+            self.events.append((t_s, SEV_WARNING, f"FDI: {name} {'stuck' if final else 'out'} at {value:.3f} rad: "
+                                                  f"{other} {counter:+.3f} rad to counter, {what}, "
+                                                  f"{share:.0%} of its travel left for turns"))
+
+    def _lateral_identify(self, t_s: float, ep: Episode) -> None:
+        """Once a second: the surface's identification; stuck latches (said once)."""
+        name = ep.isolated
+        ident = self._ident_of(name).identified(name, stuck=name in self.stuck_surface)
+        if ident is None:
+            return
+        ep.identified = ident
+        ep.ident_log.append((round(t_s, 3), ident))
+        stuck = ident.get("stuck_rad", ident.get("stuck"))
+        if stuck is not None and name == "throttle":
+            if name not in self.stuck_surface:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle identified stuck at {stuck:.2f}"))
+                self._throttle_reaction(t_s, stuck, final=True)
+            self.stuck_surface[name] = stuck
+        elif stuck is not None:
+            if name not in self.stuck_surface:
+                self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} identified stuck at {stuck:.3f} rad"))
+                self._lateral_reaction(t_s, name, stuck, final=True)
+            elif self.surface_out is not None:
+                # the position refined as the transient settles (not said again)
+                self.surface_out["stuck_rad"] = stuck
+                self.surface_out["counter_rad"] = self.lateral_model.counter(name, stuck)
+            self.stuck_surface[name] = stuck
 
     def _elevator_provisional(self, t_s: float, count: bool = True) -> None:
         """Until the surface is identified stuck: the reaction of the deflection the

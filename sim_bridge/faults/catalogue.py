@@ -30,6 +30,9 @@ north_m       gps wrong: position offset north [m]        20 if no offset given
 east_m        gps wrong: position offset east [m]         0
 value_rad     servo stuck: surface deflection [rad],      the last command
               normalised by the 0.35 rad max deflection
+value         servo stuck: the normalised command held    the last command
+              (-1..1; the throttle, channel 3, 0..1);
+              not with value_rad
 effectiveness servo/motor wrong: command multiplier 0..1  0.5
 ============  ==========================================  ===========================
 """
@@ -88,16 +91,16 @@ SUPPORTED: dict[str, dict[str, tuple[str, ...]]] = {
     "airspeed": _SCALAR_SENSOR_TYPES,
     "gps": dict(_SENSOR_TYPES, garbage=("noise_scale", "vel_noise_scale"),
                 wrong=("offset_m", "north_m", "east_m")),
-    "servo": {"ok": (), "off": (), "stuck": ("value_rad",), "wrong": ("effectiveness",)},
+    "servo": {"ok": (), "off": (), "stuck": ("value_rad", "value"), "wrong": ("effectiveness",)},
     "motor": {"ok": (), "off": (), "stuck": (), "wrong": ("effectiveness",)},
 }
 
-ALL_MAGNITUDES = ("bias", "noise_scale", "vel_noise_scale", "value_rad", "axis", "effectiveness", "delay_s",
+ALL_MAGNITUDES = ("bias", "noise_scale", "vel_noise_scale", "value_rad", "value", "axis", "effectiveness", "delay_s",
                   "offset_m", "north_m", "east_m", "rate_div", "drop_prob")
 
 DEFAULT_BIAS = {"gyro": 0.1, "accel": 1.0, "mag": 0.2, "baro": 20.0, "airspeed": 50.0}
 DEFAULTS = {"noise_scale": 10.0, "vel_noise_scale": None, "axis": None, "rate_div": 5, "delay_s": 0.5,
-            "drop_prob": 0.5, "effectiveness": 0.5, "value_rad": None,
+            "drop_prob": 0.5, "effectiveness": 0.5, "value_rad": None, "value": None,
             "offset_m": 0.0, "north_m": 0.0, "east_m": 0.0}
 DEFAULT_GPS_OFFSET_NORTH_M = 20.0
 
@@ -190,9 +193,13 @@ def check_magnitudes(unit: str, ftype: str, magnitudes: dict) -> dict:
                 raise FaultSpecError(f"{key} must be >= 1, not {v}", key)
             if key == "delay_s" and not 0.0 <= v <= 60.0:
                 raise FaultSpecError(f"delay_s must be in [0, 60], not {v}", key)
+            if key == "value" and not -1.0 <= v <= 1.0:
+                raise FaultSpecError(f"value must be in [-1, 1], not {v}", key)
             if key in ("drop_prob", "effectiveness") and not 0.0 <= v <= 1.0:
                 raise FaultSpecError(f"{key} must be in [0, 1], not {v}", key)
         out[key] = v
+    if magnitudes.get("value") is not None and magnitudes.get("value_rad") is not None:
+        raise FaultSpecError("give value_rad or value, not both", "value")
     if unit == "gps" and ftype == "wrong" and not any(
             k in magnitudes for k in ("offset_m", "north_m", "east_m")):
         out["north_m"] = DEFAULT_GPS_OFFSET_NORTH_M

@@ -28,7 +28,8 @@ Behaviour per failure type (an "update" is every step for the IMU, and a step wh
 * ``intermittent``: each update is dropped with probability ``drop_prob`` (held, flag
   False; a dropped GPS fix is simply missing).
 * actuators: servo (instance = control channel) ``off`` = surface at neutral (0),
-  ``stuck`` = held at ``value_rad`` / 0.35 rad (clipped to +-1) or, without value_rad,
+  ``stuck`` = held at ``value_rad`` / 0.35 rad (clipped to +-1), or at the normalised
+  ``value`` (the throttle's natural unit), or, without either,
   at the command of the step before the fault, ``wrong`` = loss of effectiveness
   (command x ``effectiveness``; for a thrust-scaled motor, see ``thrust_motors``, the
   thrust x ``effectiveness``); motor (instance = index into ``motor_channels``)
@@ -173,7 +174,9 @@ class FaultInjector:
             return True
         held = None
         if t == "stuck":
-            if u == "servo" and mags.get("value_rad") is not None:
+            if u == "servo" and mags.get("value") is not None:
+                held = float(mags["value"])
+            elif u == "servo" and mags.get("value_rad") is not None:
                 held = max(-1.0, min(1.0, mags["value_rad"] / MAX_DEFLECTION_RAD))
             elif channel < len(self._last_controls):
                 held = float(self._last_controls[channel])

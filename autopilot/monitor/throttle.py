@@ -1,0 +1,171 @@
+"""Throttle fault detection and identification for the fixed wing: the thrust balance
+(course text ch. 8 sec. 2.2.3, eqs 2.18-2.24, the same two stages as :mod:`.actuator`
+and :mod:`.lateral`).
+
+Stage 1: the thrust the aircraft flies with, from the accelerometer's body-x specific
+force and the aerodynamic force of the airframe's model (Beard & McLain 2012, eqs 4.18-
+4.19: body-x force = T + qbar S (C_L sin(alpha) - C_D cos(alpha)); C_L from the measured
+normal specific force, ``C_L ~ -m f_z / (qbar S)``, alpha from that lift and the
+commanded elevator through the lift curve (the wind estimate, still settling in the
+climb-out, gave alpha errors of a few hundredths of a radian: 0.3 of full throttle); C_D the quadratic polar
+``C_D0 + k (C_L0 + C_La alpha)^2``, eq 4.11), then the throttle that thrust means by the
+airframe's thrust curve ``T = throttle (a + b V) + c + d V`` (:class:`ThrustModel`).
+z - throttle_cmd is the residual, tested as the surfaces' (window chi-square, its offset
+learnt online on ``[1, V / V_ref - 1]``, its variance learnt FIT_DELAY_S late).
+
+The thrust curve is the shipped aircraft's (its JSBSim electric motor, 1000 W, and the
+APC 18x8 propeller table), measured as a thrust stand in a wind tunnel would: the plant
+trimmed in level flight at 18, 21, ... 33 m/s, the throttle set to 0, 0.1, ... 1 and
+held 1.5 s, the engine's thrust read; the curve's least-squares fit to those 66 points
+is within 0.26 N rms (at cruise a tenth of the throttle is 2.8 N of the aircraft's
+11 N of drag). The thrust estimated in flight carries the drag polar's errors as well:
+on fault-free default flights its residual has a standard deviation of about 0.1 of
+full throttle, so a throttle stuck near the command is seen only once the command moves
+away from it, while one stuck at full is 0.6 above the cruise command at once.
+
+Stage 2 as :func:`.actuator.identify_hist` (stuck at what position, or weakened).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
+                       identify_hist)
+from .lateral import TEST_DIV, V_REF, _Axis
+from .stats import family_alpha
+
+RHO0 = 1.225
+G0 = 9.80665
+THR_RES_FLOOR = 0.05            # floor of the residual standard deviation [full throttle]
+THR_OFFSET_SD = 0.1             # prior standard deviation of the learnt offset [full throttle]
+THR_FIT_NOISE = 0.1             # each 10 Hz fit sample's weight against that prior
+
+
+@dataclass(frozen=True)
+class ThrustModel:
+    """Drag polar and thrust curve of an airframe (module docstring)."""
+
+    name: str
+    mass_kg: float
+    wing_area_m2: float
+    CL0: float
+    CLa: float
+    CLde: float
+    CD0: float
+    k_CD: float                # C_D = CD0 + k_CD (CL0 + CLa alpha)^2
+    a: float                   # T = throttle (a + b V) + c + d V   [N, V in m/s]
+    b: float
+    c: float
+    d: float
+
+    def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float) -> float:
+        """The thrust [N] the measured specific force (body FRD, m/s^2) means, with the
+        elevator's deflection (autopilot convention, nose up positive) [rad]."""
+        qS = 0.5 * RHO0 * V * V * self.wing_area_m2
+        CL = -self.mass_kg * f_z / qS
+        # alpha from the lift: C_L = C_L0 + C_La alpha + C_Lde de, de = -elevator
+        alpha = (CL - self.CL0 + self.CLde * elevator_rad) / self.CLa
+        CLl = self.CL0 + self.CLa * alpha
+        CD = self.CD0 + self.k_CD * CLl * CLl
+        return self.mass_kg * f_x - qS * (CL * math.sin(alpha) - CD * math.cos(alpha))
+
+    def throttle_for(self, thrust: float, V: float) -> float:
+        """The throttle that gives ``thrust`` at airspeed V (the curve inverted)."""
+        return (thrust - self.c - self.d * V) / (self.a + self.b * V)
+
+    def thrust_at(self, throttle: float, V: float) -> float:
+        return throttle * (self.a + self.b * V) + self.c + self.d * V
+
+    def level_drag(self, V: float) -> float:
+        """The drag of level, unaccelerated flight at airspeed V [N]."""
+        qS = 0.5 * RHO0 * V * V * self.wing_area_m2
+        CL = self.mass_kg * G0 / qS
+        return qS * (self.CD0 + self.k_CD * CL * CL)
+
+
+# the Aerosonde (sim_bridge/aircraft/aerosonde/aerosonde.xml: CL-linear, CD-alpha; the
+# thrust curve fitted as the module docstring says)
+AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0=0.28, CLa=3.45,
+                               CLde=-0.36, CD0=0.0437, k_CD=0.0232,
+                               a=46.979, b=-0.778, c=4.465, d=-0.177)
+
+THRUST_MODELS = {1: AEROSONDE_THRUST}
+
+
+class ThrottleIdentifier:
+    """Throttle fault detection and identification (module docstring); the same
+    interface as :class:`.lateral.LateralIdentifier` with the one axis "throttle"."""
+
+    def __init__(self, model: ThrustModel, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01):
+        self.model = model
+        tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
+        self.axes = {"throttle": _Axis("throttle", window, alpha, family_alpha(p_fa, tests_per_hour),
+                                       floor=THR_RES_FLOOR, offset_sd=THR_OFFSET_SD,
+                                       fit_noise=THR_FIT_NOISE)}
+        self._lp = None
+        self._t_us = None
+        self._next_us = 0
+        self._k = 0
+        self._t0_us = None
+        self.frozen = False
+        self.suspended = False
+        self._fault_us = None
+
+    def freeze(self, t_us: int) -> None:
+        self.frozen = True
+        self.axes["throttle"].queue.clear()
+        self._fault_us = t_us - 1_000_000
+
+    def suspend(self, on: bool) -> None:
+        if on and not self.suspended:
+            self.axes["throttle"].queue.clear()
+        self.suspended = on
+
+    def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> None:
+        V = nav.airspeed_mps
+        if not flying or V < 10.0 or f_b is None:
+            self._lp = None
+            return
+        x = [float(f_b[0]), float(f_b[2]), float(controls[1]) * MAX_DEFLECTION_RAD, V,
+             float(controls[3])]
+        if self._lp is None:
+            self._lp, self._t_us = list(x), t_us
+            if self._t0_us is None:
+                self._t0_us = t_us
+            return
+        dt = (t_us - self._t_us) * 1e-6
+        self._t_us = t_us
+        if dt <= 0.0:
+            return
+        a = dt / (BAL_TAU_S + dt)
+        lp = self._lp
+        for i in range(len(x)):
+            lp[i] += a * (x[i] - lp[i])
+        if t_us < self._next_us:
+            return
+        self._next_us = t_us + BAL_PERIOD_US
+        m = self.model
+        z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2]), lp[3])
+        self._k += 1
+        k_test = self._k >= TEST_DIV
+        if k_test:
+            self._k = 0
+        self.axes["throttle"].step(t_us, np.array((1.0, lp[3] / V_REF - 1.0)), z, lp[4],
+                                   None if self.frozen or self.suspended
+                                   else t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
+
+    def worst(self) -> tuple[str, float]:
+        return "throttle", self.axes["throttle"].ratio
+
+    def identified(self, name: str = "throttle", stuck: bool = False) -> dict | None:
+        if self._fault_us is None:
+            return None
+        recent = None if self._t_us is None else self._t_us - int(IDENT_WIN_S * 1e6)
+        r = identify_hist(self.axes["throttle"].hist, self._fault_us, stuck, recent, d_max=1.0)
+        if r is not None and "stuck_rad" in r:
+            # the throttle is no angle: its stuck position as a fraction of full, clipped
+            return {"stuck": round(min(max(r["stuck_rad"], 0.0), 1.0), 3)}
+        return r

@@ -1,0 +1,167 @@
+"""Aileron, rudder and throttle actuator faults (autopilot/monitor/lateral.py,
+autopilot/monitor/throttle.py): the models carry the shipped aircraft's numbers, each
+stuck control is detected, identified and answered (figures: docs/status.md, "Faults
+and the monitor": stuck aileron, rudder, throttle)."""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autopilot.monitor.lateral import AEROSONDE_LAT
+from autopilot.monitor.throttle import AEROSONDE_THRUST
+from sim_bridge.faults.catalogue import FaultSpecError, check_magnitudes
+from sim_bridge.plants.jsbsim_plane import JSBSimPlane
+from tools.runner import MISSIONS_DIR, RunConfig, Session
+from tools.summary import run_summary
+
+ROOT = Path(__file__).resolve().parent.parent
+XML = ROOT / "sim_bridge" / "aircraft" / "aerosonde" / "aerosonde.xml"
+
+
+def _values(root, name: str) -> list[float]:
+    f = root.find(f".//function[@name='{name}']")
+    assert f is not None, name
+    return [float(v.text) for v in f.iter("value")]
+
+
+def test_lateral_and_drag_coefficients_are_those_of_the_jsbsim_file():
+    # GIVEN the Aerosonde's JSBSim file; THEN the lateral model and the drag polar carry
+    # its numbers (the cross inertia with the book's sign: JSBSim's is -0.1204)
+    root = ET.parse(XML).getroot()
+    m = AEROSONDE_LAT
+    assert float(root.find("metrics/wingspan").text) == m.span_m
+    assert [float(root.find(f"mass_balance/{k}").text) for k in ("ixx", "iyy", "izz", "ixz")] == \
+        [m.Jx, m.Jy, m.Jz, -m.Jxz]
+    assert _values(root, "aero/force/side-beta") == [m.CY_b]
+    assert _values(root, "aero/force/side-rudder") == [m.CY_dr]
+    for axis, coef in (("roll", "Cl"), ("yaw", "Cn")):
+        for term, key in (("beta", "b"), ("p", "p"), ("r", "r"), ("aileron", "da"), ("rudder", "dr")):
+            assert _values(root, f"aero/moment/{axis}-{term}") == [getattr(m, f"{coef}_{key}")]
+    v = _values(root, "aero/aerosonde/CD-alpha")
+    assert (v[0], v[2]) == (AEROSONDE_THRUST.CD0, AEROSONDE_THRUST.k_CD)
+
+
+@pytest.mark.parametrize("speed, throttle", [(20.0, 0.3), (25.0, 0.45), (30.0, 1.0)])
+def test_thrust_curve_is_the_plants_within_half_a_newton(speed, throttle):
+    # GIVEN the plant trimmed level, the throttle set and held 1.5 s; THEN its engine's
+    # thrust is the model's curve within 0.5 N (the fit's rms: 0.26 N)
+    plant = JSBSimPlane(home=(47.0, 8.0, 0.0, 0.0))
+    c = plant.trim(airspeed_mps=speed, height_m=300.0)
+    plant.step(replace(c, throttle=throttle), n_steps=300)
+    thrust = plant._fdm["propulsion/engine/thrust-lbs"] * 4.44822
+    v = plant._fdm["velocities/vc-kts"] * 0.514444
+    assert abs(AEROSONDE_THRUST.thrust_at(throttle, v) - thrust) <= 0.5
+
+
+def test_counter_deflection_holds_the_moments_at_zero():
+    # GIVEN the aileron stuck at 0.1 rad; THEN the rudder the model gives, with the
+    # sideslip it leaves, makes the rolling and yawing moments zero (wings level, no
+    # rates): the reaction's feed-forward
+    m = AEROSONDE_LAT
+    dr = m.counter("aileron", 0.1)
+    beta = -(m.Cn_da * 0.1 + m.Cn_dr * -dr) / m.Cn_b
+    assert abs(m.Cl_b * beta + m.Cl_da * 0.1 + m.Cl_dr * -dr) < 1e-12
+    assert 0.1 < dr < 0.35          # within the rudder's travel: the aircraft can be held
+
+
+def test_stuck_value_magnitude_is_checked():
+    # the throttle's natural unit: a normalised value; refused out of range or with
+    # value_rad as well (a clear error, nothing applied)
+    assert check_magnitudes("servo", "stuck", {"value": 0.3})["value"] == 0.3
+    with pytest.raises(FaultSpecError, match=r"value must be in \[-1, 1\]"):
+        check_magnitudes("servo", "stuck", {"value": 1.5})
+    with pytest.raises(FaultSpecError, match="not both"):
+        check_magnitudes("servo", "stuck", {"value": 0.3, "value_rad": 0.1})
+
+
+def _scenario(tmp_path, instance: int, key: str, value: float, at_s: float = 60.0) -> Path:
+    scen = tmp_path / f"stuck_{instance}_{value}.toml"
+    scen.write_text('[wind]\nspeed_mps = 5.0\nfrom_deg = 270.0\nturbulence = "light"\n\n'
+                    f'[[event]]\nat_s = {at_s}\nunit = "servo"\ntype = "stuck"\ninstance = {instance}\n'
+                    f'{key} = {value}\n')
+    return scen
+
+
+def _fly(scen: Path, duration_s: float, seed: int = 1, **params):
+    s = Session(RunConfig(scenario=scen, duration_s=duration_s, seed=seed, param_overrides=params))
+    s.run()
+    return s, run_summary(s)
+
+
+@pytest.mark.parametrize("instance, name, value", [(0, "aileron", -0.05), (2, "rudder", 0.1)])
+def test_stuck_surface_detected_and_identified(tmp_path, instance, name, value):
+    # GIVEN the aileron stuck at -0.05 rad or the rudder at 0.1 rad at 60 s (seed 1)
+    s, summ = _fly(_scenario(tmp_path, instance, "value_rad", value), 75.0)
+    f = summ["faults"][0]
+    # THEN an actuator fault on that surface, detected within 3 s, identified stuck
+    #      within 0.015 rad 10 s after the onset (measured: 1.2 s, -0.057; 2.2 s, 0.100),
+    #      the other surface countering it, still flying
+    assert f["kind"] == "actuator" and f["isolated"] == name and f["isolated_all"] == [name]
+    assert f["delay_s"] is not None and f["delay_s"] <= 3.0
+    assert abs(f["identified_10s"]["stuck_rad"] - value) <= 0.015, f
+    assert s.vehicle.ctrl.surface_out is not None and not s.crashed
+    assert summ["false_alarms"] == 0
+
+
+def test_stuck_aileron_countered_by_the_rudder_or_the_aircraft_is_lost(tmp_path):
+    # GIVEN the aileron stuck at 0.1 rad at 60 s: unanswered the aircraft rolls over
+    scen = _scenario(tmp_path, 0, "value_rad", 0.1)
+    s, summ = _fly(scen, 80.0)
+    f = summ["faults"][0]
+    # THEN detected within 3 s and identified within 0.015 rad (measured 1.2 s, 0.102),
+    assert f["isolated"] == "aileron" and f["delay_s"] <= 3.0
+    assert abs(f["identified_10s"]["stuck_rad"] - 0.1) <= 0.015, f
+    texts = [e[1] for e in s.log.events]
+    assert "aileron out: roll flown on the rudder" in texts
+    assert any(t.startswith("FDI: aileron stuck at 0.") and "roll on the rudder" in t for t in texts), texts
+    # AND the rudder holds the wings: bank within 60 deg from 3 s after the onset,
+    #     the rudder's mean deflection the model's counter (0.12 rad = 0.35) within 0.15
+    a = s.log.arrays()
+    late = a["t_s"] >= 66.0
+    assert np.degrees(np.abs(a["truth_roll_rad"][late])).max() <= 60.0
+    assert abs(a["ctl_rudder"][late].mean() - 0.35) <= 0.15
+    assert not s.crashed
+    # AND without the reaction (LOUT_ENABLE = 0) the same flight is lost
+    s0, _ = _fly(scen, 80.0, LOUT_ENABLE=0)
+    assert s0.crashed
+
+
+def test_throttle_stuck_at_full_airspeed_on_the_pitch(tmp_path):
+    # GIVEN the throttle stuck at full at 60 s (seed 1)
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_full.toml", 100.0)
+    f = summ["faults"][0]
+    # THEN detected within 3 s, identified stuck within 0.1 of full 10 s after the onset
+    #      (measured: 2.2 s, 1.0), the airspeed flown on the pitch: within 20-31.5 m/s
+    #      (ARSPD_FBW_MIN..MAX and the gusts) from 10 s after the onset, climbing
+    assert f["isolated"] == "throttle" and f["delay_s"] is not None and f["delay_s"] <= 3.0
+    assert f["identified_10s"]["stuck"] >= 0.9, f
+    assert s.vehicle.ctrl.throttle_out is not None and s.vehicle.ctrl.throttle_out["level"]
+    a = s.log.arrays()
+    late = a["t_s"] >= 70.0
+    v = a["truth_airspeed_mps"][late]
+    assert v.min() >= 20.0 and v.max() <= 31.5, (v.min(), v.max())
+    assert not s.crashed and summ["false_alarms"] == 0
+
+
+def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
+    # GIVEN the throttle stuck at 0.3 at 60 s (cruise needs about 0.4: a tenth of the
+    #       throttle is under 3 N of thrust, within the thrust balance's noise)
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 80.0)
+    f = summ["faults"][0]
+    # THEN it is found once the airspeed loop has moved the command away from it: within
+    #      8 s (measured 5.7 s; the issue's 3 s is not met near the command, docs/status.md),
+    #      identified stuck within 0.05 10 s after the onset (measured 0.302)
+    assert f["isolated"] == "throttle" and f["delay_s"] is not None and f["delay_s"] <= 8.0
+    assert abs(f["identified_10s"]["stuck"] - 0.3) <= 0.05, f
+    # AND the model says 0.3 holds level flight slower than the cruise: that airspeed is
+    #     flown on the pitch, no RTL, still flying, within 40 m of the mission's height
+    to = s.vehicle.ctrl.throttle_out
+    assert to is not None and to["level"] and 19.9 <= to["v_fly"] < 25.0, to
+    assert s.vehicle.monitor.failsafe is None and not s.crashed
+    a = s.log.arrays()
+    late = a["t_s"] >= 70.0
+    assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 40.0
