@@ -438,7 +438,7 @@ class PlaneVehicle(VehicleBase):
         if not self.armed or self.landed:
             return False
         land = self.sequencer.landing if self.sequencer is not None else None
-        return land is None or land.phase == "approach"
+        return land is None or land.phase in ("approach", "descend")
 
     def go_around(self, alt_m: float, t_us: int) -> str | None:
         """MAV_CMD_DO_GO_AROUND: abandon the landing being flown in AUTO (climb to

@@ -129,6 +129,87 @@ def test_rtl_with_rtl_autoland_lands_through_the_do_land_start_sequence():
     assert "RTL_AUTOLAND: landing sequence from item #12" in [t for _, _, t in s.vehicle.notices]
 
 
+# --- approaches that start high or fast: flown down, not gone around forever ----------
+
+HOME = (-35.363262, 149.165237, 584.0)
+
+
+def _wpl(tmp_path, rows, name):
+    """A QGC WPL mission at HOME: rows of (command, frame, params 1-4, north, east,
+    altitude), positions in metres NE of home (frame 2: none)."""
+    fr = LocalFrame.from_degrees(*HOME)
+    lines = ["QGC WPL 110", f"0\t1\t0\t16\t0\t0\t0\t0\t{HOME[0]}\t{HOME[1]}\t{HOME[2]}\t1"]
+    for i, (cmd, frame, p1, p2, p3, p4, n, e, h) in enumerate(rows, 1):
+        lat, lon = (0.0, 0.0)
+        if frame != 2:
+            la, lo, _ = fr.to_geodetic_fast((n, e, 0.0))
+            lat, lon = math.degrees(la), math.degrees(lo)
+        lines.append(f"{i}\t0\t{frame}\t{cmd}\t{p1}\t{p2}\t{p3}\t{p4}\t{lat:.7f}\t{lon:.7f}\t{h}\t1")
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _fly_file(path, seed, wind, during=None, turbulence="light"):
+    cfg = RunConfig(mission=path, seed=seed, wind=wind, turbulence=turbulence,
+                    param_overrides=dict(FAST), duration_s=900.0)
+    s = Session(cfg)
+    while s.t_s < cfg.duration_s and not s.done():
+        s.step()
+        if during is not None:
+            during(s)
+    return run_summary(s), s
+
+
+def test_an_approach_started_far_above_its_glide_slope_loses_the_height_first(tmp_path):
+    """The random-plane campaign's class (trials 107, 276, 337, 379, ...): the landing's
+    base leg too short to descend on, the approach starts 60-100 m above its slope; it
+    used to go around at LAND_AB_CHK_ALT and fly the same sequence again, 5-18 times,
+    until the run ended. Here the base leg descends 105 m over 300 m."""
+    path = _wpl(tmp_path, [
+        (22, 3, 12, 0, 0, 0, 300.0, -40.0, 60.0),        # takeoff
+        (16, 3, 0, 0, 0, 0, 700.0, 500.0, 150.0),
+        (189, 2, 0, 0, 0, 0, 0.0, 0.0, 0.0),             # DO_LAND_START
+        (16, 3, 0, 0, 0, 0, 300.0, 1000.0, 150.0),       # abeam the approach's start
+        (16, 3, 0, 0, 0, 0, 0.0, 1000.0, 45.0),          # the approach's start A
+        (21, 3, 0, 0, 0, 0, 0.0, -50.0, -1.5),           # NAV_LAND
+    ], "high.waypoints")
+    summary, s = _fly_file(path, 2, (3.0, 270.0))
+    texts = [t for _, _, t in s.vehicle.notices]
+    circle = [t for t in texts if t.startswith("Landing: ") and "descending on a" in t]
+    assert circle and int(circle[0].split()[1]) >= 50, texts     # tens of metres high at A
+    assert summary["completed"] is True
+    assert summary["landing"]["go_arounds"] == 0, [t for t in texts if "Go around" in t]
+    assert summary["invariants_passed"] is True, summary["invariants"]
+    assert_landed(summary, along_m=60.0, sink_mps=1.5)
+
+
+def test_a_ground_speed_minimum_does_not_raise_the_approach_airspeed():
+    """DO_CHANGE_SPEED type 1 (MIN_GNDSPD) earlier in the mission raised the airspeed on
+    the landing's approach to hold the ground speed into the wind (30 m/s against 25),
+    and the overspeed abort took it around (random-plane trials 117, 383)."""
+    seen = {"approach": 0, "other": []}
+
+    def during(s):
+        v = s.vehicle
+        seq = v.sequencer
+        if seq is None or s.t_s < 5.0:
+            return
+        if s.t_s < 6.0 and seq.min_groundspeed_mps == 0.0:
+            assert seq.change_speed(s.bridge.t_us, 1, 27.0) is None      # MIN_GNDSPD 27 m/s
+        tgt = v.target
+        if tgt is not None and tgt.land == "approach":
+            seen["approach"] += 1
+            if abs(tgt.airspeed_mps - seq.landing.airspeed_mps) > 1e-6:
+                seen["other"].append(round(tgt.airspeed_mps, 2))
+
+    summary, s = fly(4, (6.0, 270.0), during=during)                 # a headwind on final
+    assert s.vehicle.sequencer.min_groundspeed_mps == 27.0
+    assert seen["approach"] > 1000 and not seen["other"], seen["other"][:5]
+    assert summary["landing"]["go_arounds"] == 0
+    assert_landed(summary, along_m=40.0, sink_mps=1.5)
+
+
 # --- the go-around command on the wire -------------------------------------------------
 
 def test_do_go_around_is_refused_by_name_when_no_landing_is_flown():

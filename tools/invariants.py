@@ -55,7 +55,9 @@ concerned, ``"seq"``, or null):
 * ``no_orbit``: over each stretch of the log flying one item that is not a loiter (and
   not the loiter over home that ends a fixed-wing mission), the range of the
   accumulated course change of the true ground velocity (above ``ORBIT_MIN_GS`` m/s)
-  is at most two full turns. Figure: the largest number of turns.
+  is at most two full turns; on a NAV_LAND, the circling the landing itself commands
+  (its descent circle, kind "loiter", guidance/landing.py ``descend``) is left out.
+  Figure: the largest number of turns.
 * ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins to the start
   of a landing (the quad's land phase), the true height above home stays above
   ``CONTACT_M``, and the run did not end in a crash (the runner's ``crashed``: the
@@ -100,6 +102,7 @@ LAUNCH_GRACE_S = 5.0
 CONTACT_M = {"plane": 0.5, "quad": 0.2}
 HEIGHT_FLOOR_M = {"plane": 20.0, "quad": 1.5}
 ATTITUDE_MARGIN_DEG = {"plane": 10.0, "quad": 5.0}
+KIND_LOITER = 3    # autopilot/vehicle.py KIND_CODES["loiter"]
 LOITERS = (NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_UNLIM, NAV_LOITER_TO_ALT)
 QUAD_KIND_LAND = 4
 # flight-log columns that are NaN by design on some rows
@@ -318,7 +321,10 @@ def orbit_turns(a: dict, mission: Mission, vehicle: str) -> tuple[float, int | N
         s = int(seq[i])
         loiter = s >= len(mission) or (s > 0 and mission[s].command in LOITERS)
         if armed[i] and not loiter:
-            idx = np.flatnonzero(ok[i:j + 1]) + i
+            here = ok[i:j + 1]
+            if s > 0 and mission[s].command == NAV_LAND and "kind" in a:
+                here = here & (a["kind"][i:j + 1] != KIND_LOITER)   # the descent circle
+            idx = np.flatnonzero(here) + i
             if idx.size > 1:
                 d = np.diff(chi[idx])
                 d = (d + np.pi) % (2 * np.pi) - np.pi

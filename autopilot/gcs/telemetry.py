@@ -227,7 +227,7 @@ class Telemetry:
     def extended_sys_state(self):
         landed = MAV.MAV_LANDED_STATE_ON_GROUND if self.vehicle.landed else MAV.MAV_LANDED_STATE_IN_AIR
         if landed == MAV.MAV_LANDED_STATE_IN_AIR and getattr(self.vehicle, "landing_phase", None) \
-                in ("approach", "flare", "rollout"):
+                in ("descend", "approach", "flare", "rollout"):
             landed = MAV.MAV_LANDED_STATE_LANDING      # a NAV_LAND being flown (as ArduPlane says)
         return MAV.MAVLink_extended_sys_state_message(MAV.MAV_VTOL_STATE_UNDEFINED, landed)
 

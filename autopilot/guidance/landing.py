@@ -42,6 +42,20 @@ Phases (``Landing.phase``):
   for ``TOUCH_S``: wings level, idle, the flare's pitch law goes on (held against the
   skids, it cannot lift the aircraft off at idle; a gust that floats it is flown as in
   the flare).
+* ``descend``: the approach starts higher above its glide slope than it can lose before
+  LAND_AB_CHK_ALT (half LAND_AB_HIGH, plus the altitude demand's fastest descent,
+  DEM_CLMB_FRAC SINK_MAX, less the slope's sink, over the time to that height: the leg
+  before it too short, or flown too slowly, to lose the height: a base leg cut
+  short by its turn, a climb-out or a go-around ending above the slope): the height is
+  lost first, as an ArduPlane user plans with NAV_LOITER_TO_ALT before the landing, on
+  a circle tangent to the approach line at its start A (centred on the side the
+  aircraft is on, turning towards the line, radius at TURN_BANK_DEG at the approach
+  airspeed plus the wind), at the approach airspeed, down to the glide slope's start;
+  the circle is left at A on the approach course, and the approach is flown from there
+  (``descent_circle``, ``descent_done``). Without it the approach starts up to 70 m high,
+  the aircraft (idle, about 2 m/s sink) reaches LAND_AB_CHK_ALT still far above the slope
+  and goes around, and the go-around flies the same sequence again: the random-plane
+  campaign's landings that went around 5-18 times (docs/status.md).
 * ``go_around``: the approach abandoned (MAV_CMD_DO_GO_AROUND, or an automatic abort
   when, below LAND_AB_CHK_ALT and before the flare, the aircraft is LAND_AB_HIGH above
   or LAND_AB_LOW below the glide slope, LAND_AB_XTRK off the centreline, or its 1 s
@@ -93,6 +107,9 @@ LAND_PARAMS = (
     Param("LAND_AB_XTRK", 15.0, 0.0, 200.0, "m", "abort: this far off the approach's centreline (0: no check)"),
     Param("LAND_AB_SPD", 6.0, 0.0, 30.0, "m/s", "abort: airspeed (1 s mean) this much above the approach airspeed (0: no check)"),
 )
+AUTO_ABORTS_MAX = 2    # automatic aborts per landing; then it is flown down as ArduPlane flies
+                       # every approach (ArduPlane has no automatic abort: only the command)
+DESCENT_EXIT_DEG = 20.0   # the descent circle is left within this of the approach course
 AB_SPD_TAU_S = 1.0     # the airspeed mean the overspeed abort reads [s]
 STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
 SINK_MEAN_S = 1.0      # the approach's sink rate the flare starts from: its mean over this [s]
@@ -178,6 +195,7 @@ class Landing:
         self.aim_along = self.length - self.shift_m     # where the glide slope meets the ground
         self.slope = dh / max(self.aim_along, 1.0)
         self.phase = "approach"
+        self.descent: tuple | None = None               # (centre NE, radius, direction): ``descend``
         self.flare_us: int | None = None
         self.flare_info: tuple | None = None            # (height, sink, airspeed, distance to go)
         self.landed_us: int | None = None
@@ -216,6 +234,42 @@ class Landing:
         if w >= 0.0:
             return min(w, 2.0)
         return min(max(1.0 - along / self.length, 0.0), 1.0)
+
+    def descent_circle(self, p_ne, alt_m: float, radius_m: float, sink_mps: float,
+                       gs_mps: float) -> bool:
+        """At the approach's start: if the aircraft is higher above the glide slope where
+        it joins (``along`` of p_ne, at least 0) than the approach can lose before
+        LAND_AB_CHK_ALT (half LAND_AB_HIGH plus (sink_mps - the slope's sink) times the
+        time to that height at ``gs_mps``), plan the descent circle (module docstring,
+        ``descend``) and return True. The circle is tangent to the approach line at A,
+        centred on the aircraft's side of the line, and turns towards it: clockwise (+1)
+        on the right, so that it passes A on the course."""
+        p = self.params
+        along0 = max(self.along(p_ne), 0.0)
+        excess = alt_m - self.glide_alt(along0)
+        gs = max(gs_mps, 1.0)
+        along_chk = self.aim_along - (p["LAND_AB_CHK_ALT"] / self.slope if self.slope > 1e-6 else 0.0)
+        lose = max(sink_mps - self.slope * gs, 0.0) * max(along_chk - along0, 0.0) / gs
+        if excess <= 0.5 * p["LAND_AB_HIGH"] + lose:
+            return False
+        side = 1 if self.cross(p_ne) >= 0.0 else -1
+        r = max(radius_m, 1.0)
+        c = (self.a_ne[0] - side * r * self.u[1], self.a_ne[1] + side * r * self.u[0])
+        self.descent = (c, r, side)
+        self.phase = "descend"
+        return True
+
+    def descent_done(self, p_ne, course_rad: float | None, alt_m: float) -> bool:
+        """The descent circle is left (the approach flown) at the glide slope's start
+        height (within a quarter of LAND_AB_HIGH) and at A: within a radius of it along
+        the line, within ``DESCENT_EXIT_DEG`` of the approach course."""
+        if self.descent is None:
+            return True
+        _, r, _ = self.descent
+        if alt_m - self.alt_a > 0.25 * self.params["LAND_AB_HIGH"] or course_rad is None:
+            return False
+        d = (course_rad - math.atan2(self.u[1], self.u[0]) + math.pi) % (2.0 * math.pi) - math.pi
+        return abs(d) <= math.radians(DESCENT_EXIT_DEG) and abs(self.along(p_ne)) <= r
 
     def unsafe(self, p_ne, alt_m: float, airspeed_mps: float, t_us: int) -> str | None:
         """Why the approach must be abandoned, or None: below LAND_AB_CHK_ALT above the

@@ -69,7 +69,7 @@ from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE
                              CAMERA_COMMANDS, MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET,
                              MAV_CMD_NAV_LAND, MAV_CMD_DO_LAND_START)
 from . import dubins
-from .landing import Landing
+from .landing import AUTO_ABORTS_MAX, Landing
 from .l1 import G
 
 RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
@@ -168,6 +168,7 @@ class MissionSequencer:
         self.landing: Landing | None = None   # the NAV_LAND approach being flown
         self.land_complete = False     # landed at the end of the mission (NAV_LAND)
         self.go_arounds = 0            # approaches abandoned (DO_GO_AROUND, automatic abort)
+        self.auto_aborts = 0           # of which automatic (landing.AUTO_ABORTS_MAX)
         self._on_circle_since_us = None
         self._prev_wp_ne: tuple | None = None
         self._prev_alt: float | None = None
@@ -209,7 +210,7 @@ class MissionSequencer:
         self._loiter_entered = False   # the line into the loiter flown to its circle
         self._loiter_exit = None       # (loiter angle to leave at, arc onto the next line)
         self._alt_reached = False
-        if getattr(self, "landing", None) is not None and self.landing.phase == "approach":
+        if getattr(self, "landing", None) is not None and self.landing.phase in ("approach", "descend"):
             self.landing = None        # an approach left (a new item, a jump): flown afresh
 
     def set_current(self, seq: int) -> None:
@@ -223,6 +224,7 @@ class MissionSequencer:
         self._path = []
         self._do_pending = []
         self.landing = None            # a landing jumped to is flown from its approach
+        self.auto_aborts = 0
         self._start_item()
 
     def resume(self) -> None:
@@ -698,7 +700,10 @@ class MissionSequencer:
         if self.terrain is not None and tgt.kind in ("line", "direct", "loiter") \
                 and 0 < tgt.seq < len(self.items) and self.items[tgt.seq].frame in TERRAIN_FRAMES:
             tgt = self._above_terrain(tgt, p_ned, v_ned)
-        if self.min_groundspeed_mps > 0 and tgt.kind != "takeoff":
+        if self.min_groundspeed_mps > 0 and tgt.kind != "takeoff" and not tgt.land:
+            # not on a landing: from its approach on, the landing's own airspeed
+            # (TECS_LAND_ARSPD), as ArduPlane's landing stage sets it; a ground-speed
+            # minimum raised it past the overspeed abort (random-plane trials 117, 383)
             chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
             if v != tgt.airspeed_mps:
@@ -1289,21 +1294,40 @@ class MissionSequencer:
             a_ne = self._leg_start
             ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
             u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
-            self.landing = Landing(self.params, a_ne, b_ne, self._leg_start_alt, alt_b,
+            alt_a = self._approach_start_alt(item, a_ne, b_ne, alt_b)
+            self.landing = Landing(self.params, a_ne, b_ne, alt_a, alt_b,
                                    self._groundspeed_along(u))
-            self.say(t_us, SEV_INFO, f"Landing approach: {ln:.0f} m from {self._leg_start_alt - alt_b:.0f} m, "
+            self.say(t_us, SEV_INFO, f"Landing approach: {ln:.0f} m from {alt_a - alt_b:.0f} m, "
                                      f"aim {self.landing.shift_m:.0f} m short")
+            # too high to fly the approach down from here: the height is lost first
+            land = self.landing
+            v = land.airspeed_mps + math.hypot(*self._wind_ne)
+            r = v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
+            sink = self.sink_rate_mps or self.params["DEM_CLMB_FRAC"] * self.params["SINK_MAX"]
+            if land.descent_circle(p_ne, alt_m, r, sink, self._groundspeed_along(land.u)):
+                self.say(t_us, SEV_INFO, f"Landing: {alt_m - land.alt_a:.0f} m above the approach, "
+                                         f"descending on a {r:.0f} m circle first")
         land = self.landing
         if land.phase == "go_around":
             return self._go_around_climb(t_us, item, p_ne, alt_m)
+        if land.phase == "descend":
+            if not land.descent_done(p_ne, chi, alt_m):
+                c, r, d = land.descent
+                return NavTarget("loiter", item.seq, self.leg_id, land.alt_a, land.airspeed_mps,
+                                 c_ne=c, radius_m=r, direction=d, land="descend")
+            land.phase = "approach"
+            self.resume()                  # the approach line joined afresh, from A
+            self._leg_start, self._leg_start_alt = land.a_ne, land.alt_a
         if land.phase == "approach":
-            why = land.unsafe(p_ne, alt_m, self._airspeed_mps, t_us)
+            why = land.unsafe(p_ne, alt_m, self._airspeed_mps, t_us) \
+                if self.auto_aborts < AUTO_ABORTS_MAX else None
             if why is not None:
+                self.auto_aborts += 1
                 self.go_around(t_us, f"unsafe approach: {why}")
                 return self._go_around_climb(t_us, item, p_ne, alt_m)
             r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
-                return dataclasses.replace(r, airspeed_mps=land.airspeed_mps,
+                return dataclasses.replace(r, airspeed_mps=land.airspeed_mps, land="approach",
                                            alt_m=land.glide_alt(land.along(p_ne)))
         alt, climb = land.step(t_us, p_ne, alt_m, self._v_ned, self._airspeed_mps)
         if land.phase != "approach" and land.flare_info is not None and land.flare_us == t_us:
@@ -1316,6 +1340,25 @@ class MissionSequencer:
         return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
                          b_ne=land.line_end(), land=land.phase, climb_mps=climb,
                          spd_weight=land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0)
+
+    def _approach_start_alt(self, item, a_ne, b_ne, alt_b: float) -> float:
+        """The glide slope's start altitude (MSL): the approach's first waypoint's own
+        altitude when the approach starts at it (ArduPlane's slope runs from prev_WP_loc,
+        the waypoint as planned), not the height the leg to it ended at (a step too steep
+        for that leg leaves the aircraft up to 100 m above it); the height flown if
+        lower; and no higher than the steepest descent the aircraft flies over the
+        approach (``_steepest_slope``). Any height above it is lost before the approach
+        (landing.py ``descend``)."""
+        alt_a = self._leg_start_alt
+        prev = next((self.items[i] for i in range(item.seq - 1, 0, -1)
+                     if self.items[i].command in NAV_ITEMS), None)
+        if prev is not None and prev.command == MAV_CMD_NAV_WAYPOINT and not self._here(prev):
+            q = self.item_ne(prev)
+            h = self.item_alt_m(prev)
+            if math.hypot(q[0] - a_ne[0], q[1] - a_ne[1]) < 1.0 and math.isfinite(h):
+                alt_a = min(alt_a, h)
+        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        return min(alt_a, alt_b + self._steepest_slope(-1.0, a_ne, b_ne) * ln)
 
     def go_around(self, t_us: int, why: str, alt_m: float | None = None) -> str | None:
         """Abandon the approach (MAV_CMD_DO_GO_AROUND, or an unsafe approach): climb
