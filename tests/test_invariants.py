@@ -242,3 +242,28 @@ def test_a_go_around_is_scored_on_the_last_approach_not_across_its_circuit():
     final = [g for g in legs if g["seq"] == 4][0]
     assert final["xtrack_max_m"] is not None and final["xtrack_max_m"] < 1.0
     assert mx < 1.0
+
+
+def test_a_landings_descent_circle_is_not_scored_as_its_approach():
+    """Out to A, to B, then the landing's own descent circle (an approach started too
+    high loses its height first on a circle tangent to the approach at B, 300 m across,
+    kind "loiter") and the final from B: the final is scored from where the vehicle
+    leaves the circle (before: from B, the circle counted as 300 m of cross-track)."""
+    m = _mission([(22, 3, 0, 0, 0, None, None, 50), (16, 3, 0, 0, 0, 1000.0, 0.0, 50),
+                  (16, 3, 0, 0, 0, 1000.0, 1000.0, 50), (21, 3, 0, 0, 0, 0.0, 1000.0, 0)])
+    pts = [(0, 0), (1000, 0), (1000, 1000), (700, 1000), (700, 1300), (1000, 1300),
+           (1000, 1000), (0, 1000)]
+    a = _log(pts, [2, 3, 4, 4, 4, 4, 4])
+    t = a["t_s"]
+    final = int(np.flatnonzero(a["seq"] == 4)[-1]) - int(1000.0 / 25.0 / 0.1) + 1
+    first = int(np.flatnonzero(a["seq"] == 4)[0])
+    a["kind"][first:final] = 3.0
+    i_a = int(np.flatnonzero(a["seq"] == 3)[0]) - 1
+    ev = [(0, 1), (int(round(t[i_a] * 1e6)), 2), (int(round(t[first - 1] * 1e6)), 3)]
+    rms, mx, legs = xtrack_mission(a, m, HOME, "plane", ev, PARAMS)
+    leg = [g for g in legs if g["seq"] == 4][0]
+    assert leg["xtrack_max_m"] is not None and leg["xtrack_max_m"] < 1.0
+    # the same path not marked as the landing's circling: the line flown badly, scored
+    a["kind"][:] = 2.0
+    _, mx2, legs2 = xtrack_mission(a, m, HOME, "plane", ev, PARAMS)
+    assert [g for g in legs2 if g["seq"] == 4][0]["xtrack_max_m"] > 250.0

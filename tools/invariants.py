@@ -30,7 +30,10 @@ Cross-track against them (``xtrack_mission``)
     matters for the mission's lines as it does not for the legs guidance draws: after a
     reversal the aircraft is at the new line's start, but flying the other way, and the
     turn back is the join, not tracking. An item never counted has its leg run to the
-    end of the log.
+    end of the log. The approach to a fixed-wing NAV_LAND is scored from where the
+    vehicle leaves the last circling the landing commands (the descent circle of an
+    approach started too high, guidance/landing.py; the turn-in's arcs) onto the
+    approach line.
 
 ``xtrack_mission_worst_leg`` names the line with the largest error (the items at its two
 ends, ``from_seq`` null for the take-off point) with its own rms and max;
@@ -209,6 +212,13 @@ def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, e
             continue
         m = (t > win[0]) & (t <= win[1]) & np.isfinite(tn)
         idx = np.flatnonzero(m)
+        if idx.size and "kind" in a and mission[leg["seq"]].command == NAV_LAND:
+            # the circling the landing itself commands (its descent circle, and the
+            # turn-in's arcs, kind "loiter") is not the line: scored from where the
+            # vehicle leaves the last of it onto the approach
+            circ = np.flatnonzero(a["kind"][idx] == KIND_LOITER)
+            if circ.size:
+                idx = idx[circ[-1] + 1:]
         if not idx.size:
             continue
         (an, ae), (bn, be) = leg["a"], leg["b"]
