@@ -267,3 +267,36 @@ def test_a_landings_descent_circle_is_not_scored_as_its_approach():
     a["kind"][:] = 2.0
     _, mx2, legs2 = xtrack_mission(a, m, HOME, "plane", ev, PARAMS)
     assert [g for g in legs2 if g["seq"] == 4][0]["xtrack_max_m"] > 250.0
+
+
+def _counted(a, first=1):
+    """The reached events of a synthetic log: the take-off at 0, then each item where
+    the log's seq moves past it."""
+    seq, t = a["seq"], a["t_s"]
+    ev = [(0, first)]
+    for i in np.flatnonzero(np.diff(seq)) + 1:
+        ev.append((int(round(t[i] * 1e6)), int(seq[i - 1])))
+    ev.append((int(round(t[-1] * 1e6)), int(seq[-1])))
+    return ev
+
+
+def test_a_waypoint_counted_far_from_where_the_vehicle_went_fails():
+    """waypoints_passed: a turn that starts far before a sharp corner (the fillet of a
+    near-reversal at the nominal radius) counts a waypoint the vehicle never went to;
+    flying through the corners, or cutting them within WP_RADIUS, passes."""
+    params = dict(PARAMS, WP_RADIUS=100.0)
+    through = [(0, 0), (1000, 0), (1000, 1000), (1000, 0), (1000, 1000), (0, 0)]
+    a = _log(through, [2, 3, 2, 3, 5])
+    inv = _check(a, _counted(a), params=params, frame=HOME)["waypoints_passed"]
+    assert inv["passed"] and inv["figure"] < -90.0
+    # the corner at A cut 60 m inside it (within the radius): still passed
+    cut = [(0, 0), (960, 0), (1000, 40), (1000, 1000), (1000, 0), (1000, 1000), (0, 0)]
+    a = _log(cut, [2, 3, 3, 2, 3, 5])
+    inv = _check(a, _counted(a), params=params, frame=HOME)["waypoints_passed"]
+    assert inv["passed"] and -80.0 < inv["figure"] < -60.0
+    # the first pass at B (1000, 1000) cut 400 m before it: B counted 283 m away
+    far = [(0, 0), (1000, 0), (1000, 600), (1400, 1000), (1000, 0), (1000, 1000), (0, 0)]
+    a = _log(far, [2, 3, 2, 2, 3, 5])
+    inv = _check(a, _counted(a), params=params, frame=HOME)["waypoints_passed"]
+    assert not inv["passed"] and inv["seq"] == 3
+    assert inv["figure"] == pytest.approx(400 / math.sqrt(2) - 100.0, abs=3.0)

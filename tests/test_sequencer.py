@@ -59,8 +59,9 @@ def test_switch_when_the_projection_passes_the_end_of_a_straight_continuation():
 
 
 def test_turn_arc_starts_before_a_right_angle_and_ends_on_the_next_leg():
+    # (WP_RADIUS 60: the arc's middle, 0.41 r = 45 m from the corner, is within it)
     s = seq_for(mission(item(1, NAV_WAYPOINT, 500, 0), item(2, NAV_WAYPOINT, 500, 600)),
-                TURN_BANK_DEG=30.0, TURN_GS_FACTOR=1.0, WP_RADIUS=10.0)
+                TURN_BANK_DEG=30.0, TURN_GS_FACTOR=1.0, WP_RADIUS=60.0)
     s._prev_wp_ne = (0.0, 0.0)
     v = s.airspeed_mps
     r = v * v / (9.80665 * math.tan(math.radians(30.0)))
@@ -87,8 +88,35 @@ def test_too_sharp_for_the_legs_means_no_arc():
     s = seq_for(mission(item(1, NAV_WAYPOINT, 150, 0),
                         item(2, NAV_WAYPOINT, 150 - 150 * math.cos(math.radians(30)), 150 * math.sin(math.radians(30)))))
     s._prev_wp_ne = (0.0, 0.0)
-    d, arc, _skip = s._fillet((0.0, 0.0), s.item_ne(s.items[1]))
+    d, arc, _skip = s._fillet((0.0, 0.0), s.item_ne(s.items[1]), 100.0)
     assert arc is None and d == 0.0
+
+
+@pytest.mark.parametrize("wp_radius", [30.0, 100.0])
+def test_every_turn_arc_passes_within_the_waypoint_radius(wp_radius):
+    # A waypoint counts where the arc at it starts: the arc must pass within its
+    # acceptance radius, or the vehicle counts a waypoint it never went to. Turns of
+    # 20-178 deg between 1300 m legs (room for any radius): the arc of a sharp turn at
+    # the nominal radius lies far inside the corner (a 171 deg turn's, r sec(85.5) - r
+    # = 11.7 r from it; before, random plane missions counted such waypoints 400-1500 m
+    # away), so it is flown tighter, or not at all where even the bank limit's radius
+    # cannot pass within (then the waypoint is flown to and the next leg joined)
+    for turn in (20, 60, 90, 110, 130, 150, 171, 178):
+        b = (1300.0, 0.0)
+        c = (b[0] + 1300 * math.cos(math.radians(turn)), b[1] + 1300 * math.sin(math.radians(turn)))
+        s = seq_for(mission(item(1, NAV_WAYPOINT, *b), item(2, NAV_WAYPOINT, *c)), WP_RADIUS=wp_radius)
+        s._prev_wp_ne = (0.0, 0.0)
+        d, arc, _skip = s._fillet((0.0, 0.0), s.item_ne(s.items[1]), wp_radius)
+        if arc is not None:
+            _, centre, r, *_ = arc
+            closest = math.hypot(centre[0] - b[0], centre[1] - b[1]) - r
+            assert closest <= wp_radius + 1e-6, turn
+            assert arc[2] >= s._bank_limit_radius_m() - 1e-9
+        # a gentle turn keeps its arc at the nominal radius
+        if turn <= 60 and wp_radius == 100.0:
+            assert arc is not None and arc[2] == pytest.approx(s.turn_radius_m())
+    # the sharpest have none at either radius
+    assert arc is None
 
 
 def test_do_jump_repeats_then_continues_and_do_change_speed_applies():

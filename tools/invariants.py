@@ -61,6 +61,17 @@ concerned, ``"seq"``, or null):
   is at most two full turns; on a NAV_LAND, the circling the landing itself commands
   (its descent circle, kind "loiter", guidance/landing.py ``descend``) is left out.
   Figure: the largest number of turns.
+* ``waypoints_passed``: every NAV_WAYPOINT with a position of its own (a line of the
+  mission ends at it) is passed within its acceptance radius (its param2, else
+  WP_RADIUS / WPNAV_RADIUS) plus ``PASS_MARGIN_M`` (the navigation's error), on the
+  true track between the counting of the item before it (the launch, after a take-off:
+  one inside the climb-out is passed before the take-off counts) and the next counting,
+  after its own, of an item elsewhere (beyond its radius: a turn counted where it
+  starts passes the waypoint after the counting, and a cluster's items, or one
+  counted at once with it, count on the same turn):
+  a waypoint the sequencer counts is one the vehicle went to, as ArduPlane's is (its
+  turn anticipation is capped at WP_RADIUS). Figure: the largest closest approach
+  beyond the item's radius [m] (negative: every one within it), ``seq`` the item.
 * ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins to the start
   of a landing (the quad's land phase), the true height above home stays above
   ``CONTACT_M``, and the run did not end in a crash (the runner's ``crashed``: the
@@ -92,7 +103,7 @@ import numpy as np
 from autopilot.geo import LocalFrame
 from autopilot.mission.items import (DO_LAND_START, NAV_LAND, NAV_LOITER_TIME, NAV_LOITER_TO_ALT,
                                      NAV_LOITER_TURNS, NAV_LOITER_UNLIM, NAV_RETURN_TO_LAUNCH,
-                                     NAV_TAKEOFF, Mission)
+                                     NAV_TAKEOFF, NAV_WAYPOINT, Mission)
 
 from .missions_random import NAV_FLOWN, estimate_time_s, item_ne_h, resolve_order
 
@@ -105,6 +116,7 @@ LAUNCH_GRACE_S = 5.0
 CONTACT_M = {"plane": 0.5, "quad": 0.2}
 HEIGHT_FLOOR_M = {"plane": 20.0, "quad": 1.5}
 ATTITUDE_MARGIN_DEG = {"plane": 10.0, "quad": 5.0}
+PASS_MARGIN_M = {"plane": 10.0, "quad": 1.0}   # navigation error over a waypoint's radius
 KIND_LOITER = 3    # autopilot/vehicle.py KIND_CODES["loiter"]
 LOITERS = (NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_LOITER_UNLIM, NAV_LOITER_TO_ALT)
 QUAD_KIND_LAND = 4
@@ -249,6 +261,42 @@ def xtrack_mission(a: dict, mission: Mission, frame: LocalFrame, vehicle: str, e
 
 # --- invariants ------------------------------------------------------------------------
 
+def passed_figure(a: dict, mission: Mission, vehicle: str, events, params,
+                  frame: LocalFrame) -> tuple[float | None, int | None]:
+    """The largest closest approach of the true track to a NAV_WAYPOINT beyond its
+    acceptance radius, over the span from the counting of the item before it to the
+    counting of the next item beyond its radius, and that item (``waypoints_passed``); (None, None)
+    where no waypoint was flown to."""
+    legs = mission_legs(mission, frame, vehicle, params)
+    t = a["t_s"]
+    windows = leg_windows(mission, legs, events, float(t[-1]))
+    tn, te = a["truth_n_m"], a["truth_e_m"]
+    default = float(params["WP_RADIUS"] if vehicle == "plane" else params["WPNAV_RADIUS"])
+    worst, at = None, None
+    for i, (leg, win) in enumerate(zip(legs, windows)):
+        it = mission[leg["seq"]]
+        if win is None or it.command != NAV_WAYPOINT:
+            continue
+        accept = it.param2 if it.param2 > 0 else default
+        # to the counting of the next item elsewhere (the items of a cluster within its
+        # radius count on the same turn, before or after it)
+        end = next((w[1] for g, w in zip(legs[i + 1:], windows[i + 1:]) if w is not None
+                    and w[1] > win[1]
+                    and math.hypot(g["b"][0] - leg["b"][0], g["b"][1] - leg["b"][1]) > accept),
+                   float(t[-1]))
+        # a waypoint after the take-off may be passed in the climb-out, before the
+        # take-off counts (one inside the climb-out, or at home)
+        after_takeoff = leg["prev_seq"] is not None and mission[leg["prev_seq"]].command == NAV_TAKEOFF
+        start = -math.inf if after_takeoff else win[0]
+        m = (t > start) & (t <= max(end, win[1])) & np.isfinite(tn)
+        if not m.any():
+            continue
+        d = float(np.min(np.hypot(tn[m] - leg["b"][0], te[m] - leg["b"][1]))) - accept
+        if worst is None or d > worst:
+            worst, at = d, leg["seq"]
+    return worst, at
+
+
 def _inv(passed: bool, figure, limit=None) -> dict:
     out = {"passed": bool(passed), "figure": None if figure is None else float(figure)}
     if limit is not None:
@@ -379,7 +427,7 @@ def _lowest_commanded_height(mission: Mission) -> float:
 def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, completed: bool,
                      done_t_s: float | None, home_truth_alt_m: float | None, params,
                      wind_mps: float, fault_free: bool, log_events=(), crashed: bool = False,
-                     ground_m: np.ndarray | None = None) -> dict:
+                     ground_m: np.ndarray | None = None, frame: LocalFrame | None = None) -> dict:
     """The invariants of one run (module docstring). ``ground_m``: the terrain's height
     under each row (a ``--terrain`` run); the heights are then above that ground (less
     the vehicle's height above it at home), not above home."""
@@ -399,6 +447,11 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
     turns, at = orbit_turns(a, mission, vehicle) if len(t) else (0.0, None)
     inv["no_orbit"] = _inv(turns <= ORBIT_MAX_TURNS, turns, ORBIT_MAX_TURNS)
     inv["no_orbit"]["seq"] = at
+    worst, at = passed_figure(a, mission, vehicle, events, params, frame) if len(t) and frame is not None \
+        else (None, None)
+    inv["waypoints_passed"] = _inv(worst is None or worst <= PASS_MARGIN_M[vehicle], worst,
+                                   PASS_MARGIN_M[vehicle])
+    inv["waypoints_passed"]["seq"] = at
     # heights
     if home_truth_alt_m is not None and armed.any():
         h = a["truth_alt_m"] - home_truth_alt_m
@@ -507,7 +560,8 @@ def run_invariants(session, summary: dict, a: dict) -> tuple[dict, dict]:
                            done_t_s=session.t_s, home_truth_alt_m=v.home_truth_alt_m,
                            params=session.params, wind_mps=float(session.wind.speed_mps),
                            fault_free=fault_free, log_events=session.log.events,
-                           crashed=bool(session.crashed), ground_m=_ground_under(session, a))
+                           crashed=bool(session.crashed), ground_m=_ground_under(session, a),
+                           frame=v.home_frame)
     return figs, inv
 
 

@@ -364,11 +364,16 @@ class MissionSequencer:
         return w_along + math.sqrt(max(v * v - w_cross * w_cross, 1.0))
 
     # ---------------------------------------------------------------- stepping ---
-    def _fillet(self, a_ne, b_ne):
+    def _fillet(self, a_ne, b_ne, accept_b: float):
         """The turn arc at B towards the next leg: (d, arc, skip) with arc a path
         segment starting d before B along A->B, or (0, None, False) when no turn is to
-        be filleted. Where the next waypoint C lies within its acceptance radius of B
-        (so C counts the moment B does), the arc is the one between A->B and the leg
+        be filleted. Every arc passes within B's acceptance radius ``accept_b``:
+        B counts where the arc starts, and a waypoint counted is one the vehicle went to
+        (ArduPlane caps its turn anticipation at WP_RADIUS). A turn too sharp for that
+        (the arc of a near-reversal lies far inside the corner) has none: B is flown to
+        within its radius and the next leg joined by a planned turn. Where the next
+        waypoint C lies within its acceptance radius of B (so C counts the moment B
+        does), the arc is the one between A->B and the leg
         after, C->D, at the corner where their lines meet (``_skip_arc``, ``skip``
         True) where one fits: the vehicle turns once onto the line it will fly instead
         of arriving at B along A->B and joining C->D from there, which overshoots C->D
@@ -388,6 +393,7 @@ class MissionSequencer:
             return 0.0, None, False
         u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1)
         u2 = ((cn - b_ne[0]) / l2, (ce - b_ne[1]) / l2)
+        near_b = accept_b
         # the waypoints after B that lie within their acceptance radius of B (a cluster:
         # each counts the moment the vehicle comes within it, on the way)
         chain = 0
@@ -399,8 +405,9 @@ class MissionSequencer:
         for k in range(chain - 1, -1, -1):
             # C_k counts the moment B does (the ones before it on the way): the turn
             # that matters is onto the line out of the cluster, C_k->D
-            skip = self._skip_arc(a_ne, u1, l1, lines[k][1][0], ups[k], lines[k + 1][1])
-            if skip is not None and all(
+            skip = self._skip_arc(a_ne, u1, l1, lines[k][1][0], ups[k], lines[k + 1][1],
+                                  (b_ne, near_b))
+            if skip is not None and _passes_within([skip[1]], b_ne, near_b) and all(
                     _passes_within([skip[1]], lines[i][1][0], 0.9 * self._accept_radius(ups[i]))
                     for i in range(k)):
                 return skip
@@ -414,16 +421,17 @@ class MissionSequencer:
                 u3 = ((dn - cn) / l3, (de - ce) / l3)
                 need = self.turn_radius_m() * (_half_turn_tan(u1, u2) + _half_turn_tan(u2, u3))
                 if need > l2 - short:
-                    skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1])
-                    if skip is not None:
+                    skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1],
+                                          (b_ne, near_b))
+                    if skip is not None and _passes_within([skip[1]], b_ne, near_b):
                         return skip
-        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short))
+        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=near_b)
         if arc is not None:
             # past waypoints on B (counted at once, with B), the arc flies on
             return arc[0], arc[1], ups[0] is not self._upcoming(1)[0]
         return 0.0, None, False
 
-    def _skip_arc(self, a_ne, u1, l1, c_ne, item_c, line_d):
+    def _skip_arc(self, a_ne, u1, l1, c_ne, item_c, line_d, near_b=None):
         """The arc from A->B onto C->D at the corner where their lines meet: at the
         fillet radius where that arc passes within C's acceptance radius (C counts on
         it, as the vehicle comes within it), else starting where C is within its radius
@@ -448,10 +456,20 @@ class MissionSequencer:
             return None
         rc = 0.9 * accept
         room2 = 0.5 * (l3 - short_d - max(sc, 0.0))
-        arc = self._corner_arc(x, u1, u3, t, room2)
-        if arc is not None and t - arc[0] <= l1 and _passes_within([arc[1]], c_ne, rc):
-            # the arc at its full radius passes within C's radius: C counts on it
-            return l1 - (t - arc[0]), arc[1], True
+        # (``near_b``: (B, radius) the arc must pass within too, B counting where it
+        # starts: tighter radii, down to the bank limit's, until one does)
+        r_top = self.turn_radius_m()
+        r_min = self._bank_limit_radius_m()
+        r_cap = r_top
+        while True:
+            arc = self._corner_arc(x, u1, u3, t, room2, r_max=r_cap)
+            if arc is not None and t - arc[0] <= l1 and _passes_within([arc[1]], c_ne, rc) \
+                    and (near_b is None or _passes_within([arc[1]], *near_b)):
+                # the arc passes within C's radius: C counts on it
+                return l1 - (t - arc[0]), arc[1], True
+            if near_b is None or r_cap <= r_min:
+                break
+            r_cap = max(0.85 * r_cap, r_min)
         # else the arc starts where C is within (0.9 of) its radius: |C - X + d u1| <= R_c
         c13 = u1[0] * u3[0] + u1[1] * u3[1]
         disc = sc * sc * c13 * c13 - sc * sc + rc * rc
@@ -472,16 +490,20 @@ class MissionSequencer:
         v_air = self.airspeed_mps
         return v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
 
-    def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float):
+    def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float, near: float | None = None,
+                    r_max: float | None = None):
         """The fillet at corner X from direction u1 to u2: (d, arc) with d its tangent
-        length (at most room1 before X and room2 after it, the radius shrunk to fit),
-        or None for a turn under 5 degrees or one with no room at the minimum
-        radius."""
+        length (at most room1 before X and room2 after it, the radius shrunk to fit; with
+        ``near``, shrunk so the arc passes within ``near`` of X: its middle lies
+        r (sec(dchi/2) - 1) from the corner), or None for a turn under 5 degrees or one
+        with no room at the minimum radius."""
         cross = u1[0] * u2[1] - u1[1] * u2[0]
         dchi = math.atan2(cross, u1[0] * u2[0] + u1[1] * u2[1])
         if abs(dchi) < math.radians(5.0):
             return None
-        r = self.turn_radius_m()
+        r = self.turn_radius_m() if r_max is None else min(r_max, self.turn_radius_m())
+        if near is not None:
+            r = min(r, near / (1.0 / math.cos(0.5 * abs(dchi)) - 1.0))
         t = math.tan(0.5 * abs(dchi))
         d = min(r * t, room1, room2)  # each leg shares its length between its two turns
         if d <= 0.0:
@@ -1063,7 +1085,7 @@ class MissionSequencer:
         key = (a_ne, b_ne)
         if self._fillet_at is None or self._fillet_at[0] != key:
             # planned once a leg (a fillet depends on the next items, not on the step)
-            self._fillet_at = (key, self._fillet(a_ne, b_ne))
+            self._fillet_at = (key, self._fillet(a_ne, b_ne, accept))
         d_turn, arc, skip = self._fillet_at[1]
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         # (a leg within the acceptance radius: B would count the moment A did)
