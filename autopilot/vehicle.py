@@ -30,6 +30,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .fence.actions import fence_step, home_ll
 from .fence.geofence import Geofence
@@ -355,7 +357,7 @@ class PlaneVehicle(VehicleBase):
             land = self._rf_landing()
             note = self.rangefinder.update(t_us, frame.range, nav.q_nb,
                                            nav.alt_m - land.alt_b if land is not None else None,
-                                           land is not None)
+                                           land is not None, self._rf_terrain(nav, land))
             if note is not None:
                 self.notice(t_us * 1e-6, SEV_INFO, note)
         if self.armed and self.mode == PlaneMode.AUTO and self.params["CRASH_DETECT"] >= 1:
@@ -445,6 +447,20 @@ class PlaneVehicle(VehicleBase):
                 or seq.landing.phase == "go_around":
             return None
         return seq.landing
+
+    def _rf_terrain(self, nav: NavState, land) -> float:
+        """The terrain's height under the aircraft less the land point's, when a terrain
+        model gives both (the rangefinder's terrain correction), else 0."""
+        if land is None or self.terrain is None:
+            return 0.0
+        if land.ground_b_m is None:
+            lat, lon, _ = self.home_frame.to_geodetic_fast(np.array((land.b_ne[0], land.b_ne[1], 0.0)))
+            g = self.terrain(math.degrees(lat), math.degrees(lon))
+            land.ground_b_m = math.nan if g is None else float(g)
+        here = self._ground_m(nav)
+        if here is None or math.isnan(land.ground_b_m):
+            return 0.0
+        return here - land.ground_b_m
 
     def _landing(self) -> bool:
         """A landing is being flown (where touching down is the plan)."""

@@ -188,3 +188,16 @@ def test_landing_flies_the_corrected_height():
     a.step(0, (985.0, 0.0), 3.4, v, 25.0)
     assert land.phase == "flare" and a.phase == "approach"
     assert land.flare_info[0] == pytest.approx(2.8, abs=1e-12)
+
+
+def test_terrain_between_the_aircraft_and_the_land_point_is_not_a_correction():
+    """Over a terrain model the ground under the beam may not be the land point's:
+    ArduPlane adds the difference to the rangefinder's height before comparing."""
+    rf = RangefinderHeight(params())
+    t = 0
+    for k in range(60):                       # level at 25 m above ground that is 5 m
+        t = k * 50_000                        # above the land point's; navigation exact
+        d = 25.17 + (0.001 if k % 2 else 0.0) - 0.05 * k
+        rf.update(t, sample(t, d), LEVEL, d - 0.17 + 5.0, True, terrain_m=5.0)
+    assert rf.in_range
+    assert rf.correction_m(t, True) == pytest.approx(0.0, abs=1e-9)

@@ -221,6 +221,7 @@ class Landing:
         # is alt_m - alt_b - h_corr_m, and its altitude demands are in the navigation's
         # frame (+ h_corr_m); 0 without a rangefinder in range
         self.h_corr_m = 0.0
+        self.ground_b_m: float | None = None            # the terrain's height at B (the vehicle's; NaN unknown)
 
     def along(self, p_ne) -> float:
         return (p_ne[0] - self.a_ne[0]) * self.u[0] + (p_ne[1] - self.a_ne[1]) * self.u[1]

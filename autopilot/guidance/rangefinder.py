@@ -27,7 +27,9 @@ tilt-corrected reading, so that the height is that of the centre of gravity abov
 it rests on the ground, which is what a land point's altitude means here (the plan's
 land point is the ground at the height the aircraft rests on it). The correction is
 computed only while a landing is flown (the navigation's height above its land point is
-what it corrects).
+what it corrects). Over a terrain model (``--terrain``), the terrain's height under the
+aircraft less the land point's is added to the rangefinder's height first, as
+ArduPlane's ``rangefinder_terrain_correction`` does.
 """
 from __future__ import annotations
 
@@ -73,11 +75,15 @@ class RangefinderHeight:
     def enabled(self) -> bool:
         return self.params["RNGFND1_TYPE"] != 0
 
-    def update(self, t_us: int, sample, q_nb, h_nav_m: float | None, landing: bool) -> str | None:
+    def update(self, t_us: int, sample, q_nb, h_nav_m: float | None, landing: bool,
+               terrain_m: float = 0.0) -> str | None:
         """Take the step's reading ``sample`` (a RangeSample or None: none this step);
         ``q_nb`` the navigation's attitude; ``h_nav_m`` the navigation's height above the
-        land point while a landing is flown (else None). Returns a notice to announce
-        ("Rangefinder engaged at ..." / "... disengaged ..."), or None."""
+        land point while a landing is flown (else None); ``terrain_m`` the terrain's
+        height under the aircraft less the land point's, where a terrain model gives
+        both (ArduPlane's ``rangefinder_terrain_correction``: the ground the beam meets is
+        not the land point's), else 0. Returns a notice to announce ("Rangefinder
+        engaged at ..." / "... disengaged ..."), or None."""
         if sample is None or not self.enabled:
             return None
         p = self.params
@@ -112,7 +118,7 @@ class RangefinderHeight:
                 note = f"Rangefinder engaged at {self.height_m:.2f}m"
         self.last_distance_m = d
         if self.in_range and h_nav_m is not None:
-            corr = h_nav_m - self.height_m
+            corr = h_nav_m - (self.height_m + terrain_m)
             if self.last_corr_us is None or (t_us - self.last_corr_us) * 1e-6 > CORR_STALE_S:
                 self.correction = self.initial_correction = corr
             else:
