@@ -201,3 +201,18 @@ def test_terrain_between_the_aircraft_and_the_land_point_is_not_a_correction():
         rf.update(t, sample(t, d), LEVEL, d - 0.17 + 5.0, True, terrain_m=5.0)
     assert rf.in_range
     assert rf.correction_m(t, True) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_rangefinder_has_its_own_stream_and_leaves_the_others_as_they_were():
+    from sim_bridge.world import build_world
+    home = (-35.363262, 149.165237, 584.0, 0.0)
+    w = build_world(home, 7)
+    assert w.rangefinder is not None and build_world(home, 7, airframe="c172p").rangefinder is None
+    assert build_world(home, 7, vehicle="quad").rangefinder is None
+    # the sensors' and the faults' generators are those of the three-way split before it
+    old = [np.random.default_rng(s) for s in np.random.SeedSequence(7).spawn(3)]
+    SensorSuite(SensorParams(), old[1], 0.01)           # the suite's draws at construction
+    assert w.sensors._rng.bit_generator.state == old[1].bit_generator.state
+    assert w.faults._rng.bit_generator.state == old[2].bit_generator.state
+    assert w.rangefinder._rng.bit_generator.state == np.random.default_rng(
+        np.random.SeedSequence(7).spawn(4)[3]).bit_generator.state

@@ -20,8 +20,9 @@ not the landing's, is untouched.
 Ours, written after that description: ``RangefinderHeight`` keeps the same state and
 the same constants (``IN_RANGE_COUNT``, ``STUCK_FRAC``, ``JUMP_FRAC``, ``CORR_KEEP``,
 ``CORR_STALE_S``, ``CORR_RESET_M``). Two choices of ours: the reading is judged in
-range by RNGFND1_MIN_CM / RNGFND1_MAX_CM (as ArduPilot's driver status does) and by the
-simulator's "invalid signal" flag (DISTANCE_SENSOR ``signal_quality`` 1); and
+range by RNGFND1_MIN_CM / RNGFND1_MAX_CM (as ArduPilot's driver status does), by the
+simulator's "invalid signal" flag (DISTANCE_SENSOR ``signal_quality`` 1), and only a
+downward sensor (orientation 25, ROTATION_PITCH_270) is read; and
 RNGFND1_GNDCLEAR (ArduPilot's "the reading when landed") is subtracted from the
 tilt-corrected reading, so that the height is that of the centre of gravity above where
 it rests on the ground, which is what a land point's altitude means here (the plan's
