@@ -1,6 +1,7 @@
 """The simulator's end of the PX4 HIL lockstep link (see ``autopilot/link/hil.py`` for
 the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION,
-DISTANCE_SENSOR (a rangefinder reading) and HIL_SENSOR, and waits for the HIL_ACTUATOR_CONTROLS that answers the step.
+DISTANCE_SENSOR (a rangefinder reading) and HIL_SENSOR, and waits for the
+HIL_ACTUATOR_CONTROLS that answers the step.
 
 Truth: HIL_STATE_QUATERNION goes out every ``truth_div``-th step (1: every step, the
 default, which ``--nav truth`` needs) and with every HIL_GPS; ``truth_div = 0``: never
