@@ -66,6 +66,20 @@ class GpsFix:
 
 
 @message
+class RangeSample:
+    """One rangefinder reading (DISTANCE_SENSOR), as the sensor reports it: the range
+    along its axis, and its own limits; whether it is in range is the reader's call
+    (RNGFND1_MIN_CM / RNGFND1_MAX_CM, as ArduPilot judges it)."""
+
+    t_us: int
+    distance_m: float        # range along the sensor's axis [m]
+    min_m: float             # the sensor's shortest and longest range [m]
+    max_m: float
+    orientation: int         # MAV_SENSOR_ORIENTATION (25: PITCH_270, downward)
+    signal_quality: int      # percent; 0 unknown, 1 invalid (no return)
+
+
+@message
 class SensorFrame:
     """Everything the simulator delivered for one lockstep step."""
 
@@ -75,6 +89,7 @@ class SensorFrame:
     baro: BaroSample | None = None
     airspeed: AirspeedSample | None = None
     gps: GpsFix | None = None
+    range: RangeSample | None = None     # a downward rangefinder's reading, when one arrived
 
 
 @message

@@ -30,12 +30,15 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .fence.actions import fence_step, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
 from .guidance.landing import LAND_PARAMS
+from .guidance.rangefinder import RNGFND_PARAMS, RangefinderHeight
 from .guidance.mission import MissionSequencer, NavTarget
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, NavState, SensorFrame
@@ -83,6 +86,9 @@ LOG_COLUMNS = (
     "leg_a_n_m", "leg_a_e_m", "leg_b_n_m", "leg_b_e_m", "loiter_c_n_m", "loiter_c_e_m",
     "loiter_r_m", "loiter_dir", "xtrack_est_m",
     "ctl_aileron", "ctl_elevator", "ctl_rudder", "ctl_throttle",
+    # the downward rangefinder (guidance/rangefinder.py): its tilt-corrected height above
+    # the ground (-1 when out of range or none), the correction a landing applies
+    "rng_hagl_m", "rng_corr_m",
 ) + NAV_COLUMNS + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
 _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
@@ -91,8 +97,8 @@ NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before ever
 
 
 def plane_param_declarations() -> list[Param]:
-    decls = (list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(LAND_PARAMS) + list(CRASH_PARAMS)
-             + list(FDI_PARAMS))
+    decls = (list(FW_PARAMS) + list(GUIDANCE_PARAMS) + list(LAND_PARAMS) + list(RNGFND_PARAMS)
+             + list(CRASH_PARAMS) + list(FDI_PARAMS))
     return decls + shared_param_declarations("plane")
 
 
@@ -160,6 +166,7 @@ class PlaneVehicle(VehicleBase):
         self.rtl_hold: NavTarget | None = None  # RTL to a rally point: the loiter there
         self._launch_ground_m: float | None = None  # the terrain's height there, if known
         self.land_done = False                  # landed (NAV_LAND) and disarmed: no re-arming
+        self.rangefinder = RangefinderHeight(params)   # RNGFND1_*, RNGFND_LANDING
 
     # ------------------------------------------------------------------ arming ---
     def _arming(self, nav: NavState) -> None:
@@ -345,6 +352,14 @@ class PlaneVehicle(VehicleBase):
             else:
                 self.healthy_since_us = None
 
+        if frame.range is not None and self.rangefinder.enabled:
+            # the rangefinder's height, and its correction of a landing's (RNGFND_LANDING)
+            land = self._rf_landing()
+            note = self.rangefinder.update(t_us, frame.range, nav.q_nb,
+                                           nav.alt_m - land.alt_b if land is not None else None,
+                                           land is not None, self._rf_terrain(nav, land))
+            if note is not None:
+                self.notice(t_us * 1e-6, SEV_INFO, note)
         if self.armed and self.mode == PlaneMode.AUTO and self.params["CRASH_DETECT"] >= 1:
             self._crash_check(nav, t_us)
         fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
@@ -424,6 +439,29 @@ class PlaneVehicle(VehicleBase):
             return None
         return self.terrain(math.degrees(nav.lat_rad), math.degrees(nav.lon_rad))
 
+    def _rf_landing(self):
+        """The landing whose heights the rangefinder corrects (ArduPlane's LAND flight
+        stage: a NAV_LAND flown in AUTO, not its go-around), or None."""
+        seq = self.sequencer
+        if not self.armed or self.mode != PlaneMode.AUTO or seq is None or seq.landing is None \
+                or seq.landing.phase == "go_around":
+            return None
+        return seq.landing
+
+    def _rf_terrain(self, nav: NavState, land) -> float:
+        """The terrain's height under the aircraft less the land point's, when a terrain
+        model gives both (the rangefinder's terrain correction), else 0."""
+        if land is None or self.terrain is None:
+            return 0.0
+        if land.ground_b_m is None:
+            lat, lon, _ = self.home_frame.to_geodetic_fast(np.array((land.b_ne[0], land.b_ne[1], 0.0)))
+            g = self.terrain(math.degrees(lat), math.degrees(lon))
+            land.ground_b_m = math.nan if g is None else float(g)
+        here = self._ground_m(nav)
+        if here is None or math.isnan(land.ground_b_m):
+            return 0.0
+        return here - land.ground_b_m
+
     def _landing(self) -> bool:
         """A landing is being flown (where touching down is the plan)."""
         seq = self.sequencer
@@ -501,6 +539,7 @@ class PlaneVehicle(VehicleBase):
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
             seq = self.sequencer
+            seq.land_h_corr_m = self.rangefinder.correction_m(t_us, self._rf_landing() is not None)
             tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
                              airspeed_mps=nav.airspeed_mps)
             if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \
@@ -568,6 +607,7 @@ class PlaneVehicle(VehicleBase):
         p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
+        rf = self.rangefinder
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         w = nav.wind_ned.tolist()
@@ -583,5 +623,7 @@ class PlaneVehicle(VehicleBase):
             tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],
+            rf.height_m if rf.height_m is not None else -1.0,
+            self.sequencer.land_h_corr_m if self.sequencer is not None else 0.0,
         ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row
             + (self.monitor.log_row() if self.monitor is not None else _FDI_IDLE))

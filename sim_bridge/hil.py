@@ -1,6 +1,7 @@
 """The simulator's end of the PX4 HIL lockstep link (see ``autopilot/link/hil.py`` for
-the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION and
-HIL_SENSOR, and waits for the HIL_ACTUATOR_CONTROLS that answers the step.
+the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION,
+DISTANCE_SENSOR (a rangefinder reading) and HIL_SENSOR, and waits for the
+HIL_ACTUATOR_CONTROLS that answers the step.
 
 Truth: HIL_STATE_QUATERNION goes out every ``truth_div``-th step (1: every step, the
 default, which ``--nav truth`` needs) and with every HIL_GPS; ``truth_div = 0``: never
@@ -21,8 +22,8 @@ import math
 import time
 
 from autopilot.link.codec import MAV, Codec
-from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_GPS,
-                                ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
+from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_DISTANCE,
+                                ID_GPS, ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
                                 SIM_COMPONENT_ID, SIM_SYSTEM_ID)
 
 G0 = 9.80665
@@ -35,6 +36,20 @@ def _clamp_int(v: float, lo: int, hi: int) -> int:
     """Round half away from zero and saturate to the field's range."""
     i = int(v + 0.5) if v >= 0.0 else int(v - 0.5)
     return lo if i < lo else hi if i > hi else i
+
+
+def distance_sensor_values(reading) -> tuple:
+    """DISTANCE_SENSOR's flat values (autopilot/link/hil.py: the field order and the
+    out-of-range convention) of a ``sim_bridge.sensors.rangefinder.RangeReading``."""
+    lo = _clamp_int(reading.min_m * 100.0, 0, 65534)
+    hi = _clamp_int(reading.max_m * 100.0, 0, 65534)
+    if reading.distance_m is None:
+        cur, quality = hi + 1, 1                    # no return: over range, invalid signal
+    else:
+        cur, quality = _clamp_int(reading.distance_m * 100.0, 0, hi), 100
+    var = _clamp_int((reading.noise_sigma_m * 100.0) ** 2, 0, 254)
+    return (reading.t_us // 1000, lo, hi, cur, MAV.MAV_DISTANCE_SENSOR_LASER, 0,
+            MAV.MAV_SENSOR_ROTATION_PITCH_270, var, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, quality)
 
 
 class SimulatorHilEnd:
@@ -54,9 +69,9 @@ class SimulatorHilEnd:
         self._steps_sent = 0
 
     # --- sending ---------------------------------------------------------------------
-    def send_step(self, readings, truth) -> None:
+    def send_step(self, readings, truth, range_reading=None) -> None:
         """HIL_GPS (if a fix arrives), HIL_STATE_QUATERNION (module docstring: truth),
-        then HIL_SENSOR, in one write."""
+        DISTANCE_SENSOR (if ``range_reading``), then HIL_SENSOR, in one write."""
         enc = self.codec.encode_values
         out = []
         gps = readings.gps
@@ -78,6 +93,8 @@ class SimulatorHilEnd:
         div = self.truth_div
         if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
             out.append(self._truth_message(truth))
+        if range_reading is not None:
+            out.append(enc(ID_DISTANCE, distance_sensor_values(range_reading)))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS

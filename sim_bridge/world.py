@@ -1,8 +1,14 @@
 """Assemble the simulated world of a run: plant, sensors, fault injector, wind, events.
 
 One ``numpy.random.SeedSequence(seed)`` is split into independent streams for the plant
-(turbulence), the sensors and the fault models, so the same seed gives bit-identical
-runs whichever transport carries the HIL link.
+(turbulence), the sensors, the fault models and the rangefinder, so the same seed gives
+bit-identical runs whichever transport carries the HIL link. (``spawn(4)``'s first three
+children are ``spawn(3)``'s: fitting the rangefinder left the other streams' draws as
+they were.)
+
+Rangefinders fitted per airframe (``RANGEFINDERS``): the Aerosonde carries a downward
+lidar (``sensors/rangefinder.py``, sent as DISTANCE_SENSOR); the c172p and the
+quadrotor carry none.
 """
 from __future__ import annotations
 
@@ -17,9 +23,11 @@ from .hil import SimulatorHilEnd
 from .bridge import SimBridge
 from .scenario import Wind, load_scenario
 from .sensors import SensorParams, SensorSuite
+from .sensors.rangefinder import Rangefinder, RangefinderParams
 
 QUAD_DT_S = 0.004          # quadrotor plant step = its HIL period (250 Hz)
 QUAD_HIL_RATE_HZ = 250.0
+RANGEFINDERS = {"aerosonde": RangefinderParams()}   # airframe -> its downward rangefinder
 
 
 @dataclass
@@ -29,22 +37,26 @@ class World:
     faults: FaultInjector
     events: list
     wind: Wind
+    rangefinder: Rangefinder | None = None
 
     def bridge(self, transport, vehicle: str = "plane", hil_rate_hz: float = 100.0,
                answer_timeout_s: float = 1.0) -> SimBridge:
         link = SimulatorHilEnd(transport, answer_timeout_s=answer_timeout_s)
         return SimBridge(self.plant, self.sensors, link, self.faults, self.events,
-                         hil_rate_hz=hil_rate_hz, vehicle=vehicle)
+                         hil_rate_hz=hil_rate_hz, vehicle=vehicle, rangefinder=self.rangefinder)
 
 
 def build_world(home: tuple[float, float, float, float], seed: int, airframe: str = "aerosonde",
                 scenario: Path | None = None, wind: tuple[float, float] | None = None,
                 turbulence: str | None = None, vehicle: str = "plane",
-                sensor_params: SensorParams | None = None, terrain=None) -> World:
+                sensor_params: SensorParams | None = None, terrain=None,
+                rangefinder: RangefinderParams | None | str = "airframe") -> World:
     """``home`` = (lat_deg, lon_deg, alt_m, heading_deg). ``wind`` = (speed, from_deg)
     overrides the scenario's steady wind; ``turbulence`` overrides its level.
     ``terrain``: the ground's height, a callable (lat_deg, lon_deg) -> metres MSL or None
-    (autopilot.geo.terrain); None: flat at home altitude."""
+    (autopilot.geo.terrain); None: flat at home altitude. ``rangefinder``: the downward
+    rangefinder's parameters, None for none, "airframe" (default) the airframe's own
+    (``RANGEFINDERS``; a plane only)."""
     events: list = []
     w = Wind(0.0, 0.0, "none")
     if scenario is not None:
@@ -58,7 +70,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
         w = Wind(w.speed_mps, w.from_deg, turbulence)
 
     root = np.random.SeedSequence(seed)
-    rng_plant, rng_sensors, rng_faults = (np.random.default_rng(s) for s in root.spawn(3))
+    rng_plant, rng_sensors, rng_faults, rng_range = (np.random.default_rng(s) for s in root.spawn(4))
     sp = sensor_params or SensorParams()
     if vehicle == "quad":
         # the seed's quadrotor model (plants/quadrotor.py), 4 ms steps: one per 250 Hz
@@ -81,4 +93,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
     plant.terrain = terrain
     sensors = SensorSuite(sp, rng_sensors, dt_s=0.01)
     sensors.set_home(math.radians(home[0]), math.radians(home[1]), home[2])
-    return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w)
+    if isinstance(rangefinder, str):
+        rangefinder = RANGEFINDERS.get(airframe)
+    rf = Rangefinder(rangefinder, rng_range, home[2], terrain) if rangefinder is not None else None
+    return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w, rf)

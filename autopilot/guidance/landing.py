@@ -67,6 +67,13 @@ Phases (``Landing.phase``):
   LAND_FLARE_ALT of the land point): the landing is complete; the vehicle disarms
   LAND_DISARMDELAY seconds later.
 
+The height. Every height above the land point above (the glide slope's, the flare's
+triggers and law, the touchdown and ground tests, the abort checks) is the navigation's
+altitude less the land point's, less ``h_corr_m``: with RNGFND_LANDING 1 and a downward
+rangefinder in range, the difference between the navigation's height and the
+rangefinder's (guidance/rangefinder.py, ArduPlane's rangefinder correction), so that
+near the ground the landing flies the rangefinder's height; else 0 (the navigation's).
+
 The aim point. A flare flown so ends beyond the point where the glide slope meets
 the ground: with r = s_app / s_td and a flight path that follows the law exactly, the
 exponential part takes tau ln r seconds from the height tau (s_app - s_td) where it
@@ -209,6 +216,12 @@ class Landing:
         self._sink_us: int | None = None
         self.flare_tau_s: float | None = None          # the flare's time constant of the moment
         self._s_dem: float | None = None                # the flare's sink demand, last step
+        # the rangefinder's correction of the navigation's height (RNGFND_LANDING,
+        # guidance/rangefinder.py): every height above the land point the landing flies
+        # is alt_m - alt_b - h_corr_m, and its altitude demands are in the navigation's
+        # frame (+ h_corr_m); 0 without a rangefinder in range
+        self.h_corr_m = 0.0
+        self.ground_b_m: float | None = None            # the terrain's height at B (the vehicle's; NaN unknown)
 
     def along(self, p_ne) -> float:
         return (p_ne[0] - self.a_ne[0]) * self.u[0] + (p_ne[1] - self.a_ne[1]) * self.u[1]
@@ -224,6 +237,11 @@ class Landing:
         """The glide slope's altitude at ``along`` metres from A (MSL)."""
         a = min(max(along, 0.0), self.aim_along)
         return self.alt_b + self.slope * (self.aim_along - a)
+
+    def glide_demand(self, along: float) -> float:
+        """The glide slope's altitude at ``along`` as the navigation's altitude to fly:
+        ``glide_alt`` plus the rangefinder's correction (``h_corr_m``)."""
+        return self.glide_alt(along) + self.h_corr_m
 
     def speed_weight(self, along: float) -> float:
         """The weight of the speed priority (control/fixed_wing.py SPD_PRIO) on the
@@ -281,11 +299,11 @@ class Landing:
         if self._v_mean is None:
             self._v_mean = airspeed_mps
         self._v_mean += (airspeed_mps - self._v_mean) * min(dt / AB_SPD_TAU_S, 1.0)
-        h = alt_m - self.alt_b
+        h = alt_m - self.alt_b - self.h_corr_m
         along = self.along(p_ne)
         if h > p["LAND_AB_CHK_ALT"] or along < 0.0:
             return None
-        dh = alt_m - self.glide_alt(along)
+        dh = alt_m - self.glide_demand(along)
         if p["LAND_AB_HIGH"] > 0 and dh > p["LAND_AB_HIGH"]:
             return f"{dh:.0f} m above the glide slope"
         if p["LAND_AB_LOW"] > 0 and -dh > p["LAND_AB_LOW"]:
@@ -299,7 +317,7 @@ class Landing:
 
     def step(self, t_us: int, p_ne, alt_m: float, v_ned, airspeed_mps: float):
         p = self.params
-        h = alt_m - self.alt_b
+        h = alt_m - self.alt_b - self.h_corr_m    # above the land point (rangefinder-corrected)
         sink = float(v_ned[2])
         gspd = math.hypot(float(v_ned[0]), float(v_ned[1]))
         along = self.along(p_ne)
@@ -330,7 +348,7 @@ class Landing:
             self.phase = "ground"
             self.landed_us = t_us
         if self.phase == "approach":
-            return self.glide_alt(along), None
+            return self.glide_demand(along), None
         # the flare steered to the land point: the time constant that brings the height
         # flown to the ground at B at the ground speed flown, within FLARE_TAU_MIN..MAX
         # of LAND_FLARE_SEC; past B, TECS_LAND_SRC more sink per metre (ArduPlane's)
@@ -347,4 +365,4 @@ class Landing:
         h_lead = max(h - (self._s_dem if self._s_dem is not None else sink) * p["LAND_FLR_LAG"], 0.0)
         s_dem = min(self._sink_app, h_lead / tau + s_td + p["TECS_LAND_SRC"] * max(-to_go, 0.0))
         self._s_dem = s_dem
-        return self.alt_b, -s_dem
+        return self.alt_b + self.h_corr_m, -s_dem

@@ -166,6 +166,7 @@ class MissionSequencer:
         self._rtl_dest: tuple | None = None   # RTL's point: ((n, e) of home, alt MSL or None)
         self.launched = False          # left the ground (an item counted on the launcher is not)
         self.landing: Landing | None = None   # the NAV_LAND approach being flown
+        self.land_h_corr_m = 0.0       # the rangefinder's correction for it (the vehicle's)
         self.land_complete = False     # landed at the end of the mission (NAV_LAND)
         self.go_arounds = 0            # approaches abandoned (DO_GO_AROUND, automatic abort)
         self.auto_aborts = 0           # of which automatic (landing.AUTO_ABORTS_MAX)
@@ -1330,6 +1331,9 @@ class MissionSequencer:
                 self.say(t_us, SEV_INFO, f"Landing: {alt_m - land.alt_a:.0f} m above the approach, "
                                          f"descending on a {r:.0f} m circle first")
         land = self.landing
+        # the rangefinder's correction of the landing's heights (guidance/rangefinder.py),
+        # set by the vehicle before this update; none in a go-around (ArduPlane's)
+        land.h_corr_m = self.land_h_corr_m if land.phase != "go_around" else 0.0
         if land.phase == "go_around":
             return self._go_around_climb(t_us, item, p_ne, alt_m)
         if land.phase == "descend":
@@ -1350,7 +1354,7 @@ class MissionSequencer:
             r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
                 return dataclasses.replace(r, airspeed_mps=land.airspeed_mps, land="approach",
-                                           alt_m=land.glide_alt(land.along(p_ne)))
+                                           alt_m=land.glide_demand(land.along(p_ne)))
         alt, climb = land.step(t_us, p_ne, alt_m, self._v_ned, self._airspeed_mps)
         if land.phase != "approach" and land.flare_info is not None and land.flare_us == t_us:
             h, s, v, d = land.flare_info

@@ -4,7 +4,8 @@ Exchange per lockstep step k (simulation time t_k), as PX4 SITL defines it
 (docs.px4.io, "Simulation": the simulator MAVLink API):
 
     simulator -> autopilot   HIL_GPS (when a fix arrives), HIL_STATE_QUATERNION (truth,
-                             for logging and scoring only), then HIL_SENSOR(t_k)
+                             for logging and scoring only), DISTANCE_SENSOR (when a
+                             rangefinder reading is due), then HIL_SENSOR(t_k)
     autopilot -> simulator   HIL_ACTUATOR_CONTROLS(time_usec = t_k)
     simulator                advances the plant from t_k to t_k+1 with those controls
 
@@ -14,6 +15,15 @@ HIL_SENSOR (same time, the simulator retrying after a lost answer) is answered a
 with the same controls without running the loop twice. Units on the wire are the
 message definitions' (hPa, degC, 1e7 deg, mm, cm/s); they are converted to SI here and
 nowhere else.
+
+DISTANCE_SENSOR is what PX4's simulator interface sends for a rangefinder (its
+SimulatorMavlink reads it from the simulator next to HIL_SENSOR and HIL_GPS). Fields
+as the MAVLink common message defines them: ``time_boot_ms`` (the simulation time),
+``min_distance`` / ``max_distance`` / ``current_distance`` in cm, ``type``
+MAV_DISTANCE_SENSOR_LASER, ``orientation`` MAV_SENSOR_ROTATION_PITCH_270 (downward),
+``covariance`` the variance in cm^2, ``signal_quality`` 100 for a return and 1 ("invalid
+signal") with ``current_distance`` = ``max_distance`` + 1 for none (out of range). It
+belongs to the step whose HIL_SENSOR follows it.
 """
 from __future__ import annotations
 
@@ -22,7 +32,7 @@ import math
 import numpy as np
 
 from ..messages import (AirspeedSample, ActuatorOutputs, BaroSample, GpsFix, ImuSample,
-                        MagSample, SensorFrame)
+                        MagSample, RangeSample, SensorFrame)
 from .codec import MAV, Codec
 
 DEG_E7 = 1e7
@@ -45,7 +55,8 @@ ID_SENSOR = MAV.MAVLINK_MSG_ID_HIL_SENSOR
 ID_GPS = MAV.MAVLINK_MSG_ID_HIL_GPS
 ID_STATE = MAV.MAVLINK_MSG_ID_HIL_STATE_QUATERNION
 ID_ACTUATORS = MAV.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS
-HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS})
+ID_DISTANCE = MAV.MAVLINK_MSG_ID_DISTANCE_SENSOR
+HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE})
 # The lockstep messages travel through the codec's flat fast path: field values in the
 # message definition's declared order, arrays flattened (see Codec.encode_values).
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
@@ -55,6 +66,9 @@ HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS})
 #   HIL_STATE_QUATERNION: time_usec, q[4], rollspeed, pitchspeed, yawspeed, lat, lon,
 #                alt, vx, vy, vz, ind_airspeed, true_airspeed, xacc, yacc, zacc
 #   HIL_ACTUATOR_CONTROLS: time_usec, controls[16], mode, flags
+#   DISTANCE_SENSOR: time_boot_ms, min_distance, max_distance, current_distance, type, id,
+#                orientation, covariance, horizontal_fov, vertical_fov, quaternion[4],
+#                signal_quality
 
 
 _MG_TO_MS2 = 9.80665e-3
@@ -82,7 +96,12 @@ class TruthSample:
         self.f_b = a[10:13]
 
 
-def sensor_frame_from(v, gps: GpsFix | None) -> SensorFrame:
+def range_sample_from(v) -> RangeSample:
+    """DISTANCE_SENSOR values -> RangeSample in SI (time from ``time_boot_ms``)."""
+    return RangeSample(int(v[0]) * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, int(v[6]), int(v[14]))
+
+
+def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None) -> SensorFrame:
     """HIL_SENSOR values (+ a pending HIL_GPS) -> SensorFrame in SI."""
     t_us = int(v[0])
     flags = v[14]
@@ -94,7 +113,7 @@ def sensor_frame_from(v, gps: GpsFix | None) -> SensorFrame:
     if flags & DIFF_FLAG:
         dp_pa = v[11] * 100.0
         air = AirspeedSample(t_us, dp_pa, math.sqrt(max(0.0, 2.0 * dp_pa / RHO0)))
-    return SensorFrame(t_us, imu, mag, baro, air, gps)
+    return SensorFrame(t_us, imu, mag, baro, air, gps, rng)
 
 
 def gps_fix_from(v) -> GpsFix:
@@ -119,6 +138,7 @@ class AutopilotHilEnd:
         self.codec = codec or Codec(1, MAV.MAV_COMP_ID_AUTOPILOT1)
         self._gps: GpsFix | None = None
         self._truth: TruthSample | None = None
+        self._range: RangeSample | None = None
         self._last_t_us: int | None = None
         self._last_answer: bytes | None = None
         self.duplicates = 0
@@ -148,13 +168,16 @@ class AutopilotHilEnd:
                 truth = self._truth
                 if truth is not None and truth.t_us != t_us:
                     truth = None
-                steps.append((sensor_frame_from(v, self._gps), truth))
+                steps.append((sensor_frame_from(v, self._gps, self._range), truth))
                 self._gps = None
+                self._range = None
                 self._last_t_us = t_us
             elif mid == ID_STATE:
                 self._truth = TruthSample(msg.values)
             elif mid == ID_GPS:
                 self._gps = gps_fix_from(msg.values)
+            elif mid == ID_DISTANCE:
+                self._range = range_sample_from(msg.values)
             elif mid is None:
                 kind = msg.get_type()
                 if kind == "BATTERY_STATUS":
