@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       identify_hist)
+                       RESTART_HOLD_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
@@ -107,6 +107,7 @@ class ThrottleIdentifier:
                                        fit_noise=THR_FIT_NOISE)}
         self._lp = None
         self._t_us = None
+        self._start_us = None          # the low-passes' latest (re)start
         self._next_us = 0
         self._k = 0
         self._t0_us = None
@@ -133,6 +134,7 @@ class ThrottleIdentifier:
              float(controls[3])]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
+            self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
             return
@@ -147,6 +149,8 @@ class ThrottleIdentifier:
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
+        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
+            return            # the low-passes' start (actuator.RESTART_HOLD_S)
         m = self.model
         z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2]), lp[3])
         self._k += 1
