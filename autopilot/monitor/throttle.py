@@ -60,17 +60,33 @@ class ThrustModel:
     b: float
     c: float
     d: float
+    CY_b: float = 0.0          # side force per sideslip (its body-x part in gusts)
 
-    def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float) -> float:
+    def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
+               var_fz: float = 0.0, var_fy: float = 0.0) -> float:
         """The thrust [N] the measured specific force (body FRD, m/s^2) means, with the
-        elevator's deflection (autopilot convention, nose up positive) [rad]."""
+        elevator's deflection (autopilot convention, nose up positive) [rad].
+
+        ``var_fz``, ``var_fy``: the variances of the normal and lateral specific force
+        about the low-passed values passed in [m^2/s^4]. The aerodynamic force turns
+        with the angle of attack and the sideslip, so its body-x part is quadratic in
+        them, and the mean of a square is the square of the mean plus the variance:
+        ``L sin(alpha)`` adds ``qbar S C_La var(alpha)`` and the side force
+        ``-Y sin(beta)`` adds ``qbar S |C_Yb| var(beta)``, both forward, with
+        ``var(alpha) = var(C_L) / C_La^2``, ``var(beta) = var(C_Y) / C_Yb^2`` from the
+        forces measured. Gusts faster than the low-pass (near the ground: MIL-F-8785C's
+        vertical scale length is the height) made them 5-7 N, half the cruise drag."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
         CL = -self.mass_kg * f_z / qS
         # alpha from the lift: C_L = C_L0 + C_La alpha + C_Lde de, de = -elevator
         alpha = (CL - self.CL0 + self.CLde * elevator_rad) / self.CLa
         CLl = self.CL0 + self.CLa * alpha
         CD = self.CD0 + self.k_CD * CLl * CLl
-        return self.mass_kg * f_x - qS * (CL * math.sin(alpha) - CD * math.cos(alpha))
+        k = self.mass_kg / qS
+        fwd = k * k * var_fz / self.CLa
+        if self.CY_b != 0.0:
+            fwd += k * k * var_fy / abs(self.CY_b)
+        return self.mass_kg * f_x - qS * (CL * math.sin(alpha) - CD * math.cos(alpha) + fwd)
 
     def throttle_for(self, thrust: float, V: float) -> float:
         """The throttle that gives ``thrust`` at airspeed V (the curve inverted)."""
@@ -90,7 +106,7 @@ class ThrustModel:
 # thrust curve fitted as the module docstring says)
 AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0=0.28, CLa=3.45,
                                CLde=-0.36, CD0=0.0437, k_CD=0.0232,
-                               a=46.979, b=-0.778, c=4.465, d=-0.177)
+                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98)
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
@@ -130,8 +146,9 @@ class ThrottleIdentifier:
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             return
-        x = [float(f_b[0]), float(f_b[2]), float(controls[1]) * MAX_DEFLECTION_RAD, V,
-             float(controls[3])]
+        fz, fy = float(f_b[2]), float(f_b[1])
+        x = [float(f_b[0]), fz, float(controls[1]) * MAX_DEFLECTION_RAD, V,
+             float(controls[3]), fy, fz * fz, fy * fy]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             self._start_us = t_us
@@ -152,7 +169,10 @@ class ThrottleIdentifier:
         if t_us - self._start_us < RESTART_HOLD_S * 1e6:
             return            # the low-passes' start (actuator.RESTART_HOLD_S)
         m = self.model
-        z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2]), lp[3])
+        # the forces' variances about their low-passed values, over the same filter
+        var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
+        var_fy = max(lp[7] - lp[5] * lp[5], 0.0)
+        z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2], var_fz, var_fy), lp[3])
         self._k += 1
         k_test = self._k >= TEST_DIV
         if k_test:
