@@ -18,8 +18,13 @@ APC 18x8 propeller table), measured as a thrust stand in a wind tunnel would: th
 trimmed in level flight at 18, 21, ... 33 m/s, the throttle set to 0, 0.1, ... 1 and
 held 1.5 s, the engine's thrust read; the curve's least-squares fit to those 66 points
 is within 0.26 N rms (at cruise a tenth of the throttle is 2.8 N of the aircraft's
-11 N of drag). The thrust estimated in flight carries the drag polar's errors as well:
-on fault-free default flights its residual has a standard deviation of about 0.1 of
+11 N of drag). The thrust follows the command with the motor's and propeller's lag,
+first order, ``tau_s`` = 0.5 s: the plant's thrust after throttle steps (0 -> 1, 0 -> 0.5,
+0.2 -> 0.8, 0.4 -> 0.8, 0.8 -> 0.3, 1 -> 0 at 25 m/s) reached 63 % in 0.45-0.68 s; the
+command goes through it before the low-pass, as the thrust it asks for.
+
+The thrust estimated in flight carries the drag polar's errors as well: on fault-free
+default flights its residual has a standard deviation of about 0.1 of
 full throttle, so a throttle stuck near the command is seen only once the command moves
 away from it, while one stuck at full is 0.6 above the cruise command at once.
 
@@ -61,6 +66,7 @@ class ThrustModel:
     c: float
     d: float
     CY_b: float = 0.0          # side force per sideslip (its body-x part in gusts)
+    tau_s: float = 0.0         # the thrust's lag behind the command (motor and propeller) [s]
 
     def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
                var_fz: float = 0.0, var_fy: float = 0.0) -> float:
@@ -106,7 +112,7 @@ class ThrustModel:
 # thrust curve fitted as the module docstring says)
 AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0=0.28, CLa=3.45,
                                CLde=-0.36, CD0=0.0437, k_CD=0.0232,
-                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98)
+                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98, tau_s=0.5)
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
@@ -124,6 +130,7 @@ class ThrottleIdentifier:
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
+        self._thr_lag = 0.0            # the command through the thrust's lag (tau_s)
         self._next_us = 0
         self._k = 0
         self._t0_us = None
@@ -147,9 +154,18 @@ class ThrottleIdentifier:
             self._lp = None
             return
         fz, fy = float(f_b[2]), float(f_b[1])
+        thr = float(controls[3])
+        if self._lp is not None and self.model.tau_s > 0.0:
+            # the thrust follows the command with the motor's and propeller's lag
+            # (ThrustModel.tau_s): the command through it, as the thrust it asks for
+            dt = (t_us - self._t_us) * 1e-6
+            if dt > 0.0:
+                self._thr_lag += dt / (self.model.tau_s + dt) * (thr - self._thr_lag)
+            thr = self._thr_lag
         x = [float(f_b[0]), fz, float(controls[1]) * MAX_DEFLECTION_RAD, V,
-             float(controls[3]), fy, fz * fz, fy * fy]
+             thr, fy, fz * fz, fy * fy]
         if self._lp is None:
+            self._thr_lag = thr
             self._lp, self._t_us = list(x), t_us
             self._start_us = t_us
             if self._t0_us is None:
