@@ -102,6 +102,8 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+SILENT_RUN = 50                 # updates in a row at most FDI_TOUT apart before a silence
+                                # counts (2 s of baro, mag, airspeed; 10 s of GPS)
 NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
                                 # with no level trim in a row: said (and terminated)
 RHO0_ISA = 1.225                # sea-level density [kg/m^3]
@@ -142,7 +144,7 @@ class Episode:
 
 class _Aiding:
     __slots__ = ("name", "win", "decim", "k", "gain", "last_us", "silent", "refill",
-                 "ratio", "adapted", "rdet", "riso", "hmin")
+                 "ratio", "adapted", "rdet", "riso", "hmin", "run")
 
     def __init__(self, name: str, s: int, M: int, alpha: float, decim: int, gain: float,
                  alpha_det: float):
@@ -159,6 +161,7 @@ class _Aiding:
         self.rdet = 0.0               # latest window statistic / threshold (2.12)
         self.riso = 0.0               # latest isolation statistic / threshold (2.17)
         self.hmin = 0.0               # window test only this high above the origin [m]
+        self.run = 0                  # updates in a row at most FDI_TOUT apart
 
 
 class FaultMonitor:
@@ -311,6 +314,10 @@ class FaultMonitor:
             ch = aiding.get(r.source)
             if ch is None:
                 continue
+            if ch.last_us is not None and t_us - ch.last_us <= self.tout_us:
+                ch.run += 1
+            elif ch.last_us is None or t_us > ch.last_us:
+                ch.run = 0
             ch.last_us = t_us
             ch.k += 1
             if ch.k < ch.decim:
@@ -679,7 +686,11 @@ class FaultMonitor:
         iso_over = []                  # (ratio, channel) over the isolation threshold
         for ch in self._aiding_list:
             last = ch.last_us
-            if armed and last is not None and t_us - last > tout:
+            # silent: it had been updating regularly (SILENT_RUN updates in a row) and
+            # stopped; a source the filter fuses only now and then (the magnetometer
+            # where the field is nearly vertical: heading fusion needs B_h^2 / |B|^2 over
+            # 0.05) has no rate to fall silent from
+            if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
                 if not ch.silent:
                     ch.silent = True
                     ch.win.reset()
