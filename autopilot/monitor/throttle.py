@@ -81,7 +81,7 @@ class ThrustModel:
         ``-Y sin(beta)`` adds ``qbar S |C_Yb| var(beta)``, both forward, with
         ``var(alpha) = var(C_L) / C_La^2``, ``var(beta) = var(C_Y) / C_Yb^2`` from the
         forces measured. Gusts faster than the low-pass (near the ground: MIL-F-8785C's
-        vertical scale length is the height) made them 5-7 N, half the cruise drag."""
+        vertical scale length is the height) made them 4-7 N, a third of full throttle."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
         CL = -self.mass_kg * f_z / qS
         # alpha from the lift: C_L = C_L0 + C_La alpha + C_Lde de, de = -elevator
