@@ -165,3 +165,65 @@ def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
     a = s.log.arrays()
     late = a["t_s"] >= 70.0
     assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 40.0
+
+
+def test_thrust_balance_unbiased_in_gusts_near_the_ground():
+    # GIVEN the plant trimmed at 25 m/s 8 m above the ground in moderate turbulence
+    # (MIL-F-8785C: the vertical gusts' scale length is the height), the throttle held,
+    # the pitch and roll held by a stabiliser, the thrust balance fed as in flight
+    from types import SimpleNamespace
+
+    from autopilot.geo.rotations import quat_to_euler
+    from autopilot.monitor.throttle import ThrottleIdentifier
+
+    plant = JSBSimPlane(home=(47.0, 8.0, 0.0, 0.0), turbulence="moderate", rng=np.random.default_rng(3))
+    trim = plant.trim(airspeed_mps=25.0, height_m=8.0)
+    cmd, th0 = trim, quat_to_euler(plant.state().q_nb)[1]
+    ident = ThrottleIdentifier(AEROSONDE_THRUST)
+    res = []
+    for k in range(50 * 25):
+        st = plant.step(cmd, 4)
+        roll, pitch, _ = quat_to_euler(st.q_nb)
+        p, q, _r = st.omega_b
+        cmd = replace(trim, elevator=float(np.clip(trim.elevator + (2.0 * (th0 - pitch) - 0.5 * q) / 0.35, -1, 1)),
+                      aileron=float(np.clip(trim.aileron - (1.5 * roll + 0.3 * p) / 0.35, -1, 1)))
+        ident.step(k * 20_000, SimpleNamespace(airspeed_mps=st.airspeed_mps, omega_b=st.omega_b),
+                   (cmd.aileron, cmd.elevator, cmd.rudder, cmd.throttle), True, st.f_b)
+        if k >= 250:
+            res.append(ident.axes["throttle"].hist[-1][1] - trim.throttle)
+    # THEN the throttle it reads is the one held within 0.035 on average (measured -0.020;
+    # without the gusts' second-order terms +0.073, and random-plane trial 315's approach
+    # at 3-6 m read 0.15-0.3 high: a false throttle alarm)
+    assert abs(np.mean(res)) < 0.035, np.mean(res)
+
+
+def test_thrust_balance_follows_a_throttle_step_from_idle():
+    # GIVEN the plant trimmed at 25 m/s at idle, then the throttle stepped to full (a
+    # go-around's, or a climb's after an idle descent), the pitch and roll stabilised
+    from types import SimpleNamespace
+
+    from autopilot.geo.rotations import quat_to_euler
+    from autopilot.monitor.throttle import ThrottleIdentifier
+
+    plant = JSBSimPlane(home=(47.0, 8.0, 0.0, 0.0))
+    trim = plant.trim(airspeed_mps=25.0, height_m=300.0)
+    cmd, th0 = replace(trim, throttle=0.0), quat_to_euler(plant.state().q_nb)[1]
+    ident = ThrottleIdentifier(AEROSONDE_THRUST)
+    res = []
+    for k in range(50 * 16):
+        st = plant.step(cmd, 4)
+        roll, pitch, _ = quat_to_euler(st.q_nb)
+        p, q, _r = st.omega_b
+        cmd = replace(trim, throttle=0.0 if k < 50 * 8 else 1.0,
+                      elevator=float(np.clip(trim.elevator + (2.0 * (th0 - pitch) - 0.5 * q) / 0.35, -1, 1)),
+                      aileron=float(np.clip(trim.aileron - (1.5 * roll + 0.3 * p) / 0.35, -1, 1)))
+        ident.step(k * 20_000, SimpleNamespace(airspeed_mps=st.airspeed_mps, omega_b=st.omega_b),
+                   (cmd.aileron, cmd.elevator, cmd.rudder, cmd.throttle), True, st.f_b)
+        if k >= 50 * 7:
+            _t, z, d = ident.axes["throttle"].hist[-1]
+            res.append(z - d)
+    # THEN the throttle read follows the command within 0.15 through the motor's spin-up
+    # (the thrust's lag, ThrustModel.tau_s 0.5 s, the plant's step responses: 63 % in
+    # 0.45-0.68 s): measured 0.106; with the thrust taken as instantaneous 0.351 (random-
+    # plane trial 84: -0.35 for 2 s at a climb from idle in moderate turbulence, 1.09x)
+    assert np.abs(res).max() < 0.15, np.abs(res).max()

@@ -47,6 +47,14 @@ BAL_NOISE_RAD = 0.1             # the noise each 10 Hz sample of the fit is weig
                                 # the prior [rad]: the low-passed samples are correlated and the
                                 # model's own errors systematic (with 0.01 the fit chased a
                                 # climb-out and read a steep turn as an elevator fault)
+RESTART_GAP_S = 0.25            # signals missing this long (the monitor paused: a go-around's
+                                # climb, the flare): the low-passes start again [s]
+RESTART_HOLD_S = 3.0            # ... and nothing is tested or learnt for 3 BAL_TAU_S after a
+                                # (re)start: the derivative of a low-passed rate reads zero at
+                                # its start, whatever the rate's real derivative, and the error
+                                # decays as exp(-t / BAL_TAU_S) (resuming after a go-around's
+                                # climb in a turn: the aileron read 0.22 rad off, the elevator
+                                # 0.18, false alarms)
 RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad] (0.01 let the
                                 # steep idle descending turns of the default mission after a
                                 # GPS fault read 6 sigma: a false alarm)
@@ -78,6 +86,7 @@ class MomentBalance:
         self._lp = None
         self._t_us = None
         self._t0_us = None
+        self._start_us = None         # the low-passes' latest (re)start
         self._next_us = 0
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
@@ -97,8 +106,11 @@ class MomentBalance:
         inertia: known terms, not fitted."""
         r = self.V_REF / V
         x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q)
+        if self._lp is not None and (t_us - self._t_us) * 1e-6 > RESTART_GAP_S:
+            self._lp = None           # the monitor paused: start the low-passes again
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
+            self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
             return None
@@ -113,6 +125,8 @@ class MomentBalance:
         if t_us < self._next_us:
             return None
         self._next_us = t_us + BAL_PERIOD_US
+        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
+            return None               # the start's transient (RESTART_HOLD_S)
         phi = np.array(lp[:3])
         d = lp[3]
         z_dyn = 0.0
@@ -217,6 +231,7 @@ class ElevatorIdentifier:
         self.reset()
 
     def reset(self) -> None:
+        self.suspended = False        # a sensor fault running (suspend)
         self.r_var = None             # healthy residual variance of the balance [rad^2]
         self._n_var = 0
         if self.prior is not None:

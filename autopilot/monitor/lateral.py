@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
-                       MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist)
+                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist)
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
@@ -192,6 +192,7 @@ class LateralIdentifier:
         self.axes = {n: _Axis(n, window, alpha, a_det) for n in AXES}
         self._lp = None
         self._t_us = None
+        self._start_us = None          # the low-passes' latest (re)start
         self._next_us = 0
         self._k = 0
         self._t0_us = None
@@ -224,6 +225,7 @@ class LateralIdentifier:
              float(controls[3]) * (V_REF / V) ** 2]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
+            self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
             return
@@ -238,6 +240,8 @@ class LateralIdentifier:
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
+        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
+            return            # the low-passes' start (actuator.RESTART_HOLD_S)
         # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
         pd = (x[0] - lp[0]) / BAL_TAU_S
         rd = (x[2] - lp[2]) / BAL_TAU_S

@@ -58,6 +58,8 @@ FDI_PARAMS = (
     Param("FDI_DECIM", 10.0, 1.0, 50.0, "", "baro, mag, airspeed (fused at 25 Hz) enter every N-th sample",
           is_int=True),
     Param("FDI_ARSP_K", 4.0, 1.0, 100.0, "", "airspeed innovation variance inflation (turbulence)"),
+    Param("FDI_ARSP_HMIN", 20.0, 0.0, 300.0, "m", "airspeed window test only this high above the origin "
+          "(home) or higher: below it turbulence's gusts outrun the wind estimate (0: everywhere)"),
     Param("FDI_TOUT", 0.5, 0.1, 10.0, "s", "a channel silent this long is flagged (sensor off)"),
     Param("FDI_BIAS_T", 4.0, 1.0, 60.0, "s", "window of the gyro bias-estimate change test"),
     Param("FDI_ALPHA_B", 1e-5, 1e-12, 0.1, "", "level of significance of the gyro bias test"),
@@ -100,6 +102,8 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+SILENT_RUN = 50                 # updates in a row at most FDI_TOUT apart before a silence
+                                # counts (2 s of baro, mag, airspeed; 10 s of GPS)
 NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
                                 # with no level trim in a row: said (and terminated)
 RHO0_ISA = 1.225                # sea-level density [kg/m^3]
@@ -140,7 +144,7 @@ class Episode:
 
 class _Aiding:
     __slots__ = ("name", "win", "decim", "k", "gain", "last_us", "silent", "refill",
-                 "ratio", "adapted", "rdet", "riso")
+                 "ratio", "adapted", "rdet", "riso", "hmin", "run")
 
     def __init__(self, name: str, s: int, M: int, alpha: float, decim: int, gain: float,
                  alpha_det: float):
@@ -156,6 +160,8 @@ class _Aiding:
         self.adapted = False
         self.rdet = 0.0               # latest window statistic / threshold (2.12)
         self.riso = 0.0               # latest isolation statistic / threshold (2.17)
+        self.hmin = 0.0               # window test only this high above the origin [m]
+        self.run = 0                  # updates in a row at most FDI_TOUT apart
 
 
 class FaultMonitor:
@@ -181,6 +187,11 @@ class FaultMonitor:
         for name, (s, fast, kkey) in _AIDING.items():
             gain = 1.0 / math.sqrt(p[kkey]) if kkey else 1.0
             self.aiding[name] = _Aiding(name, s, M, alpha, decim if fast else 1, gain, self.alpha_det)
+        # the airspeed's window test not near the ground: moderate turbulence's gusts there
+        # are shorter than the wind estimate follows (MIL-F-8785C low altitude: scale length
+        # L_u 67 m at 10 m against 263 m at 100 m) and the innovations are the gusts
+        # (docs/monitor.md, "How each channel is watched")
+        self.aiding["airspeed"].hmin = p["FDI_ARSP_HMIN"]
         self._aiding_list = tuple(self.aiding.values())
         self.tout_us = int(p["FDI_TOUT"] * 1e6)
         self._start_us = p["FDI_START_T"] * 1e6
@@ -298,15 +309,30 @@ class FaultMonitor:
         step_max = 0.0
         okf = self.radapt.okf_sd
         aiding = self.aiding
+        height = None
         for r in nav.innovations:
             ch = aiding.get(r.source)
             if ch is None:
                 continue
+            if ch.last_us is not None and t_us - ch.last_us <= self.tout_us:
+                ch.run += 1
+            elif ch.last_us is None or t_us > ch.last_us:
+                ch.run = 0
             ch.last_us = t_us
             ch.k += 1
             if ch.k < ch.decim:
                 continue
             ch.k = 0
+            if ch.hmin > 0.0:
+                if height is None:
+                    pos = getattr(nav, "position_ned", None)
+                    height = -float(pos[2]) if pos is not None else 1e9
+                if height < ch.hmin:
+                    # too low for this channel's test: its window starts again up there
+                    if ch.win.n:
+                        ch.win.reset()
+                        ch.rdet = ch.riso = 0.0
+                    continue
             sd = okf.get(r.source)
             if sd is None:
                 sd = r.innovation_variance
@@ -660,7 +686,11 @@ class FaultMonitor:
         iso_over = []                  # (ratio, channel) over the isolation threshold
         for ch in self._aiding_list:
             last = ch.last_us
-            if armed and last is not None and t_us - last > tout:
+            # silent: it had been updating regularly (SILENT_RUN updates in a row) and
+            # stopped; a source the filter fuses only now and then (the magnetometer
+            # where the field is nearly vertical: heading fusion needs B_h^2 / |B|^2 over
+            # 0.05) has no rate to fall silent from
+            if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
                 if not ch.silent:
                     ch.silent = True
                     ch.win.reset()

@@ -18,8 +18,13 @@ APC 18x8 propeller table), measured as a thrust stand in a wind tunnel would: th
 trimmed in level flight at 18, 21, ... 33 m/s, the throttle set to 0, 0.1, ... 1 and
 held 1.5 s, the engine's thrust read; the curve's least-squares fit to those 66 points
 is within 0.26 N rms (at cruise a tenth of the throttle is 2.8 N of the aircraft's
-11 N of drag). The thrust estimated in flight carries the drag polar's errors as well:
-on fault-free default flights its residual has a standard deviation of about 0.1 of
+11 N of drag). The thrust follows the command with the motor's and propeller's lag,
+first order, ``tau_s`` = 0.5 s: the plant's thrust after throttle steps (0 -> 1, 0 -> 0.5,
+0.2 -> 0.8, 0.4 -> 0.8, 0.8 -> 0.3, 1 -> 0 at 25 m/s) reached 63 % in 0.45-0.68 s; the
+command goes through it before the low-pass, as the thrust it asks for.
+
+The thrust estimated in flight carries the drag polar's errors as well: on fault-free
+default flights its residual has a standard deviation of about 0.1 of
 full throttle, so a throttle stuck near the command is seen only once the command moves
 away from it, while one stuck at full is 0.6 above the cruise command at once.
 
@@ -33,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       identify_hist)
+                       RESTART_HOLD_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
@@ -60,17 +65,34 @@ class ThrustModel:
     b: float
     c: float
     d: float
+    CY_b: float = 0.0          # side force per sideslip (its body-x part in gusts)
+    tau_s: float = 0.0         # the thrust's lag behind the command (motor and propeller) [s]
 
-    def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float) -> float:
+    def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
+               var_fz: float = 0.0, var_fy: float = 0.0) -> float:
         """The thrust [N] the measured specific force (body FRD, m/s^2) means, with the
-        elevator's deflection (autopilot convention, nose up positive) [rad]."""
+        elevator's deflection (autopilot convention, nose up positive) [rad].
+
+        ``var_fz``, ``var_fy``: the variances of the normal and lateral specific force
+        about the low-passed values passed in [m^2/s^4]. The aerodynamic force turns
+        with the angle of attack and the sideslip, so its body-x part is quadratic in
+        them, and the mean of a square is the square of the mean plus the variance:
+        ``L sin(alpha)`` adds ``qbar S C_La var(alpha)`` and the side force
+        ``-Y sin(beta)`` adds ``qbar S |C_Yb| var(beta)``, both forward, with
+        ``var(alpha) = var(C_L) / C_La^2``, ``var(beta) = var(C_Y) / C_Yb^2`` from the
+        forces measured. Gusts faster than the low-pass (near the ground: MIL-F-8785C's
+        vertical scale length is the height) made them 4-7 N, a third of full throttle."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
         CL = -self.mass_kg * f_z / qS
         # alpha from the lift: C_L = C_L0 + C_La alpha + C_Lde de, de = -elevator
         alpha = (CL - self.CL0 + self.CLde * elevator_rad) / self.CLa
         CLl = self.CL0 + self.CLa * alpha
         CD = self.CD0 + self.k_CD * CLl * CLl
-        return self.mass_kg * f_x - qS * (CL * math.sin(alpha) - CD * math.cos(alpha))
+        k = self.mass_kg / qS
+        fwd = k * k * var_fz / self.CLa
+        if self.CY_b != 0.0:
+            fwd += k * k * var_fy / abs(self.CY_b)
+        return self.mass_kg * f_x - qS * (CL * math.sin(alpha) - CD * math.cos(alpha) + fwd)
 
     def throttle_for(self, thrust: float, V: float) -> float:
         """The throttle that gives ``thrust`` at airspeed V (the curve inverted)."""
@@ -90,7 +112,7 @@ class ThrustModel:
 # thrust curve fitted as the module docstring says)
 AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0=0.28, CLa=3.45,
                                CLde=-0.36, CD0=0.0437, k_CD=0.0232,
-                               a=46.979, b=-0.778, c=4.465, d=-0.177)
+                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98, tau_s=0.5)
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
@@ -107,6 +129,8 @@ class ThrottleIdentifier:
                                        fit_noise=THR_FIT_NOISE)}
         self._lp = None
         self._t_us = None
+        self._start_us = None          # the low-passes' latest (re)start
+        self._thr_lag = 0.0            # the command through the thrust's lag (tau_s)
         self._next_us = 0
         self._k = 0
         self._t0_us = None
@@ -129,10 +153,21 @@ class ThrottleIdentifier:
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             return
-        x = [float(f_b[0]), float(f_b[2]), float(controls[1]) * MAX_DEFLECTION_RAD, V,
-             float(controls[3])]
+        fz, fy = float(f_b[2]), float(f_b[1])
+        thr = float(controls[3])
+        if self._lp is not None and self.model.tau_s > 0.0:
+            # the thrust follows the command with the motor's and propeller's lag
+            # (ThrustModel.tau_s): the command through it, as the thrust it asks for
+            dt = (t_us - self._t_us) * 1e-6
+            if dt > 0.0:
+                self._thr_lag += dt / (self.model.tau_s + dt) * (thr - self._thr_lag)
+            thr = self._thr_lag
+        x = [float(f_b[0]), fz, float(controls[1]) * MAX_DEFLECTION_RAD, V,
+             thr, fy, fz * fz, fy * fy]
         if self._lp is None:
+            self._thr_lag = thr
             self._lp, self._t_us = list(x), t_us
+            self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
             return
@@ -147,8 +182,13 @@ class ThrottleIdentifier:
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
+        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
+            return            # the low-passes' start (actuator.RESTART_HOLD_S)
         m = self.model
-        z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2]), lp[3])
+        # the forces' variances about their low-passed values, over the same filter
+        var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
+        var_fy = max(lp[7] - lp[5] * lp[5], 0.0)
+        z = m.throttle_for(m.thrust(lp[3], lp[0], lp[1], lp[2], var_fz, var_fy), lp[3])
         self._k += 1
         k_test = self._k >= TEST_DIV
         if k_test:
