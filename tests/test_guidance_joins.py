@@ -140,14 +140,16 @@ def test_joins_after_a_takeoff_into_the_wind_and_a_jump_overshoot_no_more_than_f
     # the joins after the take-off (item 2) and after the jump (item 3's second visit)
     joins = [o for q, how, o in visits if how == "join" and q in (2, 3)]
     fillets = [o for _, how, o in visits if how == "fillet"]
-    assert len(joins) >= 2 and len(fillets) >= 4
-    assert max(joins) <= max(max(fillets), 4.0) + 1.0
-    # the 138 deg turn from the zig-zag's end onto the line home has no arc within the
-    # waypoint's radius at the bank limit (its nominal arc passed 187 m beyond it, yet
-    # counted it): the waypoint is flown to and the line home joined (in the wind:
-    # 9.8 m over it, where the fillets overshoot about 2 m: issue 15 asks no more)
+    # (where no arc the vehicle can hold downwind passes within the waypoints' radius
+    # at these 127 deg turns, the turn is a join, bounded alike)
+    assert len(joins) >= 2
+    assert max(joins) <= max(max(fillets, default=0.0), 4.0) + 1.0
+    # the 138 deg turn from the zig-zag's end onto the line home: its nominal arc passed
+    # 187 m beyond the waypoint's radius, yet counted it; now the waypoint is flown to
+    # and the line home joined (9.8 m over it while the joins' arcs could be tightened
+    # to the bank limit at the airspeed, which the vehicle cannot hold downwind)
     rtl = [o for q, how, o in visits if q == 8]
-    assert rtl and max(rtl) < 12.0
+    assert rtl and max(rtl) <= max(max(fillets, default=0.0), 4.0) + 1.0
     assert summary["invariants"]["waypoints_passed"]["passed"]
 
 

@@ -460,7 +460,7 @@ class MissionSequencer:
         # (``near_b``: (B, radius) the arc must pass within too, B counting where it
         # starts: tighter radii, down to the bank limit's, until one does)
         r_top = self.turn_radius_m()
-        r_min = self._bank_limit_radius_m()
+        r_min = min(self._arc_floor_m(), r_top)
         r_cap = r_top
         while True:
             arc = self._corner_arc(x, u1, u3, t, room2, r_max=r_cap)
@@ -486,6 +486,16 @@ class MissionSequencer:
             return None
         return l1 - (t - d), seg, True
 
+    def _arc_floor_m(self) -> float:
+        """The tightest arc tightened to pass within a waypoint's radius: the bank limit
+        at the highest ground speed (the airspeed plus the wind, at least the fillets'
+        TURN_GS_FACTOR times the airspeed): at the limit's radius for the airspeed
+        alone the vehicle, downwind, cannot hold the arc (random-plane trial 71: a 71 m
+        arc at 28-31 m/s over the ground ran 43 m wide)."""
+        p = self.params
+        v = max(self.airspeed_mps * p["TURN_GS_FACTOR"], self.airspeed_mps + math.hypot(*self._wind_ne))
+        return v * v / (G * math.tan(math.radians(p["ROLL_LIMIT_DEG"])))
+
     def _bank_limit_radius_m(self) -> float:
         """The turn radius at the bank limit and the airspeed (no wind)."""
         v_air = self.airspeed_mps
@@ -504,7 +514,10 @@ class MissionSequencer:
             return None
         r = self.turn_radius_m() if r_max is None else min(r_max, self.turn_radius_m())
         if near is not None:
-            r = min(r, near / (1.0 / math.cos(0.5 * abs(dchi)) - 1.0))
+            r_near = near / (1.0 / math.cos(0.5 * abs(dchi)) - 1.0)
+            if r_near < r and r_near < self._arc_floor_m():
+                return None   # no arc the vehicle can track in this wind passes so near
+            r = min(r, r_near)
         t = math.tan(0.5 * abs(dchi))
         d = min(r * t, room1, room2)  # each leg shares its length between its two turns
         if d <= 0.0:
