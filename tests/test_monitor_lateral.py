@@ -167,6 +167,16 @@ def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
     assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 40.0
 
 
+def _stabilised(trim, pitch0_rad, st):
+    """The trim's controls with the pitch held at pitch0_rad and the wings level (a
+    proportional-derivative stabiliser on the elevator and ailerons)."""
+    from autopilot.geo.rotations import quat_to_euler
+    roll, pitch, _ = quat_to_euler(st.q_nb)
+    p, q, _r = st.omega_b
+    return replace(trim, elevator=float(np.clip(trim.elevator + (2.0 * (pitch0_rad - pitch) - 0.5 * q) / 0.35, -1, 1)),
+                   aileron=float(np.clip(trim.aileron - (1.5 * roll + 0.3 * p) / 0.35, -1, 1)))
+
+
 def test_thrust_balance_unbiased_in_gusts_near_the_ground():
     # GIVEN the plant trimmed at 25 m/s 8 m above the ground in moderate turbulence
     # (MIL-F-8785C: the vertical gusts' scale length is the height), the throttle held,
@@ -183,10 +193,7 @@ def test_thrust_balance_unbiased_in_gusts_near_the_ground():
     res = []
     for k in range(50 * 25):
         st = plant.step(cmd, 4)
-        roll, pitch, _ = quat_to_euler(st.q_nb)
-        p, q, _r = st.omega_b
-        cmd = replace(trim, elevator=float(np.clip(trim.elevator + (2.0 * (th0 - pitch) - 0.5 * q) / 0.35, -1, 1)),
-                      aileron=float(np.clip(trim.aileron - (1.5 * roll + 0.3 * p) / 0.35, -1, 1)))
+        cmd = _stabilised(trim, th0, st)
         ident.step(k * 20_000, SimpleNamespace(airspeed_mps=st.airspeed_mps, omega_b=st.omega_b),
                    (cmd.aileron, cmd.elevator, cmd.rudder, cmd.throttle), True, st.f_b)
         if k >= 250:
@@ -212,11 +219,7 @@ def test_thrust_balance_follows_a_throttle_step_from_idle():
     res = []
     for k in range(50 * 16):
         st = plant.step(cmd, 4)
-        roll, pitch, _ = quat_to_euler(st.q_nb)
-        p, q, _r = st.omega_b
-        cmd = replace(trim, throttle=0.0 if k < 50 * 8 else 1.0,
-                      elevator=float(np.clip(trim.elevator + (2.0 * (th0 - pitch) - 0.5 * q) / 0.35, -1, 1)),
-                      aileron=float(np.clip(trim.aileron - (1.5 * roll + 0.3 * p) / 0.35, -1, 1)))
+        cmd = _stabilised(replace(trim, throttle=0.0 if k < 50 * 8 else 1.0), th0, st)
         ident.step(k * 20_000, SimpleNamespace(airspeed_mps=st.airspeed_mps, omega_b=st.omega_b),
                    (cmd.aileron, cmd.elevator, cmd.rudder, cmd.throttle), True, st.f_b)
         if k >= 50 * 7:

@@ -10,21 +10,15 @@ import numpy as np
 
 from autopilot.monitor.monitor import FaultMonitor
 from autopilot.nav.records import InnovationRecord
+from test_monitor_airspeed import _Nav
 
 
-class _Nav:
-    def __init__(self):
-        self.aligned = self.healthy = True
-        self.innovations = []
-        self.gyro_bias = np.zeros(3)
-        self.accel_bias = np.zeros(3)
-        self.P = np.eye(24) * 1e-8
-        self.position_ned = np.array((0.0, 0.0, -100.0))
 
 
 def _fly(fused) -> FaultMonitor:
     """60 s of steps at 100 Hz; ``fused(t_s)``: a mag record at this 25 Hz slot."""
     nav = _Nav()
+    nav.position_ned = np.array((0.0, 0.0, -100.0))
     mon = FaultMonitor({"FDI_START_T": 0.0}, nav)
     rng = np.random.default_rng(1)
     for k in range(100 * 60):

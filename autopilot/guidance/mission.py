@@ -394,7 +394,6 @@ class MissionSequencer:
             return 0.0, None, False
         u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1)
         u2 = ((cn - b_ne[0]) / l2, (ce - b_ne[1]) / l2)
-        near_b = accept_b
         # the waypoints after B that lie within their acceptance radius of B (a cluster:
         # each counts the moment the vehicle comes within it, on the way)
         chain = 0
@@ -407,8 +406,8 @@ class MissionSequencer:
             # C_k counts the moment B does (the ones before it on the way): the turn
             # that matters is onto the line out of the cluster, C_k->D
             skip = self._skip_arc(a_ne, u1, l1, lines[k][1][0], ups[k], lines[k + 1][1],
-                                  (b_ne, near_b))
-            if skip is not None and _passes_within([skip[1]], b_ne, near_b) and all(
+                                  (b_ne, accept_b))
+            if skip is not None and all(
                     _passes_within([skip[1]], lines[i][1][0], 0.9 * self._accept_radius(ups[i]))
                     for i in range(k)):
                 return skip
@@ -423,10 +422,10 @@ class MissionSequencer:
                 need = self.turn_radius_m() * (_half_turn_tan(u1, u2) + _half_turn_tan(u2, u3))
                 if need > l2 - short:
                     skip = self._skip_arc(a_ne, u1, l1, (cn, ce), ups[0], lines[1][1],
-                                          (b_ne, near_b))
-                    if skip is not None and _passes_within([skip[1]], b_ne, near_b):
+                                          (b_ne, accept_b))
+                    if skip is not None:
                         return skip
-        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=near_b)
+        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=accept_b)
         if arc is not None:
             # past waypoints on B (counted at once, with B), the arc flies on
             return arc[0], arc[1], ups[0] is not self._upcoming(1)[0]
@@ -482,7 +481,8 @@ class MissionSequencer:
             return None
         d, seg = arc
         start = seg[5]
-        if t - d > l1 or math.hypot(cn - start[0], ce - start[1]) > rc + 1e-6:
+        if t - d > l1 or math.hypot(cn - start[0], ce - start[1]) > rc + 1e-6 \
+                or (near_b is not None and not _passes_within([seg], *near_b)):
             return None
         return l1 - (t - d), seg, True
 
@@ -492,9 +492,8 @@ class MissionSequencer:
         TURN_GS_FACTOR times the airspeed): at the limit's radius for the airspeed
         alone the vehicle, downwind, cannot hold the arc (random-plane trial 71: a 71 m
         arc at 28-31 m/s over the ground ran 43 m wide)."""
-        p = self.params
-        v = max(self.airspeed_mps * p["TURN_GS_FACTOR"], self.airspeed_mps + math.hypot(*self._wind_ne))
-        return v * v / (G * math.tan(math.radians(p["ROLL_LIMIT_DEG"])))
+        return max(self.min_turn_radius_m(),
+                   self._bank_limit_radius_m() * self.params["TURN_GS_FACTOR"] ** 2)
 
     def _bank_limit_radius_m(self) -> float:
         """The turn radius at the bank limit and the airspeed (no wind)."""
