@@ -48,6 +48,64 @@ def rows_of(folder: Path) -> list[dict]:
         s.close()
 
 
+class _Lines:
+    """A child's stderr read by a thread, so that no wait on it can outlast its deadline."""
+
+    def __init__(self, proc: subprocess.Popen):
+        self.lines: list[str] = []
+        self.cond = threading.Condition()
+        self.eof = False
+        self.thread = threading.Thread(target=self._read, args=(proc.stderr,), daemon=True)
+        self.thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            with self.cond:
+                self.lines.append(line)
+                self.cond.notify_all()
+        with self.cond:
+            self.eof = True
+            self.cond.notify_all()
+
+    def until(self, pred, timeout_s: float, what: str) -> str:
+        """The first line (of all read so far or later) for which pred holds."""
+        t_end = time.monotonic() + timeout_s
+        seen = 0
+        with self.cond:
+            while True:
+                for line in self.lines[seen:]:
+                    if pred(line):
+                        return line
+                seen = len(self.lines)
+                left = t_end - time.monotonic()
+                assert not self.eof and left > 0, f"{what}: not within {timeout_s:.0f} s; stderr:\n{self.text()}"
+                self.cond.wait(min(left, 1.0))
+
+    def text(self) -> str:
+        return "".join(self.lines)
+
+
+def _done(line: str) -> int:
+    """How many trials a progress line says are done."""
+    return int(line.split("]")[1].split("/")[0])
+
+
+def _end(proc: subprocess.Popen, group: bool = False) -> None:
+    """The child (and its process group) killed if still there; the reading thread ends at
+    the pipe's end, when the last process holding it is gone."""
+    try:
+        if group:
+            os.killpg(proc.pid, signal.SIGKILL)
+        elif proc.poll() is None:
+            proc.kill()
+    except ProcessLookupError:
+        pass
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        pass
+
+
 def figures(rows: list[dict]) -> dict:
     """trial -> (seed, summary without timing, criteria, passed)"""
     return {r["trial"]: (r["seed"], without_timing(json.loads(r["summary_json"])), r["criteria_json"],
@@ -85,20 +143,15 @@ def test_driver_killed_with_kill_9_or_ctrl_c_then_rerun_completes_each_trial_onc
            "--scheduler", client.scheduler.address]
     # GIVEN a campaign driver that has stored some trials
     drv = subprocess.Popen(cmd, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    done = 0
-    t_end = time.monotonic() + 90
+    err = _Lines(drv)
     try:
-        for line in drv.stderr:
-            if " done " in line:
-                done = int(line.split("]")[1].split("/")[0])
-                if done >= 2:
-                    break
-            assert time.monotonic() < t_end, "the driver stored nothing"
+        done = err.until(lambda line: " done " in line and _done(line) >= 2, 90, "the driver stored 2 trials")
+        done = _done(done)
         # WHEN it is killed with SIGKILL half-way
         os.kill(drv.pid, signal.SIGKILL)
         drv.wait(timeout=10)
     finally:
-        drv.stderr.close()
+        _end(drv)
     assert 2 <= done < 6
     stored_after_kill = rows_of(out)
     assert 2 <= len(stored_after_kill) < 5
@@ -110,19 +163,17 @@ def test_driver_killed_with_kill_9_or_ctrl_c_then_rerun_completes_each_trial_onc
     drv = subprocess.Popen(local, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                            start_new_session=True,
                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    err = _Lines(drv)
     try:
-        for line in drv.stderr:
-            if " done " in line and int(line.split("]")[1].split("/")[0]) > len(stored_after_kill):
-                break
+        err.until(lambda line: " done " in line and _done(line) > len(stored_after_kill), 120,
+                  "the local cluster stored one more trial")
         os.killpg(drv.pid, signal.SIGINT)             # what a terminal's Ctrl-C does
-        rest = drv.stderr.read()
-        assert drv.wait(timeout=30) == 130
+        assert drv.wait(timeout=60) == 130, err.text()
+        # (the worker processes may hold the pipe a moment longer than the driver)
+        err.until(lambda line: "the same command resumes" in line, 10, "the interruption's message")
+        rest = err.text()
     finally:
-        drv.stderr.close()
-        try:
-            os.killpg(drv.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        _end(drv, group=True)
     assert "interrupted;" in rest and "the same command resumes" in rest
     stored_after_ctrl_c = rows_of(out)
     assert len(stored_after_kill) < len(stored_after_ctrl_c) < 6

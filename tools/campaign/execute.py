@@ -490,7 +490,12 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 "workers": len(info), "sim_per_wall": sim_s / wall if wall > 0 else None,
                 "overhead": overhead}
     finally:
-        if own_client:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        # bounded: after a Ctrl-C the workers may already be gone, and the driver must
+        # still end (the same command resumes what is missing)
+        try:
+            if own_client:
+                client.close(timeout=20)
+            if cluster is not None:
+                cluster.close(timeout=30)
+        except Exception as e:                # noqa: BLE001 - closing only; the trials are stored
+            print(f"sitl campaign: closing the cluster: {type(e).__name__}: {e}", file=stream)
