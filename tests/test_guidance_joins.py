@@ -117,6 +117,25 @@ def test_a_waypoint_inside_the_turn_circle_is_reached_not_circled(tmp_path, rows
     assert summary["sim_time_s"] < 300.0
 
 
+def test_a_waypoint_whose_finish_line_is_passed_wide_of_it_is_flown_back_to(tmp_path):
+    # random mission 632664517 (a random_plane.toml trial) in its own weather (11.8
+    # m/s): the first waypoint, radius 30 m, lies 240 m beyond the take-off point and
+    # 290 m above it; the climb-out ends 92 m from it and past its finish line.
+    # ArduPlane counts it there; here it is flown back to (a planned turn-straight-turn
+    # path) and counted within its radius.
+    s = Session(RunConfig(mission="random:plane:632664517", wind=(11.834094913496935, 161.7236725317395),
+                          turbulence="none", seed=632664517, duration_s=90.0))
+    s.run()
+    said = [t for t, text in s.log.events if text == "Item #2: passed 92 m off; flying back to it"]
+    assert len(said) == 1 and abs(said[0] - 11.08) < 0.05
+    summary = run_summary(s)
+    assert [q for _, q in s.vehicle.sequencer.reached][:2] == [1, 2]
+    # every waypoint counted so far passed within its radius (+10 m, the invariant's;
+    # before: 36.8 m beyond it)
+    assert summary["invariants"]["waypoints_passed"]["figure"] <= 10.0
+    assert summary["invariants"]["no_orbit"]["passed"]
+
+
 def zigzag(legs=5, length=400.0, first=-39.0, turn=127.0):
     pts, n, e, h = [], 0.0, 0.0, first
     for k in range(legs):

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from autopilot.geo import LocalFrame
+from autopilot.guidance import dubins
 from autopilot.guidance.mission import MissionSequencer
 from autopilot.mission.items import (DO_CHANGE_SPEED, DO_JUMP, FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT,
                                      FRAME_MISSION, NAV_LOITER_TURNS, NAV_RETURN_TO_LAUNCH,
@@ -50,12 +51,32 @@ def test_switch_when_the_projection_passes_the_end_of_a_straight_continuation():
     # GIVEN two collinear legs north (no turn, so no anticipation)
     s = seq_for(mission(item(1, NAV_WAYPOINT, 500, 0), item(2, NAV_WAYPOINT, 1000, 0)), WP_RADIUS=10.0)
     s._prev_wp_ne = (0.0, 0.0)
-    # WHEN the vehicle, 30 m off to the side, approaches and passes the 500 m line
+    # WHEN the vehicle, 8 m off to the side, approaches and passes the 500 m line
+    t = fly(s, [(n, 8.0) for n in (100, 300, 490)])
+    assert all(x.seq == 1 for x in t)
+    t = fly(s, [(501, 8.0)])
+    # THEN it switches exactly there, abeam of the waypoint within its radius
+    assert t[0].seq == 2 and (1 in s.reached_seqs)
+
+
+def test_a_finish_line_passed_wide_of_the_waypoint_is_flown_back_to():
+    # GIVEN the same legs, the vehicle 30 m off to the side (WP_RADIUS 10)
+    s = seq_for(mission(item(1, NAV_WAYPOINT, 500, 0), item(2, NAV_WAYPOINT, 1000, 0)), WP_RADIUS=10.0)
+    s._prev_wp_ne = (0.0, 0.0)
     t = fly(s, [(n, 30.0) for n in (100, 300, 499)])
     assert all(x.seq == 1 for x in t)
-    t = fly(s, [(501, 30.0)])
-    # THEN it switches exactly there, although 30 m abeam of the waypoint
-    assert t[0].seq == 2 and (1 in s.reached_seqs)
+    # WHEN it passes the 500 m line 30 m abeam (ArduPlane would count it there)
+    t = fly(s, [(501, 30.0)])[0]
+    # THEN the waypoint is not counted: a planned path back to it is flown, said once
+    assert t.seq == 1 and 1 not in s.reached_seqs
+    assert t.kind in ("loiter", "direct")
+    assert [x for _, _, x in s.notices if "flying back" in x] == ["Item #1: passed 30 m off; flying back to it"]
+    # the path ends at the waypoint: its last point within the radius of it
+    n, e, _ = list(dubins.samples(s._path))[-1]
+    assert math.hypot(n - 500.0, e) < 1.0
+    # and once the vehicle comes within the radius, it counts
+    t = fly(s, [(503, 6.0)])[0]
+    assert 1 in s.reached_seqs and t.seq == 2
 
 
 def test_turn_arc_starts_before_a_right_angle_and_ends_on_the_next_leg():

@@ -65,10 +65,14 @@ concerned, ``"seq"``, or null):
   mission ends at it) is passed within its acceptance radius (its param2, else
   WP_RADIUS / WPNAV_RADIUS) plus ``PASS_MARGIN_M`` (the navigation's error), on the
   true track between the counting of the item before it (the launch, after a take-off:
-  one inside the climb-out is passed before the take-off counts) and the next counting,
-  after its own, of an item elsewhere (beyond its radius: a turn counted where it
+  one inside the climb-out is passed before the take-off counts; the counting of the
+  one before that where the item before lies within its radius: a cluster, passed on
+  one turn in either order) and the next counting,
+  after its own, of an item elsewhere (one whose acceptance circle, 0 for an item
+  other than a NAV_WAYPOINT, does not overlap this one's: a turn counted where it
   starts passes the waypoint after the counting, and a cluster's items, or one
-  counted at once with it, count on the same turn):
+  counted at once with it, count on the same turn, as the vehicle enters each one's
+  circle):
   a waypoint the sequencer counts is one the vehicle went to, as ArduPlane's is (its
   turn anticipation is capped at WP_RADIUS). Figure: the largest closest approach
   beyond the item's radius [m] (negative: every one within it), ``seq`` the item.
@@ -265,7 +269,8 @@ def passed_figure(a: dict, mission: Mission, vehicle: str, events, params,
                   frame: LocalFrame) -> tuple[float | None, int | None]:
     """The largest closest approach of the true track to a NAV_WAYPOINT beyond its
     acceptance radius, over the span from the counting of the item before it to the
-    counting of the next item beyond its radius, and that item (``waypoints_passed``); (None, None)
+    counting of the next item whose acceptance circle does not overlap its own, and that
+    item (``waypoints_passed``); (None, None)
     where no waypoint was flown to."""
     legs = mission_legs(mission, frame, vehicle, params)
     t = a["t_s"]
@@ -278,16 +283,24 @@ def passed_figure(a: dict, mission: Mission, vehicle: str, events, params,
         if win is None or it.command != NAV_WAYPOINT:
             continue
         accept = it.param2 if it.param2 > 0 else default
-        # to the counting of the next item elsewhere (the items of a cluster within its
-        # radius count on the same turn, before or after it)
+        # to the counting of the next item elsewhere: the items of a cluster, whose
+        # acceptance circles overlap this one's, count on the same turn, before or
+        # after it (an arc that turns past the cluster counts them as it enters their
+        # circles, and may pass this one after)
         end = next((w[1] for g, w in zip(legs[i + 1:], windows[i + 1:]) if w is not None
                     and w[1] > win[1]
-                    and math.hypot(g["b"][0] - leg["b"][0], g["b"][1] - leg["b"][1]) > accept),
+                    and math.hypot(g["b"][0] - leg["b"][0], g["b"][1] - leg["b"][1])
+                    > accept + _accept_of(mission[g["seq"]], default)),
                    float(t[-1]))
         # a waypoint after the take-off may be passed in the climb-out, before the
         # take-off counts (one inside the climb-out, or at home)
         after_takeoff = leg["prev_seq"] is not None and mission[leg["prev_seq"]].command == NAV_TAKEOFF
         start = -math.inf if after_takeoff else win[0]
+        # ... or while the item before it flew, where that item's point lies within its
+        # radius (a cluster, passed on one turn in either order; a loiter's centre)
+        if i > 0 and windows[i - 1] is not None and leg["prev_seq"] == legs[i - 1]["seq"] \
+                and math.dist(legs[i - 1]["b"], leg["b"]) <= accept:
+            start = min(start, windows[i - 1][0])
         m = (t > start) & (t <= max(end, win[1])) & np.isfinite(tn)
         if not m.any():
             continue
@@ -295,6 +308,14 @@ def passed_figure(a: dict, mission: Mission, vehicle: str, events, params,
         if worst is None or d > worst:
             worst, at = d, leg["seq"]
     return worst, at
+
+
+def _accept_of(item, default: float) -> float:
+    """A NAV_WAYPOINT's acceptance radius (its own, else the default); 0 for any
+    other item."""
+    if item.command != NAV_WAYPOINT:
+        return 0.0
+    return item.param2 if item.param2 > 0 else default
 
 
 def _inv(passed: bool, figure, limit=None) -> dict:

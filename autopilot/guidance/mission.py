@@ -88,6 +88,8 @@ JOIN_COURSE_RAD = math.radians(20.0)
 LOITER_ALT_TOL_M = 5.0          # NAV_LOITER_TO_ALT: the altitude is reached this close
 SLOPE_MARGIN = 0.9              # of the steepest slope, for the steepest slope flown
 SKIP_CHAIN = 12                 # waypoints of a cluster an arc may turn past
+FLY_BACK_MARGIN_M = 10.0        # a waypoint passed within its radius and this much (the
+                                # navigation's error) is not flown back to
 LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
                                 # (inside the CAPTURE_M at which its scoring stops)
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
@@ -191,6 +193,12 @@ class MissionSequencer:
 
     def _start_item(self) -> None:
         """The current item starts afresh (new item, or re-entered)."""
+        # the closest the vehicle came to this item's waypoint while the take-off before
+        # it flew (a climb-out over it), or an item of the same cluster (``_track_next``)
+        nxt = getattr(self, "_next_wp", None)
+        self._b_min = self._next_min if nxt and nxt[0] == self.current else math.inf
+        self._next_wp = None           # (seq, NE) of the next NAV_WAYPOINT, False: none
+        self._next_min = math.inf      # the closest the vehicle came to it so far
         self._leg_start: tuple | None = None
         self._leg_start_alt: float | None = None
         self._leg_along0: float | None = None
@@ -198,6 +206,7 @@ class MissionSequencer:
         self._skip_join = False        # a fillet has just put the vehicle on this leg
         self._carry_path = False       # the fillet flies on past the next item (_fillet's skip)
         self._through_tried = False    # a join through B onto the next leg was planned
+        self._wide_tried = False       # a pass of B's finish line wide of B was flown back to B
         self._fillet_at = None         # ((A, B), _fillet's answer) for the current leg
         self._join_past = False        # the join rolls out past the start of the next turn
         self._join_run, self._join_last_p = 0.0, None   # distance flown on the join
@@ -784,6 +793,7 @@ class MissionSequencer:
         item = self.items[self.current]
         cmd = item.command
         chi = self._course(v_ned, heading_rad)
+        self._track_next(item, p_ne)
         if self._do_pending:
             # the DO items before this navigation item run first (a condition holds back
             # those after it): CONDITION_DISTANCE measures to this item's place
@@ -816,6 +826,26 @@ class MissionSequencer:
         if tgt is None:   # the item completed: go on with the next
             return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
         return tgt
+
+    def _track_next(self, item, p_ne) -> None:
+        """The closest approach to the next NAV_WAYPOINT (with a position of its own)
+        while the take-off flies, or an item whose point lies within that waypoint's
+        acceptance radius (a cluster: a loiter's centre, a waypoint, the two passed on
+        the same turn): a waypoint so passed within its radius is not flown back to
+        (``_fly_back_to``)."""
+        if self._next_wp is None:
+            nxt = self._upcoming(1)
+            it = nxt[0] if nxt else None
+            self._next_wp = False
+            if it is not None and it.command == MAV_CMD_NAV_WAYPOINT and not self._here(it):
+                b = self.item_ne(it)
+                if item.command == MAV_CMD_NAV_TAKEOFF or (
+                        not self._here(item) and item.command != MAV_CMD_NAV_RETURN_TO_LAUNCH
+                        and math.dist(self.item_ne(item), b) <= self._accept_radius(it)):
+                    self._next_wp = (it.seq, b)
+        if self._next_wp:
+            b = self._next_wp[1]
+            self._next_min = min(self._next_min, math.hypot(b[0] - p_ne[0], b[1] - p_ne[1]))
 
     def _takeoff(self, t_us, item, p_ne, heading_rad, alt_m) -> NavTarget | None:
         if self._takeoff_heading is None:
@@ -936,6 +966,9 @@ class MissionSequencer:
                 # a point on the one before (a duplicate, a jump back to it): its finish
                 # line is passed at once, as ArduPlane's is
                 return None
+            elif along >= length and through and dist > accept \
+                    and self._fly_back_to(t_us, p_ne, chi, a_ne, b_ne, accept):
+                pass          # past it, not within its radius since the item began: back to it
             elif along >= length and abs(xt) <= accept:
                 return None   # already past it, within its radius of its line: passed
             elif not self._skip_join and not dubins.on_leg(p_ne, chi, a_ne, b_ne, JOIN_XTRACK_M,
@@ -1088,8 +1121,47 @@ class MissionSequencer:
                         best = (cost, segs)
         return best
 
+    def _fly_back_to(self, t_us, p_ne, chi, a_ne, b_ne, accept: float) -> bool:
+        """Once per item, for a waypoint B whose finish line is passed wide of it: the
+        planned path to B (turn, straight, turn) of least cost against A->B as the
+        mission's cross-track scores it (``dubins.path_cost``) plus its length, over
+        the final courses at B in steps of 22.5 degrees and the join radii down to the
+        tightest circle held over the ground; B counts on the way, within its radius
+        (``_leg``), and the next leg is joined from there. False where none is found
+        (B then counts at its finish line, as ArduPlane's rule has it: never a circle
+        around a point the vehicle cannot turn onto)."""
+        if self._wide_tried or self._b_min <= accept + FLY_BACK_MARGIN_M:
+            return False      # (passed within its radius, as far as navigation tells)
+        self._wide_tried = True
+        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        u = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length) if length > 1e-3 \
+            else (math.cos(chi), math.sin(chi))
+        xt0 = (p_ne[0] - a_ne[0]) * -u[1] + (p_ne[1] - a_ne[1]) * u[0]
+        side = 0.0 if abs(xt0) < 2.0 else math.copysign(1.0, xt0)
+        best = None
+        for r in [*self._join_radii(), self._arc_floor_m()]:
+            for k in range(16):
+                psi = k * math.pi / 8.0
+                for n, segs in dubins.csc_words(p_ne, chi, b_ne, psi, r):
+                    if dubins.turning(segs) > 2.0 * math.pi:
+                        continue
+                    cost = n + dubins.path_cost(segs, a_ne, u, side, 2.0)[0]
+                    if best is None or cost < best[0]:
+                        best = (cost, segs)
+        if best is None:
+            return False
+        self._joined = True
+        self._start_path(best[1], "join", t_us)
+        self._join_run, self._join_last_p = 0.0, None
+        self._join_past = True
+        self._carry_path = self._skip_join = False
+        self.say(t_us, SEV_INFO, f"Item #{self.current}: passed {math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]):.0f} m "
+                                 f"off; flying back to it", key=("wide", self.current))
+        return True
+
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         b_ne, alt_b = self._resolve(item, p_ne, alt_m)
+        self._b_min = min(self._b_min, math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]))
         if self._leg_start is None:
             self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
             self._leg_start_alt = self._prev_alt
@@ -1145,6 +1217,17 @@ class MissionSequencer:
         # the acceptance radius only stands in for the arc where there is none
         if along >= length - d_turn or (arc is None and dist <= min(accept, 0.5 * length)):
             xtrack = ((p_ne[0] - a_ne[0]) * -(b_ne[1] - a_ne[1]) + (p_ne[1] - a_ne[1]) * (b_ne[0] - a_ne[0])) / length if length > 1e-3 else 0.0
+            late = along - (length - d_turn)
+            # (the arc, started from here, passes within B's radius; with none, B is
+            # within it as the finish line is crossed)
+            on_time = late < 0.3 * arc[2] and abs(xtrack) < min(accept, 0.3 * arc[2]) \
+                if arc is not None else dist <= accept
+            if not on_time and dist > accept \
+                    and self._fly_back_to(t_us, p_ne, chi, a_ne, b_ne, accept):
+                # its finish line crossed wide of it (a join that rolled out late, a
+                # gust in the turn): ArduPlane counts it there; this flies back to it,
+                # so that every waypoint counted was passed within its radius
+                return self._fly_path(p_ne, alt, item.seq)
             self._reach(t_us, b_ne, alt if steep else alt_b)
             if arc is not None and along - (length - d_turn) < 0.3 * arc[2] \
                     and abs(xtrack) < 0.3 * arc[2]:
