@@ -96,11 +96,15 @@ def bench_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tup
 
 
 def bench_tcp(seconds: float, nav: str) -> float:
-    """sim-bridge and autopilot as two processes on TCP loopback."""
+    """sim-bridge and autopilot as two processes on TCP loopback, truth paced as the
+    memory pipe's run paces it (every LOG_DIV-th step and with every fix: the truth the
+    flight log keeps), so that the two loops do the same work."""
+    from autopilot.vehicle import LOG_DIV
     port = _free_port()
     env = dict(os.environ)
     sim = subprocess.Popen([sys.executable, "-m", "sim_bridge.cli", "--listen", f"tcpin:127.0.0.1:{port}",
-                            "--scenario", str(DEFAULT_SCENARIO), "--duration", str(seconds + 30.0)],
+                            "--scenario", str(DEFAULT_SCENARIO), "--duration", str(seconds + 30.0),
+                            "--truth-div", str(LOG_DIV)],
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     try:
         from autopilot.link.hil import AutopilotHilEnd
@@ -122,7 +126,8 @@ def bench_tcp(seconds: float, nav: str) -> float:
             if not steps and transport.closed:
                 break
             for frame, truth in steps:
-                end.answer(vehicle.step(frame, truth))
+                end.answer(vehicle.control_step(frame, truth))
+                vehicle.finish_step()            # (as autopilot/cli.py: after the answer)
                 t_s = frame.t_us * 1e-6
             if t0 is None and vehicle.armed and t_s >= 5.0:
                 t0, t_start = time.perf_counter(), t_s
