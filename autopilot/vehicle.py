@@ -562,9 +562,9 @@ class PlaneVehicle(VehicleBase):
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
             seq = self.sequencer
-            # (no landing in the sequencer: no rangefinder landing, _rf_landing not asked)
-            seq.land_h_corr_m = self.rangefinder.correction_m(
-                t_us, seq.landing is not None and self._rf_landing() is not None)
+            # (no landing in the sequencer: no rangefinder landing, no correction)
+            landing = seq.landing is not None and self._rf_landing() is not None
+            seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0
             tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
                              airspeed_mps=nav.airspeed_mps)
             if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \
