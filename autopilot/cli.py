@@ -129,8 +129,9 @@ def main(argv: list[str] | None = None) -> int:
         while t_s < args.duration:
             steps = end.poll(timeout_s=0.5 if gcs is None else 0.005)
             for frame, truth in steps:
-                out = vehicle.step(frame, truth)
-                end.answer(out)
+                out = vehicle.control_step(frame, truth)
+                end.answer(out)          # the simulator advances while the step finishes
+                vehicle.finish_step()
                 t_s = frame.t_us * 1e-6
                 if gcs is not None:
                     gcs.after_step(frame, out)

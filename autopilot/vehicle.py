@@ -282,6 +282,17 @@ class PlaneVehicle(VehicleBase):
 
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
+        """One lockstep step: ``control_step``, then ``finish_step``."""
+        out = self.control_step(frame, truth)
+        self.finish_step()
+        return out
+
+    def control_step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
+        """The step up to its answer: sensors to actuators. What follows the answer and
+        does not change it (the monitor's look at the controls, the log row) waits for
+        ``finish_step``, so a loop on two processes can send the answer first and the
+        simulator advances its plant meanwhile (autopilot/cli.py); ``step`` runs both."""
+        self._finish = None
         t_us = frame.t_us
         dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
         self.last_t_us = t_us
@@ -370,13 +381,25 @@ class PlaneVehicle(VehicleBase):
                 controls = (1.0, 1.0, 1.0, 0.0)
         if self.armed and self.sequencer is not None:
             self._land_disarm(t_us)
+        self._finish = (t_us, nav, controls, truth, frame.gps is not None)
+        return ActuatorOutputs(t_us, controls, self.armed)
+
+    _finish = None      # (t_us, nav, controls, truth, gps) of a step not yet finished
+
+    def finish_step(self) -> None:
+        """The rest of the step ``control_step`` answered (its docstring); nothing when
+        that step had no navigation yet."""
+        if self._finish is None:
+            return
+        t_us, nav, controls, truth, gps = self._finish
+        self._finish = None
+        mon = self.monitor
         if mon is not None:
             mon.observe_controls(t_us, nav, controls, self._monitoring())
         if truth is not None and self.armed and self.home_truth_alt_m is None:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
-        if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
+        if self.log_rows.take(self.steps, truth is not None, gps):
             self._log(t_us, nav, truth, controls)
-        return ActuatorOutputs(t_us, controls, self.armed)
 
     def _sequencer_requests(self, t_us: int, nav: NavState) -> None:
         """What the mission asked of the vehicle this step: its warnings and notes to the
@@ -539,7 +562,9 @@ class PlaneVehicle(VehicleBase):
             if self.mode == PlaneMode.RTL and not self.sequencer.finished:
                 self.sequencer.finished = True  # RTL mode: go straight to the home loiter
             seq = self.sequencer
-            seq.land_h_corr_m = self.rangefinder.correction_m(t_us, self._rf_landing() is not None)
+            # (no landing in the sequencer: no rangefinder landing, no correction)
+            landing = seq.landing is not None and self._rf_landing() is not None
+            seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0
             tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
                              airspeed_mps=nav.airspeed_mps)
             if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \

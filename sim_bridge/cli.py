@@ -47,6 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--speedup", type=float, default=None, help="real-time multiple (default: as fast as lockstep allows)")
     ap.add_argument("--duration", type=float, default=1e9, help="simulated seconds")
     ap.add_argument("--accept-timeout", type=float, default=60.0)
+    ap.add_argument("--truth-div", type=int, default=1,
+                    help="HIL_STATE_QUATERNION (truth) every N-th step and with every HIL_GPS "
+                         "(sim_bridge/hil.py); 1, the default, every step (an autopilot flying "
+                         "on --nav truth needs it); the autopilot's flight-log divisor (2, "
+                         "as `sitl run` paces it) sends only the truth its log keeps; 0 never")
     return ap
 
 
@@ -65,6 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sim-bridge: error: {e}", file=sys.stderr)
         return 2
     bridge = world.bridge(transport, args.vehicle)
+    bridge.link.truth_div = max(0, args.truth_div)
     if hasattr(transport, "accept"):
         print(f"sim-bridge: waiting for an autopilot on {args.listen}", file=sys.stderr)
         if not transport.accept(args.accept_timeout):

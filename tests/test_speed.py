@@ -443,3 +443,56 @@ def test_join_cost_is_scored_on_the_paths_samples():
                     assert got == ref(segs, a, u, side, 2.0)
                     scored += got[0] > 0.0
     assert scored > 100                                  # the paths did cost something
+
+
+def _fly_split(seconds: float, split: bool):
+    """The default mission's first ``seconds`` in one process, each step run as
+    ``step`` or as ``control_step``, the answer, then ``finish_step`` (autopilot/cli.py)."""
+    from tools.runner import DEFAULT_SCENARIO, RunConfig, Session
+    s = Session(RunConfig(scenario=DEFAULT_SCENARIO, duration_s=seconds, seed=2))
+    v = s.vehicle
+    answered_before_log = []
+    while s.t_s < seconds:
+        s.bridge.send_current()
+        for frame, truth in s.ap_end.poll():
+            if split:
+                out = v.control_step(frame, truth)
+                rows = len(v.log.rows)
+                s.ap_end.answer(out)
+                v.finish_step()
+                answered_before_log.append(len(v.log.rows) - rows)
+            else:
+                s.ap_end.answer(v.step(frame, truth))
+        s.bridge.advance(s.sim_end.poll_answer(s.bridge.t_us))
+    return v.log, answered_before_log
+
+
+def test_a_step_answered_before_it_finishes_flies_and_logs_as_one_step():
+    # GIVEN the default mission flown 12 s (launch at 3 s of healthy navigation), once
+    # with step() and once answering after control_step and finishing after the answer
+    whole, _ = _fly_split(12.0, split=False)
+    split, added = _fly_split(12.0, split=True)
+    # THEN the log rows were written by finish_step (after the answer) ...
+    assert sum(added) == len(split.rows) > 300
+    # ... and the flight, its log and its events are the same, bit for bit
+    assert len(whole.rows) == len(split.rows)
+    a, b = whole.arrays(), split.arrays()
+    for c in whole.columns:
+        assert np.array_equal(a[c], b[c], equal_nan=True), c
+    assert whole.events == split.events
+    assert any("armed" in e[1] for e in whole.events)
+
+
+def test_sim_bridge_truth_div_option_paces_truth():
+    from sim_bridge.cli import build_parser
+    assert build_parser().parse_args([]).truth_div == 1          # every step by default
+    assert build_parser().parse_args(["--truth-div", "2"]).truth_div == 2
+
+
+def test_bench_memory_reports_its_best_window_beside_the_mean():
+    from tools.bench import WINDOW_S, bench_memory
+    # GIVEN two windows' worth of flight after arming
+    rtf, s = bench_memory(2 * WINDOW_S, "ekf")
+    # THEN the best window is at least the mean over both (they cover the whole run)
+    assert rtf > 0.0
+    assert s.bench_best_window_rtf >= rtf * 0.999

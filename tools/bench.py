@@ -86,21 +86,37 @@ def bench_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tup
             timers.wrap(v.monitor, "update", "fault monitor")
         timers.wrap(v, "_log", "flight log")
     t_end = s.t_s + seconds
+    best = 0.0
     with settled_heap():                         # as Session.run() flies
         t0, c0 = time.perf_counter(), time.process_time()
         while s.t_s < t_end:
-            s.step()
+            # WINDOW_S windows: the best one shows the speed when the machine is not shared
+            w0, sim0 = time.perf_counter(), s.t_s
+            w_end = min(sim0 + WINDOW_S, t_end)
+            while s.t_s < w_end:
+                s.step()
+            if s.t_s - sim0 >= WINDOW_S - 0.01:
+                best = max(best, (s.t_s - sim0) / (time.perf_counter() - w0))
         wall = time.perf_counter() - t0
     s.bench_cpu_rtf = seconds / max(time.process_time() - c0, 1e-9)
+    s.bench_best_window_rtf = best
     return seconds / wall, s
 
 
-def bench_tcp(seconds: float, nav: str) -> float:
-    """sim-bridge and autopilot as two processes on TCP loopback."""
+WINDOW_S = 5.0     # simulated seconds of the windows whose best is reported beside the mean
+
+
+def bench_tcp(seconds: float, nav: str, best_window: list | None = None) -> float:
+    """sim-bridge and autopilot as two processes on TCP loopback, truth paced as the
+    memory pipe's run paces it (every LOG_DIV-th step and with every fix: the truth the
+    flight log keeps), so that the two loops do the same work. ``best_window``: a list
+    that receives the best WINDOW_S window's real-time factor."""
+    from autopilot.vehicle import LOG_DIV
     port = _free_port()
     env = dict(os.environ)
     sim = subprocess.Popen([sys.executable, "-m", "sim_bridge.cli", "--listen", f"tcpin:127.0.0.1:{port}",
-                            "--scenario", str(DEFAULT_SCENARIO), "--duration", str(seconds + 30.0)],
+                            "--scenario", str(DEFAULT_SCENARIO), "--duration", str(seconds + 30.0),
+                            "--truth-div", str(LOG_DIV)],
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     try:
         from autopilot.link.hil import AutopilotHilEnd
@@ -116,19 +132,28 @@ def bench_tcp(seconds: float, nav: str) -> float:
         t_s = 0.0
         t0 = None
         t_start = None
+        best = 0.0
         heap.settle()                            # as the autopilot's own process does
         while True:
             steps = end.poll(1.0)
             if not steps and transport.closed:
                 break
             for frame, truth in steps:
-                end.answer(vehicle.step(frame, truth))
+                end.answer(vehicle.control_step(frame, truth))
+                vehicle.finish_step()            # (as autopilot/cli.py: after the answer)
                 t_s = frame.t_us * 1e-6
             if t0 is None and vehicle.armed and t_s >= 5.0:
                 t0, t_start = time.perf_counter(), t_s
+                w0, w_sim = t0, t_s
+            if t0 is not None and t_s - w_sim >= WINDOW_S - 0.005:
+                now = time.perf_counter()
+                best = max(best, (t_s - w_sim) / (now - w0))
+                w0, w_sim = now, t_s
             if t0 is not None and t_s - t_start >= seconds:
                 break
         wall = time.perf_counter() - t0
+        if best_window is not None:
+            best_window.append(best)
         transport.close()
         return (t_s - t_start) / wall
     finally:
@@ -294,11 +319,17 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
         fig[f"loop_{nav}_rtf"], fig[f"loop_{nav}_cpu_rtf"] = rtf, s.bench_cpu_rtf
         say(f"  full loop, memory pipe, nav {nav:5s}:            {rtf:8.1f} x real time"
             f"   (per CPU second of this process: {s.bench_cpu_rtf:6.1f} x)")
+        if nav == "ekf":
+            fig["loop_ekf_best_rtf"] = s.bench_best_window_rtf
     try:
-        fig["loop_tcp_rtf"] = bench_tcp(seconds, "ekf")
-        say(f"  full loop, TCP, two processes (ekf):           {fig['loop_tcp_rtf']:8.1f} x real time")
+        best: list = []
+        fig["loop_tcp_rtf"] = bench_tcp(seconds, "ekf", best)
+        fig["loop_tcp_best_rtf"] = best[0] if best else None
+        say(f"  full loop, TCP, two processes (ekf):           {fig['loop_tcp_rtf']:8.1f} x real time"
+            f"   (best {WINDOW_S:.0f} s window {fig['loop_tcp_best_rtf'] or 0.0:.1f} x; memory pipe's "
+            f"{fig['loop_ekf_best_rtf']:.1f} x)")
     except Exception as e:  # report, do not hide
-        fig["loop_tcp_rtf"] = None
+        fig["loop_tcp_rtf"] = fig["loop_tcp_best_rtf"] = None
         say(f"  full loop, TCP, two processes: failed ({e})")
     fig["quad_plant_rtf"] = bench_quad_plant(seconds)
     say(f"  quadrotor plant alone (4 ms steps):            {fig['quad_plant_rtf']:8.1f} x real time")
@@ -315,11 +346,16 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
     fig["ratio_loop_ekf_to_plant"] = fig["loop_ekf_rtf"] / plant_rtf
     fig["ratio_loop_ekf_to_plant_cpu"] = fig["loop_ekf_cpu_rtf"] / plant_cpu
     fig["ratio_tcp_to_memory"] = tcp / fig["loop_ekf_rtf"] if tcp else None
+    # the same from each loop's best window: on a shared machine the nearest to a quiet one
+    tcp_best = fig["loop_tcp_best_rtf"]
+    fig["ratio_tcp_to_memory_best"] = (tcp_best / fig["loop_ekf_best_rtf"]
+                                       if tcp_best and fig["loop_ekf_best_rtf"] else None)
     fig["ratio_quad_loop_to_plant"] = fig["quad_loop_ekf_rtf"] / fig["quad_plant_rtf"]
     fig["ratio_formation10_to_5"] = fig["formation10_rtf"] / fig["formation5_rtf"]
     say(f"  ratios: loop ekf / plant {fig['ratio_loop_ekf_to_plant']:.3f} (CPU "
         f"{fig['ratio_loop_ekf_to_plant_cpu']:.3f}), TCP / memory "
-        f"{fig['ratio_tcp_to_memory'] or float('nan'):.3f}, quad loop / quad plant "
+        f"{fig['ratio_tcp_to_memory'] or float('nan'):.3f} (best windows "
+        f"{fig['ratio_tcp_to_memory_best'] or float('nan'):.3f}), quad loop / quad plant "
         f"{fig['ratio_quad_loop_to_plant']:.3f}, 10 quads / 5 quads {fig['ratio_formation10_to_5']:.3f}")
     timers = _Timers()
     _, s = bench_memory(min(seconds, 30.0), "ekf", timers)

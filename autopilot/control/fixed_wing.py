@@ -213,7 +213,7 @@ class FixedWingController:
         slope, the throttle the airspeed; guidance/landing.py TECS_LAND_SPDWGT)."""
         p = self.params
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
-        omega = nav.omega_b
+        omega = nav.omega_b.tolist()
         v_air = max(nav.airspeed_mps, 5.0)
         roll_lim = math.radians(p["ROLL_LIMIT_DEG"])
         if self.elevator_out and self.eout_bank_max_rad is not None:
@@ -310,12 +310,12 @@ class FixedWingController:
                                         feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)
 
         # inner loops
-        da = self.roll_pid.update(phi_c, roll, dt, rate=float(omega[0]), scale=scale)
+        da = self.roll_pid.update(phi_c, roll, dt, rate=omega[0], scale=scale)
         de_ff = p["ELEV_TRIM"] * min(q_ratio, 2.0)
-        de = self.pitch_pid.update(theta_c, pitch, dt, rate=float(omega[1]), feedforward=de_ff,
+        de = self.pitch_pid.update(theta_c, pitch, dt, rate=omega[1], feedforward=de_ff,
                                    scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
-        dr = min(max(p["YAW_KD"] * (r_c - float(omega[2])), -1.0), 1.0)
+        dr = min(max(p["YAW_KD"] * (r_c - omega[2]), -1.0), 1.0)
         if so is not None:
             # aileron or rudder out: the other surface at the deflection that holds the
             # wings level against it (the airframe's model), the roll loop on top of it;

@@ -191,10 +191,14 @@ class JSBSimPlane:
         """The true state now, in SI units (see base.PlantState). ``imu``: the body
         rates and specific force (p, q, r, ax, ay, az in JSBSim's units) to report
         instead of this step's (``step``'s means)."""
-        (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
-         vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
-            get() for get in self._state_getters]
-        if imu is not None:
+        if imu is None:
+            (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
+                get() for get in self._state_getters]
+        else:                                     # (the rates and forces not read twice)
+            (lat, lon, alt, vn, ve, vd, phi, theta, psi, wn, we, wd,
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
+                get() for get in self._state_getters_no_imu]
             p, q, r, ax, ay, az = imu
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
@@ -459,11 +463,13 @@ class JSBSimPlane:
             "ecef_y": getter("position/ecef-y-ft"),
             "ecef_z": getter("position/ecef-z-ft"),
         }
-        self._state_getters = tuple(self._n[name] for name in (
-            "lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
-            "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
-            "fz_gear", "rho", "pressure", "temperature"))
-        self._imu_getters = tuple(self._n[name] for name in ("p", "q", "r", "ax", "ay", "az"))
+        names = ("lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
+                 "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
+                 "fz_gear", "rho", "pressure", "temperature")
+        imu = ("p", "q", "r", "ax", "ay", "az")
+        self._state_getters = tuple(self._n[name] for name in names)
+        self._imu_getters = tuple(self._n[name] for name in imu)
+        self._state_getters_no_imu = tuple(self._n[name] for name in names if name not in imu)
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
