@@ -178,3 +178,9 @@ def test_home_moved_in_flight_is_not_the_ground(tmp_path, below_new_home_m):
     assert v.sequencer.current >= 5                               # past both legs after it
     # the new home is where the aircraft was: well above the launch point
     assert v.home_frame.alt0_m - v._launch_alt_m > 40.0
+    # the item after the DO_SET_HOME (resolved in the same step) is flown above the new
+    # home, not the old one: its target never under the new home less its depth
+    # (before: 20 m under that with the first leg's altitude taken from the old home)
+    a = s.log.arrays()
+    after_move = (a["t_s"] > 30.0) & ((a["seq"] == 4) | (a["seq"] == 5))
+    assert a["tgt_alt_m"][after_move].min() > v.home_frame.alt0_m - below_new_home_m - 1.0

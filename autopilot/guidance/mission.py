@@ -277,7 +277,17 @@ class MissionSequencer:
         self._joined = False
         self._fillet_at = None
         self.frame = frame
+        dh = frame.alt0_m - self.home_alt_m
         self.home_alt_m = frame.alt0_m
+        if self._nav_pos is not None and self.current < len(self.items):
+            # the current item's altitude, resolved before the move (a DO_SET_HOME
+            # just before it runs in the same step): above the new home, as every
+            # later item's is
+            it = self.items[self.current]
+            current_alt = math.isnan(it.z_alt_m) or (it.z_alt_m == 0 and (
+                self._here(it) or it.command in LOITER_COMMANDS))   # (as _resolve reads them)
+            if it.frame in RELATIVE_FRAMES and not current_alt:
+                self._nav_pos = (self._nav_pos[0], self._nav_pos[1] + dh)
 
     def say(self, t_us: int, severity: int, text: str, key=None) -> None:
         """A STATUSTEXT-ready event; with ``key``, said once."""
