@@ -121,3 +121,8 @@ def test_propeller_gyroscopic_moment_is_the_plants(throttle, rudder):
     assert m_model == pytest.approx(m_prop, rel=0.10), (m_model, m_prop, r)
     a, b, cc, d = AEROSONDE.rpm
     assert abs(a + b * throttle + cc * v + d * throttle * v - fdm["propulsion/engine/propeller-rpm"]) <= 300.0
+    # AND its yawing part, -H q (the lateral balance's n_gyro), within 10 % (measured 1-3 %)
+    q = fdm["velocities/q-aero-rad_sec"]
+    n_prop = fdm["moments/n-prop-lbsft"] * 1.35582
+    assert abs(q) > 0.1
+    assert -AEROSONDE.prop_momentum(throttle, v) * q == pytest.approx(n_prop, rel=0.10), (q, n_prop)

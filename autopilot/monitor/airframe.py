@@ -92,6 +92,16 @@ class PitchAero:
         D = self.Cmde - self.Cma / self.CLa * self.CLde
         return -m_dyn / D
 
+    def prop_momentum(self, throttle: float, v_mps: float) -> float:
+        """The propeller's angular momentum H [N m s] at that throttle and airspeed
+        (``prop_ixx`` times its speed from :attr:`rpm`); its gyroscopic moments on the
+        airframe are ``H r`` in pitch and ``-H q`` in yaw (:meth:`gyro_elevator`)."""
+        if self.prop_ixx <= 0.0:
+            return 0.0
+        a, b, c, d = self.rpm
+        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps, 0.0)
+        return self.prop_sense * self.prop_ixx * rpm * (2.0 * 3.141592653589793 / 60.0)
+
     def gyro_elevator(self, r: float, throttle: float, v_mps: float) -> float:
         """The elevator (nose-up positive, rad) the propeller's gyroscopic moment takes
         off the balance at yaw rate r [rad/s]: a rotor of angular momentum H along body
@@ -103,9 +113,7 @@ class PitchAero:
         rad of elevator: the error the stuck readings had in turns."""
         if self.prop_ixx <= 0.0:
             return 0.0
-        a, b, c, d = self.rpm
-        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps, 0.0)
-        H = self.prop_sense * self.prop_ixx * rpm * (2.0 * 3.141592653589793 / 60.0)
+        H = self.prop_momentum(throttle, v_mps)
         qbar = 0.5 * RHO0 * v_mps * v_mps
         D = self.Cmde - self.Cma / self.CLa * self.CLde
         # Cm0 + Cma alpha + Cmde de = m_dyn - H r / (qbar S cbar): as dynamic_elevator

@@ -240,7 +240,8 @@ class FaultMonitor:
             from .lateral import LAT_MODELS, LateralIdentifier
             lat = LAT_MODELS.get(int(p["FDI_EL_MODEL"]))
             if lat is not None:
-                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
+                                                 prop=self.airframe)
                 self.lateral_model = lat
         # the throttle's, autopilot/monitor/throttle.py
         self.throttle = None
