@@ -93,3 +93,36 @@ def test_pitch_rate_terms():
     inertia = AEROSONDE.Iyy * 1.0 / (qbar * AEROSONDE.wing_area_m2 * AEROSONDE.chord_m) / -D
     assert AEROSONDE.dynamic_elevator(0.0, 1.0, 25.0) == pytest.approx(inertia)
     assert inertia > 0.0
+
+
+ENGINE = ROOT / "sim_bridge" / "aircraft" / "engine" / "APC_18x8E.xml"
+
+
+@pytest.mark.parametrize("throttle, rudder", [(0.3, 0.3), (0.8, -0.3)])
+def test_propeller_gyroscopic_moment_is_the_plants(throttle, rudder):
+    # GIVEN the propeller's inertia of the engine file, and the plant trimmed at 25 m/s,
+    #       then yawing on a held rudder (either way) at a held throttle for 3 s
+    assert float(ET.parse(ENGINE).getroot().find("ixx").text) == AEROSONDE.prop_ixx
+    from dataclasses import replace
+    plant = JSBSimPlane(home=HOME)
+    c = plant.trim(airspeed_mps=25.0, height_m=300.0)
+    plant.step(replace(c, throttle=throttle, rudder=rudder), n_steps=600)
+    fdm = plant._fdm
+    r = fdm["velocities/r-aero-rad_sec"]
+    v = fdm["velocities/vc-kts"] * 0.514444
+    m_prop = fdm["moments/m-prop-lbsft"] * 1.35582
+    # THEN the pitch moment the model's elevator term stands for (H r from the model's
+    # rpm at that throttle and airspeed) is the plant's propeller moment within 10 %
+    # (and of its sign: nose up in a right yaw), and the rpm within 300
+    D = AEROSONDE.Cmde - AEROSONDE.Cma / AEROSONDE.CLa * AEROSONDE.CLde
+    qbar = 0.5 * 1.225 * v * v
+    m_model = AEROSONDE.gyro_elevator(r, throttle, v) * D * qbar * AEROSONDE.wing_area_m2 * AEROSONDE.chord_m
+    assert abs(r) > 0.05
+    assert m_model == pytest.approx(m_prop, rel=0.10), (m_model, m_prop, r)
+    a, b, cc, d = AEROSONDE.rpm
+    assert abs(a + b * throttle + cc * v + d * throttle * v - fdm["propulsion/engine/propeller-rpm"]) <= 300.0
+    # AND its yawing part, -H q (the lateral balance's n_gyro), within 10 % (measured 1-3 %)
+    q = fdm["velocities/q-aero-rad_sec"]
+    n_prop = fdm["moments/n-prop-lbsft"] * 1.35582
+    assert abs(q) > 0.1
+    assert -AEROSONDE.prop_momentum(throttle, v) * q == pytest.approx(n_prop, rel=0.10), (q, n_prop)

@@ -341,14 +341,17 @@ def test_stuck_elevator_without_level_trim_flown_at_full_throttle_wings_level(tm
     s.run()
     f = run_summary(s)["faults"][0]
     # WHEN the reaction starts at the detection from the deflection flown (before the
-    #      identification), THEN "no level trim" is said within 3 s of the detection,
+    #      identification), THEN "no level trim" is said within 4 s of the onset,
     #      the throttle is full and the wings within 12 deg of level until the end,
-    #      and the aircraft is still flying, under 80 m lost (measured: said 3.0 s after
-    #      the detection, 68 m lost; with the reaction from the stuck identification
-    #      alone, at 0.3-0.9 throttle and the mission's bank, it hit the ground)
+    #      and the aircraft is still flying, under 80 m lost (measured: said 2.0 s after
+    #      the detection, 3.23 s after the onset, the deflection read 0.0500 at the
+    #      detection; from the low-passed z without its lag undone 6.23 s after the
+    #      onset (z 0.085 at the detection, 0.063 a second later), 4.7 s at 20c5cca;
+    #      with the reaction from the stuck identification alone, at 0.3-0.9 throttle
+    #      and the mission's bank, it hit the ground)
     assert f["delay_s"] is not None and f["delay_s"] <= 3.0
     said = [t for t, text in s.log.events if "no level trim" in text and "full throttle" in text]
-    assert said and said[0] - f["detected_s"] <= 3.5, s.log.events
+    assert said and said[0] - f["at_s"] <= 4.0, s.log.events
     a = s.log.arrays()
     after = a["t_s"] >= said[0] + 1.0
     assert a["ctl_throttle"][after].min() >= 0.99

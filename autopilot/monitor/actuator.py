@@ -55,9 +55,12 @@ RESTART_HOLD_S = 3.0            # ... and nothing is tested or learnt for 3 BAL_
                                 # decays as exp(-t / BAL_TAU_S) (resuming after a go-around's
                                 # climb in a turn: the aileron read 0.22 rad off, the elevator
                                 # 0.18, false alarms)
-RES_FLOOR_RAD = 0.02            # floor of the residual standard deviation [rad] (0.01 let the
-                                # steep idle descending turns of the default mission after a
-                                # GPS fault read 6 sigma: a false alarm)
+RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]: 0.02 while the
+                                # balance missed the propeller's gyroscopic moment (0.01 let the
+                                # steep idle descending turns after a GPS fault read 6 sigma);
+                                # with it the healthy residual is 0.0008 rad sd, 0.005 at most
+                                # (default mission seed 1), 0.013 rms in the worst 5 s of
+                                # moderate turbulence (false_alarms.toml's first 16 trials)
 
 
 class MomentBalance:
@@ -98,14 +101,16 @@ class MomentBalance:
         return self.prior or self.n >= 300   # the model, or 30 s of fitted samples
 
     def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
-             n: float = 1.0, q: float = 0.0) -> tuple[float, float] | None:
+             n: float = 1.0, q: float = 0.0, r_yaw: float = 0.0) -> tuple[float, float] | None:
         """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
         z the deflection the balance says the aircraft flies with. With the airframe's
         model the pitch rate q adds its damping and, through the derivative of its
         low-passed value ((q - q_lp) / BAL_TAU_S, exact for the first-order filter), its
-        inertia: known terms, not fitted."""
+        inertia, and the yaw rate r the propeller's gyroscopic moment
+        (``PitchAero.gyro_elevator``): known terms, not fitted."""
         r = self.V_REF / V
-        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q)
+        g = 0.0 if self.model is None else self.model.gyro_elevator(r_yaw, throttle, V)
+        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q, g)
         if self._lp is not None and (t_us - self._t_us) * 1e-6 > RESTART_GAP_S:
             self._lp = None           # the monitor paused: start the low-passes again
         if self._lp is None:
@@ -120,7 +125,7 @@ class MomentBalance:
             return None
         a = dt / (BAL_TAU_S + dt)
         lp = self._lp
-        for i in range(5):
+        for i in range(6):
             lp[i] += a * (x[i] - lp[i])
         if t_us < self._next_us:
             return None
@@ -131,7 +136,7 @@ class MomentBalance:
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
-            z_dyn = self.model.dynamic_elevator(lp[4], (q - lp[4]) / BAL_TAU_S, V)
+            z_dyn = self.model.dynamic_elevator(lp[4], (q - lp[4]) / BAL_TAU_S, V) + lp[5]
         if not self.frozen and not self.suspended and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
             q_.append((t_us, phi, d - z_dyn))
@@ -293,7 +298,7 @@ class ElevatorIdentifier:
             n = 1.0 / max(c_bank, 0.5)
         if q is None:
             q = float(nav.omega_b[1])  # pitch rate (bias-corrected)
-        sample = self.balance.step(t_us, V, throttle, d, n, q)
+        sample = self.balance.step(t_us, V, throttle, d, n, q, float(nav.omega_b[2]))
         if sample is None:
             return
         z, dcmd = sample

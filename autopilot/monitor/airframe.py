@@ -63,6 +63,9 @@ class PitchAero:
     thrust_z_m: float = 0.0        # thrust line below the CG [m]
     v_level_min_mps: float = 0.0   # slowest level flight (stall) [m/s, equivalent]
     v_level_max_mps: float = 1e9   # fastest level flight at full throttle [m/s, equivalent]
+    prop_ixx: float = 0.0          # rotating inertia of propeller, hub and motor rotor [kg m^2]
+    prop_sense: float = 1.0        # its spin about body x (the engine file's <sense>)
+    rpm: tuple = (0.0, 0.0, 0.0, 0.0)   # propeller rpm ~ a + b throttle + c V + d throttle V
 
     def balance(self, v_ref: float) -> np.ndarray:
         """[c_0, c_L, c_t] of the balance (B) at the reference airspeed (module doc)."""
@@ -89,6 +92,33 @@ class PitchAero:
         D = self.Cmde - self.Cma / self.CLa * self.CLde
         return -m_dyn / D
 
+    def prop_momentum(self, throttle: float, v_mps: float) -> float:
+        """The propeller's angular momentum H [N m s] at that throttle and airspeed
+        (``prop_ixx`` times its speed from :attr:`rpm`); its gyroscopic moments on the
+        airframe are ``H r`` in pitch and ``-H q`` in yaw (:meth:`gyro_elevator`)."""
+        if self.prop_ixx <= 0.0:
+            return 0.0
+        a, b, c, d = self.rpm
+        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps, 0.0)
+        return self.prop_sense * self.prop_ixx * rpm * (2.0 * 3.141592653589793 / 60.0)
+
+    def gyro_elevator(self, r: float, throttle: float, v_mps: float) -> float:
+        """The elevator (nose-up positive, rad) the propeller's gyroscopic moment takes
+        off the balance at yaw rate r [rad/s]: a rotor of angular momentum H along body
+        x pitches the airframe by ``H r`` (the reaction to turning its spin axis; JSBSim
+        applies it as ``moments/m-prop``), nose up in a right turn for a propeller turning
+        clockwise seen from behind. ``H = prop_ixx * omega``, the speed from the rpm the
+        throttle and airspeed give (:attr:`rpm`, measured on the plant). In the Aerosonde's
+        turns (r 0.1-0.3 rad/s, about 7000 rpm: H 2.2 N m s) it is 0.2-0.7 N m, 0.01-0.02
+        rad of elevator: the error the stuck readings had in turns."""
+        if self.prop_ixx <= 0.0:
+            return 0.0
+        H = self.prop_momentum(throttle, v_mps)
+        qbar = 0.5 * RHO0 * v_mps * v_mps
+        D = self.Cmde - self.Cma / self.CLa * self.CLde
+        # Cm0 + Cma alpha + Cmde de = m_dyn - H r / (qbar S cbar): as dynamic_elevator
+        return (H * r / (qbar * self.wing_area_m2 * self.chord_m)) / D
+
     def trim_airspeed(self, delta: float, n: float = 1.0, v_ref: float = 25.0) -> float | None:
         """The equivalent airspeed at which an elevator held at ``delta`` (nose-up
         positive, rad) balances load factor n (c_t = 0: the throttle does not enter);
@@ -111,7 +141,11 @@ class PitchAero:
 AEROSONDE = PitchAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, chord_m=0.18994,
                       Cm0=-0.02338, Cma=-0.38, Cmde=-0.5, CL0=0.28, CLa=3.45, CLde=-0.36,
                       Iyy=1.135, Cmq=-3.6,
-                      v_level_min_mps=15.3, v_level_max_mps=34.5)
+                      v_level_min_mps=15.3, v_level_max_mps=34.5,
+                      # sim_bridge/aircraft/engine/APC_18x8E.xml <ixx>, the thruster's <sense>;
+                      # rpm fitted to the plant trimmed at 18-33 m/s, throttle 0-1 held 1.5 s
+                      # (36 points, 98 rpm rms, 205 at most)
+                      prop_ixx=3.0e-3, prop_sense=1.0, rpm=(728.6, 4696.3, 201.04, -93.43))
 
 # FDI_EL_MODEL -> the airframe whose model is the elevator identifier's prior (0: none,
 # the balance is learnt in flight from nothing)

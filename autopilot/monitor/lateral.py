@@ -77,10 +77,13 @@ class LateralAero:
     Cn_dr: float
 
     def deflections(self, V: float, p: float, q: float, r: float, pd: float, rd: float,
-                    a_y: float) -> tuple[float, float]:
+                    a_y: float, n_gyro: float = 0.0) -> tuple[float, float]:
         """(aileron, rudder) in the autopilot's convention [rad] that balance the
         measured motion (module docstring); rates [rad/s], their derivatives [rad/s^2],
-        a_y the lateral specific force [m/s^2]."""
+        a_y the lateral specific force [m/s^2]; ``n_gyro`` the propeller's gyroscopic
+        yawing moment ``-H q`` [N m] (airframe.PitchAero.prop_momentum): in the
+        Aerosonde's turns (q 0.1-0.17 rad/s, H 2.2 N m s) 0.2-0.4 N m, about 0.02 rad of
+        rudder."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
         qSb = qS * self.span_m
         k = self.span_m / (2.0 * V)
@@ -91,7 +94,7 @@ class LateralAero:
                       (self.Cn_b, self.Cn_da, self.Cn_dr)))
         y = np.array((self.mass_kg * a_y / qS,
                       L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
-                      N / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
+                      (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
         _beta, da, dr = np.linalg.solve(A, y)
         return float(da), float(-dr)
 
@@ -185,8 +188,10 @@ class LateralIdentifier:
     commands (aileron, elevator, rudder, throttle) and the specific force (body FRD).
     Outputs: ``ratio`` (per axis, window statistic / threshold), ``worst()``."""
 
-    def __init__(self, model: LateralAero, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01):
+    def __init__(self, model: LateralAero, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
+                 prop=None):
         self.model = model
+        self.prop = prop               # airframe.PitchAero: the propeller's momentum (or None)
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         a_det = family_alpha(p_fa, 2 * tests_per_hour)     # two axes share the budget
         self.axes = {n: _Axis(n, window, alpha, a_det) for n in AXES}
@@ -222,7 +227,8 @@ class LateralIdentifier:
         w = nav.omega_b
         x = [float(w[0]), float(w[1]), float(w[2]), float(f_b[1]), V,
              float(controls[0]) * MAX_DEFLECTION_RAD, float(controls[2]) * MAX_DEFLECTION_RAD,
-             float(controls[3]) * (V_REF / V) ** 2]
+             float(controls[3]) * (V_REF / V) ** 2,
+             0.0 if self.prop is None else -self.prop.prop_momentum(float(controls[3]), V) * float(w[1])]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             self._start_us = t_us
@@ -245,7 +251,7 @@ class LateralIdentifier:
         # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
         pd = (x[0] - lp[0]) / BAL_TAU_S
         rd = (x[2] - lp[2]) / BAL_TAU_S
-        za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3])
+        za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8])
         phi = np.array((1.0, lp[7]))
         self._k += 1
         k_test = self._k >= TEST_DIV

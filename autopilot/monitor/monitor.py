@@ -37,6 +37,7 @@ from autopilot.geo import G0
 from autopilot.nav.records import InnovationLog
 from autopilot.params import Param
 
+from .actuator import BAL_TAU_S
 from .radapt import R_MULTIPLE, RAdapter, attach
 from .stats import WindowChi2, chi2_threshold, family_alpha
 
@@ -240,7 +241,8 @@ class FaultMonitor:
             from .lateral import LAT_MODELS, LateralIdentifier
             lat = LAT_MODELS.get(int(p["FDI_EL_MODEL"]))
             if lat is not None:
-                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
+                self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
+                                                 prop=self.airframe)
                 self.lateral_model = lat
         # the throttle's, autopilot/monitor/throttle.py
         self.throttle = None
@@ -573,8 +575,15 @@ class FaultMonitor:
         if not h:
             return
         t_end = h[-1][0] - 1_000_000
-        zs = [z for (t, z, _) in h if t >= t_end]
-        self._elevator_trim(t_s, sum(zs) / len(zs), final=False, count=count)
+        last = [(t, z) for (t, z, _) in h if t >= t_end]
+        z = sum(z for _, z in last) / len(last)
+        if len(last) >= 2 and last[-1][0] > last[0][0]:
+            # z is the balance of signals low-passed at BAL_TAU_S, which lags the surface
+            # by that much (a stuck one's z still 0.013 rad off 2 s after the onset); the
+            # first-order filter's input is x = x_lp + tau dx_lp/dt, so the deflection
+            # itself, averaged over the same second, is the mean plus tau times the slope
+            z += BAL_TAU_S * (last[-1][1] - last[0][1]) / ((last[-1][0] - last[0][0]) * 1e-6)
+        self._elevator_trim(t_s, z, final=False, count=count)
 
     def _elevator_trim(self, t_s: float, stuck: float, final: bool = True, count: bool = True) -> None:
         """The reaction the airframe's model gives an elevator held at ``stuck``
