@@ -302,6 +302,15 @@ def test_a_waypoint_counted_far_from_where_the_vehicle_went_fails():
     assert inv["figure"] == pytest.approx(400 / math.sqrt(2) - 100.0, abs=3.0)
 
 
+def _passed(a, mission):
+    """waypoints_passed of a synthetic log of ``mission`` (WP_RADIUS 100 m), counted
+    where its seq moves on."""
+    return check_invariants(a, mission, "plane", _counted(a), completed=True,
+                            done_t_s=float(a["t_s"][-1]), home_truth_alt_m=500.0,
+                            params=dict(PARAMS, WP_RADIUS=100.0), wind_mps=0.0, fault_free=True,
+                            log_events=[(0.0, "mode AUTO")], frame=HOME)["waypoints_passed"]
+
+
 def test_a_waypoint_passed_after_the_next_one_in_its_cluster_counted_passes():
     """waypoints_passed: B (radius 40 m) counted 85 m from it where the turn past a
     cluster starts, C (45 m beyond B, the default 100 m radius: the two circles
@@ -312,14 +321,10 @@ def test_a_waypoint_passed_after_the_next_one_in_its_cluster_counted_passes():
         return _mission([(22, 3, 0, 0, 0, None, None, 50), (16, 3, 0, 0, 0, 1000.0, 0.0, 50),
                          (16, 3, 0, 40.0, 0, 1000.0, 500.0, 50), (16, 3, 0, c_accept, 0, 1000.0, 545.0, 50),
                          (16, 3, 0, 0, 0, 0.0, 1000.0, 50), (20, 2, 0, 0, 0, None, None, 0)])
-    params = dict(PARAMS, WP_RADIUS=100.0)
     pts = [(0, 0), (1000, 0), (1060, 440), (1060, 441), (1000, 505), (0, 1000), (0, 0)]
     a = _log(pts, [2, 3, 4, 5, 5, 6])
     for c_accept, ok in ((0.0, True), (4.0, False)):
-        inv = check_invariants(a, mission(c_accept), "plane", _counted(a), completed=True,
-                               done_t_s=float(a["t_s"][-1]), home_truth_alt_m=500.0, params=params,
-                               wind_mps=0.0, fault_free=True,
-                               log_events=[(0.0, "mode AUTO")], frame=HOME)["waypoints_passed"]
+        inv = _passed(a, mission(c_accept))
         assert inv["passed"] is ok
         if ok:
             assert inv["figure"] < -30.0
@@ -338,14 +343,10 @@ def test_a_waypoint_passed_on_the_way_to_a_loiter_around_it_passes():
         return _mission([(22, 3, 0, 0, 0, None, None, 50), (16, 3, 0, 0, 0, 1000.0, 0.0, 50),
                          (19, 3, 0.5, 0, 80.0, 1000.0, c_e, 50), (16, 3, 0, 0, 0, 1000.0, 440.0, 50),
                          (16, 3, 0, 0, 0, 0.0, 1000.0, 50), (20, 2, 0, 0, 0, None, None, 0)])
-    params = dict(PARAMS, WP_RADIUS=100.0)
     pts = [(0, 0), (1000, 0), (1000, 430), (1000, 580), (1000, 581), (0, 1000), (0, 0)]
     a = _log(pts, [2, 3, 3, 4, 5, 6])
     for c_e, ok in ((500.0, True), (640.0, False)):
-        inv = check_invariants(a, mission(c_e), "plane", _counted(a), completed=True,
-                               done_t_s=float(a["t_s"][-1]), home_truth_alt_m=500.0, params=params,
-                               wind_mps=0.0, fault_free=True,
-                               log_events=[(0.0, "mode AUTO")], frame=HOME)["waypoints_passed"]
+        inv = _passed(a, mission(c_e))
         assert inv["passed"] is ok, inv
         if not ok:
             assert inv["seq"] == 4 and inv["figure"] > 20.0

@@ -282,7 +282,7 @@ def passed_figure(a: dict, mission: Mission, vehicle: str, events, params,
         it = mission[leg["seq"]]
         if win is None or it.command != NAV_WAYPOINT:
             continue
-        accept = it.param2 if it.param2 > 0 else default
+        accept = _accept_of(it, default)
         # to the counting of the next item elsewhere: the items of a cluster, whose
         # acceptance circles overlap this one's, count on the same turn, before or
         # after it (an arc that turns past the cluster counts them as it enters their

@@ -123,6 +123,13 @@ def samples(segments, ds: float = SAMPLE_M):
                 yield c[0] + r * math.cos(b), c[1] + r * math.sin(b), b + d * 0.5 * math.pi
 
 
+def side_of(p, a, u, tol_m: float) -> float:
+    """Which side of the line through A along the unit vector u point p lies on: +1
+    right, -1 left, 0 within ``tol_m`` of it (``path_cost``'s ``side``)."""
+    xt = (p[0] - a[0]) * -u[1] + (p[1] - a[1]) * u[0]
+    return 0.0 if abs(xt) < tol_m else math.copysign(1.0, xt)
+
+
 def path_cost(segments, a, u, side: float, cross_tol_m: float) -> tuple[float, float]:
     """(cost beyond the path's length, metres strayed) of a join onto the line through
     A along u, as the mission's cross-track is scored: from the path's first point
@@ -220,8 +227,7 @@ def join_leg(p, chi: float, a, b, radius: float, s_max: float, cross_tol_m: floa
         return None
     u = ((b[0] - a[0]) / ln, (b[1] - a[1]) / ln)
     psi = math.atan2(u[1], u[0])
-    xt0 = (p[0] - a[0]) * -u[1] + (p[1] - a[1]) * u[0]
-    side = 0.0 if abs(xt0) < cross_tol_m else math.copysign(1.0, xt0)
+    side = side_of(p, a, u, cross_tol_m)
     s_max = min(max(s_max, 0.0), ln)
     s_far = ln + 2.0 * radius
     step = max(0.25 * radius, s_far / 40.0, 1.0)

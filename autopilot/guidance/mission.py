@@ -189,13 +189,15 @@ class MissionSequencer:
         self._seg_start = True
         self._seg_angle = 0.0
         self._seg_last: float | None = None
+        self._next_wp: tuple | bool | None = None   # (_track_next; None: not looked up yet)
+        self._next_min = math.inf
         self._start_item()
 
     def _start_item(self) -> None:
         """The current item starts afresh (new item, or re-entered)."""
         # the closest the vehicle came to this item's waypoint while the take-off before
         # it flew (a climb-out over it), or an item of the same cluster (``_track_next``)
-        nxt = getattr(self, "_next_wp", None)
+        nxt = self._next_wp
         self._b_min = self._next_min if nxt and nxt[0] == self.current else math.inf
         self._next_wp = None           # (seq, NE) of the next NAV_WAYPOINT, False: none
         self._next_min = math.inf      # the closest the vehicle came to it so far
@@ -1106,11 +1108,7 @@ class MissionSequencer:
         l1 = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         u1 = ((b_ne[0] - a_ne[0]) / l1, (b_ne[1] - a_ne[1]) / l1) if l1 > 1e-3 else u
 
-        def side_of(a, v):
-            xt0 = (p_ne[0] - a[0]) * -v[1] + (p_ne[1] - a[1]) * v[0]
-            return 0.0 if abs(xt0) < 2.0 else math.copysign(1.0, xt0)
-
-        s1, s2 = side_of(a_ne, u1), side_of(b_ne, u)
+        s1, s2 = dubins.side_of(p_ne, a_ne, u1, 2.0), dubins.side_of(p_ne, b_ne, u, 2.0)
         near2 = (0.9 * accept) ** 2
         best = None
         for r in self._join_radii():
@@ -1146,8 +1144,7 @@ class MissionSequencer:
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         u = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length) if length > 1e-3 \
             else (math.cos(chi), math.sin(chi))
-        xt0 = (p_ne[0] - a_ne[0]) * -u[1] + (p_ne[1] - a_ne[1]) * u[0]
-        side = 0.0 if abs(xt0) < 2.0 else math.copysign(1.0, xt0)
+        side = dubins.side_of(p_ne, a_ne, u, 2.0)
         best = None
         for r in [*self._join_radii(), self._arc_floor_m()]:
             for k in range(16):
@@ -1239,8 +1236,7 @@ class MissionSequencer:
                 # so that every waypoint counted was passed within its radius
                 return self._fly_path(p_ne, alt, item.seq)
             self._reach(t_us, b_ne, alt if steep else alt_b)
-            if arc is not None and along - (length - d_turn) < 0.3 * arc[2] \
-                    and abs(xtrack) < 0.3 * arc[2]:
+            if arc is not None and late < 0.3 * arc[2] and abs(xtrack) < 0.3 * arc[2]:
                 # (far off the leg, or far past the arc's start, the arc would start
                 # from the wrong place: the next leg is joined by a planned turn instead)
                 self._start_path([arc], "fillet", t_us)

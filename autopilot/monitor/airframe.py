@@ -35,6 +35,7 @@ aircraft disagrees.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,7 +101,7 @@ class PitchAero:
             return 0.0
         a, b, c, d = self.rpm
         rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps, 0.0)
-        return self.prop_sense * self.prop_ixx * rpm * (2.0 * 3.141592653589793 / 60.0)
+        return self.prop_sense * self.prop_ixx * rpm * (2.0 * math.pi / 60.0)
 
     def gyro_elevator(self, r: float, throttle: float, v_mps: float) -> float:
         """The elevator (nose-up positive, rad) the propeller's gyroscopic moment takes
