@@ -20,8 +20,12 @@ held 1.5 s, the engine's thrust read; the curve's least-squares fit to those 66 
 is within 0.26 N rms (at cruise a tenth of the throttle is 2.8 N of the aircraft's
 11 N of drag). The thrust follows the command with the motor's and propeller's lag,
 first order, ``tau_s`` = 0.5 s: the plant's thrust after throttle steps (0 -> 1, 0 -> 0.5,
-0.2 -> 0.8, 0.4 -> 0.8, 0.8 -> 0.3, 1 -> 0 at 25 m/s) reached 63 % in 0.45-0.68 s; the
-command goes through it before the low-pass, as the thrust it asks for.
+0.2 -> 0.8, 0.4 -> 0.8, 0.8 -> 0.3, 1 -> 0 at 25 m/s) reached 63 % in 0.45-0.68 s. With
+the rotor's numbers (``prop_ixx``, ...) that lag is the rotor's speed instead
+(:meth:`ThrustModel.rotor_step`): the same time constant about the steady speeds, but at
+idle the unpowered propeller slows below the speed at which it gives any thrust, and a
+throttle opened after an idle descent gives none until the motor has spun it up again.
+The command goes through it before the low-pass, as the thrust it asks for.
 
 The thrust estimated in flight carries the drag polar's errors as well: on fault-free
 default flights its residual has a standard deviation of about 0.1 of
@@ -67,6 +71,13 @@ class ThrustModel:
     d: float
     CY_b: float = 0.0          # side force per sideslip (its body-x part in gusts)
     tau_s: float = 0.0         # the thrust's lag behind the command (motor and propeller) [s]
+    # the rotor (propeller, hub and motor) whose speed the thrust follows (:meth:`rotor_step`;
+    # prop_ixx 0: the first-order lag tau_s instead)
+    prop_ixx: float = 0.0      # its rotating inertia [kg m^2]
+    p_max_w: float = 0.0       # the motor's shaft power at full throttle [W]
+    q_max_nm: float = 0.0      # the speed controller's torque limit [N m]
+    rpm: tuple = (0.0, 0.0, 0.0, 0.0)   # steady rpm ~ a + b throttle + c V + d throttle V
+    k_idle: float = 0.0        # unpowered propeller's drag torque k omega^2 [N m s^2]
 
     def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
                var_fz: float = 0.0, var_fy: float = 0.0) -> float:
@@ -101,6 +112,42 @@ class ThrustModel:
     def thrust_at(self, throttle: float, V: float) -> float:
         return throttle * (self.a + self.b * V) + self.c + self.d * V
 
+    def _rpm_line(self, V: float) -> tuple[float, float]:
+        """The steady rotor speed at zero throttle and its rise per unit of throttle at
+        airspeed V [rad/s]."""
+        a, b, c, d = self.rpm
+        k = 2.0 * math.pi / 60.0
+        return (a + c * V) * k, (b + d * V) * k
+
+    def rotor_speed(self, throttle: float, V: float) -> float:
+        """The rotor's steady speed at that throttle and airspeed [rad/s]."""
+        w0, s = self._rpm_line(V)
+        return max(w0 + s * throttle, 0.0)
+
+    def rotor_step(self, w: float, throttle: float, V: float, dt: float) -> float:
+        """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``:
+        ``I dw/dt = Q_motor - Q_prop``. The motor gives ``throttle p_max / w``, at most
+        the speed controller's ``q_max``; the propeller takes the power the steady speeds
+        say it takes at ``w`` (the throttle whose steady speed is ``w``, times p_max: the
+        steady state is the measured one, and about it the time constant is
+        ``I s w / p_max``, 0.5 s, the thrust's lag measured after throttle steps), and
+        at least the unpowered propeller's drag ``k_idle w^2``: at idle the propeller
+        slows below the speed where it gives thrust (on the plant from 6000 to 1500 rpm in
+        40 s of an idle descent), and a throttle opened then gives no thrust until the
+        motor has spun it up again (1.7 s at 0.55 from 1500 rpm at 27 m/s: with the
+        first-order lag alone the throttle read 0.27 low, a false throttle alarm)."""
+        w0, s = self._rpm_line(V)
+        wq = max(w, 1.0)
+        q_m = min(self.q_max_nm, self.p_max_w * max(throttle, 0.0) / wq)
+        q_p = max(self.p_max_w * max(w - w0, 0.0) / s / wq, self.k_idle * w * w)
+        return max(w + dt * (q_m - q_p) / self.prop_ixx, 0.0)
+
+    def rotor_throttle(self, w: float, V: float) -> float:
+        """The throttle whose steady rotor speed is ``w`` (0..1): the one whose thrust
+        the rotor gives now."""
+        w0, s = self._rpm_line(V)
+        return min(max((w - w0) / s, 0.0), 1.0)
+
     def level_drag(self, V: float) -> float:
         """The drag of level, unaccelerated flight at airspeed V [N]."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
@@ -112,7 +159,13 @@ class ThrustModel:
 # thrust curve fitted as the module docstring says)
 AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0=0.28, CLa=3.45,
                                CLde=-0.36, CD0=0.0437, k_CD=0.0232,
-                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98, tau_s=0.5)
+                               a=46.979, b=-0.778, c=4.465, d=-0.177, CY_b=-0.98, tau_s=0.5,
+                               # the rotor: inertia and rpm fit as airframe.AEROSONDE's; the
+                               # motor's 1000 W and the speed controller's 2.5 N m current
+                               # limit; k_idle from the unpowered propeller's slowing on the
+                               # plant (1/rpm rising 1.25e-5 per second, 5500 to 1500 rpm)
+                               prop_ixx=3.0e-3, p_max_w=1000.0, q_max_nm=2.5,
+                               rpm=(728.6, 4696.3, 201.04, -93.43), k_idle=3.6e-7)
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
@@ -131,6 +184,7 @@ class ThrottleIdentifier:
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
         self._thr_lag = 0.0            # the command through the thrust's lag (tau_s)
+        self._w = 0.0                  # the rotor's speed (ThrustModel.rotor_step) [rad/s]
         self._next_us = 0
         self._k = 0
         self._t0_us = None
@@ -155,7 +209,18 @@ class ThrottleIdentifier:
             return
         fz, fy = float(f_b[2]), float(f_b[1])
         thr = float(controls[3])
-        if self._lp is not None and self.model.tau_s > 0.0:
+        m = self.model
+        if m.prop_ixx > 0.0:
+            # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
+            # whose steady speed the rotor has now, as the thrust it asks for
+            if self._lp is None:
+                self._w = m.rotor_speed(thr, V)
+            else:
+                dt = (t_us - self._t_us) * 1e-6
+                if dt > 0.0:
+                    self._w = m.rotor_step(self._w, thr, V, dt)
+            thr = m.rotor_throttle(self._w, V)
+        elif self._lp is not None and m.tau_s > 0.0:
             # the thrust follows the command with the motor's and propeller's lag
             # (ThrustModel.tau_s): the command through it, as the thrust it asks for
             dt = (t_us - self._t_us) * 1e-6
@@ -184,7 +249,6 @@ class ThrottleIdentifier:
         self._next_us = t_us + BAL_PERIOD_US
         if t_us - self._start_us < RESTART_HOLD_S * 1e6:
             return            # the low-passes' start (actuator.RESTART_HOLD_S)
-        m = self.model
         # the forces' variances about their low-passed values, over the same filter
         var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
         var_fy = max(lp[7] - lp[5] * lp[5], 0.0)
