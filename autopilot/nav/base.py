@@ -16,7 +16,8 @@ propagate and update the error covariance (``_predict``, ``_gate_stats``,
   ``airspeed`` and synthetic ``sideslip`` (fixed-wing: dead reckoning on air data),
   ``fake_pos`` (a position hold on the ground before the first fix).
 * Gating on each component's test ratio; position and velocity reset to the GPS after
-  EK_GPS_RST_T of rejection; health from alignment, a fused fix, P and the rejections.
+  EK_GPS_RST_T of rejection, the wind to the airspeed after EK_ARSP_RST_T; health from
+  alignment, a fused fix, P and the rejections.
 * Alignment on the ground from stationary samples, or in flight from a GPS fix with
   ground speed.
 
@@ -59,6 +60,7 @@ _GPS_VD_SCALE2 = 1.5 ** 2     # GPS vertical velocity variance / horizontal (as 
 _R_AIR = 287.05287            # specific gas constant of dry air [J/(kg K)]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
+_WIND_RESET_SD = 2.0          # wind sigma added at a reset from the airspeed, per axis [m/s]
 
 # Diagonal floor and ceiling of P (variances) per error-state block.
 _P_LIMITS = ((POS, 1e-4, 1e8), (VEL, 1e-6, 1e4), (ATT, 1e-10, 10.0), (ABIAS, 1e-12, 4.0),
@@ -724,6 +726,7 @@ class NavFilterBase:
         rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
         ratio = batch.ratio = np.array(rl)
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
+        arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
         rejected = []
         resets = []
@@ -735,6 +738,8 @@ class NavFilterBase:
             if rej:
                 since = self._rej_since.setdefault(name, t)
                 if name in ("gps_pos", "gps_vel") and t - since >= rst_us:
+                    forced[k] = True
+                elif name == "airspeed" and t - since >= arsp_rst_us:
                     forced[k] = True
             else:
                 self._rej_since.pop(name, None)
@@ -788,7 +793,11 @@ class NavFilterBase:
             Sd[a:b] = hph + rs
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:
-        """Reset position or velocity to the (latency-compensated) GPS."""
+        """Reset position or velocity to the (latency-compensated) GPS, or the wind to
+        the airspeed (:meth:`_reset_wind`)."""
+        if source == "airspeed":
+            self._reset_wind(float(batch.z[a]), float(batch.R[a]))
+            return
         nom = self.nom
         dz = (batch.z[a:a + 3] - batch.h0[a:a + 3]).tolist()
         if source == "gps_pos":
@@ -807,6 +816,41 @@ class NavFilterBase:
             self._c_v = [self._c_v[i] + dz[i] for i in range(3)]
             self._reset_covariance_block(VEL, batch.R[a:a + 3])
             self._rej_since.pop("gps_vel", None)
+
+    def _reset_wind(self, tas: float, r_tas: float) -> None:
+        """Re-initialise the wind from the airspeed ``tas`` (variance ``r_tas``), the
+        velocity and the heading, assuming zero sideslip and no vertical wind: the air
+        velocity is ``tas_h`` along the heading psi, tas_h = sqrt(tas^2 - v_D^2), so
+        w = v_NE - tas_h (cos psi, sin psi) and the airspeed's innovation is zero. After
+        a long rejection the wind states have wandered off on the sideslip and GPS alone
+        and the gate would refuse the airspeed for good; this lets it in again. ArduPilot's
+        EKF3 and PX4's EKF2 initialise their wind states the same way (from the airspeed,
+        the ground velocity and the yaw, sideslip taken as zero) when airspeed fusion
+        starts with the wind unknown.
+
+        Covariance: dw = dv_NE - u dtas_h - tas_h u_perp dpsi (u = (cos psi, sin psi),
+        u_perp = (-sin psi, cos psi)), with the sideslip assumption's error (EK_BETA_NSE,
+        body-y air velocity) along u_perp, plus _WIND_RESET_SD^2 on each axis for the gust
+        in the one airspeed sample the reset takes; decorrelated from the other states."""
+        nom = self.nom
+        v = nom.v
+        Rm = nom.R
+        psi = math.atan2(Rm[3], Rm[0])
+        c, s = math.cos(psi), math.sin(psi)
+        tas_h = math.sqrt(max(tas * tas - v[2] * v[2], 0.0))
+        nom.wind = [v[0] - tas_h * c, v[1] - tas_h * s]
+        P = self.P
+        u = np.array((c, s))
+        up = np.array((-s, c))
+        var_perp = tas_h * tas_h * float(P[_IA + 2, _IA + 2]) + self.params["EK_BETA_NSE"] ** 2
+        Pw = (P[_IV:_IV + 2, _IV:_IV + 2] + r_tas * np.outer(u, u) + var_perp * np.outer(up, up)
+              + np.eye(2) * _WIND_RESET_SD ** 2)
+        P = P.copy()
+        P[WIND, :] = 0.0
+        P[:, WIND] = 0.0
+        P[WIND, WIND] = Pw
+        self._set_P(P)
+        self._rej_since.pop("airspeed", None)
 
     def _inject(self, dx: np.ndarray) -> None:
         """Fold an error-state estimate into the nominal state (dx is then zero)."""
