@@ -719,8 +719,9 @@ class NavFilterBase:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
         self._sync_covariance()
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        adapted = ()
         if self.r_scale_hook is not None:
-            self._scale_r(batch, self.r_scale_hook)
+            adapted = self._scale_r(batch, self.r_scale_hook)
         y, Sd = batch.y, batch.Sd
         # test ratio = y^2 / (gate^2 S)   (on floats: one array instead of three)
         rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
@@ -739,7 +740,9 @@ class NavFilterBase:
                 since = self._rej_since.setdefault(name, t)
                 if name in ("gps_pos", "gps_vel") and t - since >= rst_us:
                     forced[k] = True
-                elif name == "airspeed" and t - since >= arsp_rst_us:
+                elif name == "airspeed" and t - since >= arsp_rst_us and name not in adapted:
+                    # not while the fault monitor adapts the airspeed's R: it holds the
+                    # sensor suspect, and the wind must not absorb the sensor's error
                     forced[k] = True
             else:
                 self._rej_since.pop(name, None)
@@ -765,12 +768,14 @@ class NavFilterBase:
                                         rejected[k], forced[k] or not rejected[k]))
 
     @staticmethod
-    def _scale_r(batch: Batch, hook) -> None:
+    def _scale_r(batch: Batch, hook) -> list[str]:
         """R adaptation hook (class docstring): S_ii = (H P H^T)_ii + s_i R_ii for the
         rows whose factors the hook returns (factors all 1 change nothing); the batch's
-        R and Sd are copied first (never written in place)."""
+        R and Sd are copied first (never written in place). Returns the sources the hook
+        returned factors for (the ones being adapted)."""
         R, Sd, y = batch.R, batch.Sd, batch.y
         copied = False
+        adapted = []
         hph_all = Sd - R                              # diag(H P H^T)
         r_all = R.copy()                              # the hook's copy of R
         for k, name in enumerate(batch.src):
@@ -780,6 +785,7 @@ class NavFilterBase:
             s = hook(name, y[a:b], hph, r_all[a:b])
             if s is None:
                 continue
+            adapted.append(name)
             r = R[a:b]
             s = np.asarray(s, dtype=float)
             if (s == 1.0).all():
@@ -791,6 +797,7 @@ class NavFilterBase:
             rs = r * s
             R[a:b] = rs
             Sd[a:b] = hph + rs
+        return adapted
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:
         """Reset position or velocity to the (latency-compensated) GPS, or the wind to
