@@ -97,7 +97,8 @@ ARC_FLOOR_SLACK = 0.95          # an arc shrunk to fit its legs is flown down to
                                 # courses (a few percent tighter is a moment over the
                                 # limit; a third tighter ran 42-58 m wide in 7-10 m/s)
 NEAR_MARGIN = 0.8               # an arc that must pass within a radius is planned to pass
-                                # within this fraction of it, where the bank limit allows
+                                # within this fraction of it, where the bank limit allows:
+NEAR_FLOOR_FACTOR = 1.2         # not tighter for it than this times the arc floor
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
                                 # change of its bank) before its end: the roll's lag
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
@@ -578,11 +579,12 @@ class MissionSequencer:
             floor = self._arc_floor_m()
             if r_near < r and r_near < floor:
                 return None   # no arc the vehicle can track in this wind passes so near
-            # planned inside the radius where the bank limit allows: the arc entered
-            # with the bank of the turn before still to reverse runs a few metres wide
-            # (random-plane trial 11: an S-turn's second arc, planned at the radius's
-            # edge, passed 11 m beyond it)
-            r = min(r, r_near, max(NEAR_MARGIN * r_near, floor))
+            # planned inside the radius where the bank limit allows with room to spare:
+            # the arc entered with the bank of the turn before still to reverse runs a
+            # few metres wide (random-plane trial 11: an S-turn's second arc, planned at
+            # the radius's edge, passed 11 m beyond it), but one planned at the floor
+            # itself runs wider still (trial 39: 104 m downwind, 31 m past the line)
+            r = min(r, r_near, max(NEAR_MARGIN * r_near, min(r_near, NEAR_FLOOR_FACTOR * floor)))
         t = math.tan(0.5 * abs(dchi))
         d = min(r * t, room1, room2)  # each leg shares its length between its two turns
         if d <= 0.0:
