@@ -592,11 +592,16 @@ class MissionSequencer:
         r = d / t
         r_min = self._arc_radius_floor_m(u1, dchi)
         if r < r_min:
-            d_min = r_min * t
+            # widened (where the leg before has the room) to the floor with the fillets'
+            # margin in calm air (TURN_GS_FACTOR): an arc at the bank limit's radius
+            # itself, rolled into late, runs wide (random-plane trial 81: 64 m, 26 m
+            # past the line)
+            r_wide = max(r_min, self._bank_limit_radius_m() * self.params["TURN_GS_FACTOR"] ** 2)
+            d_min = r_wide * t
             if room1_max is not None and d_min <= room1_max and d_min <= room2 \
-                    and (near is None or r_min * (1.0 / math.cos(0.5 * abs(dchi)) - 1.0) <= near) \
-                    and (r_max is None or r_min <= r_max):
-                r, d = r_min, d_min   # started earlier on the leg before, at the floor
+                    and (near is None or r_wide * (1.0 / math.cos(0.5 * abs(dchi)) - 1.0) <= near) \
+                    and (r_max is None or r_wide <= r_max):
+                r, d = r_wide, d_min   # started earlier on the leg before, at the floor
             elif r < ARC_FLOOR_SLACK * r_min:
                 # legs too short for a turn this sharp: no arc can be flown
                 return None
