@@ -14,7 +14,12 @@ found by the random-mission sample and fixed as classes):
    where the next arc turns the other way), so the vehicle does not run on past the
    tangent point at the old bank;
 6. a DO_JUMP loop over waypoints within each other's radius (counted all at once, as
-   many as the loop repeats) is turned past like any cluster.
+   many as the loop repeats) is turned past like any cluster;
+7. an arc shrunk to fit short legs is not flown tighter than the bank limit holds over
+   the ground on its courses in the wind (started earlier on the leg before where that
+   has the room, else the waypoint is flown to and the next line joined);
+8. a waypoint flown back to (its finish line crossed wide of it) is flown through onto
+   the line to the next waypoint, not arrived at on whatever course the loop gives.
 
 Each flown headless in the simulator in light turbulence and a moderate wind; the figure
 asserted is the cross-track against the line concerned (``tools.invariants``), with
@@ -169,3 +174,33 @@ def test_a_jump_loop_over_waypoints_within_each_others_radius_is_turned_past(tmp
     # loop counts, so the vehicle arrived on the old course and joined the line out by
     # a loop the other way: 151 m (83 m rms)
     assert leg["xtrack_max_m"] < 25.0 and leg["xtrack_rms_m"] < 8.0
+
+
+@pytest.mark.parametrize("wind", [(10.3, 6.0), (8.0, 330.0)])
+def test_an_arc_shrunk_for_short_legs_is_flown_at_the_radius_the_wind_allows(tmp_path, wind):
+    # a 500 m line at 214 deg, a 20 deg turn onto a 170 m leg, then a 91 deg turn
+    # through the downwind course onto a 400 m line. Half the short leg (its share of
+    # the two turns' room) gives an 82 m arc; downwind the bank limit holds no less
+    # than about 110-125 m in these winds, and the first turn leaves the room for that
+    rows = [(TAKEOFF, None, None, 100, 3), (WAYPOINT, 600, 0, 100, 3), (WAYPOINT, 186, -280, 100, 3),
+            (WAYPOINT, 86, -417.5, 100, 3), (WAYPOINT, -233.6, -176.7, 100, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=wind, duration_s=200.0)
+    leg = legs_of(s)[5]
+    # before: the 82 m arc, flown at the bank limit, ran 19-50 m past the line
+    assert leg["xtrack_max_m"] < 13.0
+    assert summary["invariants"]["waypoints_passed"]["passed"]
+
+
+def test_a_waypoint_flown_back_to_is_flown_through_onto_the_next_line(tmp_path):
+    # the climb-out (into the wind) passes 160 m beside the first waypoint, which is
+    # flown back to; the next line leaves it south-eastwards
+    rows = [(TAKEOFF, None, None, 80, 3), (WAYPOINT, 250, -200, 80, 3, 0, 30),
+            (WAYPOINT, 600, -600, 80, 3), (WAYPOINT, -400, 900, 80, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(5.0, 340.0), duration_s=250.0)
+    said = [text for _, text in s.log.events if "flying back to it" in text]
+    assert said and said[0].startswith("Item #2:")
+    leg = legs_of(s)[3]
+    # before: the path ended at the waypoint on the course its loop gave, and the next
+    # line was joined from there, 46 m past it
+    assert leg["xtrack_max_m"] < 12.0
+    assert summary["invariants"]["waypoints_passed"]["passed"]

@@ -133,6 +133,11 @@ def test_every_turn_arc_passes_within_the_waypoint_radius(wp_radius):
             closest = math.hypot(centre[0] - b[0], centre[1] - b[1]) - r
             assert closest <= wp_radius + 1e-6, turn
             assert arc[2] >= s._bank_limit_radius_m() - 1e-9
+            if turn == 110 and wp_radius == 100.0:
+                # planned to pass within 0.8 of the radius where the bank limit allows
+                # (an arc entered with the bank of the turn before still to reverse runs
+                # a few metres wide: random-plane trial 11 passed 11 m beyond its radius)
+                assert closest <= 0.8 * wp_radius + 1e-6
         # a gentle turn keeps its arc at the nominal radius
         if turn <= 60 and wp_radius == 100.0:
             assert arc is not None and arc[2] == pytest.approx(s.turn_radius_m())

@@ -92,6 +92,13 @@ FLY_BACK_MARGIN_M = 10.0        # a waypoint passed within its radius and this m
                                 # navigation's error) is not flown back to
 LOITER_ENTRY_M = 5.0            # the line into a loiter is flown to this far outside its circle
                                 # (inside the CAPTURE_M at which its scoring stops)
+ARC_FLOOR_SLACK = 0.95          # an arc shrunk to fit its legs is flown down to this
+                                # fraction of the radius the bank limit holds over its
+                                # courses (a few percent tighter is a moment over the
+                                # limit; a third tighter ran 42-58 m wide in 7-10 m/s)
+NEAR_MARGIN = 0.8               # an arc that must pass within a radius is planned to pass
+                                # within this fraction of it, where the bank limit allows:
+NEAR_FLOOR_FACTOR = 1.2         # not tighter for it than this times the arc floor
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
                                 # change of its bank) before its end: the roll's lag
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
@@ -386,7 +393,7 @@ class MissionSequencer:
         return w_along + math.sqrt(max(v * v - w_cross * w_cross, 1.0))
 
     # ---------------------------------------------------------------- stepping ---
-    def _fillet(self, a_ne, b_ne, accept_b: float):
+    def _fillet(self, a_ne, b_ne, accept_b: float, p_ne=None):
         """The turn arc at B towards the next leg: (d, arc, skip) with arc a path
         segment starting d before B along A->B, or (0, None, False) when no turn is to
         be filleted. Every arc passes within B's acceptance radius ``accept_b``:
@@ -446,7 +453,10 @@ class MissionSequencer:
                                           (b_ne, accept_b))
                     if skip is not None:
                         return skip
-        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=accept_b)
+        room1_max = l1 if p_ne is None else \
+            l1 - min(max((p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1], 0.0), l1)
+        arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=accept_b,
+                               room1_max=room1_max)
         if arc is not None:
             # past waypoints on B (counted at once, with B), the arc flies on
             return arc[0], arc[1], ups[0] is not self._upcoming(1)[0]
@@ -521,13 +531,44 @@ class MissionSequencer:
         v_air = self.airspeed_mps
         return v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
 
+    def _arc_radius_floor_m(self, u1, dchi: float) -> float:
+        """The tightest arc the vehicle can hold over the ground through the courses
+        from u1 turning by ``dchi``: the bank limit at the highest ground speed on
+        them (the airspeed alone in calm air; downwind, airspeed plus wind). A fillet
+        shrunk below it to fit short legs is not flown: random-plane trial 54 (10.3 m/s)
+        shrank a 91-degree turn downwind to 77 m where 127 m was the least the bank
+        limit held, and ran 58 m past the next leg."""
+        chi1 = math.atan2(u1[1], u1[0])
+        wn, we = self._wind_ne
+        w = math.hypot(wn, we)
+        v = self.airspeed_mps
+        if w < 0.1:
+            vg = v
+        else:
+            # the downwind course, if the turn sweeps it, else the faster end
+            down = math.atan2(we, wn)
+            off = wrap_pi(down - chi1) * (1 if dchi > 0 else -1)
+            if off < 0.0:
+                off += 2.0 * math.pi
+            if off <= abs(dchi):
+                vg = v + w
+            else:
+                c2 = chi1 + dchi
+                vg = max(self._groundspeed_along((math.cos(chi1), math.sin(chi1))),
+                         self._groundspeed_along((math.cos(c2), math.sin(c2))))
+            vg = max(vg, v)
+        return vg * vg / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+
     def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float, near: float | None = None,
-                    r_max: float | None = None):
+                    r_max: float | None = None, room1_max: float | None = None):
         """The fillet at corner X from direction u1 to u2: (d, arc) with d its tangent
         length (at most room1 before X and room2 after it, the radius shrunk to fit; with
         ``near``, shrunk so the arc passes within ``near`` of X: its middle lies
         r (sec(dchi/2) - 1) from the corner), or None for a turn under 5 degrees or one
-        with no room at the minimum radius."""
+        with no room at the radius the bank limit holds in the wind over the turn's
+        courses (``_arc_radius_floor_m``). With ``room1_max`` (the leg before X still
+        ahead of the vehicle), an arc shrunk below that floor is flown at the floor
+        instead where the leg before has the room, starting earlier on it."""
         cross = u1[0] * u2[1] - u1[1] * u2[0]
         dchi = math.atan2(cross, u1[0] * u2[0] + u1[1] * u2[1])
         if abs(dchi) < math.radians(5.0):
@@ -535,18 +576,35 @@ class MissionSequencer:
         r = self.turn_radius_m() if r_max is None else min(r_max, self.turn_radius_m())
         if near is not None:
             r_near = near / (1.0 / math.cos(0.5 * abs(dchi)) - 1.0)
-            if r_near < r and r_near < self._arc_floor_m():
+            floor = self._arc_floor_m()
+            if r_near < r and r_near < floor:
                 return None   # no arc the vehicle can track in this wind passes so near
-            r = min(r, r_near)
+            # planned inside the radius where the bank limit allows with room to spare:
+            # the arc entered with the bank of the turn before still to reverse runs a
+            # few metres wide (random-plane trial 11: an S-turn's second arc, planned at
+            # the radius's edge, passed 11 m beyond it), but one planned at the floor
+            # itself runs wider still (trial 39: 104 m downwind, 31 m past the line)
+            r = min(r, r_near, max(NEAR_MARGIN * r_near, min(r_near, NEAR_FLOOR_FACTOR * floor)))
         t = math.tan(0.5 * abs(dchi))
         d = min(r * t, room1, room2)  # each leg shares its length between its two turns
         if d <= 0.0:
             return None
         r = d / t
-        r_min = self._bank_limit_radius_m()
+        r_min = self._arc_radius_floor_m(u1, dchi)
         if r < r_min:
-            # legs too short for a turn this sharp: no arc can be flown
-            return None
+            # widened (where the leg before has the room) to the floor with the fillets'
+            # margin in calm air (TURN_GS_FACTOR): an arc at the bank limit's radius
+            # itself, rolled into late, runs wide (random-plane trial 81: 64 m, 26 m
+            # past the line)
+            r_wide = max(r_min, self._bank_limit_radius_m() * self.params["TURN_GS_FACTOR"] ** 2)
+            d_min = r_wide * t
+            if room1_max is not None and d_min <= room1_max and d_min <= room2 \
+                    and (near is None or r_wide * (1.0 / math.cos(0.5 * abs(dchi)) - 1.0) <= near) \
+                    and (r_max is None or r_wide <= r_max):
+                r, d = r_wide, d_min   # started earlier on the leg before, at the floor
+            elif r < ARC_FLOOR_SLACK * r_min:
+                # legs too short for a turn this sharp: no arc can be flown
+                return None
         direction = 1 if dchi > 0 else -1
         t1 = (x_ne[0] - d * u1[0], x_ne[1] - d * u1[1])
         centre = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
@@ -1145,23 +1203,33 @@ class MissionSequencer:
         u = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length) if length > 1e-3 \
             else (math.cos(chi), math.sin(chi))
         side = dubins.side_of(p_ne, a_ne, u, 2.0)
-        best = None
-        for r in [*self._join_radii(), self._arc_floor_m()]:
-            for k in range(16):
-                psi = k * math.pi / 8.0
-                for n, segs in dubins.csc_words(p_ne, chi, b_ne, psi, r):
-                    if dubins.turning(segs) > 2.0 * math.pi:
-                        continue
-                    cost = n + dubins.path_cost(segs, a_ne, u, side, 2.0)[0]
-                    if best is None or cost < best[0]:
-                        best = (cost, segs)
+        # through B onto the line to the next waypoint where there is one (a landing
+        # and a loiter plan their own entry): a path that ends at B
+        # leaves the next leg to be joined from wherever its loop ends (random-plane
+        # trial 44: B reached on a course 72 degrees off the next leg, which was then
+        # overshot by 30 m)
+        nxt = self._lines_after(b_ne, 1)
+        best = self._plan_through(p_ne, chi, a_ne, b_ne, accept) \
+            if nxt and nxt[0][0] is not None and nxt[0][0].command == MAV_CMD_NAV_WAYPOINT else None
+        through = best is not None
+        if best is None:
+            for r in [*self._join_radii(), self._arc_floor_m()]:
+                for k in range(16):
+                    psi = k * math.pi / 8.0
+                    for n, segs in dubins.csc_words(p_ne, chi, b_ne, psi, r):
+                        if dubins.turning(segs) > 2.0 * math.pi:
+                            continue
+                        cost = n + dubins.path_cost(segs, a_ne, u, side, 2.0)[0]
+                        if best is None or cost < best[0]:
+                            best = (cost, segs)
         if best is None:
             return False
         self._joined = True
         self._start_path(best[1], "join", t_us)
         self._join_run, self._join_last_p = 0.0, None
         self._join_past = True
-        self._carry_path = self._skip_join = False
+        self._skip_join = False
+        self._carry_path = through
         self.say(t_us, SEV_INFO, f"Item #{self.current}: passed {math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]):.0f} m "
                                  f"off; flying back to it", key=("wide", self.current))
         return True
@@ -1177,7 +1245,7 @@ class MissionSequencer:
         key = (a_ne, b_ne)
         if self._fillet_at is None or self._fillet_at[0] != key:
             # planned once a leg (a fillet depends on the next items, not on the step)
-            self._fillet_at = (key, self._fillet(a_ne, b_ne, accept))
+            self._fillet_at = (key, self._fillet(a_ne, b_ne, accept, p_ne))
         d_turn, arc, skip = self._fillet_at[1]
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         # (a leg within the acceptance radius: B would count the moment A did)
