@@ -830,10 +830,12 @@ class NavFilterBase:
         velocity is ``tas_h`` along the heading psi, tas_h = sqrt(tas^2 - v_D^2), so
         w = v_NE - tas_h (cos psi, sin psi) and the airspeed's innovation is zero. After
         a long rejection the wind states have wandered off on the sideslip and GPS alone
-        and the gate would refuse the airspeed for good; this lets it in again. ArduPilot's
-        EKF3 and PX4's EKF2 initialise their wind states the same way (from the airspeed,
-        the ground velocity and the yaw, sideslip taken as zero) when airspeed fusion
-        starts with the wind unknown.
+        and the gate would refuse the airspeed for good; this lets it in again. PX4's EKF2
+        sets its wind the same way (airspeed, ground velocity and yaw, zero sideslip) when
+        airspeed fusion starts with the wind uncertain; ArduPilot's EKF3, when it starts
+        using its wind states, from the same inputs with the wind taken along the heading,
+        and after a timed-out airspeed rejection it fuses the airspeed past the gate only
+        while the position aiding has timed out as well.
 
         Covariance: dw = dv_NE - u dtas_h - tas_h u_perp dpsi (u = (cos psi, sin psi),
         u_perp = (-sin psi, cos psi)), with the sideslip assumption's error (EK_BETA_NSE,
