@@ -16,7 +16,8 @@ propagate and update the error covariance (``_predict``, ``_gate_stats``,
   ``airspeed`` and synthetic ``sideslip`` (fixed-wing: dead reckoning on air data),
   ``fake_pos`` (a position hold on the ground before the first fix).
 * Gating on each component's test ratio; position and velocity reset to the GPS after
-  EK_GPS_RST_T of rejection; health from alignment, a fused fix, P and the rejections.
+  EK_GPS_RST_T of rejection, the wind to the airspeed after EK_ARSP_RST_T; health from
+  alignment, a fused fix, P and the rejections.
 * Alignment on the ground from stationary samples, or in flight from a GPS fix with
   ground speed.
 
@@ -59,6 +60,7 @@ _GPS_VD_SCALE2 = 1.5 ** 2     # GPS vertical velocity variance / horizontal (as 
 _R_AIR = 287.05287            # specific gas constant of dry air [J/(kg K)]
 _BA_MAX = 2.0                 # accelerometer bias estimate limit [m/s^2]
 _BG_MAX = 0.2                 # gyro bias estimate limit [rad/s]
+_WIND_RESET_SD = 2.0          # wind sigma added at a reset from the airspeed, per axis [m/s]
 
 # Diagonal floor and ceiling of P (variances) per error-state block.
 _P_LIMITS = ((POS, 1e-4, 1e8), (VEL, 1e-6, 1e4), (ATT, 1e-10, 10.0), (ABIAS, 1e-12, 4.0),
@@ -717,13 +719,15 @@ class NavFilterBase:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
         self._sync_covariance()
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        adapted = ()
         if self.r_scale_hook is not None:
-            self._scale_r(batch, self.r_scale_hook)
+            adapted = self._scale_r(batch, self.r_scale_hook)
         y, Sd = batch.y, batch.Sd
         # test ratio = y^2 / (gate^2 S)   (on floats: one array instead of three)
         rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
         ratio = batch.ratio = np.array(rl)
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
+        arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
         rejected = []
         resets = []
@@ -735,6 +739,10 @@ class NavFilterBase:
             if rej:
                 since = self._rej_since.setdefault(name, t)
                 if name in ("gps_pos", "gps_vel") and t - since >= rst_us:
+                    forced[k] = True
+                elif name == "airspeed" and t - since >= arsp_rst_us and name not in adapted:
+                    # not while the fault monitor adapts the airspeed's R: it holds the
+                    # sensor suspect, and the wind must not absorb the sensor's error
                     forced[k] = True
             else:
                 self._rej_since.pop(name, None)
@@ -760,12 +768,14 @@ class NavFilterBase:
                                         rejected[k], forced[k] or not rejected[k]))
 
     @staticmethod
-    def _scale_r(batch: Batch, hook) -> None:
+    def _scale_r(batch: Batch, hook) -> list[str]:
         """R adaptation hook (class docstring): S_ii = (H P H^T)_ii + s_i R_ii for the
         rows whose factors the hook returns (factors all 1 change nothing); the batch's
-        R and Sd are copied first (never written in place)."""
+        R and Sd are copied first (never written in place). Returns the sources the hook
+        returned factors for (the ones being adapted)."""
         R, Sd, y = batch.R, batch.Sd, batch.y
         copied = False
+        adapted = []
         hph_all = Sd - R                              # diag(H P H^T)
         r_all = R.copy()                              # the hook's copy of R
         for k, name in enumerate(batch.src):
@@ -775,6 +785,7 @@ class NavFilterBase:
             s = hook(name, y[a:b], hph, r_all[a:b])
             if s is None:
                 continue
+            adapted.append(name)
             r = R[a:b]
             s = np.asarray(s, dtype=float)
             if (s == 1.0).all():
@@ -786,9 +797,14 @@ class NavFilterBase:
             rs = r * s
             R[a:b] = rs
             Sd[a:b] = hph + rs
+        return adapted
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:
-        """Reset position or velocity to the (latency-compensated) GPS."""
+        """Reset position or velocity to the (latency-compensated) GPS, or the wind to
+        the airspeed (:meth:`_reset_wind`)."""
+        if source == "airspeed":
+            self._reset_wind(float(batch.z[a]), float(batch.R[a]))
+            return
         nom = self.nom
         dz = (batch.z[a:a + 3] - batch.h0[a:a + 3]).tolist()
         if source == "gps_pos":
@@ -807,6 +823,43 @@ class NavFilterBase:
             self._c_v = [self._c_v[i] + dz[i] for i in range(3)]
             self._reset_covariance_block(VEL, batch.R[a:a + 3])
             self._rej_since.pop("gps_vel", None)
+
+    def _reset_wind(self, tas: float, r_tas: float) -> None:
+        """Re-initialise the wind from the airspeed ``tas`` (variance ``r_tas``), the
+        velocity and the heading, assuming zero sideslip and no vertical wind: the air
+        velocity is ``tas_h`` along the heading psi, tas_h = sqrt(tas^2 - v_D^2), so
+        w = v_NE - tas_h (cos psi, sin psi) and the airspeed's innovation is zero. After
+        a long rejection the wind states have wandered off on the sideslip and GPS alone
+        and the gate would refuse the airspeed for good; this lets it in again. PX4's EKF2
+        sets its wind the same way (airspeed, ground velocity and yaw, zero sideslip) when
+        airspeed fusion starts with the wind uncertain; ArduPilot's EKF3, when it starts
+        using its wind states, from the same inputs with the wind taken along the heading,
+        and after a timed-out airspeed rejection it fuses the airspeed past the gate only
+        while the position aiding has timed out as well.
+
+        Covariance: dw = dv_NE - u dtas_h - tas_h u_perp dpsi (u = (cos psi, sin psi),
+        u_perp = (-sin psi, cos psi)), with the sideslip assumption's error (EK_BETA_NSE,
+        body-y air velocity) along u_perp, plus _WIND_RESET_SD^2 on each axis for the gust
+        in the one airspeed sample the reset takes; decorrelated from the other states."""
+        nom = self.nom
+        v = nom.v
+        Rm = nom.R
+        psi = math.atan2(Rm[3], Rm[0])
+        c, s = math.cos(psi), math.sin(psi)
+        tas_h = math.sqrt(max(tas * tas - v[2] * v[2], 0.0))
+        nom.wind = [v[0] - tas_h * c, v[1] - tas_h * s]
+        P = self.P
+        u = np.array((c, s))
+        up = np.array((-s, c))
+        var_perp = tas_h * tas_h * float(P[_IA + 2, _IA + 2]) + self.params["EK_BETA_NSE"] ** 2
+        Pw = (P[_IV:_IV + 2, _IV:_IV + 2] + r_tas * np.outer(u, u) + var_perp * np.outer(up, up)
+              + np.eye(2) * _WIND_RESET_SD ** 2)
+        P = P.copy()
+        P[WIND, :] = 0.0
+        P[:, WIND] = 0.0
+        P[WIND, WIND] = Pw
+        self._set_P(P)
+        self._rej_since.pop("airspeed", None)
 
     def _inject(self, dx: np.ndarray) -> None:
         """Fold an error-state estimate into the nominal state (dx is then zero)."""
