@@ -204,3 +204,22 @@ def test_a_waypoint_flown_back_to_is_flown_through_onto_the_next_line(tmp_path):
     # line was joined from there, 46 m past it
     assert leg["xtrack_max_m"] < 12.0
     assert summary["invariants"]["waypoints_passed"]["passed"]
+
+
+
+def test_an_arc_past_a_cluster_is_not_broken_off_to_fly_back():
+    # random mission 1153570441 (random_plane.toml trial 172) in its own weather: a
+    # 1.5 km line to item 2, item 3 40 m beyond it (radius 82 m: a cluster), then a
+    # 253 m line at -137 deg. The arc turns past the cluster onto that line; when item
+    # 3 begins the vehicle is already past its 40 m leg and 123 m from it, and the arc
+    # is still to pass within its radius
+    from tools.runner import RunConfig, Session
+    from tools.summary import run_summary
+    s = Session(RunConfig(mission="random:plane:1153570441", wind=(7.685937255530682, 177.38348720474775),
+                          turbulence="moderate", seed=1153570441, duration_s=160.0))
+    s.run()
+    assert not [text for _, text in s.log.events if "flying back to it" in text]
+    assert [q for _, q in s.vehicle.sequencer.reached][:4] == [1, 2, 3, 4]
+    summary = run_summary(s)
+    # before: a loop back to item 3 (the fly-back), 287 m off the line after it
+    assert summary["xtrack_mission_max_m"] < 35.0

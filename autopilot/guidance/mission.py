@@ -1037,7 +1037,12 @@ class MissionSequencer:
                 # line is passed at once, as ArduPlane's is
                 return None
             elif along >= length and through and dist > accept \
+                    and not (self._carry_path and self._path
+                             and _passes_within(self._path, b_ne, accept)) \
                     and self._fly_back_to(t_us, p_ne, chi, a_ne, b_ne, accept):
+                # (not where the arc carried past a cluster is still to pass within
+                # its radius: random-plane trial 172 flew a loop back to a waypoint of
+                # the cluster its arc was turning past, 287 m off the next line)
                 pass          # past it, not within its radius since the item began: back to it
             elif along >= length and abs(xt) <= accept:
                 return None   # already past it, within its radius of its line: passed
