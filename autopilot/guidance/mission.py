@@ -96,6 +96,8 @@ ARC_FLOOR_SLACK = 0.95          # an arc shrunk to fit its legs is flown down to
                                 # fraction of the radius the bank limit holds over its
                                 # courses (a few percent tighter is a moment over the
                                 # limit; a third tighter ran 42-58 m wide in 7-10 m/s)
+REVERSAL_S = 1.2                # a widened arc that turns the other way from the arc
+                                # before it starts this long after it (the bank reversal)
 NEAR_MARGIN = 0.8               # an arc that must pass within a radius is planned to pass
                                 # within this fraction of it, where the bank limit allows:
 NEAR_FLOOR_FACTOR = 1.2         # not tighter for it than this times the arc floor
@@ -121,6 +123,16 @@ class NavTarget:
     land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
     climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
     spd_weight: float = 1.0      # the speed priority's weight (the landing approach: TECS_LAND_SPDWGT)
+
+
+def _path_end(path) -> tuple[float, float]:
+    """Where a planned path ends: its last line's end, or its last arc's end point."""
+    seg = path[-1]
+    if seg[0] == "arc":
+        _, centre, r, direction, angle, start = seg
+        b = math.atan2(start[1] - centre[1], start[0] - centre[0]) + direction * angle
+        return centre[0] + r * math.cos(b), centre[1] + r * math.sin(b)
+    return seg[2]
 
 
 def _passes_within(segments, p, radius: float) -> bool:
@@ -453,8 +465,21 @@ class MissionSequencer:
                                           (b_ne, accept_b))
                     if skip is not None:
                         return skip
-        room1_max = l1 if p_ne is None else \
-            l1 - min(max((p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1], 0.0), l1)
+        room1_max = None
+        if p_ne is not None:
+            # the leg before B still ahead: from the vehicle, or from the end of the
+            # path it is flying onto it (the arc of A's turn); with A's arc turning the
+            # other way, less a straight for the bank's reversal (random-plane trial
+            # 133: an arc widened to begin where A's ended ran 27 m wide)
+            ahead = (p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1]
+            if self._path:
+                end = _path_end(self._path)
+                ahead = max(ahead, (end[0] - a_ne[0]) * u1[0] + (end[1] - a_ne[1]) * u1[1])
+                last = self._path[-1]
+                cross = u1[0] * u2[1] - u1[1] * u2[0]
+                if last[0] == "arc" and last[3] != (1 if cross > 0 else -1):
+                    ahead += REVERSAL_S * (self.airspeed_mps + math.hypot(*self._wind_ne))
+            room1_max = l1 - min(max(ahead, 0.0), l1)
         arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=accept_b,
                                room1_max=room1_max)
         if arc is not None:
