@@ -30,8 +30,12 @@ class Sitl:
         args += ["--param-store", str(store or (self.run_dir.parent / f"{self.run_dir.name}-store.parm"))]
         args += list(extra)
         env = dict(os.environ, PYTHONUNBUFFERED="1")
+        # with SIGINT's default action: stop() is Ctrl-C, and a shell starts its
+        # background jobs (a test run among them) with SIGINT ignored, which the child
+        # would inherit and never stop (the run hung in stop())
         self.proc = subprocess.Popen(args, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, env=env)
+                                     text=True, env=env,
+                                     preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         self.err: list[str] = []
         self._ready = threading.Event()
         self.port = None
