@@ -223,3 +223,18 @@ def test_an_arc_past_a_cluster_is_not_broken_off_to_fly_back():
     summary = run_summary(s)
     # before: a loop back to item 3 (the fly-back), 287 m off the line after it
     assert summary["xtrack_mission_max_m"] < 35.0
+
+
+def test_a_clusters_arc_dropped_for_rtl_leaves_the_fly_back_on():
+    # random mission 831875965 (random_plane.toml trial 76) in its own weather: items
+    # 10-12 a cluster (11 and 12 39 m from 10, radius 100 m) and then RTL. Item 10
+    # counts where the arc past the cluster starts, 176 m from it; that arc is dropped
+    # for the flight home once RTL begins, so it cannot stand in for the fly-back
+    from tools.runner import RunConfig, Session
+    from tools.summary import run_summary
+    s = Session(RunConfig(mission="random:plane:831875965", wind=(7.8886713849588155, 95.99210813141008),
+                          turbulence="moderate", seed=831875965, duration_s=440.0))
+    s.run()
+    summary = run_summary(s)
+    # before: item 10 passed 22 m beyond its radius plus the invariant's 10
+    assert summary["invariants"]["waypoints_passed"]["figure"] <= 10.0

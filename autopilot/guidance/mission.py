@@ -1063,7 +1063,8 @@ class MissionSequencer:
                 return None
             elif along >= length and through and dist > accept \
                     and not (self._carry_path and self._path
-                             and _passes_within(self._path, b_ne, accept)) \
+                             and _passes_within(self._path, b_ne, accept)
+                             and self._arc_flown_on(b_ne)) \
                     and self._fly_back_to(t_us, p_ne, chi, a_ne, b_ne, accept):
                 # (not where the arc carried past a cluster is still to pass within
                 # its radius: random-plane trial 172 flew a loop back to a waypoint of
@@ -1216,6 +1217,14 @@ class MissionSequencer:
                     if best is None or cost < best[0]:
                         best = (cost, segs)
         return best
+
+    def _arc_flown_on(self, b_ne) -> bool:
+        """Whether an arc carried past B is flown on after B counts: onto the line to a
+        next waypoint, not where RTL or a loiter (which fly to their own targets) follows
+        (random-plane trial 76: a cluster's arc towards RTL, dropped for the flight
+        home, passed a waypoint 22 m beyond its radius plus 10)."""
+        nxt = self._lines_after(b_ne, 1)
+        return bool(nxt) and nxt[0][0] is not None and nxt[0][0].command == MAV_CMD_NAV_WAYPOINT
 
     def _fly_back_to(self, t_us, p_ne, chi, a_ne, b_ne, accept: float) -> bool:
         """Once per item, for a waypoint B whose finish line is passed wide of it: the
