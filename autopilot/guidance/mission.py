@@ -599,8 +599,9 @@ class MissionSequencer:
         if abs(dchi) < math.radians(5.0):
             return None
         r = self.turn_radius_m() if r_max is None else min(r_max, self.turn_radius_m())
+        bulge = 1.0 / math.cos(0.5 * abs(dchi)) - 1.0   # corner to arc middle, per m of radius
         if near is not None:
-            r_near = near / (1.0 / math.cos(0.5 * abs(dchi)) - 1.0)
+            r_near = near / bulge
             floor = self._arc_floor_m()
             if r_near < r and r_near < floor:
                 return None   # no arc the vehicle can track in this wind passes so near
@@ -624,7 +625,7 @@ class MissionSequencer:
             r_wide = max(r_min, self._bank_limit_radius_m() * self.params["TURN_GS_FACTOR"] ** 2)
             d_min = r_wide * t
             if room1_max is not None and d_min <= room1_max and d_min <= room2 \
-                    and (near is None or r_wide * (1.0 / math.cos(0.5 * abs(dchi)) - 1.0) <= near) \
+                    and (near is None or r_wide * bulge <= near) \
                     and (r_max is None or r_wide <= r_max):
                 r, d = r_wide, d_min   # started earlier on the leg before, at the floor
             elif r < ARC_FLOOR_SLACK * r_min:
@@ -1064,7 +1065,7 @@ class MissionSequencer:
             elif along >= length and through and dist > accept \
                     and not (self._carry_path and self._path
                              and _passes_within(self._path, b_ne, accept)
-                             and self._arc_flown_on(b_ne)) \
+                             and self._waypoint_line_follows(b_ne)) \
                     and self._fly_back_to(t_us, p_ne, chi, a_ne, b_ne, accept):
                 # (not where the arc carried past a cluster is still to pass within
                 # its radius: random-plane trial 172 flew a loop back to a waypoint of
@@ -1218,11 +1219,12 @@ class MissionSequencer:
                         best = (cost, segs)
         return best
 
-    def _arc_flown_on(self, b_ne) -> bool:
-        """Whether an arc carried past B is flown on after B counts: onto the line to a
-        next waypoint, not where RTL or a loiter (which fly to their own targets) follows
-        (random-plane trial 76: a cluster's arc towards RTL, dropped for the flight
-        home, passed a waypoint 22 m beyond its radius plus 10)."""
+    def _waypoint_line_follows(self, b_ne) -> bool:
+        """Whether the line after B goes to a waypoint: a path carried past B is flown
+        on after B counts, where RTL, a loiter or a landing (which fly to their own
+        targets or plan their own entry) would drop it (random-plane trial 76: a
+        cluster's arc towards RTL, dropped for the flight home, passed a waypoint 22 m
+        beyond its radius plus 10)."""
         nxt = self._lines_after(b_ne, 1)
         return bool(nxt) and nxt[0][0] is not None and nxt[0][0].command == MAV_CMD_NAV_WAYPOINT
 
@@ -1231,8 +1233,9 @@ class MissionSequencer:
         planned path to B (turn, straight, turn) of least cost against A->B as the
         mission's cross-track scores it (``dubins.path_cost``) plus its length, over
         the final courses at B in steps of 22.5 degrees and the join radii down to the
-        tightest circle held over the ground; B counts on the way, within its radius
-        (``_leg``), and the next leg is joined from there. False where none is found
+        tightest circle held over the ground; where a waypoint's line follows, the
+        path through B onto that line instead (``_plan_through``). B counts on the way,
+        within its radius (``_leg``). False where none is found
         (B then counts at its finish line, as ArduPlane's rule has it: never a circle
         around a point the vehicle cannot turn onto)."""
         if self._wide_tried or self._b_min <= accept + FLY_BACK_MARGIN_M:
@@ -1247,9 +1250,8 @@ class MissionSequencer:
         # leaves the next leg to be joined from wherever its loop ends (random-plane
         # trial 44: B reached on a course 72 degrees off the next leg, which was then
         # overshot by 30 m)
-        nxt = self._lines_after(b_ne, 1)
         best = self._plan_through(p_ne, chi, a_ne, b_ne, accept) \
-            if nxt and nxt[0][0] is not None and nxt[0][0].command == MAV_CMD_NAV_WAYPOINT else None
+            if self._waypoint_line_follows(b_ne) else None
         through = best is not None
         if best is None:
             for r in [*self._join_radii(), self._arc_floor_m()]:
