@@ -338,9 +338,13 @@ class PlaneVehicle(VehicleBase):
                                  f"{'rudder' if so['surface'] == 'aileron' else 'aileron'}")
             to = mon.throttle_out if self.params["TOUT_ENABLE"] > 0 else None
             if to is not self.ctrl.throttle_out:
-                # a stuck throttle: the airspeed on the pitch (control/fixed_wing.py)
+                # a stuck throttle: where it holds level flight the height held and the
+                # airspeed free, else the airspeed on the pitch (control/fixed_wing.py)
                 if self.ctrl.throttle_out is None:
-                    mon.announce(t_us * 1e-6, SEV_WARNING, "throttle out: airspeed flown on the pitch")
+                    high = to["level"] and self.params["TOUT_ARSPD_MAX"] > 0
+                    mon.announce(t_us * 1e-6, SEV_WARNING,
+                                 "throttle out: height held, airspeed free" if high
+                                 else "throttle out: airspeed flown on the pitch")
                 self.ctrl.throttle_out = to
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::

@@ -130,21 +130,46 @@ def test_stuck_aileron_countered_by_the_rudder_or_the_aircraft_is_lost(tmp_path)
     assert s0.crashed
 
 
-def test_throttle_stuck_at_full_airspeed_on_the_pitch(tmp_path):
-    # GIVEN the throttle stuck at full at 60 s (seed 1)
-    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_full.toml", 100.0)
+def test_throttle_stuck_at_full_height_held_airspeed_free(tmp_path):
+    # GIVEN the throttle stuck at full at 60 s (seed 1), the whole default mission
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_full.toml", 420.0)
     f = summ["faults"][0]
     # THEN detected within 3 s, identified stuck within 0.1 of full 10 s after the onset
-    #      (measured: 2.2 s, 1.0), the airspeed flown on the pitch: within 20-31.5 m/s
-    #      (ARSPD_FBW_MIN..MAX and the gusts) from 10 s after the onset, climbing
+    #      (measured: 1.7 s, 1.0)
     assert f["isolated"] == "throttle" and f["delay_s"] is not None and f["delay_s"] <= 3.0
     assert f["identified_10s"]["stuck"] >= 0.9, f
-    assert s.vehicle.ctrl.throttle_out is not None and s.vehicle.ctrl.throttle_out["level"]
+    # AND the height is held on the pitch, the airspeed let rise to the full throttle's
+    #     level flight (TECS's height priority): from 15 s after the onset within 15 m of
+    #     the mission's height (measured -1.0..+5.4 m; with the airspeed flown on the
+    #     pitch the aircraft climbed 3 m/s, 638 m over by the mission's end), the airspeed
+    #     from 30 m/s (measured 31.7) up to TOUT_ARSPD_MAX and the gusts (measured 41.0)
+    a = s.log.arrays()
+    late = a["t_s"] >= 75.0
+    err = (a["truth_alt_m"] - a["tgt_alt_m"])[late]
+    assert np.abs(err).max() <= 15.0, (err.min(), err.max())
+    v = a["truth_airspeed_mps"][late]
+    assert v.min() >= 30.0 and v.max() <= 42.0, (v.min(), v.max())
+    # AND said so: the reaction is the height priority's
+    to = s.vehicle.ctrl.throttle_out
+    assert to is not None and to["level"] and to["v_top"] is not None
+    texts = [e[1] for e in s.log.events]
+    assert "throttle out: height held, airspeed free" in texts
+    # AND the mission completed, every invariant held, no false alarm
+    assert summ["completed"] and summ["invariants_passed"] and not s.crashed
+    assert summ["false_alarms"] == 0
+
+
+def test_throttle_stuck_at_full_without_height_priority_climbs_away(tmp_path):
+    # GIVEN the same fault with TOUT_ARSPD_MAX = 0 (the airspeed flown on the pitch, the
+    #       height free, as before the height priority), 100 s
+    s, _ = _fly(MISSIONS_DIR / "fault_throttle_stuck_full.toml", 100.0, TOUT_ARSPD_MAX=0.0)
+    # THEN the airspeed is held within 20-31.5 m/s and the aircraft climbs away from its
+    #      mission's height: over 40 m above it 39 s after the onset (measured 70 m)
     a = s.log.arrays()
     late = a["t_s"] >= 70.0
     v = a["truth_airspeed_mps"][late]
     assert v.min() >= 20.0 and v.max() <= 31.5, (v.min(), v.max())
-    assert not s.crashed and summ["false_alarms"] == 0
+    assert (a["truth_alt_m"] - a["tgt_alt_m"])[a["t_s"] >= 99.0].max() >= 40.0
 
 
 def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
@@ -157,14 +182,36 @@ def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
     #      identified stuck within 0.05 10 s after the onset (measured 0.302)
     assert f["isolated"] == "throttle" and f["delay_s"] is not None and f["delay_s"] <= 8.0
     assert abs(f["identified_10s"]["stuck"] - 0.3) <= 0.05, f
-    # AND the model says 0.3 holds level flight slower than the cruise: that airspeed is
-    #     flown on the pitch, no RTL, still flying, within 40 m of the mission's height
+    # AND the model says 0.3 holds level flight slower than the cruise (at most v_top):
+    #     the height held, the airspeed free, no RTL, still flying, within 40 m of the
+    #     mission's height
     to = s.vehicle.ctrl.throttle_out
-    assert to is not None and to["level"] and 19.9 <= to["v_fly"] < 25.0, to
+    assert to is not None and to["level"] and 19.9 <= to["v_fly"] <= to["v_top"] < 25.0, to
     assert s.vehicle.monitor.failsafe is None and not s.crashed
     a = s.log.arrays()
     late = a["t_s"] >= 70.0
     assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 40.0
+
+
+def test_throttle_stuck_near_cruise_height_held_mission_completed(tmp_path):
+    # GIVEN the throttle stuck at 0.3 at 60 s (seed 1), the whole default mission: the
+    #       model says 0.3 holds level flight up to 22 m/s, slower than the cruise
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 420.0)
+    f = summ["faults"][0]
+    assert f["isolated"] == "throttle" and f["delay_s"] is not None
+    # THEN from 10 s after the detection the height is held on the pitch within 20 m of
+    #      the mission's (measured -8.4..+2.9 m; with the airspeed flown on the pitch the
+    #      height was free: -26..+85 m), the airspeed over 18.5 m/s (ARSPD_FBW_MIN 20
+    #      bounds the climbs; measured 19.9)
+    a = s.log.arrays()
+    late = a["t_s"] >= f["detected_s"] + 10.0
+    err = (a["truth_alt_m"] - a["tgt_alt_m"])[late]
+    assert np.abs(err).max() <= 20.0, (err.min(), err.max())
+    assert a["truth_airspeed_mps"][late].min() >= 18.5
+    # AND the mission completed without an RTL, every invariant held, no false alarm
+    assert s.vehicle.monitor.failsafe is None
+    assert summ["completed"] and summ["invariants_passed"] and not s.crashed
+    assert summ["false_alarms"] == 0
 
 
 def _stabilised(trim, pitch0_rad, st):

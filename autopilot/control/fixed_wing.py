@@ -116,6 +116,7 @@ FW_PARAMS = (
     Param("ARSPD_FBW_MAX", 30.0, 10.0, 100.0, "m/s", "maximum airspeed command"),
     Param("LOUT_ENABLE", 1.0, 0.0, 1.0, "", "aileron or rudder out: once the fault monitor finds one stuck, counter it with the other surface and fly the roll on what is left (0: off)"),
     Param("TOUT_ENABLE", 1.0, 0.0, 1.0, "", "throttle out: once the fault monitor finds the throttle stuck, fly the airspeed on the pitch and let the height be what the thrust gives (0: off)"),
+    Param("TOUT_ARSPD_MAX", 40.0, 0.0, 100.0, "m/s", "throttle out where the stuck thrust holds level flight: the height held on the pitch, the airspeed left to float between ARSPD_FBW_MIN and this (out of it the pitch trades height for airspeed); 0: the airspeed flown on the pitch, the height free"),
     Param("EOUT_ENABLE", 1.0, 0.0, 1.0, "", "elevator out: fly the height on the throttle once the fault monitor finds an elevator actuator fault (0: off)"),
     Param("EOUT_THR_KP", 0.015, 0.0, 0.2, "1/m", "elevator out: height error to throttle, proportional"),
     Param("EOUT_THR_KI", 0.0008, 0.0, 0.05, "1/(m s)", "elevator out: height error to throttle, integral"),
@@ -252,11 +253,24 @@ class FixedWingController:
             dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
         tout = self.throttle_out
         if tout is not None and climb_override is None:
-            # throttle out: the airspeed on the pitch alone (no dead band); where the
-            # stuck throttle holds level flight the height demand still acts, traded
-            # against the airspeed as TECS does, else the height is given up: the glide
-            # at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
-            if tout["level"]:
+            # throttle out: where the stuck throttle holds level flight the height demand
+            # acts, the airspeed bounding it as TECS does; else (or TOUT_ARSPD_MAX 0) the
+            # airspeed on the pitch alone, and where no level flight the height is given
+            # up: the glide at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
+            if tout["level"] and p["TOUT_ARSPD_MAX"] > 0.0:
+                # the stuck thrust holds level flight: the height held on the pitch (TECS's
+                # height priority), the airspeed left to float to where that thrust meets
+                # the drag (at full throttle the airframe's top speed, stuck low slower than
+                # the cruise). The airspeed bounds the climb and the descent: the climb at
+                # most SPD_PRIO times the airspeed over ARSPD_FBW_MIN, the descent at most
+                # SPD_PRIO times its margin under TOUT_ARSPD_MAX (a climb the stuck thrust
+                # cannot give is flown just over ARSPD_FBW_MIN, not traded down to the
+                # stall; out of the two the pitch gives height for airspeed)
+                v_lo = p["ARSPD_FBW_MIN"]
+                v_hi = max(p["TOUT_ARSPD_MAX"], v_lo)
+                hdot_c = min(max(hdot_c, -p["SPD_PRIO"] * (v_hi - v_air)), p["SPD_PRIO"] * (v_air - v_lo))
+                hdot_c = min(max(hdot_c, -p["SINK_MAX"]), 2.0 * p["CLMB_MAX"])
+            elif tout["level"]:
                 # the airspeed the model says the stuck thrust holds level, if slower
                 # than the demand; the height is what the excess thrust gives, the climb
                 # free up to twice CLMB_MAX (a throttle stuck at full climbs at 3 m/s at

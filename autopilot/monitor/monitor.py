@@ -502,12 +502,14 @@ class FaultMonitor:
 
     def _throttle_reaction(self, t_s: float, value: float, final: bool) -> None:
         """The reaction to a throttle held at ``value`` (control/fixed_wing.py,
-        "throttle out"): the airspeed flown on the pitch, the height what the thrust
-        gives. Where the model (thrust curve against the level drag at TRIM_ARSPD) says
-        the throttle cannot hold level flight, the aircraft descends at the airspeed,
-        and the failsafe is RTL (ArduPlane's RTL, with RTL_AUTOLAND its landing), as
-        ArduPlane's battery / throttle failsafes choose; where it can, at the fastest
-        airspeed from the cruise down whose level drag the stuck thrust meets. Said by
+        "throttle out"). Where the model (thrust curve against the level drag) says the
+        throttle cannot hold level flight, the aircraft descends at the airspeed, and the
+        failsafe is RTL (ArduPlane's RTL, with RTL_AUTOLAND its landing), as ArduPlane's
+        battery / throttle failsafes choose; where it can, the height is held on the
+        pitch and the airspeed left to float to the fastest level flight the stuck thrust
+        gives (``v_top``; TECS's height priority, control/fixed_wing.py,
+        TOUT_ARSPD_MAX), or with TOUT_ARSPD_MAX 0 the fastest airspeed from the cruise
+        down whose level drag it meets (``v_fly``) flown on the pitch. Said by
         STATUSTEXT."""
         m = self.throttle.model
         # the fastest airspeed, from the cruise (TRIM_ARSPD's default, 25 m/s) down to 1.3
@@ -524,16 +526,30 @@ class FaultMonitor:
             excess = max(excess, e)
         level = v_fly is not None
         v = v_fly if level else 25.0
+        # where the stuck thrust holds level flight, the height is held on the pitch and
+        # the airspeed left to float to where that thrust meets the level drag (TECS's
+        # height priority, control/fixed_wing.py): ``v_top``, the fastest level flight it
+        # gives (at full throttle the airframe's top speed, the Aerosonde's 34.5 m/s).
+        # Flying the airspeed on the pitch instead left the height free: stuck at full the
+        # aircraft climbed 3 m/s for as long as the flight lasted (638 m over by the
+        # default mission's end), at 0.3 it drifted 46 m under and 84 m over the mission's
+        # height
+        v_top = None
+        if level:
+            v_top = v
+            while v_top < 60.0 and m.thrust_at(value, v_top + 0.5) - m.level_drag(v_top + 0.5) > 0.0:
+                v_top += 0.5
         # the glide: at the best lift-to-drag ratio's airspeed, C_L = sqrt(C_D0 / k)
         # (Beard & McLain eq 4.11's polar), the controller never under ARSPD_FBW_MIN
         cl_md = math.sqrt(m.CD0 / m.k_CD)
         v_glide = math.sqrt(2.0 * m.mass_kg * G0 / (RHO0_ISA * m.wing_area_m2 * cl_md))
-        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide, "v_fly": v}
+        self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide, "v_fly": v,
+                             "v_top": v_top}
         sink = max(-excess * 25.0 / (m.mass_kg * G0), 0.0)
         if level:
             self.events.append((t_s, SEV_WARNING, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
-                                                  f"airspeed {v:.0f} m/s flown on the pitch, height free "
-                                                  f"(up to {excess * v / (m.mass_kg * G0):.1f} m/s of climb)"))
+                                                  f"height held on the pitch, airspeed free "
+                                                  f"(level flight up to {v_top:.0f} m/s)"))
         else:
             self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
                                                    f"no level flight ({sink:.1f} m/s sink at 25 m/s): "
