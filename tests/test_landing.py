@@ -330,3 +330,62 @@ def test_the_speed_priority_fades_out_along_the_approach():
     assert [land.speed_weight(x) for x in (0.0, 500.0, 1000.0, 1100.0)] == [1.0, 0.5, 0.0, 0.0]
     params["TECS_LAND_SPDWGT"] = 0.3
     assert land.speed_weight(100.0) == 0.3
+
+
+
+def _fly_flare(land, along0_m, h0_m, sink0_mps, gs, lag_s=0.4, dt=0.02):
+    """The flare law closed on a point mass whose sink rate follows the demand through a
+    first-order lag (LAND_FLR_LAG's model) at a constant ground speed, from ``h0_m`` above
+    the land point ``along0_m`` metres along the approach: (touchdown along past B [m],
+    sink at touchdown [m/s])."""
+    along, h, sink, t = along0_m, h0_m, sink0_mps, 0
+    while h > 0.0 and t < 60_000_000:
+        _, climb = land.step(t, (0.0, -along), land.alt_b + h, np.array([0.0, -gs, sink]), gs)
+        if climb is not None:
+            sink += (-climb - sink) * min(dt / lag_s, 1.0)
+        h -= sink * dt
+        along += gs * dt
+        t += int(dt * 1e6)
+    return along - land.length, sink
+
+
+def test_a_flare_begun_from_an_updrafts_slow_sink_still_reaches_the_land_point():
+    # issue 16's long floats (the landing campaign's trial 15 at c26d19e, 42.9 m long): an
+    # updraft just above the flare height held the aircraft level, so its 1 s mean sink
+    # (the flare's cap) was 0.6 m/s, and the flare, begun 53 m before B (1.4 m high on the
+    # slope), glided down from 3 m at 0.6 m/s. The cap now tracks the distance: the sink
+    # that reaches the glide slope's ground point, up to FLARE_CAP_MAX times the slope's.
+    # Flown on a point mass lagging the demand by LAND_FLR_LAG: at c26d19e 62.0 m long
+    # (high) and 31.0 m (on the slope); now 18.8 m and -1.7 m
+    from autopilot.guidance.landing import FLARE_CAP_MAX
+    params = ParamStore(plane_param_declarations())
+    gs = 23.0
+
+    def landing(sink_mean):
+        land = Landing(params, (0.0, 0.0), (0.0, -1051.0), 44.5, -1.5, gs)
+        land._sink_mean = sink_mean
+        return land
+
+    def flight(sink_mean, to_go_m, h0=3.0):
+        return _fly_flare(landing(sink_mean), 1051.0 - to_go_m, h0, sink_mean, gs)
+
+    on_slope = 84.0                                     # 3 m on the slope: 16.8 m + 3 / 0.0445
+    high = flight(0.6, 53.0)
+    assert high[0] <= 22.0 and high[1] <= 0.7, high
+    slow = flight(0.6, on_slope)
+    assert abs(slow[0]) <= 8.0 and slow[1] <= 0.5, slow
+    nominal = flight(1.0, on_slope)                     # the slope's own sink: as before
+    assert abs(nominal[0]) <= 8.0 and nominal[1] <= 0.5, nominal
+    # the cap: the slope's sink on the slope, at most FLARE_CAP_MAX times it when high,
+    # the mean below the slope (an early flare is not pushed down)
+    def cap(sink_mean, to_go_m):
+        land = landing(sink_mean)
+        v = np.array([0.0, -gs, sink_mean])
+        land.step(0, (0.0, -(1051.0 - to_go_m)), land.alt_b + 3.0, v, gs)
+        land.step(20000, (0.0, -(1051.0 - to_go_m + 0.46)), land.alt_b + 3.0, v, gs)
+        return land.flare_cap_mps, land.slope * gs
+    c, s_gs = cap(0.6, on_slope)
+    assert c == pytest.approx(s_gs, rel=0.1)
+    c, s_gs = cap(0.6, 53.0)
+    assert c == pytest.approx(FLARE_CAP_MAX * s_gs)
+    assert cap(0.6, 150.0)[0] == pytest.approx(0.6)

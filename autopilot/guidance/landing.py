@@ -19,15 +19,24 @@ Phases (``Landing.phase``):
   start the flare high).
   The throttle goes to idle and the pitch flies a sink-rate demand
   hdot = -min(s_app, h' / tau + TECS_LAND_SINK + TECS_LAND_SRC d_past): the approach
-  sink s_app (its mean over the last ``SINK_MEAN_S``, the glide slope's at most) until
-  the exponential flare law's demand falls under it, then the classic exponential flare
-  (the height decays with time constant tau towards a touchdown at TECS_LAND_SINK).
+  sink s_app until the exponential flare law's demand falls under it, then the classic
+  exponential flare (the height decays with time constant tau towards a touchdown at
+  TECS_LAND_SINK). s_app is the sink flown (its mean over the last ``SINK_MEAN_S``, the
+  glide slope's at most), raised, at every step, to the sink that brings the height h
+  down to the glide slope's ground point (``shift_m`` short of B, below) at the ground
+  speed flown, up to ``FLARE_CAP_MAX`` times the slope's sink: an updraft just above
+  the flare height lowers the mean sink and leaves the aircraft high on the slope, and
+  a flare capped at that mean glided its first two metres at 0.6 m/s and floated 30-45
+  m past B (issue 16's long landings); below the slope (an early flare) it stays at the
+  mean, which does not push the aircraft down to the slope.
   The flare is steered to the land point: tau is, at every step, the time constant
   whose exponential reaches the ground from the height h in the time the aircraft needs
   to B at its ground speed along the approach, tau ln(1 + h / (tau s_td)) = t_go
   (``flare_tau``), kept within ``FLARE_TAU_MIN``..``FLARE_TAU_MAX`` times
   LAND_FLARE_SEC: a float (a gust's airspeed, a flare started late) shortens it and
-  sinks more, a flare started early lengthens it. Past B, ArduPlane's TECS_LAND_SRC
+  sinks more, a flare started early lengthens it. (With the floor at 0.75, the nominal
+  flare's own tau, about 0.78 LAND_FLARE_SEC from 3 m on the slope, sat on it, and a
+  float had nothing left to shorten.) Past B, ArduPlane's TECS_LAND_SRC
   adds sink per metre flown beyond the point (d_past). h' is the height LAND_FLR_LAG
   ahead (h less the last demand times the lag), a lead against the lag of the
   aircraft's sink rate behind the demand. The pitch is held at no less than LAND_PITCH_DEG
@@ -121,8 +130,9 @@ AB_SPD_TAU_S = 1.0     # the airspeed mean the overspeed abort reads [s]
 STOP_GSPD = 3.0        # below this ground speed after the flare the aircraft is down [m/s]
 SINK_MEAN_S = 1.0      # the approach's sink rate the flare starts from: its mean over this [s]
 TOUCH_S = 0.3          # sink rate under TECS_LAND_SINK / 2 this long in the flare: touched down [s]
-FLARE_TAU_MIN = 0.75   # the flare's time constant, steered to the land point, at least this
+FLARE_TAU_MIN = 0.5    # the flare's time constant, steered to the land point, at least this (0.75 to c26d19e)
 FLARE_TAU_MAX = 2.0    # and at most this, times LAND_FLARE_SEC
+FLARE_CAP_MAX = 1.25   # the flare's sink cap, raised to reach B, at most this times the slope's sink
 
 
 def flare_tau(h_m: float, t_go_s: float, s_td: float, lo: float, hi: float) -> float:
@@ -215,6 +225,7 @@ class Landing:
         self._sink_mean: float | None = None
         self._sink_us: int | None = None
         self.flare_tau_s: float | None = None          # the flare's time constant of the moment
+        self.flare_cap_mps: float | None = None        # the flare's sink cap of the moment
         self._s_dem: float | None = None                # the flare's sink demand, last step
         # the rangefinder's correction of the navigation's height (RNGFND_LANDING,
         # guidance/rangefinder.py): every height above the land point the landing flies
@@ -363,6 +374,19 @@ class Landing:
         # the law read LAND_FLR_LAG ahead (the height the aircraft will be at when its
         # sink rate has followed the demand): a lead against that lag
         h_lead = max(h - (self._s_dem if self._s_dem is not None else sink) * p["LAND_FLR_LAG"], 0.0)
-        s_dem = min(self._sink_app, h_lead / tau + s_td + p["TECS_LAND_SRC"] * max(-to_go, 0.0))
+        # the cap tracks the distance too: the sink that brings the height flown down to
+        # the glide slope's ground point (``shift_m`` short of B, where a flare flown from
+        # the slope lands on B) at the ground speed flown, when that is more than the
+        # approach's mean sink, at most FLARE_CAP_MAX times the slope's own: a flare begun
+        # from a slow sink (an updraft just above the flare height lowered the mean) or
+        # high on the slope would otherwise glide its first metres at the slow sink and
+        # float tens of metres past B; below the slope it stays at the mean
+        s_gs = self.slope * max(gs_along, 1.0)
+        to_aim = to_go - self.shift_m
+        s_req = h * gs_along / to_aim if to_aim > h * gs_along / (FLARE_CAP_MAX * s_gs) \
+            else FLARE_CAP_MAX * s_gs
+        s_cap = max(self._sink_app, min(s_req, FLARE_CAP_MAX * s_gs))
+        self.flare_cap_mps = s_cap
+        s_dem = min(s_cap, h_lead / tau + s_td + p["TECS_LAND_SRC"] * max(-to_go, 0.0))
         self._s_dem = s_dem
         return self.alt_b + self.h_corr_m, -s_dem
