@@ -19,7 +19,13 @@ found by the random-mission sample and fixed as classes):
    the ground on its courses in the wind (started earlier on the leg before where that
    has the room, else the waypoint is flown to and the next line joined);
 8. a waypoint flown back to (its finish line crossed wide of it) is flown through onto
-   the line to the next waypoint, not arrived at on whatever course the loop gives.
+   the line to the next waypoint, not arrived at on whatever course the loop gives;
+9. a turn of up to a right angle at a waypoint whose radius no arc the vehicle can hold,
+   tangent to both lines, passes within is flown on such an arc moved towards the
+   waypoint until it does (a little outside both lines), not flown to the waypoint and
+   joined onto the next line from there, a turn radius beyond it;
+10. a leg's arc planned with a wind estimate since outgrown (the climb-out's) is planned
+   again before it starts.
 
 Each flown headless in the simulator in light turbulence and a moderate wind; the figure
 asserted is the cross-track against the line concerned (``tools.invariants``), with
@@ -238,3 +244,49 @@ def test_a_clusters_arc_dropped_for_rtl_leaves_the_fly_back_on():
     summary = run_summary(s)
     # before: item 10 passed 22 m beyond its radius plus the invariant's 10
     assert summary["invariants"]["waypoints_passed"]["figure"] <= 10.0
+
+
+def test_a_sharp_turn_at_a_small_radius_is_turned_through_it(tmp_path):
+    # random_plane.toml trial 182's corner: a 500 m line at -37 deg to a waypoint of
+    # radius 13.9 m, then a 74.5-degree turn, in 7.3 m/s. The least arc the bank limit
+    # holds there, tangent to both lines, passes 25-34 m from the waypoint: none was
+    # flown, the waypoint was flown to on the old course and the next line joined from
+    # it. Now that arc, moved towards the waypoint until it passes within its radius,
+    # runs about 11 m outside each line instead
+    turn = math.radians(-37.0 + 74.5)
+    c = (round(1000.0 + 800.0 * math.cos(turn), 1), round(-750.0 + 800.0 * math.sin(turn), 1))
+    rows = [(TAKEOFF, None, None, 100, 3), (WAYPOINT, 600, -450, 100, 3),
+            (WAYPOINT, 1000, -750, 100, 3, 0, 13.9), (WAYPOINT, *c, 100, 3), (RTL, None, None, 0, 2)]
+    s, summary = fly(tmp_path, rows, wind=(7.3, 69.0), duration_s=170.0)
+    assert [q for _, q in s.vehicle.sequencer.reached][:4] == [1, 2, 3, 4]
+    leg = legs_of(s)[4]
+    # before: 82 m past the line (the join from the waypoint, a turn radius beyond it)
+    assert leg["xtrack_max_m"] < 20.0
+    assert summary["invariants"]["waypoints_passed"]["passed"]
+
+
+@pytest.mark.parametrize("trial, mission, wind, turbulence, duration_s, bound", [
+    # trial 198: the climb-out's end 190 m before the first waypoint, an 87-degree turn;
+    # its arc, planned in 6.2 m/s estimated (102 m), flown in 8.8 (116 m the least):
+    # 37.6 m before, now widened to the wind estimated by the time it comes
+    (198, 2006057410, (8.329883383941183, 171.7329263737533), "moderate", 110.0, 20.0),
+    # trial 234: a 115-degree turn, its arc planned in 7.8 m/s estimated (115 m) and
+    # flown in 12 (139 m the least), 74.9 m before; no arc the vehicle holds there
+    # passes within the waypoint's radius: now flown to, the next line looped onto
+    (234, 1901388207, (11.869711488761723, 105.25665039427378), "moderate", 180.0, 20.0),
+])
+def test_the_climb_outs_arc_is_planned_again_in_the_wind_estimated_since(trial, mission, wind,
+                                                                           turbulence, duration_s, bound):
+    from tools.runner import RunConfig, Session
+    from tools.summary import run_summary
+    s = Session(RunConfig(mission=f"random:plane:{mission}", wind=wind, turbulence=turbulence,
+                          seed=mission, duration_s=duration_s))
+    s.run()
+    summary = run_summary(s)
+    assert [q for _, q in s.vehicle.sequencer.reached][:3] == [1, 2, 3]
+    assert summary["xtrack_mission_max_m"] < bound
+    # the corner's waypoint (radius 100 m) passed within its radius plus the invariant's 10
+    a = s.log.arrays()
+    bn, be = legs_of(s)[2]["b"]
+    assert min(math.hypot(n - bn, e - be) for n, e in zip(a["truth_n_m"], a["truth_e_m"])
+               if math.isfinite(n)) <= 110.0

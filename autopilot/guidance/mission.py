@@ -101,6 +101,12 @@ REVERSAL_S = 1.2                # a widened arc that turns the other way from th
 NEAR_MARGIN = 0.8               # an arc that must pass within a radius is planned to pass
                                 # within this fraction of it, where the bank limit allows:
 NEAR_FLOOR_FACTOR = 1.2         # not tighter for it than this times the arc floor
+THROUGH_OFFSET_MAX_FRAC = 0.3   # an arc moved to pass within a radius (_through_arc) runs
+                                # at most this fraction of its radius outside the lines,
+THROUGH_MAX_TURN = math.radians(90.0)   # on a turn of at most this (past it the vehicle,
+                                # flown to the waypoint, heads away along the next line and
+                                # loops back onto it from behind: no run beside it)
+FILLET_CHECK_US = 1_000_000     # a leg's arc is checked against the wind this often
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
                                 # change of its bank) before its end: the roll's lag
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
@@ -204,6 +210,7 @@ class MissionSequencer:
         self._cond_start_us: int | None = None
         self._warned: set = set()
         self._path: list = []          # segments being flown (a fillet, a join)
+        self._through_arcs: dict = {}  # _through_arc's arcs: how far outside the lines they end
         self._path_kind = ""
         self._seg_start = True
         self._seg_angle = 0.0
@@ -229,6 +236,7 @@ class MissionSequencer:
         self._through_tried = False    # a join through B onto the next leg was planned
         self._wide_tried = False       # a pass of B's finish line wide of B was flown back to B
         self._fillet_at = None         # ((A, B), _fillet's answer) for the current leg
+        self._fillet_check_us = 0      # when its arc was last checked against the wind
         self._join_past = False        # the join rolls out past the start of the next turn
         self._join_run, self._join_last_p = 0.0, None   # distance flown on the join
         self._join_alt_now: float | None = None          # its altitude demand
@@ -604,7 +612,9 @@ class MissionSequencer:
             r_near = near / bulge
             floor = self._arc_floor_m()
             if r_near < r and r_near < floor:
-                return None   # no arc the vehicle can track in this wind passes so near
+                # no arc the vehicle can hold in this wind, tangent to both lines,
+                # passes so near: one that can, moved towards X until it does
+                return self._through_arc(x_ne, u1, u2, dchi, near, room1, room2, room1_max)
             # planned inside the radius where the bank limit allows with room to spare:
             # the arc entered with the bank of the turn before still to reverse runs a
             # few metres wide (random-plane trial 11: an S-turn's second arc, planned at
@@ -635,6 +645,48 @@ class MissionSequencer:
         t1 = (x_ne[0] - d * u1[0], x_ne[1] - d * u1[1])
         centre = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
         return d, ("arc", centre, r, direction, abs(dchi), t1)
+
+    def _through_arc(self, x_ne, u1, u2, dchi: float, near: float, room1: float, room2: float,
+                     room1_max: float | None = None):
+        """A turn at corner X too sharp for any arc the vehicle can hold, tangent to
+        both lines, to pass within ``near`` of X (its middle lies r (sec(dchi/2) - 1)
+        from X): the arc at NEAR_FLOOR_FACTOR times the floor moved along the bisector
+        towards X until its middle passes NEAR_MARGIN ``near`` from it, so that it
+        crosses both lines and runs parallel to each ``o`` = the shift times
+        cos(dchi/2) outside it where it starts and ends (the vehicle, on A->B where the
+        arc begins, is steered out onto it; the line after it is converged on from
+        ``o`` beside it). Without it the waypoint was flown to on the old course and
+        the next line joined from there, a turn radius and more beyond it
+        (random-plane trial 182: a 74-degree turn in 7.3 m/s at a 13.9 m radius, the
+        least arc passing 34 m from the waypoint: 81 m past the line). (d, arc) with
+        d the distance before X along A->B of the arc's start, or None on a turn of more
+        than THROUGH_MAX_TURN, where the shift would put the arc further outside the
+        lines than THROUGH_OFFSET_MAX_FRAC of its radius, or where the legs (or the
+        part of A->B still ahead, ``room1_max``) lack the room."""
+        if abs(dchi) > THROUGH_MAX_TURN:
+            return None
+        r = NEAR_FLOOR_FACTOR * max(self._arc_radius_floor_m(u1, dchi),
+                                    self._bank_limit_radius_m() * self.params["TURN_GS_FACTOR"] ** 2)
+        half = 0.5 * abs(dchi)
+        shift = r * (1.0 / math.cos(half) - 1.0) - NEAR_MARGIN * near
+        offset = shift * math.cos(half)
+        if shift <= 0.0 or offset > THROUGH_OFFSET_MAX_FRAC * r:
+            return None
+        t = math.tan(half)
+        d = r * t - shift * math.sin(half)   # the tangent points' distance from X
+        if d <= 0.0 or d > room1 or d > room2 or (room1_max is not None and d > room1_max):
+            return None
+        direction = 1 if dchi > 0 else -1
+        # the fillet's centre, moved towards X by the shift
+        t1 = (x_ne[0] - r * t * u1[0], x_ne[1] - r * t * u1[1])
+        c0 = (t1[0] - direction * r * u1[1], t1[1] + direction * r * u1[0])
+        wn, we = x_ne[0] - c0[0], x_ne[1] - c0[1]
+        w = math.hypot(wn, we)
+        centre = (c0[0] + shift * wn / w, c0[1] + shift * we / w)
+        start = (centre[0] + direction * r * u1[1], centre[1] - direction * r * u1[0])
+        arc = ("arc", centre, r, direction, abs(dchi), start)
+        self._through_arcs[arc] = offset
+        return d, arc
 
     def _start_path(self, segments, kind: str, t_us: int = 0) -> None:
         self._path = list(segments)
@@ -1049,7 +1101,7 @@ class MissionSequencer:
         if self._carry_path and self._path and dist <= accept:
             return None   # passed within its radius on an arc carried past it
         if not self._joined and self._skip_join and self._path and length > 1e-3 \
-                and not self._path_ends_on(a_ne, b_ne) \
+                and not self._path_ends_on(a_ne, b_ne, 3.0 + self._through_arcs.get(self._path[-1], 0.0)) \
                 and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
             # an arc carried past items counted at once (a cluster of waypoints within
             # each other's radius) that turns onto another line than this leg's: the
@@ -1287,6 +1339,10 @@ class MissionSequencer:
         if self._fillet_at is None or self._fillet_at[0] != key:
             # planned once a leg (a fillet depends on the next items, not on the step)
             self._fillet_at = (key, self._fillet(a_ne, b_ne, accept, p_ne))
+            self._fillet_check_us = t_us
+        elif self._fillet_at[1][1] is not None and t_us - self._fillet_check_us >= FILLET_CHECK_US:
+            self._fillet_check_us = t_us
+            self._refit_fillet(key, a_ne, b_ne, accept, p_ne)
         d_turn, arc, skip = self._fillet_at[1]
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         # (a leg within the acceptance radius: B would count the moment A did)
@@ -1353,6 +1409,35 @@ class MissionSequencer:
                 self._carry_path = skip   # onto C->D: kept when C counts at once
             return None
         return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
+
+    def _refit_fillet(self, key, a_ne, b_ne, accept: float, p_ne) -> None:
+        """The arc planned when the leg began, checked again while the vehicle is still
+        short of its start: where it has become tighter than ARC_FLOOR_SLACK of the
+        radius the bank limit holds on its courses in the wind estimated now, the
+        fillet is planned again from here (and kept where no arc comes of that). The
+        first waypoint's arc is planned at the end of the climb-out, with the wind
+        estimate still settling: random-plane trial 234 planned a 115 m arc in 7.8 m/s
+        estimated and flew it in 12 m/s (139 m the least), 75 m past the next line;
+        trial 198 a 102 m arc in 6.2 m/s, flown in 8.8, 38 m."""
+        d_turn, arc, _ = self._fillet_at[1]
+        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        if length < 1.0:
+            return
+        u1 = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length)
+        along = (p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1]
+        v = self.airspeed_mps + math.hypot(*self._wind_ne)
+        if along > length - d_turn - FILLET_CHECK_US * 1e-6 * v:
+            return    # (the arc about to start, or started)
+        _, _, r, direction, angle, _ = arc
+        if r >= ARC_FLOOR_SLACK * self._arc_radius_floor_m(u1, direction * angle):
+            return
+        again = self._fillet(a_ne, b_ne, accept, p_ne)
+        if again[1] is None and angle > THROUGH_MAX_TURN:
+            # none now: past a right angle the waypoint is flown to and the next line
+            # looped onto from behind, rather than the arc run wide across it
+            self._fillet_at = (key, again)
+        elif again[1] is not None and along < length - again[0]:
+            self._fillet_at = (key, again)   # (one that starts ahead)
 
     def _reach(self, t_us, b_ne, alt) -> None:
         carry = self._path if self._carry_path else []
