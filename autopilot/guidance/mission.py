@@ -131,14 +131,15 @@ class NavTarget:
     spd_weight: float = 1.0      # the speed priority's weight (the landing approach: TECS_LAND_SPDWGT)
 
 
-def _path_end(path) -> tuple[float, float]:
-    """Where a planned path ends: its last line's end, or its last arc's end point."""
+def _path_end(path):
+    """Where a planned path ends and on what course [rad]: its last line's end, or its
+    last arc's end point."""
     seg = path[-1]
-    if seg[0] == "arc":
-        _, centre, r, direction, angle, start = seg
-        b = math.atan2(start[1] - centre[1], start[0] - centre[0]) + direction * angle
-        return centre[0] + r * math.cos(b), centre[1] + r * math.sin(b)
-    return seg[2]
+    if seg[0] == "line":
+        return seg[2], math.atan2(seg[2][1] - seg[1][1], seg[2][0] - seg[1][0])
+    _, centre, r, direction, angle, start = seg
+    b = math.atan2(start[1] - centre[1], start[0] - centre[0]) + direction * angle
+    return (centre[0] + r * math.cos(b), centre[1] + r * math.sin(b)), b + direction * 0.5 * math.pi
 
 
 def _passes_within(segments, p, radius: float) -> bool:
@@ -375,13 +376,18 @@ class MissionSequencer:
         return max(len(self.items) - 1, 0)
 
     # ------------------------------------------------------------- turn sizes ---
+    def _ground_speed_max_mps(self) -> float:
+        """The fastest ground speed at the commanded airspeed: downwind, in the wind
+        estimated now."""
+        return self.airspeed_mps + math.hypot(*self._wind_ne)
+
     def turn_radius_m(self, wind: bool = False) -> float:
         """Radius of the fillets: the nominal bank at TURN_GS_FACTOR times the airspeed;
         with ``wind`` (the joins, which may turn through any course), at the airspeed
         plus the wind speed if that is more."""
         v = self.airspeed_mps * self.params["TURN_GS_FACTOR"]
         if wind:
-            v = max(v, self.airspeed_mps + math.hypot(*self._wind_ne))
+            v = max(v, self._ground_speed_max_mps())
         return v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
 
     def min_turn_radius_m(self, wind_ne=None) -> float:
@@ -481,12 +487,12 @@ class MissionSequencer:
             # 133: an arc widened to begin where A's ended ran 27 m wide)
             ahead = (p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1]
             if self._path:
-                end = _path_end(self._path)
+                end, _ = _path_end(self._path)
                 ahead = max(ahead, (end[0] - a_ne[0]) * u1[0] + (end[1] - a_ne[1]) * u1[1])
                 last = self._path[-1]
                 cross = u1[0] * u2[1] - u1[1] * u2[0]
                 if last[0] == "arc" and last[3] != (1 if cross > 0 else -1):
-                    ahead += REVERSAL_S * (self.airspeed_mps + math.hypot(*self._wind_ne))
+                    ahead += REVERSAL_S * self._ground_speed_max_mps()
             room1_max = l1 - min(max(ahead, 0.0), l1)
         arc = self._corner_arc(b_ne, u1, u2, 0.5 * l1, 0.5 * (l2 - short), near=accept_b,
                                room1_max=room1_max)
@@ -1165,13 +1171,7 @@ class MissionSequencer:
     def _path_ends_on(self, a_ne, b_ne, tol_m: float = 3.0) -> bool:
         """The planned path ends on the line A->B, along it (within ``tol_m`` of the
         line and 5 degrees of its course)."""
-        seg = self._path[-1]
-        if seg[0] == "line":
-            end, chi = seg[2], math.atan2(seg[2][1] - seg[1][1], seg[2][0] - seg[1][0])
-        else:
-            _, c, r, d, ang, start = seg
-            b = math.atan2(start[1] - c[1], start[0] - c[0]) + d * ang
-            end, chi = (c[0] + r * math.cos(b), c[1] + r * math.sin(b)), b + d * 0.5 * math.pi
+        end, chi = _path_end(self._path)
         ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         un, ue = (b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln
         xt = (end[0] - a_ne[0]) * -ue + (end[1] - a_ne[1]) * un
@@ -1207,7 +1207,7 @@ class MissionSequencer:
         nominal and the limit at that speed (as a fillet shrinks where legs are short)."""
         r = self.turn_radius_m(wind=True)
         p = self.params
-        v = self.airspeed_mps + math.hypot(*self._wind_ne)
+        v = self._ground_speed_max_mps()
         bank = math.radians(0.5 * (p["TURN_BANK_DEG"] + p["ROLL_LIMIT_DEG"]))
         r_floor = min(v * v / (G * math.tan(bank)), r)
         while True:
@@ -1425,7 +1425,7 @@ class MissionSequencer:
             return
         u1 = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length)
         along = (p_ne[0] - a_ne[0]) * u1[0] + (p_ne[1] - a_ne[1]) * u1[1]
-        v = self.airspeed_mps + math.hypot(*self._wind_ne)
+        v = self._ground_speed_max_mps()
         if along > length - d_turn - FILLET_CHECK_US * 1e-6 * v:
             return    # (the arc about to start, or started)
         _, _, r, direction, angle, _ = arc
