@@ -747,12 +747,21 @@ class FaultMonitor:
         iso_ratio = 1.0
         iso_max = 0.0
         iso_over = []                  # (ratio, channel) over the isolation threshold
+        heard = getattr(self.nav, "heard_us", None)
         for ch in self._aiding_list:
             last = ch.last_us
             # silent: it had been updating regularly (SILENT_RUN updates in a row) and
             # stopped; a source the filter fuses only now and then (the magnetometer
             # where the field is nearly vertical: heading fusion needs B_h^2 / |B|^2 over
-            # 0.05) has no rate to fall silent from
+            # 0.05) has no rate to fall silent from. A sensor the filter still hears
+            # (its samples arriving, fused or not: nav.heard_us) is not silent: where
+            # the field's horizontal share hovers about that limit for minutes, runs of
+            # fusions longer than SILENT_RUN alternate with gaps over FDI_TOUT (random
+            # plane trials 327 and 454, inclination 77.5 deg: 16 `mag` alarms in 2 flights)
+            if heard is not None and last is not None:
+                h = heard.get(ch.name)
+                if h is not None and h > last:
+                    last = h
             if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
                 if not ch.silent:
                     ch.silent = True

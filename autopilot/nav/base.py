@@ -184,6 +184,11 @@ class NavFilterBase:
         self.aligned = False
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
+        # the last sample each aiding sensor delivered [us], fused or not: the filter
+        # declines some (the heading where the field is nearly vertical, the airspeed under
+        # EK_ARSP_MIN), and a sensor that delivers is not a silent one (the monitor's
+        # FDI_TOUT test reads this)
+        self.heard_us: dict[str, int] = {}
         self._t_us: int | None = None
         self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
         self._gyro_prev: list | None = None   # the one before, floats [rad/s]
@@ -302,8 +307,12 @@ class NavFilterBase:
         imu = frame.imu
         if frame.airspeed is not None:
             self._airspeed = (t, frame.airspeed.airspeed_mps)
+            self.heard_us["airspeed"] = t
         if frame.baro is not None:
             self._last_baro_alt = frame.baro.alt_m
+            self.heard_us["baro"] = t
+        if frame.mag is not None:
+            self.heard_us["mag"] = t
         gps = frame.gps if (frame.gps is not None and frame.gps.fix_type >= 3) else None
         if gps is not None and self.origin is None:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
