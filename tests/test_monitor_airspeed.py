@@ -58,7 +58,26 @@ def test_airspeed_errors_of_that_size_are_still_found_higher_up():
     # GIVEN the same innovations at 50 m (where the filter follows the gusts and so they
     # are a sensor's error); THEN the channel detects them (the test is not blind)
     mon = _fly(50.0, 2.5, np.random.default_rng(1))
+    assert mon.episodes and mon.episodes[0].trigger == "airspeed"
+    # AND with FDI_ARSP_HMIN 0 and FDI_ARSP_HREF 0 the near-ground gusts would alarm as
+    # before
+    mon = _fly(8.0, 2.5, np.random.default_rng(1), FDI_ARSP_HMIN=0.0, FDI_ARSP_HREF=0.0)
     assert mon.detected and mon.episodes[0].trigger == "airspeed"
-    # AND with FDI_ARSP_HMIN 0 the near-ground gusts would alarm as before
-    mon = _fly(8.0, 2.5, np.random.default_rng(1), FDI_ARSP_HMIN=0.0)
-    assert mon.detected and mon.episodes[0].trigger == "airspeed"
+
+
+def test_airspeed_gusts_low_on_an_approach_are_read_against_the_low_altitude_model():
+    # GIVEN innovations of 1.0 m/s rms at 30 m above home, 1.5 s correlated (moderate
+    # turbulence on random-plane approaches: airspeed alarms 22-45 m up, 1.00-1.09 times
+    # the threshold, trials 276, 279, 323, 367), five seeds
+    peaks = {}
+    for href in (0.0, 100.0):
+        peaks[href] = [_fly(30.0, 1.0, np.random.default_rng(s), FDI_ARSP_HREF=href).peaks.get("airspeed", 0.0)
+                       for s in range(5)]
+    # THEN read as FDI_ARSP_K reads them from 100 m up they alarm on every seed; scaled
+    # by the gusts' growth down to 30 m (2.5 times) they stay under 0.6 of the threshold
+    assert min(peaks[0.0]) > 1.0, peaks
+    assert max(peaks[100.0]) < 0.6, peaks
+    # AND at 100 m nothing changes
+    a = _fly(100.0, 1.0, np.random.default_rng(0)).peaks["airspeed"]
+    b = _fly(100.0, 1.0, np.random.default_rng(0), FDI_ARSP_HREF=0.0).peaks["airspeed"]
+    assert a == b
