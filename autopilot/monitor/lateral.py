@@ -22,8 +22,8 @@ elevator's), FIT_DELAY_S late so a fault is not learnt before it is detected, an
 in the first FIT_WARMUP_S of flight.
 
 The residual's variance (the window test's normalisation, eq 2.13) is learnt on the
-same samples FIT_DELAY_S old: its running mean of r^2 starts from LAT_RES_PRIOR_RAD^2,
-alone for the first FIT_DELAY_S of flight (moderate turbulence in the climb-out read
+same samples FIT_DELAY_S old: its running mean of r^2 starts from LAT_RES_PRIOR_RAD^2
+worth LAT_RES_PRIOR_N samples, alone for the first FIT_DELAY_S of flight (moderate turbulence in the climb-out read
 1.37 times the threshold 7 s after the launch with 0.01 rad there), and restarts when
 the offset fit does (FIT_WARMUP_S), on the residual the fit leaves, with the warm-up's
 mean square (which holds the offset not yet learnt: 0.010-0.019 rad on the aileron) as
@@ -36,7 +36,8 @@ sqrt(FDI_ACT_THR chi2_{alpha_det, M} / M) (3 x 47.7 / 10), however long it lasts
 the wings level it was found only once the roll loop's command had swung to the other
 side of the stuck position (default mission, seed 2: the onset at a turn's roll-in, the
 command 0.18 rad, then -0.18 rad as the stuck aileron rolled the aircraft on past the
-bank asked; 4.17 s), a stuck rudder's 0.1 rad in 2.6-3.2 s.
+bank asked; 4.17 s), a stuck rudder's 0.1 rad in 2.6-3.2 s. Now 1.13-2.81 s and
+0.67-1.81 s on seeds 1-10 (docs/status.md, stuck aileron, rudder, throttle).
 
 Stage 2 (identification): once detected, the two hypotheses of :mod:`.actuator` over the
 samples since the detection: stuck (z constant while the command moves) or weakened
@@ -160,9 +161,10 @@ class _Axis:
                  floor: float = LAT_RES_FLOOR_RAD, offset_sd: float = LAT_OFFSET_SD_RAD,
                  fit_noise: float = LAT_FIT_NOISE_RAD, prior: float | None = None, prior_n: int = 0):
         """``prior``: the residual's standard deviation before any sample (``floor``
-        if None). With a prior, the variance is that of the residual the offset fit
-        leaves, restarted when the fit starts (the warm-up's mean square, which holds
-        the offset not yet learnt, then the prior worth ``prior_n`` samples)."""
+        if None), worth ``prior_n`` samples in the variance's running mean. With a
+        prior, the variance is that of the residual the offset fit leaves, restarted
+        when the fit starts with the warm-up's mean square (which holds the offset not
+        yet learnt) as the prior. The throttle's (no prior) is as before."""
         self.name = name
         self.floor = floor
         self.prior_n = prior_n
