@@ -21,6 +21,24 @@ recursive least squares with a prior of zero (the balance's refinement, as the
 elevator's), FIT_DELAY_S late so a fault is not learnt before it is detected, and not
 in the first FIT_WARMUP_S of flight.
 
+The residual's variance (the window test's normalisation, eq 2.13) is learnt on the
+same samples FIT_DELAY_S old: its running mean of r^2 starts from LAT_RES_PRIOR_RAD^2
+worth LAT_RES_PRIOR_N samples, alone for the first FIT_DELAY_S of flight (moderate turbulence in the climb-out read
+1.37 times the threshold 7 s after the launch with 0.01 rad there), and restarts when
+the offset fit does (FIT_WARMUP_S), on the residual the fit leaves, with the warm-up's
+mean square (which holds the offset not yet learnt: 0.010-0.019 rad on the aileron) as
+its prior worth LAT_RES_PRIOR_N samples; the floor LAT_RES_FLOOR_RAD under it. In light
+turbulence, 60 s after the launch, the deviations are then 0.006 rad (aileron) and
+0.005 rad (rudder); with the warm-up kept in the mean they were 0.009-0.010 rad, and a
+fixed floor of 0.015 rad over them made a stuck aileron's 0.05 rad a residual of 3.3
+deviations: under the 3.8 a steady residual needs to cross the window test's threshold,
+sqrt(FDI_ACT_THR chi2_{alpha_det, M} / M) (3 x 47.7 / 10), however long it lasts. With
+the wings level it was found only once the roll loop's command had swung to the other
+side of the stuck position (default mission, seed 2: the onset at a turn's roll-in, the
+command 0.18 rad, then -0.18 rad as the stuck aileron rolled the aircraft on past the
+bank asked; 4.17 s), a stuck rudder's 0.1 rad in 2.6-3.2 s. Now 1.13-2.81 s and
+0.67-1.81 s on seeds 1-10 (docs/status.md, stuck aileron, rudder, throttle).
+
 Stage 2 (identification): once detected, the two hypotheses of :mod:`.actuator` over the
 samples since the detection: stuck (z constant while the command moves) or weakened
 (z = k delta_cmd), the stuck position the mean of z after the onset's transient.
@@ -41,7 +59,10 @@ from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDEN
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
-LAT_RES_FLOOR_RAD = 0.015      # floor of each axis' residual standard deviation [rad]
+LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
+LAT_RES_PRIOR_RAD = 0.02       # that deviation before any sample is learnt [rad]
+LAT_RES_PRIOR_N = 50           # the warm-up's mean square, once the offset fit starts, is
+                               # worth this many 10 Hz samples (5 s) in the running mean
 LAT_OFFSET_SD_RAD = 0.05       # prior standard deviation of the learnt offset terms [rad]
 LAT_FIT_NOISE_RAD = 0.1        # each 10 Hz fit sample's weight against that prior [rad]: the
                                # low-passed samples are correlated (as the elevator's
@@ -138,13 +159,21 @@ class _Axis:
 
     def __init__(self, name: str, M: int, alpha: float, alpha_det: float,
                  floor: float = LAT_RES_FLOOR_RAD, offset_sd: float = LAT_OFFSET_SD_RAD,
-                 fit_noise: float = LAT_FIT_NOISE_RAD):
+                 fit_noise: float = LAT_FIT_NOISE_RAD, prior: float | None = None, prior_n: int = 0):
+        """``prior``: the residual's standard deviation before any sample (``floor``
+        if None), worth ``prior_n`` samples in the variance's running mean. With a
+        prior, the variance is that of the residual the offset fit leaves, restarted
+        when the fit starts with the warm-up's mean square (which holds the offset not
+        yet learnt) as the prior. The throttle's (no prior) is as before."""
         self.name = name
         self.floor = floor
+        self.prior_n = prior_n
+        self.refit = prior is not None
+        self.fitting = False
         self.win = WindowChi2(1, M, alpha, alpha_det)
         self.c = np.zeros(2)
         self.P = np.eye(2) * (offset_sd / fit_noise) ** 2
-        self.r_var = floor ** 2
+        self.r_var = (floor if prior is None else prior) ** 2
         self.n_var = 0
         self.queue: list = []          # (t_us, phi, residual) waiting FIT_DELAY_S
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
@@ -167,13 +196,20 @@ class _Axis:
             q.append((t_us, phi, raw, r))
             while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, rw, ro = q.pop(0)
+                if self.refit:
+                    ro = rw - float(ph @ self.c)        # the residual the fit leaves
+                    if learn and not self.fitting:
+                        self.fitting = True             # the warm-up's variance, now a prior
+                        self.n_var = 0
                 if learn:
                     Pp = self.P @ ph
                     g = Pp / (1.0 + ph @ Pp)
                     self.c = self.c + g * (rw - ph @ self.c)
                     self.P = self.P - np.outer(g, Pp)
                 self.n_var += 1
-                a = max(1.0 / self.n_var, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
+                # the running mean of r^2 with the prior as prior_n samples, then
+                # exponentially weighted over RES_TAU_S
+                a = max(1.0 / (self.n_var + self.prior_n), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
                 self.r_var += a * (ro * ro - self.r_var)
         if k_test:
             R = max(self.r_var, self.floor ** 2)
@@ -194,7 +230,8 @@ class LateralIdentifier:
         self.prop = prop               # airframe.PitchAero: the propeller's momentum (or None)
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         a_det = family_alpha(p_fa, 2 * tests_per_hour)     # two axes share the budget
-        self.axes = {n: _Axis(n, window, alpha, a_det) for n in AXES}
+        self.axes = {n: _Axis(n, window, alpha, a_det, prior=LAT_RES_PRIOR_RAD, prior_n=LAT_RES_PRIOR_N)
+                     for n in AXES}
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
