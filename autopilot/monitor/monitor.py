@@ -93,6 +93,9 @@ FDI_PARAMS = (
           "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
     Param("FDI_THR_ID", 1.0, 0.0, 1.0, "bool", "throttle fault detection and identification (the "
           "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True),
+    Param("FDI_THR_RPM", 1.0, 0.0, 1.0, "bool", "the throttle's test on the propeller's measured "
+          "speed (ESC telemetry, ESC_TELEMETRY_1_TO_4) when it is delivered, the thrust balance's "
+          "when not; 0 the thrust balance's always (autopilot/monitor/throttle.py)", is_int=True),
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
@@ -410,6 +413,12 @@ class FaultMonitor:
                 step_max = rs
         self._step_max = step_max
         self._evaluate(t_us, armed)
+
+    def observe_rpm(self, sample) -> None:
+        """The propeller's measured speed (an ``RpmSample``, ESC telemetry): the throttle's
+        residual when FDI_THR_RPM is set (autopilot/monitor/throttle.py)."""
+        if self.throttle is not None and self.p["FDI_THR_RPM"] >= 1:
+            self.throttle.measure_rpm(sample.t_us, sample.rpm)
 
     def observe_controls(self, t_us: int, nav_state, controls: tuple, flying: bool) -> None:
         """Once per step after control: the commands sent (aileron, elevator, rudder,

@@ -32,7 +32,22 @@ default flights its residual has a standard deviation of about 0.1 of
 full throttle, so a throttle stuck near the command is seen only once the command moves
 away from it, while one stuck at full is 0.6 above the cruise command at once.
 
-Stage 2 as :func:`.actuator.identify_hist` (stuck at what position, or weakened).
+The rotor's speed measured (ESC telemetry, ``measure_rpm``: sim_bridge/sensors/rpm.py,
+ESC_TELEMETRY_1_TO_4; as ArduPilot's RPM library and PX4's ``esc_status`` read it), the
+thrust balance gives way to the rotor's own: z is the throttle whose steady speed the
+rotor turns at (:meth:`ThrustModel.rotor_throttle` of the measured speed), the
+throttle the rotor delivers, and it is compared with the command through the same
+rotor model (:meth:`ThrustModel.rotor_step`), both low-passed over ``RPM_TAU_S`` (the
+telemetry's noise) instead of BAL_TAU_S: z - that is the residual, tested, learnt and
+identified as the thrust balance's (the same window test, offset fit on
+``[1, V / V_ref - 1]`` and false-alarm budget), its deviation learnt about the offset fit
+as the lateral balance's (:class:`.lateral._Axis` with a prior). The speed does not go
+through the drag polar or the accelerometer: on fault-free default flights this
+residual's deviation is about RPM_RES_SD of full throttle (the rotor model's and the
+airspeed estimate's errors) against the thrust balance's 0.1, so a throttle stuck a
+tenth from the command is seen at once. With no reading for RPM_TIMEOUT_S (none
+fitted, or lost) the thrust balance's residual is tested, as before; it runs, and
+learns, all along.
 """
 from __future__ import annotations
 
@@ -51,6 +66,12 @@ G0 = 9.80665
 THR_RES_FLOOR = 0.05            # floor of the residual standard deviation [full throttle]
 THR_OFFSET_SD = 0.1             # prior standard deviation of the learnt offset [full throttle]
 THR_FIT_NOISE = 0.1             # each 10 Hz fit sample's weight against that prior
+RPM_TAU_S = 0.25                # low-pass of the measured rotor's throttle and the model's [s]
+RPM_TIMEOUT_S = 0.5             # no rotor speed this long: the thrust balance is tested
+RPM_RES_FLOOR = 0.01            # floor of the rotor residual's deviation [full throttle]
+RPM_RES_PRIOR = 0.03            # its deviation before any sample is learnt [full throttle]
+RPM_RES_PRIOR_N = 10            # the warm-up's mean square as a prior worth these samples
+RPM_RES_SD = 0.02               # (measured; the module docstring)
 
 
 @dataclass(frozen=True)
@@ -170,6 +191,14 @@ AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
 
+def _tas(eas: float, alt_m: float) -> float:
+    """True airspeed from the equivalent airspeed at ``alt_m`` of the standard atmosphere
+    (ICAO Doc 7488 troposphere: ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``): the speed
+    the propeller turns with (its advance ratio). On the default mission (584-700 m) the
+    EAS read 0.06 of full throttle high in the rotor's throttle."""
+    return eas / math.sqrt(max(1.0 - 2.25577e-5 * alt_m, 0.1) ** 4.25588)
+
+
 class ThrottleIdentifier:
     """Throttle fault detection and identification (module docstring); the same
     interface as :class:`.lateral.LateralIdentifier` with the one axis "throttle"."""
@@ -177,9 +206,20 @@ class ThrottleIdentifier:
     def __init__(self, model: ThrustModel, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01):
         self.model = model
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
-        self.axes = {"throttle": _Axis("throttle", window, alpha, family_alpha(p_fa, tests_per_hour),
-                                       floor=THR_RES_FLOOR, offset_sd=THR_OFFSET_SD,
-                                       fit_noise=THR_FIT_NOISE)}
+        a_det = family_alpha(p_fa, tests_per_hour)
+        # the thrust balance's residual, and the rotor's when its speed is measured: one
+        # of them is tested at a time (``axes["throttle"]``), so one budget
+        self._thrust_axis = _Axis("throttle", window, alpha, a_det, floor=THR_RES_FLOOR,
+                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE)
+        self._rotor_axis = _Axis("throttle", window, alpha, a_det, floor=RPM_RES_FLOOR,
+                                 offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
+                                 prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N)
+        self.axes = {"throttle": self._thrust_axis}
+        self._rpm = None               # the latest measured rotor speed [rad/s] ...
+        self._rpm_us = None            # ... and its time
+        self._lpr = None               # low-passed (rotor's throttle, model's), RPM_TAU_S
+        self._rpm_start_us = None
+        self._wr = 0.0                 # the rotor model's speed for that residual [rad/s]
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
@@ -194,18 +234,31 @@ class ThrottleIdentifier:
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
-        self.axes["throttle"].queue.clear()
+        self._thrust_axis.queue.clear()
+        self._rotor_axis.queue.clear()
         self._fault_us = t_us - 1_000_000
 
     def suspend(self, on: bool) -> None:
         if on and not self.suspended:
-            self.axes["throttle"].queue.clear()
+            self._thrust_axis.queue.clear()
+            self._rotor_axis.queue.clear()
         self.suspended = on
+
+    def measure_rpm(self, t_us: int, rpm: float) -> None:
+        """The rotor's speed measured at ``t_us`` [rpm] (ESC telemetry)."""
+        self._rpm = rpm * (2.0 * math.pi / 60.0)
+        self._rpm_us = t_us
+
+    @property
+    def rotor_measured(self) -> bool:
+        """The rotor's residual is the one tested (a speed measured recently)."""
+        return self.axes["throttle"] is self._rotor_axis
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> None:
         V = nav.airspeed_mps
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
+            self._lpr = None
             return
         fz, fy = float(f_b[2]), float(f_b[1])
         thr = float(controls[3])
@@ -220,6 +273,27 @@ class ThrottleIdentifier:
                 if dt > 0.0:
                     self._w = m.rotor_step(self._w, thr, V, dt)
             thr = m.rotor_throttle(self._w, V)
+            # the rotor's speed measured: the throttle it delivers, against the model's
+            # (its own rotor state, on the true airspeed: _tas)
+            rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
+            if not rpm_on:
+                self._lpr = None
+            else:
+                vt = _tas(V, nav.alt_m)
+                if self._lpr is None or self._lp is None:
+                    self._wr = m.rotor_speed(float(controls[3]), vt)
+                    self._lpr = [m.rotor_throttle(self._rpm, vt), m.rotor_throttle(self._wr, vt)]
+                    self._rpm_start_us = t_us
+                else:
+                    dt = (t_us - self._t_us) * 1e-6
+                    if dt > 0.0:
+                        self._wr = m.rotor_step(self._wr, float(controls[3]), vt, dt)
+                        a = dt / (RPM_TAU_S + dt)
+                        self._lpr[0] += a * (m.rotor_throttle(self._rpm, vt) - self._lpr[0])
+                        self._lpr[1] += a * (m.rotor_throttle(self._wr, vt) - self._lpr[1])
+            # tested once its offset is learnt (before, the thrust balance's)
+            self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
+                                     else self._thrust_axis)
         elif self._lp is not None and m.tau_s > 0.0:
             # the thrust follows the command with the motor's and propeller's lag
             # (ThrustModel.tau_s): the command through it, as the thrust it asks for
@@ -257,9 +331,13 @@ class ThrottleIdentifier:
         k_test = self._k >= TEST_DIV
         if k_test:
             self._k = 0
-        self.axes["throttle"].step(t_us, np.array((1.0, lp[3] / V_REF - 1.0)), z, lp[4],
-                                   None if self.frozen or self.suspended
-                                   else t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
+        phi = np.array((1.0, lp[3] / V_REF - 1.0))
+        learn = (None if self.frozen or self.suspended
+                 else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
+        self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
+        lpr = self._lpr
+        if lpr is not None and t_us - self._rpm_start_us >= 3.0 * RPM_TAU_S * 1e6:
+            self._rotor_axis.step(t_us, phi, lpr[0], lpr[1], learn, k_test)
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
