@@ -52,6 +52,7 @@ learns, all along.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,6 +100,13 @@ class ThrustModel:
     q_max_nm: float = 0.0      # the speed controller's torque limit [N m]
     rpm: tuple = (0.0, 0.0, 0.0, 0.0)   # steady rpm ~ a + b throttle + c V + d throttle V
     k_idle: float = 0.0        # unpowered propeller's drag torque k omega^2 [N m s^2]
+    # the propeller's power coefficient (its JSBSim file; :meth:`prop_throttle`): diameter,
+    # C_P against the advance ratio J, and its factor against the rpm
+    prop_d_m: float = 0.0
+    cp_j: tuple = ()
+    cp: tuple = ()
+    cp_rpm: tuple = ()
+    cp_rpm_k: tuple = ()
 
     def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
                var_fz: float = 0.0, var_fy: float = 0.0) -> float:
@@ -169,6 +177,30 @@ class ThrustModel:
         w0, s = self._rpm_line(V)
         return min(max((w - w0) / s, 0.0), 1.0)
 
+    def prop_throttle(self, w: float, V: float, rho: float = RHO0) -> float:
+        """The throttle whose shaft power the propeller takes at speed ``w`` [rad/s], true
+        axial airspeed V [m/s] and air density rho [kg/m^3]: ``P = C_P(J) k(rpm) rho n^3
+        D^5`` over ``p_max_w``, n in rev/s, ``J = V / (n D)`` (JSBSim's FGPropeller,
+        "power required", with the propeller file's C_POWER and CP_RPM_FACTOR tables,
+        held at their ends as JSBSim's tables are). The motor gives ``throttle p_max``
+        (FGElectric), so in steady flight this is the throttle the motor delivers."""
+        n = w / (2.0 * math.pi)
+        if n <= 0.0:
+            return 0.0
+        cp = _interp(V / (n * self.prop_d_m), self.cp_j, self.cp)
+        k = _interp(n * 60.0, self.cp_rpm, self.cp_rpm_k)
+        return cp * k * rho * n * n * n * self.prop_d_m ** 5 / self.p_max_w
+
+    def prop_step(self, w: float, throttle: float, V: float, rho: float, dt: float) -> float:
+        """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``, the
+        plant's own rotor: ``I dw/dt = Q_motor - Q_prop``, the motor's torque
+        ``throttle p_max / w`` capped by the speed controller at ``q_max`` (the FCS's
+        esc-power-limit-norm), the propeller's ``P / w`` (:meth:`prop_throttle`)."""
+        wq = max(w, 1.0)
+        q_m = min(self.p_max_w * max(throttle, 0.0) / wq, self.q_max_nm)
+        q_p = self.p_max_w * self.prop_throttle(w, V, rho) / wq
+        return max(w + dt * (q_m - q_p) / self.prop_ixx, 0.0)
+
     def level_drag(self, V: float) -> float:
         """The drag of level, unaccelerated flight at airspeed V [N]."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
@@ -186,17 +218,40 @@ AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0
                                # limit; k_idle from the unpowered propeller's slowing on the
                                # plant (1/rpm rising 1.25e-5 per second, 5500 to 1500 rpm)
                                prop_ixx=3.0e-3, p_max_w=1000.0, q_max_nm=2.5,
-                               rpm=(728.6, 4696.3, 201.04, -93.43), k_idle=3.6e-7)
+                               rpm=(728.6, 4696.3, 201.04, -93.43), k_idle=3.6e-7,
+                               # the APC 18x8E's (sim_bridge/aircraft/engine/APC_18x8E.xml)
+                               prop_d_m=18 * 0.0254,
+                               cp_j=(0, 0.0202, 0.0405, 0.0607, 0.0809, 0.1012, 0.1214, 0.1416,
+                                     0.1619, 0.1821, 0.2023, 0.2226, 0.2428, 0.263, 0.2833,
+                                     0.3035, 0.3237, 0.344, 0.3642, 0.3844, 0.4047, 0.4249,
+                                     0.4451, 0.4654, 0.4856, 0.5058, 0.526, 0.5463, 0.5665, 0.5867),
+                               cp=(0.025, 0.0253, 0.0255, 0.0257, 0.0258, 0.0259, 0.0259, 0.0259,
+                                   0.0258, 0.0257, 0.0254, 0.0251, 0.0247, 0.0242, 0.0236, 0.0229,
+                                   0.0222, 0.0213, 0.0203, 0.0192, 0.0181, 0.0168, 0.0155, 0.0141,
+                                   0.0126, 0.011, 0.0093, 0.0076, 0.0058, 0.004),
+                               cp_rpm=(1000, 2000, 3000, 4000, 5000, 6000, 7000, 8000, 9000,
+                                       10000, 11000, 12000, 13000),
+                               cp_rpm_k=(1.132, 1.036, 0.996, 0.972, 0.964, 0.96, 0.964, 0.972,
+                                         0.984, 1, 1.04, 1.16, 1.396))
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
 
 
-def _tas(eas: float, alt_m: float) -> float:
-    """True airspeed from the equivalent airspeed at ``alt_m`` of the standard atmosphere
-    (ICAO Doc 7488 troposphere: ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``): the speed
-    the propeller turns with (its advance ratio). On the default mission (584-700 m) the
-    EAS read 0.06 of full throttle high in the rotor's throttle."""
-    return eas / math.sqrt(max(1.0 - 2.25577e-5 * alt_m, 0.1) ** 4.25588)
+def _isa_rho(alt_m: float) -> float:
+    """The standard atmosphere's density at ``alt_m`` (ICAO Doc 7488 troposphere:
+    ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``; the plant's is JSBSim's standard one)."""
+    return RHO0 * max(1.0 - 2.25577e-5 * alt_m, 0.1) ** 4.25588
+
+
+def _interp(x: float, xs: tuple, ys: tuple) -> float:
+    """Linear interpolation in a table, held at its ends (as JSBSim's tables)."""
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[-1]:
+        return ys[-1]
+    i = bisect_right(xs, x)
+    x0, x1 = xs[i - 1], xs[i]
+    return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - x0) / (x1 - x0)
 
 
 class ThrottleIdentifier:
@@ -273,24 +328,27 @@ class ThrottleIdentifier:
                 if dt > 0.0:
                     self._w = m.rotor_step(self._w, thr, V, dt)
             thr = m.rotor_throttle(self._w, V)
-            # the rotor's speed measured: the throttle it delivers, against the model's
-            # (its own rotor state, on the true airspeed: _tas)
+            # the rotor's speed measured: the throttle its propeller takes, against the
+            # model rotor's (prop_step) on the command, on the true airspeed and the
+            # density of the standard atmosphere at the height flown
             rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
             if not rpm_on:
                 self._lpr = None
             else:
-                vt = _tas(V, nav.alt_m)
+                rho = _isa_rho(nav.alt_m)
+                vt = V * math.sqrt(RHO0 / rho)
                 if self._lpr is None or self._lp is None:
-                    self._wr = m.rotor_speed(float(controls[3]), vt)
-                    self._lpr = [m.rotor_throttle(self._rpm, vt), m.rotor_throttle(self._wr, vt)]
+                    self._wr = self._rpm          # the model rotor starts where it is measured
+                    z0 = m.prop_throttle(self._rpm, vt, rho)
+                    self._lpr = [z0, z0]
                     self._rpm_start_us = t_us
                 else:
                     dt = (t_us - self._t_us) * 1e-6
                     if dt > 0.0:
-                        self._wr = m.rotor_step(self._wr, float(controls[3]), vt, dt)
+                        self._wr = m.prop_step(self._wr, float(controls[3]), vt, rho, dt)
                         a = dt / (RPM_TAU_S + dt)
-                        self._lpr[0] += a * (m.rotor_throttle(self._rpm, vt) - self._lpr[0])
-                        self._lpr[1] += a * (m.rotor_throttle(self._wr, vt) - self._lpr[1])
+                        self._lpr[0] += a * (m.prop_throttle(self._rpm, vt, rho) - self._lpr[0])
+                        self._lpr[1] += a * (m.prop_throttle(self._wr, vt, rho) - self._lpr[1])
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
                                      else self._thrust_axis)
