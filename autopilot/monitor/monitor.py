@@ -514,7 +514,9 @@ class FaultMonitor:
         for ident in self._act_idents:
             ident.freeze(t_us)
         self.elevator.freeze(t_us)
-        self._ident_next_s = t_s + 1.0
+        # the first identification 1 s on (the throttle's on the rotor's speed later: its
+        # spin-up or down settled, ThrottleIdentifier.first_ident_s)
+        self._ident_next_s = t_s + getattr(self._ident_of(name), "first_ident_s", 1.0)
         self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {name} "
                                               f"(statistic {ratio:.1f}x threshold)"))
         self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} actuator fault isolated"))
