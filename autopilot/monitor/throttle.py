@@ -277,7 +277,7 @@ class ThrottleIdentifier:
                                   offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE)
         self._rotor_axis = _Axis("throttle", window, alpha, a_det, floor=RPM_RES_FLOOR,
                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
-                                 prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N)
+                                 prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N, n_phi=3)
         self.axes = {"throttle": self._thrust_axis}
         self._rpm = None               # the latest measured rotor speed [rad/s] ...
         self._rpm_us = None            # ... and its time
@@ -409,7 +409,10 @@ class ThrottleIdentifier:
         self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
         lpr = self._lpr
         if lpr is not None and t_us - self._rpm_start_us >= 3.0 * RPM_TAU_S * 1e6:
-            self._rotor_axis.step(t_us, phi, lpr[0], lpr[1], learn, k_test)
+            # its offset also on the throttle (a gain): the rotor model's error grows with
+            # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
+            # corrections not modelled: 0.02-0.04 of full throttle low at full)
+            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1], learn, k_test)
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
