@@ -350,7 +350,13 @@ class ThrottleIdentifier:
                 self._lpr = None
             else:
                 rho = _isa_rho(nav.alt_m)
-                vt = V * math.sqrt(RHO0 / rho)
+                # the propeller's axial inflow: the true airspeed times cos(alpha), alpha
+                # from the lift the normal specific force says (as ThrustModel.thrust);
+                # in a 45 deg turn at 22 m/s (alpha about 0.2) V alone read the rotor's
+                # throttle 0.03 low
+                qS = 0.5 * RHO0 * V * V * m.wing_area_m2
+                alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
+                vt = V * math.sqrt(RHO0 / rho) * math.cos(min(max(alpha, -0.3), 0.3))
                 if self._lpr is None or self._lp is None:
                     self._wr = self._rpm          # the model rotor starts where it is measured
                     z0 = m.prop_throttle(self._rpm, vt, rho)
