@@ -37,24 +37,28 @@ ESC_TELEMETRY_1_TO_4; as ArduPilot's RPM library and PX4's ``esc_status`` read i
 thrust balance gives way to the rotor's own. z is the throttle whose power the
 propeller takes at the measured speed (:meth:`ThrustModel.prop_throttle`: JSBSim's
 propeller, ``P = C_P(J) rho n^3 D^5`` with the propeller file's tables, over the
-motor's full power; on the true airspeed and the density of the standard atmosphere at
-the height flown), the throttle the motor delivers; it is compared with the command
-through the same rotor (:meth:`ThrustModel.prop_step`: ``I dw/dt`` the motor's torque,
-capped by the speed controller, less the propeller's), both low-passed over
-``RPM_TAU_S`` (the telemetry's noise) instead of BAL_TAU_S. z - that is the residual,
-tested, learnt and identified as the thrust balance's (the same window test, offset fit
-on ``[1, V / V_ref - 1]``, false-alarm budget and stage 2), its deviation learnt about
-the offset fit as the lateral balance's (:class:`.lateral._Axis` with a prior), and
-tested once that fit has started (before it, the thrust balance's). No drag polar and
-no accelerometer: on fault-free default flights the raw residual's deviation is
-0.016-0.018 of full throttle (seeds 1, 2, 5, 6, 10-60 s, rpm noise included) against
-the thrust balance's 0.1, so a throttle stuck a tenth from the command is seen at once,
-and its stuck position read within a few hundredths. (The linear rpm fit ``rpm`` of
-:meth:`rotor_speed` is 98 rpm rms off the plant, 0.04 of full throttle, and wrong in
-the idle descents where the propeller runs past the J of any thrust: its residual
-alarmed twice in ten flights.) With no reading for RPM_TIMEOUT_S (none fitted, lost,
-or FDI_THR_RPM 0) the thrust balance's residual is tested, exactly as before; it runs,
-and learns, all along.
+motor's full power), the throttle the motor delivers once the rotor has settled; the
+inflow is the true airspeed along the propeller's axis, ``V cos(alpha)`` (alpha from the
+lift, as in :meth:`ThrustModel.thrust`: in a 45 deg turn at 22 m/s V alone read the
+throttle 0.03 low, a false alarm), the density the standard atmosphere's at the height
+flown. It is compared with the command through the same rotor
+(:meth:`ThrustModel.prop_step`: ``I dw/dt`` the motor's torque, capped by the speed
+controller, less the propeller's), both low-passed over ``RPM_TAU_S`` (the telemetry's
+noise) instead of BAL_TAU_S. z - that is the residual, tested and identified as the
+thrust balance's (the same window test, false-alarm budget and stage 2); its offset
+learnt on ``[1, V / V_ref - 1, throttle]`` (a gain term besides: the rotor model's
+error grows with the power), its deviation about that fit as the lateral balance's
+(:class:`.lateral._Axis` with a prior, floor RPM_RES_FLOOR), and tested once that fit
+has started (before it, the thrust balance's). No drag polar and no accelerometer
+force: on fault-free default flights the low-passed residual's deviation is 0.004-0.007
+of full throttle in cruise against the thrust balance's 0.1, so a throttle stuck a
+tenth from the command is seen at once, and its stuck position read within a few
+hundredths (2 s after the detection, RPM_IDENT_S: the rotor's spin-up or down settled).
+The linear rpm fit ``rpm`` of :meth:`rotor_speed` (98 rpm rms off the plant, 0.04 of
+full throttle, and wrong in idle descents, where the propeller runs past the J of any
+thrust) is not used here: its residual alarmed on 2 of 10 flights before the onset.
+With no reading for RPM_TIMEOUT_S (none fitted, lost, or FDI_THR_RPM 0) the thrust
+balance's residual is tested, exactly as before; it runs, and learns, all along.
 """
 from __future__ import annotations
 
