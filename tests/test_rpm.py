@@ -113,3 +113,19 @@ def test_the_rpm_sensor_has_its_own_stream_and_leaves_the_others_as_they_were():
     assert w.faults._rng.bit_generator.state == old[2].bit_generator.state
     assert w.rangefinder._rng.bit_generator.state == old[3].bit_generator.state
     assert w.rpm._rng.bit_generator.state == np.random.default_rng(seq[4]).bit_generator.state
+
+
+def test_ground_station_gets_the_rpm_as_esc_telemetry():
+    from types import SimpleNamespace
+
+    from autopilot.gcs.telemetry import STREAMS, Telemetry
+    assert STREAMS["ESC_TELEMETRY_1_TO_4"][2] == MAV.MAV_DATA_STREAM_EXTRA3
+    v = SimpleNamespace(mav_type=MAV.MAV_TYPE_FIXED_WING, rpm=-1.0)
+    tm = Telemetry(v)
+    # nothing before the ESC has reported; then its rpm on ESC 1, on real bytes
+    assert tm.build("ESC_TELEMETRY_1_TO_4", 0) is None
+    v.rpm = 6543.4
+    m = tm.build("ESC_TELEMETRY_1_TO_4", 0)
+    buf = Codec(1, 1).encode(m)
+    back = MAV.MAVLink(None, 255, 0).decode(bytearray(buf))
+    assert list(back.rpm) == [6543, 0, 0, 0]
