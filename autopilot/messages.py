@@ -80,6 +80,15 @@ class RangeSample:
 
 
 @message
+class RpmSample:
+    """The propeller's speed as its speed controller reports it (ESC telemetry,
+    ESC_TELEMETRY_1_TO_4's ESC 1), at the time of the step it came with."""
+
+    t_us: int
+    rpm: float               # [rpm]
+
+
+@message
 class SensorFrame:
     """Everything the simulator delivered for one lockstep step."""
 
@@ -90,6 +99,7 @@ class SensorFrame:
     airspeed: AirspeedSample | None = None
     gps: GpsFix | None = None
     range: RangeSample | None = None     # a downward rangefinder's reading, when one arrived
+    rpm: RpmSample | None = None         # the propeller's speed (ESC telemetry), when one arrived
 
 
 @message

@@ -89,6 +89,8 @@ LOG_COLUMNS = (
     # the downward rangefinder (guidance/rangefinder.py): its tilt-corrected height above
     # the ground (-1 when out of range or none), the correction a landing applies
     "rng_hagl_m", "rng_corr_m",
+    # the propeller's speed its ESC reports (ESC_TELEMETRY_1_TO_4; -1 none delivered yet)
+    "rpm",
 ) + NAV_COLUMNS + FDI_LOG_COLUMNS  # fault monitor statistics (autopilot/monitor/monitor.py LOG_COLUMNS)
 _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
@@ -167,6 +169,7 @@ class PlaneVehicle(VehicleBase):
         self._launch_ground_m: float | None = None  # the terrain's height there, if known
         self.land_done = False                  # landed (NAV_LAND) and disarmed: no re-arming
         self.rangefinder = RangefinderHeight(params)   # RNGFND1_*, RNGFND_LANDING
+        self.rpm = -1.0                 # the propeller's last reported speed [rpm] (-1 none)
 
     # ------------------------------------------------------------------ arming ---
     def _arming(self, nav: NavState) -> None:
@@ -367,6 +370,11 @@ class PlaneVehicle(VehicleBase):
             else:
                 self.healthy_since_us = None
 
+        if frame.rpm is not None:
+            # the propeller's speed (ESC telemetry): the throttle's monitor only, no control
+            self.rpm = frame.rpm.rpm
+            if self.monitor is not None:
+                self.monitor.observe_rpm(frame.rpm)
         if frame.range is not None and self.rangefinder.enabled:
             # the rangefinder's height, and its correction of a landing's (RNGFND_LANDING)
             land = self._rf_landing()
@@ -654,5 +662,6 @@ class PlaneVehicle(VehicleBase):
             controls[0], controls[1], controls[2], controls[3],
             rf.height_m if rf.height_m is not None else -1.0,
             self.sequencer.land_h_corr_m if self.sequencer is not None else 0.0,
+            self.rpm,
         ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row
             + (self.monitor.log_row() if self.monitor is not None else _FDI_IDLE))

@@ -5,7 +5,8 @@ One lockstep step of ``SimBridge``:
 1. apply the scenario events that are due (faults, as MAV_CMD_INJECT_FAILURE would);
 2. sample the sensors from the plant's truth, pass them through the fault injector, and
    send HIL_GPS / HIL_STATE_QUATERNION / DISTANCE_SENSOR (a rangefinder reading, when
-   one is fitted and due) / HIL_SENSOR (``send_current``);
+   one is fitted and due) / ESC_TELEMETRY_1_TO_4 (the propeller's rpm, likewise) /
+   HIL_SENSOR (``send_current``);
 3. wait for the HIL_ACTUATOR_CONTROLS answering this step;
 4. pass the controls through the actuator faults and advance the plant by one HIL
    period (``advance``), which is ``substeps`` plant integration steps.
@@ -39,10 +40,11 @@ class FaultRecord:
 
 class SimBridge:
     def __init__(self, plant, sensors, link: SimulatorHilEnd, faults=None, events=(),
-                 hil_rate_hz: float = 100.0, vehicle: str = "plane", rangefinder=None):
+                 hil_rate_hz: float = 100.0, vehicle: str = "plane", rangefinder=None, rpm=None):
         self.plant = plant
         self.sensors = sensors
         self.rangefinder = rangefinder     # sensors/rangefinder.py, or None (none fitted)
+        self.rpm = rpm                     # sensors/rpm.py, or None (no ESC telemetry)
         self.link = link
         self.faults = faults
         self.events = sorted(events, key=lambda e: e.at_s)
@@ -106,8 +108,9 @@ class SimBridge:
         readings = self.sensors.sample(self.state)
         if self.faults is not None:
             readings = self.faults.apply(readings)
-        rf = self.rangefinder
-        self.link.send_step(readings, self.state, rf.sample(self.state) if rf is not None else None)
+        rf, rs = self.rangefinder, self.rpm
+        self.link.send_step(readings, self.state, rf.sample(self.state) if rf is not None else None,
+                            rs.sample(self.state) if rs is not None else None)
 
     def advance(self, controls: tuple | None) -> None:
         if controls is not None:

@@ -1,6 +1,7 @@
 """The simulator's end of the PX4 HIL lockstep link (see ``autopilot/link/hil.py`` for
 the exchange). Packs sensor readings and truth into HIL_GPS, HIL_STATE_QUATERNION,
-DISTANCE_SENSOR (a rangefinder reading) and HIL_SENSOR, and waits for the
+DISTANCE_SENSOR (a rangefinder reading), ESC_TELEMETRY_1_TO_4 (the propeller's rpm) and
+HIL_SENSOR, and waits for the
 HIL_ACTUATOR_CONTROLS that answers the step.
 
 Truth: HIL_STATE_QUATERNION goes out every ``truth_div``-th step (1: every step, the
@@ -23,7 +24,7 @@ import time
 
 from autopilot.link.codec import MAV, Codec
 from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_DISTANCE,
-                                ID_GPS, ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
+                                ID_ESC, ID_GPS, ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
                                 SIM_COMPONENT_ID, SIM_SYSTEM_ID)
 
 G0 = 9.80665
@@ -52,6 +53,14 @@ def distance_sensor_values(reading) -> tuple:
             MAV.MAV_SENSOR_ROTATION_PITCH_270, var, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, quality)
 
 
+def esc_telemetry_values(reading, count: int) -> tuple:
+    """ESC_TELEMETRY_1_TO_4's flat values (autopilot/link/hil.py: the field order) of a
+    ``sim_bridge.sensors.rpm.RpmReading``: ESC 1's rpm (rounded, saturated to the
+    field's uint16) and its rolling frame ``count``; the rest 0 (not measured)."""
+    return ((0,) * 16 + (_clamp_int(reading.rpm, 0, 65535), 0, 0, 0)
+            + (count & 0xFFFF, 0, 0, 0))
+
+
 class SimulatorHilEnd:
     def __init__(self, transport, codec: Codec | None = None, answer_timeout_s: float = 1.0,
                  retries: int = 3):
@@ -67,11 +76,13 @@ class SimulatorHilEnd:
         self.armed = False
         self.truth_div = 1         # HIL_STATE_QUATERNION every truth_div-th step (and with GPS); 0 never
         self._steps_sent = 0
+        self._esc_count = 0        # ESC_TELEMETRY_1_TO_4 frames sent (its ``count``)
 
     # --- sending ---------------------------------------------------------------------
-    def send_step(self, readings, truth, range_reading=None) -> None:
+    def send_step(self, readings, truth, range_reading=None, rpm_reading=None) -> None:
         """HIL_GPS (if a fix arrives), HIL_STATE_QUATERNION (module docstring: truth),
-        DISTANCE_SENSOR (if ``range_reading``), then HIL_SENSOR, in one write."""
+        DISTANCE_SENSOR (if ``range_reading``), ESC_TELEMETRY_1_TO_4 (if
+        ``rpm_reading``), then HIL_SENSOR, in one write."""
         enc = self.codec.encode_values
         out = []
         gps = readings.gps
@@ -95,6 +106,9 @@ class SimulatorHilEnd:
             out.append(self._truth_message(truth))
         if range_reading is not None:
             out.append(enc(ID_DISTANCE, distance_sensor_values(range_reading)))
+        if rpm_reading is not None:
+            self._esc_count += 1
+            out.append(enc(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count)))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS

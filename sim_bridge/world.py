@@ -1,14 +1,16 @@
 """Assemble the simulated world of a run: plant, sensors, fault injector, wind, events.
 
 One ``numpy.random.SeedSequence(seed)`` is split into independent streams for the plant
-(turbulence), the sensors, the fault models and the rangefinder, so the same seed gives
-bit-identical runs whichever transport carries the HIL link. (``spawn(4)``'s first three
-children are ``spawn(3)``'s: fitting the rangefinder left the other streams' draws as
-they were.)
+(turbulence), the sensors, the fault models, the rangefinder and the ESC's rpm
+telemetry, so the same seed gives bit-identical runs whichever transport carries the
+HIL link. (``spawn(n + 1)``'s first n children are ``spawn(n)``'s: fitting the
+rangefinder, then the rpm telemetry, left the other streams' draws as they were.)
 
 Rangefinders fitted per airframe (``RANGEFINDERS``): the Aerosonde carries a downward
 lidar (``sensors/rangefinder.py``, sent as DISTANCE_SENSOR); the c172p and the
-quadrotor carry none.
+quadrotor carry none. The Aerosonde's motor reports its propeller's speed
+(``RPM_SENSORS``: ``sensors/rpm.py``, ESC telemetry sent as ESC_TELEMETRY_1_TO_4); the
+c172p and the quadrotor report none.
 """
 from __future__ import annotations
 
@@ -24,10 +26,12 @@ from .bridge import SimBridge
 from .scenario import Wind, load_scenario
 from .sensors import SensorParams, SensorSuite
 from .sensors.rangefinder import Rangefinder, RangefinderParams
+from .sensors.rpm import RpmParams, RpmSensor
 
 QUAD_DT_S = 0.004          # quadrotor plant step = its HIL period (250 Hz)
 QUAD_HIL_RATE_HZ = 250.0
 RANGEFINDERS = {"aerosonde": RangefinderParams()}   # airframe -> its downward rangefinder
+RPM_SENSORS = {"aerosonde": RpmParams()}            # airframe -> its ESC's rpm telemetry
 
 
 @dataclass
@@ -38,25 +42,29 @@ class World:
     events: list
     wind: Wind
     rangefinder: Rangefinder | None = None
+    rpm: RpmSensor | None = None
 
     def bridge(self, transport, vehicle: str = "plane", hil_rate_hz: float = 100.0,
                answer_timeout_s: float = 1.0) -> SimBridge:
         link = SimulatorHilEnd(transport, answer_timeout_s=answer_timeout_s)
         return SimBridge(self.plant, self.sensors, link, self.faults, self.events,
-                         hil_rate_hz=hil_rate_hz, vehicle=vehicle, rangefinder=self.rangefinder)
+                         hil_rate_hz=hil_rate_hz, vehicle=vehicle, rangefinder=self.rangefinder,
+                         rpm=self.rpm)
 
 
 def build_world(home: tuple[float, float, float, float], seed: int, airframe: str = "aerosonde",
                 scenario: Path | None = None, wind: tuple[float, float] | None = None,
                 turbulence: str | None = None, vehicle: str = "plane",
                 sensor_params: SensorParams | None = None, terrain=None,
-                rangefinder: RangefinderParams | None | str = "airframe") -> World:
+                rangefinder: RangefinderParams | None | str = "airframe",
+                rpm: RpmParams | None | str = "airframe") -> World:
     """``home`` = (lat_deg, lon_deg, alt_m, heading_deg). ``wind`` = (speed, from_deg)
     overrides the scenario's steady wind; ``turbulence`` overrides its level.
     ``terrain``: the ground's height, a callable (lat_deg, lon_deg) -> metres MSL or None
     (autopilot.geo.terrain); None: flat at home altitude. ``rangefinder``: the downward
     rangefinder's parameters, None for none, "airframe" (default) the airframe's own
-    (``RANGEFINDERS``; a plane only)."""
+    (``RANGEFINDERS``; a plane only). ``rpm``: the ESC's rpm telemetry, likewise
+    (``RPM_SENSORS``)."""
     events: list = []
     w = Wind(0.0, 0.0, "none")
     if scenario is not None:
@@ -70,7 +78,8 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
         w = Wind(w.speed_mps, w.from_deg, turbulence)
 
     root = np.random.SeedSequence(seed)
-    rng_plant, rng_sensors, rng_faults, rng_range = (np.random.default_rng(s) for s in root.spawn(4))
+    rng_plant, rng_sensors, rng_faults, rng_range, rng_rpm = (np.random.default_rng(s)
+                                                              for s in root.spawn(5))
     sp = sensor_params or SensorParams()
     if vehicle == "quad":
         # the seed's quadrotor model (plants/quadrotor.py), 4 ms steps: one per 250 Hz
@@ -96,4 +105,7 @@ def build_world(home: tuple[float, float, float, float], seed: int, airframe: st
     if isinstance(rangefinder, str):
         rangefinder = RANGEFINDERS.get(airframe)
     rf = Rangefinder(rangefinder, rng_range, home[2], terrain) if rangefinder is not None else None
-    return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w, rf)
+    if isinstance(rpm, str):
+        rpm = RPM_SENSORS.get(airframe)
+    rs = RpmSensor(rpm, rng_rpm) if rpm is not None else None
+    return World(plant, sensors, FaultInjector(rng_faults, sp, dt_s=0.01), events, w, rf, rs)

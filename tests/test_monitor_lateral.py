@@ -4,6 +4,7 @@ stuck control is detected, identified and answered (figures: docs/status.md, "Fa
 and the monitor": stuck aileron, rudder, throttle)."""
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import replace
 from pathlib import Path
@@ -43,6 +44,43 @@ def test_lateral_and_drag_coefficients_are_those_of_the_jsbsim_file():
             assert _values(root, f"aero/moment/{axis}-{term}") == [getattr(m, f"{coef}_{key}")]
     v = _values(root, "aero/aerosonde/CD-alpha")
     assert (v[0], v[2]) == (AEROSONDE_THRUST.CD0, AEROSONDE_THRUST.k_CD)
+
+
+def test_propeller_power_tables_are_those_of_the_jsbsim_file():
+    # GIVEN the propeller's JSBSim file; THEN the rotor model carries its diameter and its
+    # C_POWER and CP_RPM_FACTOR tables
+    root = ET.parse(XML.parent.parent / "engine" / "APC_18x8E.xml").getroot()
+    m = AEROSONDE_THRUST
+    assert float(root.find("diameter").text) * 0.0254 == pytest.approx(m.prop_d_m, abs=1e-12)
+    assert float(root.find("ixx").text) == m.prop_ixx
+    for name, xs, ys in (("C_POWER", m.cp_j, m.cp), ("CP_RPM_FACTOR", m.cp_rpm, m.cp_rpm_k)):
+        rows = [[float(v) for v in line.split()]
+                for line in root.find(f"table[@name='{name}']/tableData").text.strip().splitlines()]
+        assert [r[0] for r in rows] == list(xs) and [r[1] for r in rows] == list(ys)
+
+
+@pytest.mark.parametrize("speed, throttle", [(20.0, 0.3), (25.0, 0.45), (30.0, 1.0)])
+def test_rotor_power_and_spin_up_are_the_plants(speed, throttle):
+    # GIVEN the plant trimmed level at 500 m, then the throttle set and held 3 s
+    from autopilot.monitor.throttle import _isa_rho
+    plant = JSBSimPlane(home=(47.0, 8.0, 500.0, 0.0))
+    c = plant.trim(airspeed_mps=speed, height_m=100.0)
+    m = AEROSONDE_THRUST
+    fdm = plant._fdm
+    w = fdm["propulsion/engine/propeller-rpm"] * math.pi / 30.0
+    worst = 0.0
+    for k in range(30):
+        st = plant.step(replace(c, throttle=throttle), n_steps=int(round(0.1 / plant.dt_s)))
+        rho = _isa_rho(st.alt_m)
+        vt = st.airspeed_mps
+        # the model rotor on the command, beside the plant's
+        w = m.prop_step(w, throttle, vt, rho, 0.1)
+        worst = max(worst, abs(m.prop_throttle(w, vt, rho) - m.prop_throttle(st.rpm * math.pi / 30.0, vt, rho)))
+    # THEN the throttle the plant's propeller takes at its speed is the one set, within
+    # 0.02 (measured 0.001-0.008), and the model rotor's follows the plant's within 0.05
+    # through the step (measured 0.004-0.03)
+    assert abs(m.prop_throttle(st.rpm * math.pi / 30.0, vt, rho) - throttle) <= 0.02
+    assert worst <= 0.05, worst
 
 
 @pytest.mark.parametrize("speed, throttle", [(20.0, 0.3), (25.0, 0.45), (30.0, 1.0)])
@@ -205,8 +243,9 @@ def test_throttle_stuck_at_full_without_height_priority_climbs_away(tmp_path):
 
 def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
     # GIVEN the throttle stuck at 0.3 at 60 s (cruise needs about 0.4: a tenth of the
-    #       throttle is under 3 N of thrust, within the thrust balance's noise)
-    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 80.0)
+    #       throttle is under 3 N of thrust, within the thrust balance's noise), the
+    #       propeller's measured speed not used (FDI_THR_RPM 0: the thrust balance alone)
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 80.0, FDI_THR_RPM=0)
     f = summ["faults"][0]
     # THEN it is found once the airspeed loop has moved the command away from it: within
     #      8 s (measured 5.7 s; the issue's 3 s is not met near the command, docs/status.md),
@@ -222,6 +261,23 @@ def test_throttle_stuck_near_cruise_found_once_the_command_leaves_it(tmp_path):
     a = s.log.arrays()
     late = a["t_s"] >= 70.0
     assert np.abs(a["truth_alt_m"] - a["tgt_alt_m"])[late].max() <= 40.0
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_throttle_stuck_near_cruise_found_within_3s_on_the_rotor_speed(tmp_path, seed):
+    # GIVEN the throttle stuck at 0.3 at 60 s, the propeller's speed measured (ESC
+    #       telemetry); seeds 7 and 8 the thrust balance's slowest (14.8 and 12.7 s)
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 100.0, seed=seed)
+    f = summ["faults"][0]
+    # THEN found on the throttle within 3 s of the onset (whole missions: 2.81 and 2.21 s;
+    #      the command within 0.02 of the stuck 0.3 at the onset, no residual until it
+    #      moves), identified stuck within 0.03 10 s after it and within 0.02 at the end
+    #      (whole missions: 0.293, 0.322; 0.315, 0.291), no false alarm
+    assert f["isolated_all"] == ["throttle"] and f["delay_s"] is not None and f["delay_s"] <= 3.0, f
+    assert abs(f["identified_10s"]["stuck"] - 0.3) <= 0.03, f
+    assert abs(f["identified"]["stuck"] - 0.3) <= 0.02, f
+    assert s.vehicle.monitor.throttle.rotor_measured
+    assert summ["false_alarms"] == 0 and not s.crashed
 
 
 def test_throttle_stuck_near_cruise_height_held_mission_completed(tmp_path):

@@ -37,6 +37,9 @@ STREAMS = {
     "FENCE_STATUS": (MAV.MAVLINK_MSG_ID_FENCE_STATUS, 1.0, S),
     # built by the terrain server (gcs/terrain.py), as ArduPilot's EXTRA3 group has it
     "TERRAIN_REPORT": (MAV.MAVLINK_MSG_ID_TERRAIN_REPORT, 1.0, MAV.MAV_DATA_STREAM_EXTRA3),
+    # once the motor's ESC has reported its rpm (the vehicle's ``rpm``), as ArduPilot
+    # sends its ESC telemetry in the EXTRA3 group
+    "ESC_TELEMETRY_1_TO_4": (MAV.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4, 1.0, MAV.MAV_DATA_STREAM_EXTRA3),
 }
 NAME_BY_ID = {v[0]: k for k, v in STREAMS.items()}
 ONE_SHOT = {MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION: "AUTOPILOT_VERSION"}
@@ -461,7 +464,18 @@ class Telemetry:
             return self.autopilot_version()
         if name == "FENCE_STATUS":
             return self.fence_status()
+        if name == "ESC_TELEMETRY_1_TO_4":
+            return self.esc_telemetry()
         return None
+
+    def esc_telemetry(self):
+        """ESC_TELEMETRY_1_TO_4 with ESC 1's rpm as the motor's ESC last reported it (the
+        HIL link's, autopilot/link/hil.py); None before any (or none fitted)."""
+        rpm = getattr(self.vehicle, "rpm", -1.0)
+        if rpm is None or rpm < 0.0:
+            return None
+        return MAV.MAVLink_esc_telemetry_1_to_4_message([0] * 4, [0] * 4, [0] * 4, [0] * 4,
+                                                        [_i(rpm, 0, 65535), 0, 0, 0], [0] * 4)
 
     def fence_status(self):
         """FENCE_STATUS while the fence is enabled: breached now, how many breaches, the

@@ -5,7 +5,8 @@ Exchange per lockstep step k (simulation time t_k), as PX4 SITL defines it
 
     simulator -> autopilot   HIL_GPS (when a fix arrives), HIL_STATE_QUATERNION (truth,
                              for logging and scoring only), DISTANCE_SENSOR (when a
-                             rangefinder reading is due), then HIL_SENSOR(t_k)
+                             rangefinder reading is due), ESC_TELEMETRY_1_TO_4 (when
+                             an rpm reading is due), then HIL_SENSOR(t_k)
     autopilot -> simulator   HIL_ACTUATOR_CONTROLS(time_usec = t_k)
     simulator                advances the plant from t_k to t_k+1 with those controls
 
@@ -24,6 +25,15 @@ MAV_DISTANCE_SENSOR_LASER, ``orientation`` MAV_SENSOR_ROTATION_PITCH_270 (downwa
 ``covariance`` the variance in cm^2, ``signal_quality`` 100 for a return and 1 ("invalid
 signal") with ``current_distance`` = ``max_distance`` + 1 for none (out of range). It
 belongs to the step whose HIL_SENSOR follows it.
+
+ESC_TELEMETRY_1_TO_4 (ardupilotmega #11030; the dialect has no common ESC_STATUS) is
+what ArduPilot sends for its ESCs' telemetry (AP_ESC_Telem, BLHeli_32 / DShot): per ESC
+1-4 ``temperature`` [degC], ``voltage`` [cV], ``current`` [cA], ``totalcurrent`` [mAh],
+``rpm`` and ``count`` (the ESC's telemetry frames, rolling). The simulator fills ESC 1
+(the plane's one motor, servo instance 3): its ``rpm`` the propeller's speed
+(sim_bridge/sensors/rpm.py) and its ``count``; the rest 0, not measured. It has no
+time field: like DISTANCE_SENSOR it belongs to the step whose HIL_SENSOR follows it, and
+that step's time is its time (:class:`~autopilot.messages.RpmSample`).
 """
 from __future__ import annotations
 
@@ -32,7 +42,7 @@ import math
 import numpy as np
 
 from ..messages import (AirspeedSample, ActuatorOutputs, BaroSample, GpsFix, ImuSample,
-                        MagSample, RangeSample, SensorFrame)
+                        MagSample, RangeSample, RpmSample, SensorFrame)
 from .codec import MAV, Codec
 
 DEG_E7 = 1e7
@@ -56,7 +66,8 @@ ID_GPS = MAV.MAVLINK_MSG_ID_HIL_GPS
 ID_STATE = MAV.MAVLINK_MSG_ID_HIL_STATE_QUATERNION
 ID_ACTUATORS = MAV.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS
 ID_DISTANCE = MAV.MAVLINK_MSG_ID_DISTANCE_SENSOR
-HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE})
+ID_ESC = MAV.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4
+HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_ESC})
 # The lockstep messages travel through the codec's flat fast path: field values in the
 # message definition's declared order, arrays flattened (see Codec.encode_values).
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
@@ -69,6 +80,9 @@ HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE})
 #   DISTANCE_SENSOR: time_boot_ms, min_distance, max_distance, current_distance, type, id,
 #                orientation, covariance, horizontal_fov, vertical_fov, quaternion[4],
 #                signal_quality
+#   ESC_TELEMETRY_1_TO_4: temperature[4], voltage[4], current[4], totalcurrent[4], rpm[4],
+#                count[4]
+ESC_RPM = 16          # ESC 1's rpm in ESC_TELEMETRY_1_TO_4's flat values
 
 
 _MG_TO_MS2 = 9.80665e-3
@@ -101,8 +115,10 @@ def range_sample_from(v) -> RangeSample:
     return RangeSample(int(v[0]) * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, int(v[6]), int(v[14]))
 
 
-def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None) -> SensorFrame:
-    """HIL_SENSOR values (+ a pending HIL_GPS) -> SensorFrame in SI."""
+def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
+                      esc=None) -> SensorFrame:
+    """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
+    values) -> SensorFrame in SI."""
     t_us = int(v[0])
     flags = v[14]
     a = np.array(v[1:10])    # accel, gyro, mag: one array, handed out as views
@@ -113,7 +129,8 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None) -> 
     if flags & DIFF_FLAG:
         dp_pa = v[11] * 100.0
         air = AirspeedSample(t_us, dp_pa, math.sqrt(max(0.0, 2.0 * dp_pa / RHO0)))
-    return SensorFrame(t_us, imu, mag, baro, air, gps, rng)
+    rpm = None if esc is None else RpmSample(t_us, float(esc[ESC_RPM]))
+    return SensorFrame(t_us, imu, mag, baro, air, gps, rng, rpm)
 
 
 def gps_fix_from(v) -> GpsFix:
@@ -139,6 +156,7 @@ class AutopilotHilEnd:
         self._gps: GpsFix | None = None
         self._truth: TruthSample | None = None
         self._range: RangeSample | None = None
+        self._esc = None                 # ESC_TELEMETRY_1_TO_4's values, for the next step
         self._last_t_us: int | None = None
         self._last_answer: bytes | None = None
         self.duplicates = 0
@@ -168,9 +186,10 @@ class AutopilotHilEnd:
                 truth = self._truth
                 if truth is not None and truth.t_us != t_us:
                     truth = None
-                steps.append((sensor_frame_from(v, self._gps, self._range), truth))
+                steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
                 self._gps = None
                 self._range = None
+                self._esc = None
                 self._last_t_us = t_us
             elif mid == ID_STATE:
                 self._truth = TruthSample(msg.values)
@@ -178,6 +197,8 @@ class AutopilotHilEnd:
                 self._gps = gps_fix_from(msg.values)
             elif mid == ID_DISTANCE:
                 self._range = range_sample_from(msg.values)
+            elif mid == ID_ESC:
+                self._esc = msg.values
             elif mid is None:
                 kind = msg.get_type()
                 if kind == "BATTERY_STATUS":

@@ -159,7 +159,8 @@ class _Axis:
 
     def __init__(self, name: str, M: int, alpha: float, alpha_det: float,
                  floor: float = LAT_RES_FLOOR_RAD, offset_sd: float = LAT_OFFSET_SD_RAD,
-                 fit_noise: float = LAT_FIT_NOISE_RAD, prior: float | None = None, prior_n: int = 0):
+                 fit_noise: float = LAT_FIT_NOISE_RAD, prior: float | None = None, prior_n: int = 0,
+                 n_phi: int = 2):
         """``prior``: the residual's standard deviation before any sample (``floor``
         if None), worth ``prior_n`` samples in the variance's running mean. With a
         prior, the variance is that of the residual the offset fit leaves, restarted
@@ -171,8 +172,8 @@ class _Axis:
         self.refit = prior is not None
         self.fitting = False
         self.win = WindowChi2(1, M, alpha, alpha_det)
-        self.c = np.zeros(2)
-        self.P = np.eye(2) * (offset_sd / fit_noise) ** 2
+        self.c = np.zeros(n_phi)       # the offset's terms (n_phi regressors, 2 but the rotor's)
+        self.P = np.eye(n_phi) * (offset_sd / fit_noise) ** 2
         self.r_var = (floor if prior is None else prior) ** 2
         self.n_var = 0
         self.queue: list = []          # (t_us, phi, residual) waiting FIT_DELAY_S

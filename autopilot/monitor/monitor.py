@@ -93,6 +93,9 @@ FDI_PARAMS = (
           "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
     Param("FDI_THR_ID", 1.0, 0.0, 1.0, "bool", "throttle fault detection and identification (the "
           "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True),
+    Param("FDI_THR_RPM", 1.0, 0.0, 1.0, "bool", "the throttle's test on the propeller's measured "
+          "speed (ESC telemetry, ESC_TELEMETRY_1_TO_4) when it is delivered, the thrust balance's "
+          "when not; 0 the thrust balance's always (autopilot/monitor/throttle.py)", is_int=True),
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
@@ -411,6 +414,12 @@ class FaultMonitor:
         self._step_max = step_max
         self._evaluate(t_us, armed)
 
+    def observe_rpm(self, sample) -> None:
+        """The propeller's measured speed (an ``RpmSample``, ESC telemetry): the throttle's
+        residual when FDI_THR_RPM is set (autopilot/monitor/throttle.py)."""
+        if self.throttle is not None and self.p["FDI_THR_RPM"] >= 1:
+            self.throttle.measure_rpm(sample.t_us, sample.rpm)
+
     def observe_controls(self, t_us: int, nav_state, controls: tuple, flying: bool) -> None:
         """Once per step after control: the commands sent (aileron, elevator, rudder,
         throttle; normalised). Feeds the elevator identifier when FDI_ACT_ID is set."""
@@ -505,7 +514,9 @@ class FaultMonitor:
         for ident in self._act_idents:
             ident.freeze(t_us)
         self.elevator.freeze(t_us)
-        self._ident_next_s = t_s + 1.0
+        # the first identification 1 s on (the throttle's on the rotor's speed later: its
+        # spin-up or down settled, ThrottleIdentifier.first_ident_s)
+        self._ident_next_s = t_s + getattr(self._ident_of(name), "first_ident_s", 1.0)
         self.events.append((t_s, SEV_WARNING, f"FDI: fault detected on {name} "
                                               f"(statistic {ratio:.1f}x threshold)"))
         self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} actuator fault isolated"))

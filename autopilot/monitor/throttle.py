@@ -32,11 +32,38 @@ default flights its residual has a standard deviation of about 0.1 of
 full throttle, so a throttle stuck near the command is seen only once the command moves
 away from it, while one stuck at full is 0.6 above the cruise command at once.
 
-Stage 2 as :func:`.actuator.identify_hist` (stuck at what position, or weakened).
+The rotor's speed measured (ESC telemetry, ``measure_rpm``: sim_bridge/sensors/rpm.py,
+ESC_TELEMETRY_1_TO_4; as ArduPilot's RPM library and PX4's ``esc_status`` read it), the
+thrust balance gives way to the rotor's own. z is the throttle whose power the
+propeller takes at the measured speed (:meth:`ThrustModel.prop_throttle`: JSBSim's
+propeller, ``P = C_P(J) rho n^3 D^5`` with the propeller file's tables, over the
+motor's full power), the throttle the motor delivers once the rotor has settled; the
+inflow is the true airspeed along the propeller's axis, ``V cos(alpha)`` (alpha from the
+lift, as in :meth:`ThrustModel.thrust`: in a 45 deg turn at 22 m/s V alone read the
+throttle 0.03 low, a false alarm), the density the standard atmosphere's at the height
+flown. It is compared with the command through the same rotor
+(:meth:`ThrustModel.prop_step`: ``I dw/dt`` the motor's torque, capped by the speed
+controller, less the propeller's), both low-passed over ``RPM_TAU_S`` (the telemetry's
+noise) instead of BAL_TAU_S. z - that is the residual, tested and identified as the
+thrust balance's (the same window test, false-alarm budget and stage 2); its offset
+learnt on ``[1, V / V_ref - 1, throttle]`` (a gain term besides: the rotor model's
+error grows with the power), its deviation about that fit as the lateral balance's
+(:class:`.lateral._Axis` with a prior, floor RPM_RES_FLOOR), and tested once that fit
+has started (before it, the thrust balance's). No drag polar and no accelerometer
+force: on fault-free default flights the low-passed residual's deviation is 0.004-0.007
+of full throttle in cruise against the thrust balance's 0.1, so a throttle stuck a
+tenth from the command is seen at once, and its stuck position read within a few
+hundredths (2 s after the detection, RPM_IDENT_S: the rotor's spin-up or down settled).
+The linear rpm fit ``rpm`` of :meth:`rotor_speed` (98 rpm rms off the plant, 0.04 of
+full throttle, and wrong in idle descents, where the propeller runs past the J of any
+thrust) is not used here: its residual alarmed on 2 of 10 flights before the onset.
+With no reading for RPM_TIMEOUT_S (none fitted, lost, or FDI_THR_RPM 0) the thrust
+balance's residual is tested, exactly as before; it runs, and learns, all along.
 """
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +78,14 @@ G0 = 9.80665
 THR_RES_FLOOR = 0.05            # floor of the residual standard deviation [full throttle]
 THR_OFFSET_SD = 0.1             # prior standard deviation of the learnt offset [full throttle]
 THR_FIT_NOISE = 0.1             # each 10 Hz fit sample's weight against that prior
+RPM_TAU_S = 0.25                # low-pass of the measured rotor's throttle and the model's [s]
+RPM_TIMEOUT_S = 0.5             # no rotor speed this long: the thrust balance is tested
+RPM_RES_FLOOR = 0.005           # floor of the rotor residual's deviation [full throttle]
+RPM_RES_PRIOR = 0.03            # its deviation before any sample is learnt [full throttle]
+RPM_RES_PRIOR_N = 10            # the warm-up's mean square as a prior worth these samples
+RPM_IDENT_S = 2.0               # on the rotor's speed: the first identification this long
+                                # after the detection, the stuck position the last second's
+                                # mean (the rotor's spin-up or down, 0.5 s, and RPM_TAU_S settled)
 
 
 @dataclass(frozen=True)
@@ -78,6 +113,13 @@ class ThrustModel:
     q_max_nm: float = 0.0      # the speed controller's torque limit [N m]
     rpm: tuple = (0.0, 0.0, 0.0, 0.0)   # steady rpm ~ a + b throttle + c V + d throttle V
     k_idle: float = 0.0        # unpowered propeller's drag torque k omega^2 [N m s^2]
+    # the propeller's power coefficient (its JSBSim file; :meth:`prop_throttle`): diameter,
+    # C_P against the advance ratio J, and its factor against the rpm
+    prop_d_m: float = 0.0
+    cp_j: tuple = ()
+    cp: tuple = ()
+    cp_rpm: tuple = ()
+    cp_rpm_k: tuple = ()
 
     def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
                var_fz: float = 0.0, var_fy: float = 0.0) -> float:
@@ -148,6 +190,30 @@ class ThrustModel:
         w0, s = self._rpm_line(V)
         return min(max((w - w0) / s, 0.0), 1.0)
 
+    def prop_throttle(self, w: float, V: float, rho: float = RHO0) -> float:
+        """The throttle whose shaft power the propeller takes at speed ``w`` [rad/s], true
+        axial airspeed V [m/s] and air density rho [kg/m^3]: ``P = C_P(J) k(rpm) rho n^3
+        D^5`` over ``p_max_w``, n in rev/s, ``J = V / (n D)`` (JSBSim's FGPropeller,
+        "power required", with the propeller file's C_POWER and CP_RPM_FACTOR tables,
+        held at their ends as JSBSim's tables are). The motor gives ``throttle p_max``
+        (FGElectric), so in steady flight this is the throttle the motor delivers."""
+        n = w / (2.0 * math.pi)
+        if n <= 0.0:
+            return 0.0
+        cp = _interp(V / (n * self.prop_d_m), self.cp_j, self.cp)
+        k = _interp(n * 60.0, self.cp_rpm, self.cp_rpm_k)
+        return cp * k * rho * n * n * n * self.prop_d_m ** 5 / self.p_max_w
+
+    def prop_step(self, w: float, throttle: float, V: float, rho: float, dt: float) -> float:
+        """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``, the
+        plant's own rotor: ``I dw/dt = Q_motor - Q_prop``, the motor's torque
+        ``throttle p_max / w`` capped by the speed controller at ``q_max`` (the FCS's
+        esc-power-limit-norm), the propeller's ``P / w`` (:meth:`prop_throttle`)."""
+        wq = max(w, 1.0)
+        q_m = min(self.p_max_w * max(throttle, 0.0) / wq, self.q_max_nm)
+        q_p = self.p_max_w * self.prop_throttle(w, V, rho) / wq
+        return max(w + dt * (q_m - q_p) / self.prop_ixx, 0.0)
+
     def level_drag(self, V: float) -> float:
         """The drag of level, unaccelerated flight at airspeed V [N]."""
         qS = 0.5 * RHO0 * V * V * self.wing_area_m2
@@ -165,9 +231,40 @@ AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0
                                # limit; k_idle from the unpowered propeller's slowing on the
                                # plant (1/rpm rising 1.25e-5 per second, 5500 to 1500 rpm)
                                prop_ixx=3.0e-3, p_max_w=1000.0, q_max_nm=2.5,
-                               rpm=(728.6, 4696.3, 201.04, -93.43), k_idle=3.6e-7)
+                               rpm=(728.6, 4696.3, 201.04, -93.43), k_idle=3.6e-7,
+                               # the APC 18x8E's (sim_bridge/aircraft/engine/APC_18x8E.xml)
+                               prop_d_m=18 * 0.0254,
+                               cp_j=(0, 0.0202, 0.0405, 0.0607, 0.0809, 0.1012, 0.1214, 0.1416,
+                                     0.1619, 0.1821, 0.2023, 0.2226, 0.2428, 0.263, 0.2833,
+                                     0.3035, 0.3237, 0.344, 0.3642, 0.3844, 0.4047, 0.4249,
+                                     0.4451, 0.4654, 0.4856, 0.5058, 0.526, 0.5463, 0.5665, 0.5867),
+                               cp=(0.025, 0.0253, 0.0255, 0.0257, 0.0258, 0.0259, 0.0259, 0.0259,
+                                   0.0258, 0.0257, 0.0254, 0.0251, 0.0247, 0.0242, 0.0236, 0.0229,
+                                   0.0222, 0.0213, 0.0203, 0.0192, 0.0181, 0.0168, 0.0155, 0.0141,
+                                   0.0126, 0.011, 0.0093, 0.0076, 0.0058, 0.004),
+                               cp_rpm=(1000, 2000, 3000, 4000, 5000, 6000, 7000, 8000, 9000,
+                                       10000, 11000, 12000, 13000),
+                               cp_rpm_k=(1.132, 1.036, 0.996, 0.972, 0.964, 0.96, 0.964, 0.972,
+                                         0.984, 1, 1.04, 1.16, 1.396))
 
 THRUST_MODELS = {1: AEROSONDE_THRUST}
+
+
+def _isa_rho(alt_m: float) -> float:
+    """The standard atmosphere's density at ``alt_m`` (ICAO Doc 7488 troposphere:
+    ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``; the plant's is JSBSim's standard one)."""
+    return RHO0 * max(1.0 - 2.25577e-5 * alt_m, 0.1) ** 4.25588
+
+
+def _interp(x: float, xs: tuple, ys: tuple) -> float:
+    """Linear interpolation in a table, held at its ends (as JSBSim's tables)."""
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[-1]:
+        return ys[-1]
+    i = bisect_right(xs, x)
+    x0, x1 = xs[i - 1], xs[i]
+    return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - x0) / (x1 - x0)
 
 
 class ThrottleIdentifier:
@@ -177,9 +274,20 @@ class ThrottleIdentifier:
     def __init__(self, model: ThrustModel, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01):
         self.model = model
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
-        self.axes = {"throttle": _Axis("throttle", window, alpha, family_alpha(p_fa, tests_per_hour),
-                                       floor=THR_RES_FLOOR, offset_sd=THR_OFFSET_SD,
-                                       fit_noise=THR_FIT_NOISE)}
+        a_det = family_alpha(p_fa, tests_per_hour)
+        # the thrust balance's residual, and the rotor's when its speed is measured: one
+        # of them is tested at a time (``axes["throttle"]``), so one budget
+        self._thrust_axis = _Axis("throttle", window, alpha, a_det, floor=THR_RES_FLOOR,
+                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE)
+        self._rotor_axis = _Axis("throttle", window, alpha, a_det, floor=RPM_RES_FLOOR,
+                                 offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
+                                 prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N, n_phi=3)
+        self.axes = {"throttle": self._thrust_axis}
+        self._rpm = None               # the latest measured rotor speed [rad/s] ...
+        self._rpm_us = None            # ... and its time
+        self._lpr = None               # low-passed (rotor's throttle, model's), RPM_TAU_S
+        self._rpm_start_us = None
+        self._wr = 0.0                 # the rotor model's speed for that residual [rad/s]
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
@@ -194,18 +302,36 @@ class ThrottleIdentifier:
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
-        self.axes["throttle"].queue.clear()
+        self._thrust_axis.queue.clear()
+        self._rotor_axis.queue.clear()
         self._fault_us = t_us - 1_000_000
 
     def suspend(self, on: bool) -> None:
         if on and not self.suspended:
-            self.axes["throttle"].queue.clear()
+            self._thrust_axis.queue.clear()
+            self._rotor_axis.queue.clear()
         self.suspended = on
+
+    def measure_rpm(self, t_us: int, rpm: float) -> None:
+        """The rotor's speed measured at ``t_us`` [rpm] (ESC telemetry)."""
+        self._rpm = rpm * (2.0 * math.pi / 60.0)
+        self._rpm_us = t_us
+
+    @property
+    def first_ident_s(self) -> float:
+        """The monitor's first identification this long after the detection [s]."""
+        return RPM_IDENT_S if self.rotor_measured else 1.0
+
+    @property
+    def rotor_measured(self) -> bool:
+        """The rotor's residual is the one tested (a speed measured recently)."""
+        return self.axes["throttle"] is self._rotor_axis
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> None:
         V = nav.airspeed_mps
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
+            self._lpr = None
             return
         fz, fy = float(f_b[2]), float(f_b[1])
         thr = float(controls[3])
@@ -220,6 +346,36 @@ class ThrottleIdentifier:
                 if dt > 0.0:
                     self._w = m.rotor_step(self._w, thr, V, dt)
             thr = m.rotor_throttle(self._w, V)
+            # the rotor's speed measured: the throttle its propeller takes, against the
+            # model rotor's (prop_step) on the command, on the true airspeed and the
+            # density of the standard atmosphere at the height flown
+            rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
+            if not rpm_on:
+                self._lpr = None
+            else:
+                rho = _isa_rho(nav.alt_m)
+                # the propeller's axial inflow: the true airspeed times cos(alpha), alpha
+                # from the lift the normal specific force says (as ThrustModel.thrust);
+                # in a 45 deg turn at 22 m/s (alpha about 0.2) V alone read the rotor's
+                # throttle 0.03 low
+                qS = 0.5 * RHO0 * V * V * m.wing_area_m2
+                alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
+                vt = V * math.sqrt(RHO0 / rho) * math.cos(min(max(alpha, -0.3), 0.3))
+                if self._lpr is None or self._lp is None:
+                    self._wr = self._rpm          # the model rotor starts where it is measured
+                    z0 = m.prop_throttle(self._rpm, vt, rho)
+                    self._lpr = [z0, z0]
+                    self._rpm_start_us = t_us
+                else:
+                    dt = (t_us - self._t_us) * 1e-6
+                    if dt > 0.0:
+                        self._wr = m.prop_step(self._wr, float(controls[3]), vt, rho, dt)
+                        a = dt / (RPM_TAU_S + dt)
+                        self._lpr[0] += a * (m.prop_throttle(self._rpm, vt, rho) - self._lpr[0])
+                        self._lpr[1] += a * (m.prop_throttle(self._wr, vt, rho) - self._lpr[1])
+            # tested once its offset is learnt (before, the thrust balance's)
+            self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
+                                     else self._thrust_axis)
         elif self._lp is not None and m.tau_s > 0.0:
             # the thrust follows the command with the motor's and propeller's lag
             # (ThrustModel.tau_s): the command through it, as the thrust it asks for
@@ -257,9 +413,16 @@ class ThrottleIdentifier:
         k_test = self._k >= TEST_DIV
         if k_test:
             self._k = 0
-        self.axes["throttle"].step(t_us, np.array((1.0, lp[3] / V_REF - 1.0)), z, lp[4],
-                                   None if self.frozen or self.suspended
-                                   else t_us - self._t0_us >= FIT_WARMUP_S * 1e6, k_test)
+        phi = np.array((1.0, lp[3] / V_REF - 1.0))
+        learn = (None if self.frozen or self.suspended
+                 else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
+        self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
+        lpr = self._lpr
+        if lpr is not None and t_us - self._rpm_start_us >= 3.0 * RPM_TAU_S * 1e6:
+            # its offset also on the throttle (a gain): the rotor model's error grows with
+            # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
+            # corrections not modelled: 0.02-0.04 of full throttle low at full)
+            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1], learn, k_test)
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
@@ -267,7 +430,10 @@ class ThrottleIdentifier:
     def identified(self, name: str = "throttle", stuck: bool = False) -> dict | None:
         if self._fault_us is None:
             return None
-        recent = None if self._t_us is None else self._t_us - int(IDENT_WIN_S * 1e6)
+        # the stuck position over the last IDENT_WIN_S; on the rotor's speed, which follows
+        # the throttle within a second, over the last second
+        win = RPM_IDENT_S - 1.0 if self.rotor_measured else IDENT_WIN_S
+        recent = None if self._t_us is None else self._t_us - int(win * 1e6)
         r = identify_hist(self.axes["throttle"].hist, self._fault_us, stuck, recent, d_max=1.0)
         if r is not None and "stuck_rad" in r:
             # the throttle is no angle: its stuck position as a fraction of full, clipped

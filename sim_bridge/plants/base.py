@@ -34,6 +34,7 @@ class PlantState:
     rho_kgm3: float = 1.225  # air density at the vehicle [kg/m^3]
     pressure_pa: float = 101325.0  # static pressure at the vehicle [Pa]
     temperature_k: float = 288.15  # static air temperature [K]
+    rpm: float = 0.0        # the propeller's speed [rpm] (0: a plant without one)
 
 
 @message

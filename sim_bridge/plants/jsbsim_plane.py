@@ -193,11 +193,11 @@ class JSBSimPlane:
         instead of this step's (``step``'s means)."""
         if imu is None:
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = [
                 get() for get in self._state_getters]
         else:                                     # (the rates and forces not read twice)
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature) = [
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = [
                 get() for get in self._state_getters_no_imu]
             p, q, r, ax, ay, az = imu
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
@@ -231,6 +231,7 @@ class JSBSimPlane:
             rho_kgm3=rho * SLUGFT3_KGM3,
             pressure_pa=pressure * PSF_PA,
             temperature_k=temperature * RANKINE_K,
+            rpm=rpm,
         )
 
     def step(self, controls: PlaneControls, n_steps: int = 1) -> PlantState:
@@ -459,13 +460,16 @@ class JSBSimPlane:
             "rho": getter("atmosphere/rho-slugs_ft3"),
             "pressure": getter("atmosphere/P-psf"),
             "temperature": getter("atmosphere/T-R"),
+            # the propeller's speed (its engine's: the Aerosonde's electric motor drives
+            # it directly), for the ESC telemetry (sensors/rpm.py)
+            "rpm": getter("propulsion/engine/propeller-rpm"),
             "ecef_x": getter("position/ecef-x-ft"),
             "ecef_y": getter("position/ecef-y-ft"),
             "ecef_z": getter("position/ecef-z-ft"),
         }
         names = ("lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
                  "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
-                 "fz_gear", "rho", "pressure", "temperature")
+                 "fz_gear", "rho", "pressure", "temperature", "rpm")
         imu = ("p", "q", "r", "ax", "ay", "az")
         self._state_getters = tuple(self._n[name] for name in names)
         self._imu_getters = tuple(self._n[name] for name in imu)
