@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 from autopilot.frozen import message
 
+from .readings import next_due_us, period_us
+
 
 @dataclass(frozen=True)
 class RangefinderParams:
@@ -59,7 +61,7 @@ class Rangefinder:
         self._rng = rng
         self.home_alt_m = float(home_alt_m)
         self.terrain = terrain
-        self._period_us = max(1, int(round(1e6 / params.rate_hz)))
+        self._period_us = period_us(params.rate_hz)
         self._next_us: int | None = None
         self._cos_max = math.cos(math.radians(params.tilt_max_deg))
 
@@ -87,9 +89,7 @@ class Rangefinder:
         t_us = state.t_us
         if self._next_us is not None and t_us < self._next_us:
             return None
-        self._next_us = (t_us if self._next_us is None else self._next_us) + self._period_us
-        if self._next_us <= t_us:
-            self._next_us = t_us + self._period_us
+        self._next_us = next_due_us(self._next_us, self._period_us, t_us)
         p = self.params
         n = float(self._rng.standard_normal())    # one draw per reading, whatever it reads
         r = self.true_range_m(state)

@@ -11,6 +11,19 @@ import numpy as np
 from autopilot.frozen import message
 
 
+def period_us(rate_hz: float) -> int:
+    """A sensor's sample period at ``rate_hz`` [us], at least 1."""
+    return max(1, int(round(1e6 / rate_hz)))
+
+
+def next_due_us(next_us: int | None, period: int, t_us: int) -> int:
+    """The time of a sensor's next sample after one taken at ``t_us`` [us]: one period
+    after the one that fell due (its own schedule, not the step's), or after ``t_us``
+    where that is already past (a step longer than the period)."""
+    nxt = (t_us if next_us is None else next_us) + period
+    return nxt if nxt > t_us else t_us + period
+
+
 @message
 class GpsReading:
     """One GNSS fix as the receiver delivers it."""

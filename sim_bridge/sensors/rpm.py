@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 from autopilot.frozen import message
 
+from .readings import next_due_us, period_us
+
 
 @dataclass(frozen=True)
 class RpmParams:
@@ -49,15 +51,13 @@ class RpmSensor:
     def __init__(self, params: RpmParams, rng):
         self.params = params
         self._rng = rng
-        self._period_us = max(1, int(round(1e6 / params.rate_hz)))
+        self._period_us = period_us(params.rate_hz)
         self._next_us: int | None = None
 
     def sample(self, state) -> RpmReading | None:
         t_us = state.t_us
         if self._next_us is not None and t_us < self._next_us:
             return None
-        self._next_us = (t_us if self._next_us is None else self._next_us) + self._period_us
-        if self._next_us <= t_us:
-            self._next_us = t_us + self._period_us
+        self._next_us = next_due_us(self._next_us, self._period_us, t_us)
         n = float(self._rng.standard_normal())     # one draw per reading
         return RpmReading(t_us, max(state.rpm * (1.0 + self.params.noise_frac * n), 0.0))

@@ -45,7 +45,8 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import GpsReading, SensorReadings
+from .readings import GpsReading, SensorReadings, next_due_us
+from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
 _IMU_WHITE = slice(0, 6)      # accel xyz, gyro xyz
@@ -66,10 +67,6 @@ _BLOCK_ROWS = 512
 _DEFAULT_PRESSURE_PA = 101325.0
 _DEFAULT_TEMPERATURE_K = 288.15
 _DEFAULT_RHO_KGM3 = 1.225
-
-
-def _period_us(rate_hz: float) -> int:
-    return max(1, int(round(1e6 / rate_hz)))
 
 
 class SensorSuite:
@@ -275,10 +272,7 @@ class SensorSuite:
             self._dp_pa, self._airspeed_mps,
             baro_updated, mag_updated, arsp_updated, gps)
 
-    @staticmethod
-    def _advance(next_us: int | None, period_us: int, t_us: int) -> int:
-        nxt = (t_us if next_us is None else next_us) + period_us
-        return nxt if nxt > t_us else t_us + period_us
+    _advance = staticmethod(next_due_us)
 
     def _gps_epoch(self, state, n: list[float]) -> None:
         gm, a, qs = self._gps_gm, self._gm_a, self._gm_q
