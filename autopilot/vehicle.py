@@ -18,7 +18,9 @@ Crash detection (AUTO, CRASH_DETECT = 1; after ArduPlane's, which disarms an air
 in AUTO that is not flying when it should be): the launch is the first moment the
 airspeed estimate reaches 0.75 ARSPD_FBW_MIN (ArduPlane's "moving through the air");
 an aircraft not CRASH_ALT above the point where it rested at arming CRASH_LAUNCH_S
-seconds later has failed its launch, and one that, after that, stays below CRASH_GND_ALT
+seconds later, and not climbing towards it (its climb rate, low-passed over
+CRASH_LAUNCH_TAU seconds, under CRASH_LAUNCH_CLIMB: a slow climb-out in thin air or
+gusts is waited for), has failed its launch, and one that, after that, stays below CRASH_GND_ALT
 above that point without climbing (not above home, which DO_SET_HOME may move), or
 stops (airspeed under 0.75 ARSPD_FBW_MIN and ground speed under 1.5 m/s), for
 CRASH_DELAY_S seconds while no landing is flown has touched down outside a landing.
@@ -75,6 +77,8 @@ SEV_EMERGENCY = 0        # MAV_SEVERITY_EMERGENCY (ArduPlane says "Crash detecte
 SEV_INFO = 6             # MAV_SEVERITY_INFO
 CRASH_STOP_GSPD = 1.5   # ground speed under which a stopped aircraft is not moving [m/s] (ArduPlane)
 CRASH_CLIMB = 1.0       # climbing faster than this [m/s] is not resting on the ground
+CRASH_LAUNCH_CLIMB = 0.5  # after the launch, climbing faster than this [m/s] is on its way up
+CRASH_LAUNCH_TAU = 1.0  # ... the climb rate low-passed over this [s], through the gusts
 
 LOG_COLUMNS = (
     "t_s", "armed", "mode", "seq", "leg_id", "kind",
@@ -162,6 +166,8 @@ class PlaneVehicle(VehicleBase):
         self.terminated = False                 # flight termination (the monitor's FDI_EL_TERM)
         self._launch_us: int | None = None      # crash detection: the launch ...
         self._airborne = False                  # ... has been followed by flight
+        self._launch_climb = 0.0                # ... the climb rate since, low-passed [m/s]
+        self._launch_t_us: int | None = None    # ... the step it was last updated
         self._ground_since_us: int | None = None
         self._launch_alt_m: float | None = None  # where the aircraft rested at arming (MSL)
         self.geofence = Geofence(params, "plane")  # fence and rally points (autopilot/fence)
@@ -183,6 +189,7 @@ class PlaneVehicle(VehicleBase):
         self._launch_alt_m = nav.alt_m
         self._launch_ground_m = self._ground_m(nav)
         self._airborne = False
+        self._launch_climb, self._launch_t_us = 0.0, None
 
     def _disarming(self, t_us: int) -> None:
         self.set_mode(PlaneMode.MANUAL, t_us)
@@ -447,11 +454,16 @@ class PlaneVehicle(VehicleBase):
                 self._launch_us = t_us
             return
         if not self._airborne:
+            if self._launch_t_us is not None:
+                a = min(1.0, (t_us - self._launch_t_us) * 1e-6 / CRASH_LAUNCH_TAU)
+                self._launch_climb += a * (-float(nav.v_ned[2]) - self._launch_climb)
+            self._launch_t_us = t_us
             if h >= p["CRASH_ALT"]:
                 self._airborne = True
-            elif (t_us - self._launch_us) * 1e-6 >= p["CRASH_LAUNCH_S"]:
+            elif (t_us - self._launch_us) * 1e-6 >= p["CRASH_LAUNCH_S"] \
+                    and self._launch_climb < CRASH_LAUNCH_CLIMB:
                 self._crashed(t_us, f"not airborne {p['CRASH_LAUNCH_S']:g} s after launch "
-                                    f"(height {h:.1f} m)")
+                                    f"(height {h:.1f} m, climbing {self._launch_climb:.1f} m/s)")
             return
         if self._landing():
             self._ground_since_us = None
