@@ -186,6 +186,28 @@ def test_a_waypoint_at_the_launcher_before_the_takeoff_counts_at_once(tmp_path, 
     assert summary["mission_items_reached"] == summary["mission_items_total"]
 
 
+@pytest.mark.parametrize("b_ne, accept", [((-1200.0, 300.0), 60.0), ((-1200.0, 600.0), 80.0),
+                                           ((1200.0, 300.0), 80.0)])
+def test_the_last_waypoint_of_a_mission_with_no_end_item_is_passed_within_its_radius(
+        tmp_path, b_ne, accept):
+    # a mission that ends at a waypoint (no RTL or landing item: the vehicle goes into
+    # the loiter over home) turning 104-117 degrees towards home there, with its own
+    # acceptance radius: an arc was planned onto a line home that the end of the mission
+    # does not fly, the waypoint counted where that arc began and the loiter turned
+    # away short of it (random-plane seed 371334756: 17.8 m beyond its 78.7 m; these
+    # 11.9, 10.1 and 6.3 m beyond)
+    bn, be = b_ne
+    rows = [(TAKEOFF, 200.0, 0.0, 80.0, 3, 12), (WAYPOINT, bn, be - 900.0, 80.0, 3),
+            (WAYPOINT, bn, be, 80.0, 3, 0, accept)]
+    s, summary = fly(tmp_path, rows, wind=(5.0, 90.0),
+                     duration_s=60.0 + (abs(bn) + 900.0 + abs(be)) / 20.0)
+    a = s.log.arrays()
+    closest = float(np.nanmin(np.hypot(a["truth_n_m"] - bn, a["truth_e_m"] - be)))
+    assert 3 in s.vehicle.sequencer.reached_seqs
+    assert closest <= accept, closest
+    assert summary["invariants"]["waypoints_passed"]["passed"]
+
+
 def test_consecutive_duplicate_waypoints_count_the_second_at_once(tmp_path):
     rows = [(TAKEOFF, None, None, 60, 3), (WAYPOINT, 700, 0, 60, 3), (WAYPOINT, 700, 0, 60, 3),
             (WAYPOINT, 700, 600, 60, 3), (RTL, None, None, 0, 2)]

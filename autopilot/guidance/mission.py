@@ -1058,7 +1058,7 @@ class MissionSequencer:
         out = []
         prev = b_ne
         for it in self._upcoming(n + 4):
-            end = self._line_end(it)
+            end = self._line_end(it, prev)
             if end is None:
                 break
             (pn, pe), short = end
@@ -1071,12 +1071,20 @@ class MissionSequencer:
             prev = (pn, pe)
         return out
 
-    def _line_end(self, it):
-        """(point, short) where the line to navigation item ``it`` goes (None: the end
-        of the mission, RTL home) and how far before that point it ends (a loiter's
-        line ends outside its circle); None where no turn onto it is anticipated."""
-        if it is None or it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return (0.0, 0.0), 0.0
+    def _line_end(self, it, from_ne):
+        """(point, short) where the line to navigation item ``it`` from ``from_ne`` goes
+        and how far before that point it ends (a loiter's line ends outside its circle);
+        None where no turn onto it is anticipated. An RTL item's line goes where its RTL
+        will (home or the rally point nearest ``from_ne``). The end of the mission with
+        no end item (``it`` None) draws no line: the vehicle goes straight into the
+        loiter over home (``_rtl_loiter``), as ArduPlane's RTL mode at a mission's end
+        does, and an arc planned onto a line home was not flown: the last waypoint
+        counted where the arc began and never came within its radius (random-plane
+        seed 371334756: 17.8 m beyond its 78.7 m)."""
+        if it is None:
+            return None
+        if it.command == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return self._rtl_choice(from_ne)[0], 0.0
         if it.command in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) and not self._here(it):
             return self.item_ne(it), 0.0   # (a landing's line is its approach)
         if it.command in LOITER_COMMANDS and not self._here(it):
@@ -1766,17 +1774,23 @@ class MissionSequencer:
         RTL, mission item or mode, goes to the best rally point or home alike), else home.
         ((n, e) from home [m], altitude MSL, or None for RTL_ALT's)."""
         if self._rtl_dest is None:
-            rally = None
-            if self.rally_point is not None:
-                lat, lon, _ = self.frame.to_geodetic_fast((p_ne[0], p_ne[1], 0.0))
-                rally = self.rally_point(math.degrees(lat), math.degrees(lon))
-            if rally is None:
-                self._rtl_dest = ((0.0, 0.0), None)
-            else:
-                q = self.frame.to_ned_fast(math.radians(rally[0]), math.radians(rally[1]), self.frame.alt0_m)
-                self._rtl_dest = ((float(q[0]), float(q[1])), rally[2])
+            ne, alt, rally = self._rtl_choice(p_ne)
+            self._rtl_dest = (ne, alt)
+            if rally is not None:
                 self.say(t_us, SEV_INFO, f"RTL: to rally point {rally[0]:.7f} {rally[1]:.7f}")
         return self._rtl_dest
+
+    def _rtl_choice(self, p_ne) -> tuple:
+        """``rtl_destination``'s choice from ``p_ne``, neither kept nor said: (n, e),
+        altitude MSL or None, and the rally point (lat, lon, alt) or None for home."""
+        rally = None
+        if self.rally_point is not None:
+            lat, lon, _ = self.frame.to_geodetic_fast((p_ne[0], p_ne[1], 0.0))
+            rally = self.rally_point(math.degrees(lat), math.degrees(lon))
+        if rally is None:
+            return (0.0, 0.0), None, None
+        q = self.frame.to_ned_fast(math.radians(rally[0]), math.radians(rally[1]), self.frame.alt0_m)
+        return (float(q[0]), float(q[1])), rally[2], rally
 
     def _rtl(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         """Fly the leg to home (or the nearest rally point, ``rtl_destination``), then
