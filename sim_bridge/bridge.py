@@ -36,6 +36,7 @@ class FaultRecord:
     instance: int
     accepted: bool
     source: str          # "scenario" | "mavlink"
+    held: float | None = None   # a stuck servo's or motor's position (normalised command)
 
 
 class SimBridge:
@@ -74,7 +75,10 @@ class SimBridge:
         ok = False
         if self.faults is not None:
             ok = bool(self.faults.inject(unit, ftype, instance, **magnitudes))
-        self.fault_log.append(FaultRecord(self.t_us * 1e-6, unit, ftype, instance, ok, source))
+        held = None
+        if ok and ftype == "stuck":
+            held = self.faults.held_position(unit, instance)
+        self.fault_log.append(FaultRecord(self.t_us * 1e-6, unit, ftype, instance, ok, source, held))
         return ok
 
     def _apply_due_events(self) -> None:

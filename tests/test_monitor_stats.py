@@ -62,8 +62,9 @@ def test_noise_scale_factors():
 
 
 class _R:
-    def __init__(self, at_s, unit, type, instance=0, accepted=True):
+    def __init__(self, at_s, unit, type, instance=0, accepted=True, held=None):
         self.at_s, self.unit, self.type, self.instance, self.accepted = at_s, unit, type, instance, accepted
+        self.held = held
 
 
 def test_fault_figures_pair_injections_with_detections():
@@ -76,6 +77,26 @@ def test_fault_figures_pair_injections_with_detections():
     assert f["faults"][0]["isolated"] == "gps_pos"
     assert f["faults"][1]["cleared_s"] == 133.0
     assert f["false_alarms"] == 2          # 20 s and 200 s; 138 s is the fault's aftermath
+
+
+def test_a_stuck_surface_is_timed_from_when_the_command_leaves_it():
+    # GIVEN the elevator stuck at 0.10 rad (0.2857 of its travel) from 100 s, the
+    # command within 0.015 rad of it until 104 s and 0.03 rad away from then, and the
+    # detection at 105.5 s; an aileron stuck where the command never goes
+    t = np.arange(0.0, 200.0, 0.02)
+    held = 0.10 / 0.35
+    elev = np.where(t < 104.0, held + 0.015 / 0.35, held + 0.03 / 0.35)
+    ail = np.full_like(t, -0.2)
+    log = [_R(100.0, "servo", "stuck", 1, held=held), _R(150.0, "servo", "stuck", 0, held=0.2)]
+    eps = [Episode(105.5, "elevator", "elevator", 105.5, 140.0)]
+    f = fault_figures(log, eps, 200.0, t, None, None, (ail, elev, ail, ail))
+    # THEN the elevator's delay is 5.5 s from the onset and 1.5 s from the departure
+    e = f["faults"][0]
+    assert e["delay_s"] == pytest.approx(5.5)
+    assert e["departed_s"] == pytest.approx(4.0) and e["delay_departed_s"] == pytest.approx(1.5)
+    # and the aileron's command was 0.4 of travel away at once: departed at the onset
+    a = f["faults"][1]
+    assert a["departed_s"] == pytest.approx(0.0) and a["delay_departed_s"] is None
 
 
 def test_family_alpha_bounds_the_false_alarms_of_repeated_overlapping_window_tests():

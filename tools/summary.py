@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from autopilot.mission.items import TERRAIN_FRAMES
+from sim_bridge.faults.catalogue import MAX_DEFLECTION_RAD
 
 CAPTURE_M = 10.0
 KIND_LINE, KIND_LOITER, KIND_TAKEOFF, KIND_DIRECT = 2, 3, 1, 4
@@ -152,6 +153,7 @@ def nav_figures(a: dict, gps_latency_s: float, fault_log=()) -> dict:
 
 # --- fault monitor (autopilot/monitor) ----------------------------------------------
 FAULT_GRACE_S = 10.0   # a detection this soon after a fault's "ok" is its aftermath
+DEPART_NORM = 0.02 / MAX_DEFLECTION_RAD   # a command this far from a stuck servo has left it (0.02 rad)
 
 
 def _fault_spans(fault_log, end_s: float) -> list[tuple]:
@@ -170,7 +172,7 @@ def _fault_spans(fault_log, end_s: float) -> list[tuple]:
     return spans
 
 
-def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None) -> dict:
+def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None, ctl=None) -> dict:
     """``faults``: one entry per injected event with ``at_s``, ``unit``, ``type``,
     ``instance``, ``detected_s`` (start of the first monitor detection at or after the
     injection and before the fault ended, or one already running; null if none),
@@ -186,7 +188,13 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None) 
     log sample): ``nav_pos_h_rms_during_fault_m`` over the sensor-fault spans. With
     ``h`` (true height above home per log sample) an actuator fault (servo, motor) gets
     ``height_at_onset_m`` and ``height_lost_m`` (that height less the lowest one until
-    the fault ended or the flight did)."""
+    the fault ended or the flight did). With ``ctl`` (the commanded servo channels per
+    log sample, normalised) a stuck servo gets ``departed_s``: seconds from the onset to
+    the first command DEPART_NORM (0.02 rad of surface) or more away from where the
+    servo is held, null if the command never left it (a surface stuck where it is
+    being flown acts as commanded: nothing to detect until the command moves away),
+    and ``delay_departed_s``, the detection that long after that departure (0 if
+    before it)."""
     spans = _fault_spans(fault_log, end_s)
     out = []
     for r in fault_log:
@@ -216,6 +224,20 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None) 
                         if t_id <= r.at_s + 10.0 + 1e-9:
                             e["identified_10s"] = ident
                     break
+            if ctl is not None and t_s is not None and r.unit == "servo" and r.type == "stuck" \
+                    and r.instance < len(ctl) and len(t_s):
+                i0 = int(np.searchsorted(t_s, r.at_s))
+                i1 = int(np.searchsorted(t_s, stop, side="right"))
+                cmd = np.asarray(ctl[r.instance][i0:i1], dtype=float)
+                held = r.held if getattr(r, "held", None) is not None else (cmd[0] if len(cmd) else None)
+                e["departed_s"] = e["delay_departed_s"] = None
+                if held is not None:
+                    away = np.flatnonzero(np.abs(cmd - held) >= DEPART_NORM)
+                    if away.size:
+                        t_dep = float(t_s[i0 + away[0]])
+                        e["departed_s"] = round(t_dep - r.at_s, 3)
+                        if e["detected_s"] is not None:
+                            e["delay_departed_s"] = round(max(e["detected_s"] - t_dep, 0.0), 3)
             if h is not None and t_s is not None and r.unit in ("servo", "motor") and len(t_s):
                 i0 = int(np.searchsorted(t_s, r.at_s))
                 i1 = int(np.searchsorted(t_s, stop, side="right"))
@@ -473,7 +495,9 @@ def run_summary(session) -> dict:
         eh = np.hypot(a["est_n_m"] - a["truth_n_m"], a["est_e_m"] - a["truth_e_m"])
         home = getattr(v, "home_truth_alt_m", None)
         h = a["truth_alt_m"] - home if home is not None else None
-        s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh, h))
+        ctl = tuple(a[k] for k in ("ctl_aileron", "ctl_elevator", "ctl_rudder", "ctl_throttle")) \
+            if "ctl_elevator" in a else None
+        s.update(fault_figures(session.bridge.fault_log, mon.episodes, sim_time, a["t_s"], eh, h, ctl))
         # the healthy margin: largest detection statistic / threshold per channel while
         # no fault was detected (> 1 would have been a detection)
         s["fdi_peak_ratio"] = {k: round(v, 3) for k, v in sorted(getattr(mon, "peaks", {}).items())}

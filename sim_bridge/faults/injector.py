@@ -183,6 +183,19 @@ class FaultInjector:
         self._actuator_faults[channel] = ActiveFault(u, t, instance, mags, held=held)
         return True
 
+    def held_position(self, unit, instance: int) -> float | None:
+        """Where a stuck servo or motor of ``instance`` is held (normalised command), or
+        None (no such fault, or held at a command not yet seen)."""
+        u = unit_name(unit)
+        if u == "servo":
+            channel = instance
+        elif u == "motor" and 0 <= instance < len(self.motor_channels):
+            channel = self.motor_channels[instance]
+        else:
+            return None
+        f = self._actuator_faults.get(channel)
+        return None if f is None or f.type != "stuck" else f.held
+
     def clear_all(self) -> None:
         self._sensor_faults.clear()
         self._gps_fault = None
