@@ -31,7 +31,7 @@ OPTIONAL_KEY_PATTERNS = (
     "faults.#.at_s", "faults.#.unit", "faults.#.type", "faults.#.instance",
     "faults.#.detected_s", "faults.#.delay_s", "faults.#.isolated", "faults.#.isolated_s",
     "faults.#.isolated_all", "faults.#.isolated_all.#", "faults.#.height_at_onset_m",
-    "faults.#.height_lost_m",
+    "faults.#.height_lost_m", "faults.#.departed_s", "faults.#.delay_departed_s",
     "faults.#.kind", "faults.#.cleared_s", "faults.#.identified.*", "faults.#.identified_10s.*",
     "faults.#.identified", "faults.#.identified_10s",
     "faults_injected.#.at_s", "faults_injected.#.unit", "faults_injected.#.type",
