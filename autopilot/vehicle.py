@@ -63,6 +63,9 @@ GUIDANCE_PARAMS = (
     Param("TKOFF_ALT_TOL", 5.0, 0.0, 50.0, "m", "takeoff complete this close to its altitude"),
     Param("TKOFF_LVL_ALT", 15.0, 0.0, 100.0, "m", "bank limited to TKOFF_LVL_BANK below this height"),
     Param("TKOFF_LVL_BANK", 10.0, 0.0, 45.0, "deg", "bank limit just after launch"),
+    Param("GROUND_STEER_ALT", 0.0, 0.0, 10.0, "m", "a take-off below this height above where the aircraft rested at arming is on its wheels: wings level, the rudder (nose wheel) steering the take-off heading (0: off, a catapult launch)"),
+    Param("GSTEER_KP", 4.0, 0.0, 10.0, "1/rad", "ground steering: heading error to rudder"),
+    Param("GSTEER_KD", 1.0, 0.0, 10.0, "s/rad", "ground steering: yaw rate to rudder"),
     Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
 )
 
@@ -79,6 +82,7 @@ CRASH_STOP_GSPD = 1.5   # ground speed under which a stopped aircraft is not mov
 CRASH_CLIMB = 1.0       # climbing faster than this [m/s] is not resting on the ground
 CRASH_LAUNCH_CLIMB = 0.5  # after the launch, climbing faster than this [m/s] is on its way up
 CRASH_LAUNCH_TAU = 1.0  # ... the climb rate low-passed over this [s], through the gusts
+GSTEER_LINE_M = 25.0    # ground steering: back onto the runway's line over this distance [m]
 
 LOG_COLUMNS = (
     "t_s", "armed", "mode", "seq", "leg_id", "kind",
@@ -604,7 +608,7 @@ class PlaneVehicle(VehicleBase):
         p_ne = (pn, pe)
         self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
         pitch_min = pitch_max = climb = None
-        throttle = None
+        throttle = rudder = None
         if tgt.land == "go_around":
             pitch_min = math.radians(p["TKOFF_PITCH"]) if tgt.alt_m - nav.alt_m > p["TKOFF_ALT_TOL"] else None
         if tgt.land in ("flare", "rollout", "ground"):
@@ -621,6 +625,21 @@ class PlaneVehicle(VehicleBase):
             pitch_min = tgt.pitch_min_rad
             throttle = p["THR_MAX"]
             self.xtrack_m = 0.0
+            if p["GROUND_STEER_ALT"] > 0.0 and self._launch_alt_m is not None \
+                    and nav.alt_m - self._launch_alt_m < p["GROUND_STEER_ALT"]:
+                # on the wheels (ArduPlane's ground steering, GROUND_STEER_ALT): a bank
+                # asked of an aircraft on its gear rolls it at the lift-off, and only the
+                # nose wheel and rudder turn it; the heading held on the rudder
+                bank = 0.0
+                start = self.sequencer._takeoff_start_ne if self.sequencer is not None else None
+                if start is not None:
+                    # back onto the runway's line (the take-off heading through where the
+                    # roll began), not only parallel to it
+                    h0 = tgt.heading_rad
+                    xt = -(pn - start[0]) * math.sin(h0) + (pe - start[1]) * math.cos(h0)
+                    err = wrap_pi(err - math.atan(xt / GSTEER_LINE_M))
+                rudder = p["GSTEER_KP"] * err - p["GSTEER_KD"] * float(nav.omega_b[2])
+                rudder = max(min(rudder, 1.0), -1.0)
         elif tgt.kind in ("line", "direct"):
             cmd = self.l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
             bank = cmd.bank_rad
@@ -639,7 +658,7 @@ class PlaneVehicle(VehicleBase):
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
                                 euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
                                 climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None,
-                                spd_weight=tgt.spd_weight)
+                                spd_weight=tgt.spd_weight, rudder_override=rudder)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step

@@ -111,3 +111,7 @@ def test_stock_c172p_stays_selectable_and_flies_its_circuit():
     assert summary["completed"] is True and not summary["crashed"]
     assert summary["alt_rms_m"] <= 5.0
     assert s.params["TRIM_ARSPD"] == 45.0
+    # its take-off roll (about 18 s on the wheels) is no ground contact: that is scored
+    # from the lift-off (it was scored from 5 s after the start, on the runway: 0.01 m)
+    inv = summary["invariants"]["no_ground_contact"]
+    assert inv["passed"], inv

@@ -76,8 +76,10 @@ concerned, ``"seq"``, or null):
   a waypoint the sequencer counts is one the vehicle went to, as ArduPlane's is (its
   turn anticipation is capped at WP_RADIUS). Figure: the largest closest approach
   beyond the item's radius [m] (negative: every one within it), ``seq`` the item.
-* ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins to the start
-  of a landing (the quad's land phase), the true height above home stays above
+* ``no_ground_contact``: from ``LAUNCH_GRACE_S`` after the take-off begins, and the
+  aircraft ``LIFTOFF_M`` above home (a runway take-off's ground roll is longer than the
+  grace), to the start of a landing (the quad's land phase), the true height above home
+  stays above
   ``CONTACT_M``, and the run did not end in a crash (the runner's ``crashed``: the
   fixed-wing's crash detection, or back on the ground). Figure: the lowest true height
   in that span (from the launch, for a crash before its end) [m].
@@ -117,6 +119,7 @@ TIME_SLACK_S = 60.0
 ORBIT_MIN_GS = {"plane": 2.0, "quad": 1.0}
 ORBIT_MAX_TURNS = 2.0
 LAUNCH_GRACE_S = 5.0
+LIFTOFF_M = 1.0          # off the ground: this high above home (tools/runner.py's LEFT_GROUND_M)
 CONTACT_M = {"plane": 0.5, "quad": 0.2}
 HEIGHT_FLOOR_M = {"plane": 20.0, "quad": 1.5}
 ATTITUDE_MARGIN_DEG = {"plane": 10.0, "quad": 5.0}
@@ -485,7 +488,11 @@ def check_invariants(a: dict, mission: Mission, vehicle: str, events, *, complet
         t_launch = float(t[np.flatnonzero(flying)[0]]) if flying.any() else math.inf
         # armed or not: an aircraft disarmed by its crash detection is on the ground
         after = (t >= t_launch) & (t < t_land) & np.isfinite(h)
-        span = after & (t >= t_launch + LAUNCH_GRACE_S)
+        # a runway take-off rolls on its wheels far longer than a catapult shot takes to
+        # climb away: the span starts once the aircraft has also left the ground
+        up = np.flatnonzero(after & (h >= LIFTOFF_M))
+        t_up = float(t[up[0]]) if up.size else math.inf
+        span = after & (t >= max(t_launch + LAUNCH_GRACE_S, t_up))
         if not span.any() and crashed:
             span = after                     # never got going: from the launch on
         low = float(np.min(h[span])) if span.any() else None

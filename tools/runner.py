@@ -35,6 +35,8 @@ DEFAULT_SCENARIO = MISSIONS_DIR / "default_scenario.toml"
 QUAD_DEFAULT_MISSION = MISSIONS_DIR / "quad_default.waypoints"
 LAUNCH_INTO_WIND_MPS = 3.0       # a wind this strong: the launcher points into it ...
 LAUNCH_MAX_TAILWIND_MPS = 1.0    # ... and so does any wind blowing this much along the shot
+LEFT_GROUND_M = 1.0              # off the ground this high above where it rested: flying (a
+                                 # wheeled take-off's hop in a gust is not, nor its landing a crash)
 
 
 @dataclass
@@ -243,7 +245,10 @@ class Session:
             self.crashed = True  # the vehicle's crash detection disarmed it
             return True
         st = self.bridge.state
-        if not st.on_ground and not self.plant.on_launcher:
+        if self._rest_alt_m is None:
+            self._rest_alt_m = st.alt_m
+        if not st.on_ground and not self.plant.on_launcher \
+                and st.alt_m - self._rest_alt_m >= LEFT_GROUND_M:
             self._left_ground = True
         if self.vehicle.armed and st.on_ground and self._left_ground \
                 and (seq is None or seq.landing is None):   # (touching down in a landing is no crash)
@@ -252,6 +257,7 @@ class Session:
         return False
 
     _left_ground = False     # the aircraft has been off its launcher / runway
+    _rest_alt_m = None       # where it rested at the start [m]: the height it flew from
 
     def run(self) -> None:
         with settled_heap():   # the objects built so far kept out of the collector (autopilot/heap.py)

@@ -205,13 +205,18 @@ class FixedWingController:
                climb_override: float | None = None,
                pitch_max_rad: float | None = None,
                climb_kp: float | None = None,
-               spd_weight: float = 1.0) -> tuple[float, float, float, float]:
+               spd_weight: float = 1.0,
+               rudder_override: float | None = None) -> tuple[float, float, float, float]:
         """``climb_override``: fly this climb rate [m/s] instead of the altitude (the
         landing flare: height, not airspeed, is what matters then, so no speed
         priority), with the proportional gain ``climb_kp`` if given;
         ``pitch_max_rad``: a pitch ceiling below PTCH_LIM_MAX_DEG; ``spd_weight``
         scales the speed priority (0 on a landing's short final: the pitch holds the glide
-        slope, the throttle the airspeed; guidance/landing.py TECS_LAND_SPDWGT)."""
+        slope, the throttle the airspeed; guidance/landing.py TECS_LAND_SPDWGT);
+        ``rudder_override``: on the wheels (a runway's take-off roll), the rudder the
+        ground steering asks, and the roll loop's integrator held at zero (the wings
+        cannot roll on the gear: it would wind up against it and roll the aircraft at
+        the lift-off)."""
         p = self.params
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b.tolist()
@@ -325,11 +330,15 @@ class FixedWingController:
 
         # inner loops
         da = self.roll_pid.update(phi_c, roll, dt, rate=omega[0], scale=scale)
+        if rudder_override is not None:
+            self.roll_pid.integ = 0.0
         de_ff = p["ELEV_TRIM"] * min(q_ratio, 2.0)
         de = self.pitch_pid.update(theta_c, pitch, dt, rate=omega[1], feedforward=de_ff,
                                    scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
         dr = min(max(p["YAW_KD"] * (r_c - omega[2]), -1.0), 1.0)
+        if rudder_override is not None:
+            dr = rudder_override
         if so is not None:
             # aileron or rudder out: the other surface at the deflection that holds the
             # wings level against it (the airframe's model), the roll loop on top of it;

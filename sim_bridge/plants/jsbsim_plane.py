@@ -37,7 +37,9 @@ Controls (``PlaneControls``, as documented in base.py) map to JSBSim commands:
 aileron +1 -> fcs/aileron-cmd-norm +1 (roll right); elevator +1 (nose up) ->
 fcs/elevator-cmd-norm -1 (JSBSim's positive elevator is stick forward, nose down);
 rudder +1 (nose right) -> fcs/rudder-cmd-norm -1 (JSBSim's positive rudder deflection
-yaws the nose left in both airframes); throttle 0..1 -> fcs/throttle-cmd-norm.
+yaws the nose left in both airframes), and the nose wheel with it, rudder +1 ->
+fcs/steer-cmd-norm +1 (nose right, as the c172p's pedals steer it; the Aerosonde's
+contacts do not steer); throttle 0..1 -> fcs/throttle-cmd-norm.
 Table E.2 makes the Aerosonde's rudder a stronger roll than yaw effector
 (C_ldr 0.105, C_ndr -0.032): rudder +1 yaws the nose right but also rolls left.
 
@@ -477,6 +479,7 @@ class JSBSimPlane:
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
+        self._set_steer = setter("fcs/steer-cmd-norm")
         self._set_throttle = setter("fcs/throttle-cmd-norm")
         self._set_gust = (setter("atmosphere/gust-north-fps"),
                           setter("atmosphere/gust-east-fps"),
@@ -489,6 +492,7 @@ class JSBSimPlane:
         self._set_aileron(controls.aileron)
         self._set_elevator(-controls.elevator)
         self._set_rudder(-controls.rudder)
+        self._set_steer(controls.rudder)
         self._set_throttle(controls.throttle)
 
     def _refresh(self) -> None:
