@@ -5,8 +5,9 @@ The elevator identifier learns its balance online; with the airframe's own model
 prior it is armed from launch instead of after a minute and a half of healthy flight.
 The coefficients are those of the aircraft's JSBSim file (the Aerosonde of Beard &
 McLain, Small Unmanned Aircraft, 2012, table E.2, in
-``sim_bridge/aircraft/aerosonde/aerosonde.xml``; tests/test_monitor_airframe.py reads
-the file and checks they agree). The autopilot does not read the simulator's file: a
+``sim_bridge/aircraft/aerosonde/aerosonde.xml``; JSBSim's Cessna 172P, the jsbsim
+package's ``aircraft/c172p/c172p.xml``: :data:`C172P`; tests/test_monitor_airframe.py
+reads the files and checks they agree). The autopilot does not read the simulator's file: a
 real aircraft's autopilot carries its airframe's model, it does not open the wind
 tunnel's.
 
@@ -182,19 +183,22 @@ AEROSONDE = PitchAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, chord_m=0.18
 # * The elevator, Cmde -1.122, acts on ``aero/function/qbar-induced-psf``: the dynamic
 #   pressure of the free stream plus the propeller's slipstream, which by JSBSim's
 #   momentum theory (u + 2 v_i)^2 = u^2 + 2 T / (rho A) is ``qbar + T / A`` (A the
-#   75 in disc). The wash 1.26 is that ratio at the cruise trim (45 m/s equivalent, 0.65
-#   throttle, 750 N); at full throttle in the climb-out it is 1.6-2.0, and the
-#   effectiveness the model gives is that much low there (where the elevator is near
-#   zero: 0.005-0.011 rad off in the circuit's climb, docs/monitor.md).
+#   75 in disc). The wash 1.245 is that ratio at the cruise trim (45 m/s equivalent,
+#   0.65 throttle); in level flight it is 1 + S C_D / A (1.20 at 65 m/s, 1.40 at 35), at
+#   full throttle in the climb-out 1.6-2.0. It multiplies the elevator's moment, and the
+#   balance (B) is linear: there the model reads the surface 0.005-0.011 rad off, and
+#   in slow flight at full throttle (25-30 m/s) about twice a nose-up deflection
+#   (docs/monitor.md).
 # * The autopilot's elevator: +1 nose up is fcs/elevator-cmd-norm -1, which the FCS
-#   maps to -28 deg (and -1 nose down to +23 deg): 0.489 rad of surface for the
-#   autopilot's 0.35 nose up, 0.401 nose down. The balance is linear in one gain: the
-#   mean, 1.271 rad of surface per autopilot rad (the monitor's rad for the c172p are
-#   0.35 rad per normalised command, as the fault scenarios' value_rad): nose up the
-#   surface is 9.9 % more, nose down 9.9 % less.
+#   maps to -28 deg, and -1 nose down to +23 deg; the monitor counts 0.35 rad per
+#   normalised command (its rad for the c172p, as the fault scenarios' value_rad). The
+#   balance is linear in one gain: 23 deg per 0.35 rad, 1.147, the side the c172p flies
+#   on from 38 m/s up; nose up the surface moves 22 % more than that.
 # * Thrust: the thruster at z 26.6 in, 11.1 in (0.283 m) below the CG, a nose-up
 #   moment; the full-throttle thrust measured on the plant, 2000-2250 N at 25-65 m/s
 #   (800 m).
+# * Level flight from 24 m/s (equivalent: the stall) to 69 m/s (full throttle), the
+#   plant's trims 300 m above a 500 m home.
 C172P = PitchAero("c172p", mass_kg=1880 * 0.45359237, wing_area_m2=174 * 0.09290304,
                   chord_m=4.9 * 0.3048, Cm0=0.1085, Cma=-2.001, Cmde=-1.122,
                   CL0=0.25, CLa=(0.73 - 0.25) / 0.09, CLde=0.43,
