@@ -5,8 +5,9 @@ The elevator identifier learns its balance online; with the airframe's own model
 prior it is armed from launch instead of after a minute and a half of healthy flight.
 The coefficients are those of the aircraft's JSBSim file (the Aerosonde of Beard &
 McLain, Small Unmanned Aircraft, 2012, table E.2, in
-``sim_bridge/aircraft/aerosonde/aerosonde.xml``; tests/test_monitor_airframe.py reads
-the file and checks they agree). The autopilot does not read the simulator's file: a
+``sim_bridge/aircraft/aerosonde/aerosonde.xml``; JSBSim's Cessna 172P, the jsbsim
+package's ``aircraft/c172p/c172p.xml``: :data:`C172P`; tests/test_monitor_airframe.py
+reads the files and checks they agree). The autopilot does not read the simulator's file: a
 real aircraft's autopilot carries its airframe's model, it does not open the wind
 tunnel's.
 
@@ -67,13 +68,24 @@ class PitchAero:
     prop_ixx: float = 0.0          # rotating inertia of propeller, hub and motor rotor [kg m^2]
     prop_sense: float = 1.0        # its spin about body x (the engine file's <sense>)
     rpm: tuple = (0.0, 0.0, 0.0, 0.0)   # propeller rpm ~ a + b throttle + c V + d throttle V
+    wash: float = 1.0              # the elevator's dynamic pressure over the free stream's
+                                   # (the propeller's slipstream over the tail)
+    de_per_rad: float = 1.0        # the surface's deflection per autopilot radian (the
+                                   # normalised command times MAX_DEFLECTION_RAD)
+
+    @property
+    def D(self) -> float:
+        """The elevator's moment per autopilot radian less its lift's through alpha,
+        ``Cmde wash g - (Cma / CLa) CLde g`` (g = :attr:`de_per_rad`)."""
+        g = self.de_per_rad
+        return self.Cmde * self.wash * g - self.Cma / self.CLa * (self.CLde * g)
 
     def balance(self, v_ref: float) -> np.ndarray:
         """[c_0, c_L, c_t] of the balance (B) at the reference airspeed (module doc)."""
         qbar = 0.5 * RHO0 * v_ref * v_ref
         cl_ref = self.mass_kg * G0 / (qbar * self.wing_area_m2)
         k = self.Cma / self.CLa
-        D = self.Cmde - k * self.CLde
+        D = self.D
         c0 = (self.Cm0 + k * (cl_ref - self.CL0)) / D
         cL = k * cl_ref / D
         ct = self.thrust_max_n * self.thrust_z_m / (qbar * self.wing_area_m2 * self.chord_m) / D
@@ -90,8 +102,7 @@ class PitchAero:
         qbar = 0.5 * RHO0 * v_mps * v_mps
         m_dyn = (self.Iyy * q_dot / (qbar * self.wing_area_m2 * self.chord_m)
                  - self.Cmq * self.chord_m * q / (2.0 * v_mps))
-        D = self.Cmde - self.Cma / self.CLa * self.CLde
-        return -m_dyn / D
+        return -m_dyn / self.D
 
     def prop_momentum(self, throttle: float, v_mps: float) -> float:
         """The propeller's angular momentum H [N m s] at that throttle and airspeed
@@ -116,7 +127,7 @@ class PitchAero:
             return 0.0
         H = self.prop_momentum(throttle, v_mps)
         qbar = 0.5 * RHO0 * v_mps * v_mps
-        D = self.Cmde - self.Cma / self.CLa * self.CLde
+        D = self.D
         # Cm0 + Cma alpha + Cmde de = m_dyn - H r / (qbar S cbar): as dynamic_elevator
         return (H * r / (qbar * self.wing_area_m2 * self.chord_m)) / D
 
@@ -130,9 +141,12 @@ class PitchAero:
             return None
         return v_ref / r2 ** 0.5
 
-    def elevator_for(self, n: float, v_mps: float) -> float:
-        """Elevator (nose-up positive, rad) that balances load factor n at airspeed V."""
+    def elevator_for(self, n: float, v_mps: float, throttle: float = 0.0) -> float:
+        """Elevator (nose-up positive, rad) that balances load factor n at airspeed V
+        (and the thrust's moment at that throttle, where the thrust line is off the CG)."""
         c = self.balance(v_mps)
+        if throttle:
+            return float(c[0] + c[1] * (n - 1.0) + c[2] * throttle)
         return float(c[0] + c[1] * (n - 1.0))
 
 
@@ -148,6 +162,51 @@ AEROSONDE = PitchAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, chord_m=0.18
                       # (36 points, 98 rpm rms, 205 at most)
                       prop_ixx=3.0e-3, prop_sense=1.0, rpm=(728.6, 4696.3, 201.04, -93.43))
 
+# JSBSim's Cessna 172P (the jsbsim package's aircraft/c172p/c172p.xml; the simulator
+# flies that file, the autopilot carries these numbers, tests/test_monitor_airframe.py
+# reads the file and checks them). Feet, slugs and pounds converted once, here.
+#
+# * Mass: the empty weight 1500 lb, the pilot's point mass 180 lb and the two tanks'
+#   100 lb each (the other point masses weigh nothing): 1880 lb. CG at x 42.12 in,
+#   z 37.74 in (structural frame, x aft, z up); Iyy 1384.3 slug ft^2 with the point
+#   masses and the fuel (JSBSim's inertia/iyy-slugs_ft2).
+# * metrics: wing area 174 ft^2, chord 4.9 ft.
+# * Lift: the CLwbh table's linear range, 0.25 at alpha 0 and 0.73 at 0.09 rad (CL0
+#   0.25, CLa 5.333); CLDe 0.43 on the free stream's dynamic pressure.
+# * Pitch: Cmo 0.1, Cmalpha -1.8 about the aerodynamic reference point (AERORP, x
+#   43.2 in, z 59.4 in), moved to the CG: the lift acts 1.08 in behind it (nose down)
+#   and the drag 21.7 in above it (nose up), ``Cm_cg = Cmo + Cmalpha alpha - (x_a /
+#   cbar)(CL cos alpha + CD sin alpha) + (z_a / cbar)(CD cos alpha - CL sin alpha)``,
+#   a line through alpha 0..0.09 of the tables (CDo 0.027 + CDwbh): Cm0 0.1085, Cma
+#   -2.001 (within 0.0013 of the curve). Cmq -12.4 (ci2vel, as the model's cbar q / 2V).
+#   Cmadot (-7.27) is left out: in the quasi-steady balance alpha does not change.
+# * The elevator, Cmde -1.122, acts on ``aero/function/qbar-induced-psf``: the dynamic
+#   pressure of the free stream plus the propeller's slipstream, which by JSBSim's
+#   momentum theory (u + 2 v_i)^2 = u^2 + 2 T / (rho A) is ``qbar + T / A`` (A the
+#   75 in disc). The wash 1.245 is that ratio at the cruise trim (45 m/s equivalent,
+#   0.65 throttle); in level flight it is 1 + S C_D / A (1.20 at 65 m/s, 1.40 at 35), at
+#   full throttle in the climb-out 1.6-2.0. It multiplies the elevator's moment, and the
+#   balance (B) is linear: there the model reads the surface 0.005-0.011 rad off, and
+#   in slow flight at full throttle (25-30 m/s) about twice a nose-up deflection
+#   (docs/monitor.md).
+# * The autopilot's elevator: +1 nose up is fcs/elevator-cmd-norm -1, which the FCS
+#   maps to -28 deg, and -1 nose down to +23 deg; the monitor counts 0.35 rad per
+#   normalised command (its rad for the c172p, as the fault scenarios' value_rad). The
+#   balance is linear in one gain: 23 deg per 0.35 rad, 1.147, the side the c172p flies
+#   on from 38 m/s up; nose up the surface moves 22 % more than that.
+# * Thrust: the thruster at z 26.6 in, 11.1 in (0.283 m) below the CG, a nose-up
+#   moment; the full-throttle thrust measured on the plant, 2000-2250 N at 25-65 m/s
+#   (800 m).
+# * Level flight from 24 m/s (equivalent: the stall) to 69 m/s (full throttle), the
+#   plant's trims 300 m above a 500 m home.
+C172P = PitchAero("c172p", mass_kg=1880 * 0.45359237, wing_area_m2=174 * 0.09290304,
+                  chord_m=4.9 * 0.3048, Cm0=0.1085, Cma=-2.001, Cmde=-1.122,
+                  CL0=0.25, CLa=(0.73 - 0.25) / 0.09, CLde=0.43,
+                  Iyy=1384.3 * 1.3558179, Cmq=-12.4,
+                  thrust_max_n=2200.0, thrust_z_m=(37.74 - 26.6) * 0.0254,
+                  v_level_min_mps=24.0, v_level_max_mps=69.0,
+                  wash=1.245, de_per_rad=23.0 * 0.01745 / 0.35)
+
 # FDI_EL_MODEL -> the airframe whose model is the elevator identifier's prior (0: none,
 # the balance is learnt in flight from nothing)
-MODELS = {1: AEROSONDE}
+MODELS = {1: AEROSONDE, 2: C172P}

@@ -84,8 +84,8 @@ FDI_PARAMS = (
           "statistic are a drift (inertial fault)"),
     Param("FDI_ACT_ID", 1.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
           "(moment balance and two-stage KF)", is_int=True),
-    Param("FDI_EL_MODEL", 1.0, 0.0, 1.0, "", "elevator identifier's prior: 0 none (the pitch balance "
-          "learnt in flight, armed ~100 s after launch), 1 the Aerosonde's model (armed from launch)",
+    Param("FDI_EL_MODEL", 1.0, 0.0, 2.0, "", "elevator identifier's prior: 0 none (the pitch balance "
+          "learnt in flight, armed ~100 s after launch), 1 the Aerosonde's model, 2 the c172p's (armed from launch)",
           is_int=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
