@@ -16,13 +16,15 @@ from autopilot.nav.records import InnovationRecord
 from test_monitor_airspeed import _Nav
 
 
-def _actuator_episode(noisy_vel_from_s: float | None = None, minutes: float = 20.0, seed: int = 3):
+def _actuator_episode(noisy_vel_from_s: float | None = None, minutes: float = 20.0, seed: int = 7):
     """An aileron episode opened at 0 s, then ``minutes`` of GPS position and velocity
     innovations at 5 Hz, white with unit normalised variance (the velocity's 7 times
     noisier from ``noisy_vel_from_s`` when given)."""
     nav = _Nav()
     nav.position_ned = np.array((0.0, 0.0, -100.0))
+    nav.r_scale_hook = None           # a filter that takes R scale factors (radapt.attach)
     mon = FaultMonitor({"FDI_START_T": 0.0}, nav)
+    assert mon.radapt_ok
     mon.detected = True
     mon.isolated = "aileron"
     mon.episodes.append(Episode(0.0, "aileron", "aileron", 0.0, kind="actuator",
@@ -45,10 +47,14 @@ def test_healthy_gps_not_named_in_a_long_actuator_episode():
     mon = _actuator_episode()
     ep = mon.episodes[-1]
     # THEN the episode still names the aileron alone, and its isolation stands
-    #      (the code before named gps_pos and gps_vel)
+    #      (the code before named gps_vel at 747 s)
     assert ep.isolated == "aileron" and ep.kind == "actuator"
     assert ep.isolated_all == ["aileron"], mon.events
     assert not any("isolated too" in t for _t, _s, t in mon.events)
+    # AND the navigation filter is left optimal: no R adaptation (the code before
+    #     switched it on at per-step crossings, gps_vel's at 330 s, gps_pos's at 1104 s,
+    #     and left it on)
+    assert not mon.radapt.active and not any("adaptation on" in t for _t, _s, t in mon.events), mon.events
 
 
 def test_a_gps_fault_during_an_actuator_episode_is_still_named():
@@ -60,3 +66,5 @@ def test_a_gps_fault_during_an_actuator_episode_is_still_named():
     assert ep.isolated == "aileron" and ep.isolated_all == ["aileron", "gps_vel"], mon.events
     t_join = next(t for t, _s, txt in mon.events if "gps_vel fault isolated too" in txt)
     assert 300.0 <= t_join <= 302.0, t_join
+    # AND from then its R is adapted (the RAKF), the healthy position's not
+    assert mon.radapt.active == {"gps_vel"}, mon.events

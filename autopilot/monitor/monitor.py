@@ -905,9 +905,15 @@ class FaultMonitor:
                                                            f"({', '.join(ep.isolated_all)})"))
         # sensor or inertial (process) fault: a drift of the velocity innovations
         self._discriminate(t_s)
-        # R adaptation: the aiding channels over their threshold in this episode
+        # R adaptation: the aiding channels over their threshold in this episode, while
+        # it names an aiding channel. Not in an actuator episode that names none: the
+        # per-step test (at FDI_ALPHA) repeated over an episode that stays open to the
+        # flight's end switched the adaptation on by chance and left it on (the stuck
+        # throttle at 0.3, seeds 2, 6, 7: gps_pos 5.7 s, gps_vel 208 s, gps_pos 74 s into
+        # the episode, on healthy fixes)
         if (self.radapt_ok and self.isolated is not None and self.isolated not in _INERTIAL
-                and not self.qfade_on):
+                and not self.qfade_on
+                and (ep.kind != "actuator" or any(n in self.aiding for n in ep.isolated_all or ()))):
             for ch in self._aiding_list:
                 # the RAKF runs where the per-step statistic says H1 (2.41-2.43)
                 if not ch.adapted and not ch.silent and ch.win.chi > ch.win.thr_step:
