@@ -860,10 +860,15 @@ class FaultMonitor:
             return
         ep = self.episodes[-1]
         if iso is not None and (ep.isolated is None
-                                or (iso in _INERTIAL and ep.isolated not in _INERTIAL)):
+                                or (iso in _INERTIAL and ep.isolated not in _INERTIAL
+                                    and ep.kind != "actuator")):
             # an inertial fault shows in every aiding innovation, an aiding fault hardly
             # moves the bias estimates: an inertial channel over its threshold overrides
-            # an earlier isolation to an aiding channel
+            # an earlier isolation to an aiding channel. Not an actuator's, which the
+            # navigation's innovations do not show: there it joins the episode's list
+            # (below). Overridden, the stuck elevator's episode became an inertial one,
+            # its identification stopped and it cleared (fault_elevator_stuck_launch.toml
+            # trial 7, 0.044 rad: accel_z 8.8 s after the detection, in the dive)
             ep.isolated, ep.isolated_s = iso, round(t_s, 3)
             ep.kind = "inertial" if (iso in _INERTIAL or self.qfade_on) else "sensor"
             self.isolated = iso
