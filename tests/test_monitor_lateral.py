@@ -280,6 +280,38 @@ def test_throttle_stuck_near_cruise_found_within_3s_on_the_rotor_speed(tmp_path,
     assert summ["false_alarms"] == 0 and not s.crashed
 
 
+def test_throttle_stuck_near_cruise_read_stuck_with_the_command_hardly_moving(tmp_path):
+    # GIVEN the throttle stuck at 0.3 at 60 s, seed 10: the command stays 0.48-0.76 over
+    #       the 10 s after the onset (the airspeed over the demand at first), far from zero,
+    #       so the weakened fit z = k d through zero fits it nearly as well as a constant
+    s, summ = _fly(MISSIONS_DIR / "fault_throttle_stuck_low.toml", 75.0, seed=10)
+    f = summ["faults"][0]
+    # THEN read stuck within 0.03 of 0.3 10 s after the onset (measured: stuck from
+    #      +8.75 s, 0.299 at +10 s; the code before read "effectiveness 0.572" then, its
+    #      residual ratio 0.059 over the surfaces' 0.05), no false alarm
+    assert f["isolated_all"] == ["throttle"] and f["identified_10s"] is not None, f
+    assert abs(f["identified_10s"].get("stuck", -1.0) - 0.3) <= 0.03, f
+    assert summ["false_alarms"] == 0 and not s.crashed
+
+
+def test_weakened_throttle_still_read_weakened_on_the_rotor_speed(tmp_path):
+    # GIVEN the throttle at 50 % effectiveness from 60 s, seed 2 (of the weakened flights
+    #       the one whose command moves least: 0.51-0.66)
+    scen = tmp_path / "throttle_loe.toml"
+    scen.write_text('[wind]\nspeed_mps = 5.0\nfrom_deg = 270.0\nturbulence = "light"\n\n'
+                    '[[event]]\nat_s = 60.0\nunit = "servo"\ntype = "wrong"\ninstance = 3\n'
+                    'effectiveness = 0.5\n')
+    s, summ = _fly(scen, 75.0, seed=2)
+    f = summ["faults"][0]
+    # THEN detected on the throttle and read weakened 10 s after the onset, not stuck
+    #      (measured effectiveness 0.541; the stuck fit's residual 5.9 times the weakened
+    #      fit's at least after the onset's transient, against the 0.1 that reads stuck)
+    assert f["isolated_all"] == ["throttle"] and f["delay_s"] is not None and f["delay_s"] <= 3.0, f
+    assert abs(f["identified_10s"].get("effectiveness", -1.0) - 0.5) <= 0.06, f
+    assert s.vehicle.monitor.throttle.rotor_measured
+    assert summ["false_alarms"] == 0 and not s.crashed
+
+
 def test_throttle_stuck_near_cruise_height_held_mission_completed(tmp_path):
     # GIVEN the throttle stuck at 0.3 at 60 s (seed 1), the whole default mission: the
     #       model says 0.3 holds level flight up to 22 m/s, slower than the cruise

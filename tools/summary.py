@@ -178,7 +178,8 @@ def fault_figures(fault_log, episodes, end_s: float, t_s=None, eh=None, h=None, 
     injection and before the fault ended, or one already running; null if none),
     ``delay_s``, ``isolated`` (channel named by that detection's episode, the most to
     blame), ``isolated_all`` (every channel the episode found over its isolation
-    threshold, the most to blame first) and ``isolated_s``, ``kind`` (the monitor's classification: sensor, inertial or
+    threshold at the isolation, or over its detection threshold later, the most to
+    blame first) and ``isolated_s``, ``kind`` (the monitor's classification: sensor, inertial or
     actuator), ``identified`` (actuator fault parameters, latest estimate, e.g.
     ``{"effectiveness": 0.52}`` or ``{"stuck_rad": 0.049}``; null if none) and
     ``identified_10s`` (the estimate 10 s after the injection).

@@ -176,12 +176,15 @@ class MomentBalance:
 
 
 def identify_hist(hist: list, since_us: int, stuck: bool = False,
-                  recent_us: int | None = None, d_max: float = MAX_DEFLECTION_RAD) -> dict | None:
+                  recent_us: int | None = None, d_max: float = MAX_DEFLECTION_RAD,
+                  rss_share: float = RSS_STUCK) -> dict | None:
     """The two hypotheses (2.23, 2.24) over the (t_us, z, delta_cmd) samples of ``hist``
     since ``since_us``; only the stuck one with ``stuck`` (a surface already found stuck). The stuck position is
     the mean of z since ``recent_us`` (the samples after the onset's transient) when
     given and at least 10 samples hold it; ``d_max`` the command's full travel (its
-    saturation counts for the stuck hypothesis)."""
+    saturation counts for the stuck hypothesis); ``rss_share`` the stuck fit's residual
+    sum of squares under this share of the weakened fit's reads stuck (RSS_STUCK, the
+    surfaces'; the throttle on the rotor's speed its own, throttle.RPM_RSS_STUCK)."""
     h = [r for r in hist if r[0] >= since_us]
     if len(h) < 10:
         return None
@@ -205,10 +208,10 @@ def identify_hist(hist: list, since_us: int, stuck: bool = False,
         zl, dl = z[late], d[late]
         ddl = float(dl @ dl)
         kl = float(zl @ dl) / ddl if ddl > 0.0 else 0.0
-        if float(np.sum((zl - zl.mean()) ** 2)) < RSS_STUCK * float(np.sum((zl - kl * dl) ** 2)):
+        if float(np.sum((zl - zl.mean()) ** 2)) < rss_share * float(np.sum((zl - kl * dl) ** 2)):
             rss_stuck = 0.0
     if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
-            or rss_stuck < RSS_STUCK * rss_loe):
+            or rss_stuck < rss_share * rss_loe):
         return {"stuck_rad": round(s_pos, 4)}
     return {"effectiveness": round(k, 3)}
 
