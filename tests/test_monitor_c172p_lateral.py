@@ -1,0 +1,100 @@
+"""The c172p's aileron and rudder watched from the climb-out on with its own lateral
+model (autopilot/monitor/lateral.py C172P_LAT, LAT_MODELS[2], chosen by FDI_EL_MODEL 2
+in missions/params/c172p.parm): the model carries its JSBSim file's numbers, solves
+the plant's own motion for the deflections flown, and a stuck aileron is found."""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import jsbsim
+import numpy as np
+import pytest
+
+from autopilot.monitor.lateral import C172P_LAT, LAT_MODELS
+
+C172P_XML = Path(jsbsim.__file__).resolve().parent / "aircraft" / "c172p" / "c172p.xml"
+LB_KG, FT_M, IN_M, SLUGFT2 = 0.45359237, 0.3048, 0.0254, 1.3558179
+
+
+def _c172p_mass(root):
+    """Weight [lb] and CG (x, z) [in] of the empty aircraft, its point masses and fuel."""
+    items = [(float(root.find("mass_balance/emptywt").text), root.find("mass_balance/location"))]
+    for pm in root.findall("mass_balance/pointmass"):
+        items.append((float(pm.find("weight").text), pm.find("location")))
+    for tank in root.findall("propulsion/tank"):
+        items.append((float(tank.find("contents").text), tank.find("location")))
+    w = sum(m for m, _ in items)
+    return (w, sum(m * float(loc.find("x").text) for m, loc in items) / w,
+            sum(m * float(loc.find("z").text) for m, loc in items) / w)
+
+
+def _fn(root, name: str):
+    f = root.find(f".//function[@name='{name}']")
+    assert f is not None, name
+    return f
+
+
+def _value(root, name: str) -> float:
+    return float(_fn(root, name).find("product/value").text)
+
+
+def _table(root, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A coefficient's table: its breakpoints and first data column (flaps up)."""
+    rows = [r.split() for r in _fn(root, name).find(".//tableData").text.strip().splitlines()]
+    two_d = len(rows[0]) < len(rows[1])
+    data = np.array([[float(v) for v in r] for r in (rows[1:] if two_d else rows)])
+    return data[:, 0], data[:, 1]
+
+
+def _slope(root, name: str) -> float:
+    x, y = _table(root, name)
+    return (y[-1] - y[0]) / (x[-1] - x[0])
+
+
+def _props(root, name: str) -> list[str]:
+    return [p.text.strip() for p in _fn(root, name).iter("property")]
+
+
+def test_c172p_lateral_coefficients_are_those_of_its_jsbsim_file():
+    # GIVEN the c172p's JSBSim file, the one the simulator flies (jsbsim's package path)
+    root = ET.parse(C172P_XML).getroot()
+    m = C172P_LAT
+    assert LAT_MODELS[2] is m
+    # THEN the wing and the mass (empty, the point masses, the fuel) are its numbers
+    assert float(root.find("metrics/wingspan").text) * FT_M == pytest.approx(m.span_m)
+    assert float(root.find("metrics/wingarea").text) * FT_M ** 2 == pytest.approx(m.wing_area_m2)
+    w, cg_x, cg_z = _c172p_mass(root)
+    assert w * LB_KG == pytest.approx(m.mass_kg)
+    # AND the side force, rolling and yawing moments' derivatives (the beta tables'
+    #     slopes, the damping's values, the alpha tables' ends and slopes)
+    assert _slope(root, "aero/coefficient/CYb") == pytest.approx(m.CY_b)
+    assert _slope(root, "aero/coefficient/Clb") == pytest.approx(m.Cl_b)
+    assert _slope(root, "aero/coefficient/Cnb") == pytest.approx(m.Cn_b)
+    for name, v in (("CYdr", m.CY_dr), ("Clp", m.Cl_p), ("ClDa", m.Cl_da), ("Cldr", m.Cl_dr),
+                    ("Cnp", m.Cn_p), ("Cnr", m.Cn_r), ("Cnda", m.Cn_da), ("Cndr", m.Cn_dr)):
+        assert _value(root, f"aero/coefficient/{name}") == v, name
+    assert _value(root, "aero/coefficient/CYda") == 0.0
+    for name, v0, va in (("CYp", m.CY_p, m.CY_p_a), ("CYr", m.CY_r, m.CY_r_a), ("Clr", m.Cl_r, m.Cl_r_a)):
+        a, c = _table(root, f"aero/coefficient/{name}")
+        assert (a[0], a[-1]) == (0.0, m.alpha_max)
+        assert (c[0], (c[-1] - c[0]) / a[-1]) == pytest.approx((v0, va)), name
+    # AND the aileron's moments act on the left aileron alone, the rudder's yaw on the
+    #     slipstream's dynamic pressure, its side force and roll on the free stream's
+    for name in ("ClDa", "Cnda"):
+        assert "fcs/left-aileron-pos-rad" in _props(root, f"aero/coefficient/{name}")
+    assert "aero/function/qbar-induced-psf" in _props(root, "aero/coefficient/Cndr")
+    for name in ("CYdr", "Cldr"):
+        assert "aero/qbar-psf" in _props(root, f"aero/coefficient/{name}")
+    # AND the aerodynamic reference point lies that far behind and above the CG
+    rp = root.find("metrics/location[@name='AERORP']")
+    assert (float(rp.find("x").text) - cg_x) * IN_M == pytest.approx(m.arp_x_m, abs=2e-4)
+    assert (float(rp.find("z").text) - cg_z) * IN_M == pytest.approx(m.arp_z_m, abs=2e-4)
+    # AND the FCS moves the left aileron 15 deg for aileron +1 (roll right) and 20 deg
+    #     for -1, the rudder 16 deg, per 0.35 autopilot rad
+    la = root.find(".//aerosurface_scale[@name='Left Aileron Control']")
+    g = float(la.find("gain").text)
+    assert float(la.find("range/max").text) * g == pytest.approx(m.da_right * 0.35)
+    assert -float(la.find("range/min").text) * g == pytest.approx(m.da_left * 0.35)
+    ru = root.find(".//aerosurface_scale[@name='Rudder Control']")
+    assert float(ru.find("range/max").text) * float(ru.find("gain").text) == pytest.approx(m.dr_gain * 0.35)
