@@ -141,7 +141,7 @@ class LateralAero:
         k = self.span_m / (2.0 * V)
         L = self.Jx * pd - self.Jxz * (rd + p * q) + (self.Jz - self.Jy) * q * r
         N = self.Jz * rd - self.Jxz * (pd - q * r) + (self.Jy - self.Jx) * p * q
-        if self.arp_z_m == 0.0 and self.CY_p == 0.0 and self.CY_r == 0.0 and self.Cl_r_a == 0.0:
+        if self._simple:
             # the Aerosonde's (bit for bit as before)
             A = np.array(((self.CY_b, 0.0, self.CY_dr),
                           (self.Cl_b, self.Cl_da, self.Cl_dr),
@@ -159,20 +159,16 @@ class LateralAero:
         # rotation terms, (w' x r + w x (w x r))_y
         rx, rz = self.imu_x_m, self.imu_z_m
         a_y = a_y - (rd * rx - pd * rz) - q * (p * rx + r * rz)
-        CD = self.CD0
-        if self.CD_alpha:
-            CD += float(np.interp(al, self.CD_alpha[0], self.CD_alpha[1]))
-        CY_b = self.CY_b - CD
+        CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(al)
         CY_p = self.CY_p + self.CY_p_a * al
         CY_r = self.CY_r + self.CY_r_a * al
         Cl_r = self.Cl_r + self.Cl_r_a * al
         # the side force acts at the aerodynamic reference point: about the CG it rolls
-        # (arp_z_m above) and yaws (arp_x_m behind)
+        # (arp_z_m above) and yaws (arp_x_m behind) (_about_cg)
         zb, xb = self.arp_z_m / self.span_m, self.arp_x_m / self.span_m
         A = np.array(((CY_b, 0.0, self.CY_dr),
-                      (self.Cl_b + zb * CY_b, self.Cl_da, self.Cl_dr + zb * self.CY_dr),
-                      (self.Cn_b - xb * CY_b, self.Cn_da,
-                       self.Cn_dr * self.wash_dr - xb * self.CY_dr)))
+                      (Cl_b, self.Cl_da, Cl_dr),
+                      (Cn_b, self.Cn_da, Cn_dr)))
         cy_rates = CY_p * k * p + CY_r * k * r
         y = np.array((self.mass_kg * a_y / qS - cy_rates,
                       L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
@@ -182,11 +178,44 @@ class LateralAero:
         da = sa / (self.da_right if sa >= 0.0 else self.da_left)
         return float(da), float(-sr / self.dr_gain)
 
+    @property
+    def _simple(self) -> bool:
+        """The Aerosonde's model: no term beyond the book's."""
+        return self.arp_z_m == 0.0 and self.CY_p == 0.0 and self.CY_r == 0.0 and self.Cl_r_a == 0.0
+
+    def _about_cg(self, al: float) -> tuple[float, float, float, float, float]:
+        """(CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr) about the CG at angle of attack ``al``: the
+        drag's part of the side force in a sideslip (-CD beta), the side force's moments
+        from the aerodynamic reference point, the slipstream on the rudder's yaw."""
+        CD = self.CD0
+        if self.CD_alpha:
+            CD += float(np.interp(al, self.CD_alpha[0], self.CD_alpha[1]))
+        CY_b = self.CY_b - CD
+        zb, xb = self.arp_z_m / self.span_m, self.arp_x_m / self.span_m
+        return (CY_b, self.Cl_b + zb * CY_b, self.Cl_dr + zb * self.CY_dr,
+                self.Cn_b - xb * CY_b, self.Cn_dr * self.wash_dr - xb * self.CY_dr)
+
+    def _aileron_gain(self, value: float) -> float:
+        return self.da_right if value >= 0.0 else self.da_left
+
     def counter(self, stuck: str, value: float) -> float:
         """The other surface's deflection (autopilot convention, rad) that holds the
         wings level with no rates against ``stuck`` ("aileron" or "rudder") held at
         ``value`` [rad]: the rolling and yawing moments both zero, the sideslip free (its
         side force then banks the aircraft a little)."""
+        if not self._simple:
+            # the c172p's: about the CG (at the cruise's angle of attack, 0.03 rad), the
+            # surfaces' gains between the autopilot's rad and the surface's
+            _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
+            if stuck == "aileron":
+                sa = value * self._aileron_gain(value)
+                A = np.array(((Cl_b, Cl_dr), (Cn_b, Cn_dr)))
+                _beta, sr = np.linalg.solve(A, np.array((-self.Cl_da * sa, -self.Cn_da * sa)))
+                return float(-sr / self.dr_gain)
+            sr = -value * self.dr_gain
+            A = np.array(((Cl_b, self.Cl_da), (Cn_b, self.Cn_da)))
+            _beta, sa = np.linalg.solve(A, np.array((-Cl_dr * sr, -Cn_dr * sr)))
+            return float(sa / self._aileron_gain(sa))
         if stuck == "aileron":
             A = np.array(((self.Cl_b, self.Cl_dr), (self.Cn_b, self.Cn_dr)))
             _beta, dr = np.linalg.solve(A, np.array((-self.Cl_da * value, -self.Cn_da * value)))
@@ -199,6 +228,14 @@ class LateralAero:
     def roll_gain(self, stuck: str) -> float:
         """Rolling moment of the other surface per unit of the stuck one's (autopilot
         convention): the factor that maps the roll loop's aileron onto the rudder."""
+        if stuck == "aileron" and not self._simple:
+            # the c172p's rudder rolls through the sideslip it yaws the aircraft into (the
+            # dihedral, Cl_b) more than directly: its steady rolling moment with the
+            # yawing moment balanced, ``Cl_dr - Cl_b Cn_dr / Cn_b``, per autopilot rad,
+            # against the aileron's at its mean gain
+            _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
+            per_rudder = -(Cl_dr - Cl_b * Cn_dr / Cn_b) * self.dr_gain
+            return self.Cl_da * 0.5 * (self.da_right + self.da_left) / per_rudder
         if stuck == "aileron":
             return self.Cl_da / -self.Cl_dr
         return 1.0
