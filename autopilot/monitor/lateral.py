@@ -120,6 +120,12 @@ class LateralAero:
     prop_ixx: float = 0.0          # the propeller's rotating inertia [kg m^2] (0: the
     prop_sense: float = 1.0        # identifier's ``prop`` gives its momentum), its spin
     rpm: tuple = (0.0,) * 5        # rpm ~ a + b thr + c V + d thr V + e thr^2
+    raw_accel: bool = False        # the accelerometer as measured, not less the navigation
+                                   # filter's bias estimate: its synthetic sideslip (zero,
+                                   # EK_BETA_NSE) reads a sideslip's side force as a bias
+                                   # (the c172p's ground roll in light turbulence and 5 m/s:
+                                   # 0.2-0.3 m/s^2 against a true 0.03-0.07, 0.1 rad of
+                                   # rudder; a stuck rudder's sideslip would be absorbed too)
 
     def prop_momentum(self, throttle: float, v_mps: float) -> float:
         """The propeller's angular momentum H [N m s] at that throttle and airspeed: its
@@ -279,7 +285,7 @@ C172P_LAT = LateralAero("c172p", mass_kg=1880 * _LB, wing_area_m2=174 * _FT ** 2
                                              (0.0020, 0.0052, 0.0099, 0.0162, 0.0240, 0.0334, 0.0442, 0.0566)),
                         imu_x_m=(42.12 - 37.0) * _IN, imu_z_m=-(48.0 - 37.74) * _IN,
                         prop_ixx=1.67 * _SLUGFT2, prop_sense=1.0,
-                        rpm=(477.99, 957.93, 19.38, -8.27, 776.39))
+                        rpm=(477.99, 957.93, 19.38, -8.27, 776.39), raw_accel=True)
 
 LAT_MODELS = {1: AEROSONDE_LAT, 2: C172P_LAT}
 
@@ -358,9 +364,12 @@ class LateralIdentifier:
     Outputs: ``ratio`` (per axis, window statistic / threshold), ``worst()``."""
 
     def __init__(self, model: LateralAero, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
-                 prop=None):
+                 prop=None, nav=None):
         self.model = model
         self.prop = prop               # airframe.PitchAero: the propeller's momentum (or None)
+        # the navigation filter, whose accelerometer bias estimate a model with raw_accel
+        # adds back to the specific force it is given (LateralAero.raw_accel)
+        self._nav = nav if model.raw_accel else None
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         a_det = family_alpha(p_fa, 2 * tests_per_hour)     # two axes share the budget
         self.axes = {n: _Axis(n, window, alpha, a_det, prior=LAT_RES_PRIOR_RAD, prior_n=LAT_RES_PRIOR_N)
@@ -395,6 +404,10 @@ class LateralIdentifier:
             self._lp = None
             return
         w = nav.omega_b
+        if self._nav is not None:
+            ba = getattr(self._nav, "accel_bias", None)
+            if ba is not None:
+                f_b = (float(f_b[0]) + float(ba[0]), float(f_b[1]) + float(ba[1]), float(f_b[2]) + float(ba[2]))
         x = [float(w[0]), float(w[1]), float(w[2]), float(f_b[1]), V,
              float(controls[0]) * MAX_DEFLECTION_RAD, float(controls[2]) * MAX_DEFLECTION_RAD,
              float(controls[3]) * (V_REF / V) ** 2,
