@@ -115,6 +115,7 @@ class LateralAero:
                                    # free stream's (the propeller's slipstream on the fin)
     CD0: float = 0.0               # the drag (CD0 + the table CD_alpha over alpha), whose
     CD_alpha: tuple = ()           # body-y part in a sideslip is -CD beta
+    CD_beta: float = 0.0           # and the sideslip's drag, CD_beta |beta|
     imu_x_m: float = 0.0           # the accelerometer ahead of the CG [m]
     imu_z_m: float = 0.0           # and below it [m] (body axes: above is negative)
     prop_ixx: float = 0.0          # the propeller's rotating inertia [kg m^2] (0: the
@@ -179,7 +180,15 @@ class LateralAero:
         y = np.array((self.mass_kg * a_y / qS - cy_rates,
                       L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
                       (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates))
-        _beta, sa, sr = np.linalg.solve(A, y)
+        beta, sa, sr = np.linalg.solve(A, y)
+        if self.CD_beta:
+            # the sideslip's own drag (CD_beta |beta|): its side part -CD_beta |beta| beta,
+            # taken at the sideslip first solved, and solved again
+            e = self.CD_beta * abs(float(beta))
+            A[0, 0] -= e
+            A[1, 0] -= zb * e
+            A[2, 0] += xb * e
+            _beta, sa, sr = np.linalg.solve(A, y)
         # the surfaces' deflections back to the autopilot's rad
         da = sa / (self.da_right if sa >= 0.0 else self.da_left)
         return float(da), float(-sr / self.dr_gain)
@@ -283,7 +292,7 @@ C172P_LAT = LateralAero("c172p", mass_kg=1880 * _LB, wing_area_m2=174 * _FT ** 2
                         dr_gain=16.0 * 0.01745 / 0.35, wash_dr=1.245,
                         CD0=0.027, CD_alpha=((-0.0175, 0.0, 0.0175, 0.0349, 0.0524, 0.0698, 0.0873, 0.1047),
                                              (0.0020, 0.0052, 0.0099, 0.0162, 0.0240, 0.0334, 0.0442, 0.0566)),
-                        imu_x_m=(42.12 - 37.0) * _IN, imu_z_m=-(48.0 - 37.74) * _IN,
+                        CD_beta=0.17, imu_x_m=(42.12 - 37.0) * _IN, imu_z_m=-(48.0 - 37.74) * _IN,
                         prop_ixx=1.67 * _SLUGFT2, prop_sense=1.0,
                         rpm=(477.99, 957.93, 19.38, -8.27, 776.39), raw_accel=True)
 
