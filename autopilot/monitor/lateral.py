@@ -121,6 +121,13 @@ class LateralAero:
     prop_ixx: float = 0.0          # the propeller's rotating inertia [kg m^2] (0: the
     prop_sense: float = 1.0        # identifier's ``prop`` gives its momentum), its spin
     rpm: tuple = (0.0,) * 5        # rpm ~ a + b thr + c V + d thr V + e thr^2
+    rudder_roll_gain: float = 0.0  # the roll loop's aileron onto the rudder with the aileron
+                                   # out (0: Cl_da / -Cl_dr, the rudder's direct roll). The
+                                   # c172p's rudder rolls the other way directly (Cl_dr) and
+                                   # through the sideslip later (the dihedral): its steady
+                                   # ratio (steady_roll_ratio) 3.17 made the roll loop
+                                   # limit-cycle at full rudder (bank +-50 deg, the aircraft
+                                   # lost with 0.05 rad stuck); a decision: 1.0
     raw_accel: bool = False        # the accelerometer as measured, not less the navigation
                                    # filter's bias estimate: its synthetic sideslip (zero,
                                    # EK_BETA_NSE) reads a sideslip's side force as a bias
@@ -213,6 +220,14 @@ class LateralAero:
     def _aileron_gain(self, value: float) -> float:
         return self.da_right if value >= 0.0 else self.da_left
 
+    def steady_roll_ratio(self) -> float:
+        """The aileron's rolling moment (at its mean gain) over the rudder's steady one
+        with the yawing moment balanced, ``Cl_dr - Cl_b Cn_dr / Cn_b`` (the roll through
+        the sideslip the rudder yaws the aircraft into), per autopilot rad."""
+        _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
+        per_rudder = -(Cl_dr - Cl_b * Cn_dr / Cn_b) * self.dr_gain
+        return self.Cl_da * 0.5 * (self.da_right + self.da_left) / per_rudder
+
     def counter(self, stuck: str, value: float) -> float:
         """The other surface's deflection (autopilot convention, rad) that holds the
         wings level with no rates against ``stuck`` ("aileron" or "rudder") held at
@@ -243,14 +258,8 @@ class LateralAero:
     def roll_gain(self, stuck: str) -> float:
         """Rolling moment of the other surface per unit of the stuck one's (autopilot
         convention): the factor that maps the roll loop's aileron onto the rudder."""
-        if stuck == "aileron" and not self._simple:
-            # the c172p's rudder rolls through the sideslip it yaws the aircraft into (the
-            # dihedral, Cl_b) more than directly: its steady rolling moment with the
-            # yawing moment balanced, ``Cl_dr - Cl_b Cn_dr / Cn_b``, per autopilot rad,
-            # against the aileron's at its mean gain
-            _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
-            per_rudder = -(Cl_dr - Cl_b * Cn_dr / Cn_b) * self.dr_gain
-            return self.Cl_da * 0.5 * (self.da_right + self.da_left) / per_rudder
+        if stuck == "aileron" and self.rudder_roll_gain:
+            return self.rudder_roll_gain
         if stuck == "aileron":
             return self.Cl_da / -self.Cl_dr
         return 1.0
@@ -294,7 +303,8 @@ C172P_LAT = LateralAero("c172p", mass_kg=1880 * _LB, wing_area_m2=174 * _FT ** 2
                                              (0.0020, 0.0052, 0.0099, 0.0162, 0.0240, 0.0334, 0.0442, 0.0566)),
                         CD_beta=0.17, imu_x_m=(42.12 - 37.0) * _IN, imu_z_m=-(48.0 - 37.74) * _IN,
                         prop_ixx=1.67 * _SLUGFT2, prop_sense=1.0,
-                        rpm=(477.99, 957.93, 19.38, -8.27, 776.39), raw_accel=True)
+                        rpm=(477.99, 957.93, 19.38, -8.27, 776.39), raw_accel=True,
+                        rudder_roll_gain=1.0)
 
 LAT_MODELS = {1: AEROSONDE_LAT, 2: C172P_LAT}
 
