@@ -13,8 +13,11 @@ cross-product of inertia Jxz kept)::
 are three linear equations in the three unknowns beta, da, dr given the measured body
 rates, their derivatives and the lateral specific force a_y: solved every sample, they
 give z = (da, dr), the deflections the aircraft flies with. The coefficients are the
-airframe's (the Aerosonde's JSBSim file, Table E.2 of the book; :data:`AEROSONDE_LAT`),
-so the test is armed from the launch. What the model leaves out (the propeller's torque,
+airframe's (the Aerosonde's JSBSim file, Table E.2 of the book; :data:`AEROSONDE_LAT`;
+JSBSim's Cessna 172P, :data:`C172P_LAT`, with the terms its file and the plant need: the
+side force's moments about the CG, the sideslip's drag, the surfaces' gains, the
+accelerometer's lever arm, the propeller's gyroscopic yaw, docs/monitor.md), so the
+test is armed from the launch. What the model leaves out (the propeller's torque,
 which grows with the throttle, and the small asymmetries of the airframe) is the
 residual's offset, learnt online per axis on ``[1, throttle (V_ref / V)^2]`` by
 recursive least squares with a prior of zero (the balance's refinement, as the
