@@ -13,8 +13,11 @@ cross-product of inertia Jxz kept)::
 are three linear equations in the three unknowns beta, da, dr given the measured body
 rates, their derivatives and the lateral specific force a_y: solved every sample, they
 give z = (da, dr), the deflections the aircraft flies with. The coefficients are the
-airframe's (the Aerosonde's JSBSim file, Table E.2 of the book; :data:`AEROSONDE_LAT`),
-so the test is armed from the launch. What the model leaves out (the propeller's torque,
+airframe's (the Aerosonde's JSBSim file, Table E.2 of the book; :data:`AEROSONDE_LAT`;
+JSBSim's Cessna 172P, :data:`C172P_LAT`, with the terms its file and the plant need: the
+side force's moments about the CG, the sideslip's drag, the surfaces' gains, the
+accelerometer's lever arm, the propeller's gyroscopic yaw, docs/monitor.md), so the
+test is armed from the launch. What the model leaves out (the propeller's torque,
 which grows with the throttle, and the small asymmetries of the airframe) is the
 residual's offset, learnt online per axis on ``[1, throttle (V_ref / V)^2]`` by
 recursive least squares with a prior of zero (the balance's refinement, as the
@@ -96,9 +99,54 @@ class LateralAero:
     Cn_r: float
     Cn_da: float
     Cn_dr: float
+    # the c172p's further terms (0 / 1: the Aerosonde's model as it was)
+    CY_p: float = 0.0              # side force per p b/2V and r b/2V
+    CY_r: float = 0.0
+    CY_p_a: float = 0.0            # slopes in alpha of CY_p, CY_r, Cl_r [per rad of alpha]
+    CY_r_a: float = 0.0            # over 0..alpha_max (JSBSim's tables, held outside)
+    Cl_r_a: float = 0.0
+    alpha_max: float = 0.0
+    CL0: float = 0.0               # the lift's linear range, for alpha from the measured
+    CLa: float = 0.0               # normal force (only where a slope above is not 0)
+    arp_x_m: float = 0.0           # the aerodynamic reference point behind the CG [m]
+    arp_z_m: float = 0.0           # and above it [m]: the side force's rolling and yawing
+                                   # moments about the CG
+    da_right: float = 1.0          # the aileron's surface rad per autopilot rad, rolling
+    da_left: float = 1.0           # right (+) and left (-): the FCS's 15 and 20 deg
+    dr_gain: float = 1.0           # the rudder's surface rad per autopilot rad
+    wash_dr: float = 1.0           # the rudder's yawing moment's dynamic pressure over the
+                                   # free stream's (the propeller's slipstream on the fin)
+    CD0: float = 0.0               # the drag (CD0 + the table CD_alpha over alpha), whose
+    CD_alpha: tuple = ()           # body-y part in a sideslip is -CD beta
+    CD_beta: float = 0.0           # and the sideslip's drag, CD_beta |beta|
+    imu_x_m: float = 0.0           # the accelerometer ahead of the CG [m]
+    imu_z_m: float = 0.0           # and below it [m] (body axes: above is negative)
+    prop_ixx: float = 0.0          # the propeller's rotating inertia [kg m^2] (0: the
+    prop_sense: float = 1.0        # identifier's ``prop`` gives its momentum), its spin
+    rpm: tuple = (0.0,) * 5        # rpm ~ a + b thr + c V + d thr V + e thr^2
+    rudder_roll_gain: float = 0.0  # the roll loop's aileron onto the rudder with the aileron
+                                   # out (0: Cl_da / -Cl_dr, the rudder's direct roll). The
+                                   # c172p's rudder rolls the other way directly (Cl_dr) and
+                                   # through the sideslip later (the dihedral): its steady
+                                   # ratio (steady_roll_ratio) 3.17 made the roll loop
+                                   # limit-cycle at full rudder (bank +-50 deg, the aircraft
+                                   # lost with 0.05 rad stuck); a decision: 1.0
+    raw_accel: bool = False        # the accelerometer as measured, not less the navigation
+                                   # filter's bias estimate: its synthetic sideslip (zero,
+                                   # EK_BETA_NSE) reads a sideslip's side force as a bias
+                                   # (the c172p's ground roll in light turbulence and 5 m/s:
+                                   # 0.2-0.3 m/s^2 against a true 0.03-0.07, 0.1 rad of
+                                   # rudder; a stuck rudder's sideslip would be absorbed too)
+
+    def prop_momentum(self, throttle: float, v_mps: float) -> float:
+        """The propeller's angular momentum H [N m s] at that throttle and airspeed: its
+        gyroscopic yawing moment is ``-H q``."""
+        a, b, c, d, e = self.rpm
+        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps + e * throttle * throttle, 0.0)
+        return self.prop_sense * self.prop_ixx * rpm * (2.0 * math.pi / 60.0)
 
     def deflections(self, V: float, p: float, q: float, r: float, pd: float, rd: float,
-                    a_y: float, n_gyro: float = 0.0) -> tuple[float, float]:
+                    a_y: float, n_gyro: float = 0.0, a_z: float | None = None) -> tuple[float, float]:
         """(aileron, rudder) in the autopilot's convention [rad] that balance the
         measured motion (module docstring); rates [rad/s], their derivatives [rad/s^2],
         a_y the lateral specific force [m/s^2]; ``n_gyro`` the propeller's gyroscopic
@@ -110,20 +158,97 @@ class LateralAero:
         k = self.span_m / (2.0 * V)
         L = self.Jx * pd - self.Jxz * (rd + p * q) + (self.Jz - self.Jy) * q * r
         N = self.Jz * rd - self.Jxz * (pd - q * r) + (self.Jy - self.Jx) * p * q
-        A = np.array(((self.CY_b, 0.0, self.CY_dr),
-                      (self.Cl_b, self.Cl_da, self.Cl_dr),
-                      (self.Cn_b, self.Cn_da, self.Cn_dr)))
-        y = np.array((self.mass_kg * a_y / qS,
-                      L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
-                      (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-        _beta, da, dr = np.linalg.solve(A, y)
-        return float(da), float(-dr)
+        if self._simple:
+            # the Aerosonde's (bit for bit as before)
+            A = np.array(((self.CY_b, 0.0, self.CY_dr),
+                          (self.Cl_b, self.Cl_da, self.Cl_dr),
+                          (self.Cn_b, self.Cn_da, self.Cn_dr)))
+            y = np.array((self.mass_kg * a_y / qS,
+                          L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
+                          (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
+            _beta, da, dr = np.linalg.solve(A, y)
+            return float(da), float(-dr)
+        # the rate derivatives at the angle of attack the measured normal force gives
+        al = 0.0
+        if a_z is not None and self.CLa > 0.0:
+            al = min(max((-self.mass_kg * a_z / qS - self.CL0) / self.CLa, 0.0), self.alpha_max)
+        # the specific force at the CG: the accelerometer's less the lever arm's
+        # rotation terms, (w' x r + w x (w x r))_y
+        rx, rz = self.imu_x_m, self.imu_z_m
+        a_y = a_y - (rd * rx - pd * rz) - q * (p * rx + r * rz)
+        CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(al)
+        CY_p = self.CY_p + self.CY_p_a * al
+        CY_r = self.CY_r + self.CY_r_a * al
+        Cl_r = self.Cl_r + self.Cl_r_a * al
+        # the side force acts at the aerodynamic reference point: about the CG it rolls
+        # (arp_z_m above) and yaws (arp_x_m behind) (_about_cg)
+        zb, xb = self.arp_z_m / self.span_m, self.arp_x_m / self.span_m
+        A = np.array(((CY_b, 0.0, self.CY_dr),
+                      (Cl_b, self.Cl_da, Cl_dr),
+                      (Cn_b, self.Cn_da, Cn_dr)))
+        cy_rates = CY_p * k * p + CY_r * k * r
+        y = np.array((self.mass_kg * a_y / qS - cy_rates,
+                      L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
+                      (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates))
+        beta, sa, sr = np.linalg.solve(A, y)
+        if self.CD_beta:
+            # the sideslip's own drag (CD_beta |beta|): its side part -CD_beta |beta| beta,
+            # taken at the sideslip first solved, and solved again
+            e = self.CD_beta * abs(float(beta))
+            A[0, 0] -= e
+            A[1, 0] -= zb * e
+            A[2, 0] += xb * e
+            _beta, sa, sr = np.linalg.solve(A, y)
+        # the surfaces' deflections back to the autopilot's rad
+        da = sa / (self.da_right if sa >= 0.0 else self.da_left)
+        return float(da), float(-sr / self.dr_gain)
+
+    @property
+    def _simple(self) -> bool:
+        """The Aerosonde's model: no term beyond the book's."""
+        return self.arp_z_m == 0.0 and self.CY_p == 0.0 and self.CY_r == 0.0 and self.Cl_r_a == 0.0
+
+    def _about_cg(self, al: float) -> tuple[float, float, float, float, float]:
+        """(CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr) about the CG at angle of attack ``al``: the
+        drag's part of the side force in a sideslip (-CD beta), the side force's moments
+        from the aerodynamic reference point, the slipstream on the rudder's yaw."""
+        CD = self.CD0
+        if self.CD_alpha:
+            CD += float(np.interp(al, self.CD_alpha[0], self.CD_alpha[1]))
+        CY_b = self.CY_b - CD
+        zb, xb = self.arp_z_m / self.span_m, self.arp_x_m / self.span_m
+        return (CY_b, self.Cl_b + zb * CY_b, self.Cl_dr + zb * self.CY_dr,
+                self.Cn_b - xb * CY_b, self.Cn_dr * self.wash_dr - xb * self.CY_dr)
+
+    def _aileron_gain(self, value: float) -> float:
+        return self.da_right if value >= 0.0 else self.da_left
+
+    def steady_roll_ratio(self) -> float:
+        """The aileron's rolling moment (at its mean gain) over the rudder's steady one
+        with the yawing moment balanced, ``Cl_dr - Cl_b Cn_dr / Cn_b`` (the roll through
+        the sideslip the rudder yaws the aircraft into), per autopilot rad."""
+        _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
+        per_rudder = -(Cl_dr - Cl_b * Cn_dr / Cn_b) * self.dr_gain
+        return self.Cl_da * 0.5 * (self.da_right + self.da_left) / per_rudder
 
     def counter(self, stuck: str, value: float) -> float:
         """The other surface's deflection (autopilot convention, rad) that holds the
         wings level with no rates against ``stuck`` ("aileron" or "rudder") held at
         ``value`` [rad]: the rolling and yawing moments both zero, the sideslip free (its
         side force then banks the aircraft a little)."""
+        if not self._simple:
+            # the c172p's: about the CG (at the cruise's angle of attack, 0.03 rad), the
+            # surfaces' gains between the autopilot's rad and the surface's
+            _CY_b, Cl_b, Cl_dr, Cn_b, Cn_dr = self._about_cg(0.03)
+            if stuck == "aileron":
+                sa = value * self._aileron_gain(value)
+                A = np.array(((Cl_b, Cl_dr), (Cn_b, Cn_dr)))
+                _beta, sr = np.linalg.solve(A, np.array((-self.Cl_da * sa, -self.Cn_da * sa)))
+                return float(-sr / self.dr_gain)
+            sr = -value * self.dr_gain
+            A = np.array(((Cl_b, self.Cl_da), (Cn_b, self.Cn_da)))
+            _beta, sa = np.linalg.solve(A, np.array((-Cl_dr * sr, -Cn_dr * sr)))
+            return float(sa / self._aileron_gain(sa))
         if stuck == "aileron":
             A = np.array(((self.Cl_b, self.Cl_dr), (self.Cn_b, self.Cn_dr)))
             _beta, dr = np.linalg.solve(A, np.array((-self.Cl_da * value, -self.Cn_da * value)))
@@ -136,6 +261,8 @@ class LateralAero:
     def roll_gain(self, stuck: str) -> float:
         """Rolling moment of the other surface per unit of the stuck one's (autopilot
         convention): the factor that maps the roll loop's aileron onto the rudder."""
+        if stuck == "aileron" and self.rudder_roll_gain:
+            return self.rudder_roll_gain
         if stuck == "aileron":
             return self.Cl_da / -self.Cl_dr
         return 1.0
@@ -149,7 +276,40 @@ AEROSONDE_LAT = LateralAero("aerosonde", mass_kg=13.5, wing_area_m2=0.55, span_m
                             Cl_b=-0.12, Cl_p=-0.26, Cl_r=0.14, Cl_da=0.08, Cl_dr=0.105,
                             Cn_b=0.25, Cn_p=0.022, Cn_r=-0.35, Cn_da=0.06, Cn_dr=-0.032)
 
-LAT_MODELS = {1: AEROSONDE_LAT}
+# JSBSim's Cessna 172P (the jsbsim package's aircraft/c172p/c172p.xml; tests/
+# test_monitor_lateral.py reads the file and checks these): the SIDE, ROLL and YAW axes
+# flaps up, per rad (CYb -0.137, Clb -0.0322, Cnb 0.0205 at beta 0.349; CYp, CYr, Clr
+# tables in alpha 0..0.094, held outside), about the aerodynamic reference point (x 43.2
+# in, z 59.4 in), 1.08 in behind and 21.66 in above the CG with the point masses and
+# the fuel (x 42.12, z 37.74 in): the side force's moment about the CG moved in
+# (arp_x_m, arp_z_m). Inertia with the point masses and the fuel (JSBSim's
+# inertia/i*-slugs_ft2: ixx 1524.4, iyy 1384.3, izz 2525.5, ixz -16.69, the book's Jxz
+# +16.69). The aerodynamic moments act on the left aileron's deflection alone, which
+# the FCS moves 15 deg up (fcs/aileron-cmd-norm +1, roll right) and 20 deg down (-1) per
+# normalised command (0.35 autopilot rad); the rudder 16 deg each way. Cndr acts on
+# aero/function/qbar-induced-psf (the slipstream: wash_dr, as the elevator's).
+_LB, _FT, _IN, _SLUGFT2 = 0.45359237, 0.3048, 0.0254, 1.3558179
+C172P_LAT = LateralAero("c172p", mass_kg=1880 * _LB, wing_area_m2=174 * _FT ** 2, span_m=35.8 * _FT,
+                        Jx=1524.4 * _SLUGFT2, Jy=1384.3 * _SLUGFT2, Jz=2525.5 * _SLUGFT2,
+                        Jxz=16.69 * _SLUGFT2,
+                        CY_b=-0.137 / 0.349, CY_dr=0.187,
+                        Cl_b=-0.0322 / 0.349, Cl_p=-0.484, Cl_r=0.0798, Cl_da=0.229, Cl_dr=0.0147,
+                        Cn_b=0.0205 / 0.349, Cn_p=-0.0278, Cn_r=-0.0937, Cn_da=-0.0053, Cn_dr=-0.043,
+                        CY_p=-0.075, CY_r=0.214,
+                        CY_p_a=(-0.145 + 0.075) / 0.094, CY_r_a=(0.267 - 0.214) / 0.094,
+                        Cl_r_a=(0.1869 - 0.0798) / 0.094, alpha_max=0.094,
+                        CL0=0.25, CLa=(0.73 - 0.25) / 0.09,
+                        arp_x_m=(43.2 - 42.12) * _IN, arp_z_m=(59.4 - 37.74) * _IN,
+                        da_right=15.0 * 0.01745 / 0.35, da_left=20.0 * 0.01745 / 0.35,
+                        dr_gain=16.0 * 0.01745 / 0.35, wash_dr=1.245,
+                        CD0=0.027, CD_alpha=((-0.0175, 0.0, 0.0175, 0.0349, 0.0524, 0.0698, 0.0873, 0.1047),
+                                             (0.0020, 0.0052, 0.0099, 0.0162, 0.0240, 0.0334, 0.0442, 0.0566)),
+                        CD_beta=0.17, imu_x_m=(42.12 - 37.0) * _IN, imu_z_m=-(48.0 - 37.74) * _IN,
+                        prop_ixx=1.67 * _SLUGFT2, prop_sense=1.0,
+                        rpm=(477.99, 957.93, 19.38, -8.27, 776.39), raw_accel=True,
+                        rudder_roll_gain=1.0)
+
+LAT_MODELS = {1: AEROSONDE_LAT, 2: C172P_LAT}
 
 AXES = ("aileron", "rudder")
 
@@ -226,9 +386,12 @@ class LateralIdentifier:
     Outputs: ``ratio`` (per axis, window statistic / threshold), ``worst()``."""
 
     def __init__(self, model: LateralAero, alpha: float = 1e-4, window: int = 10, p_fa: float = 0.01,
-                 prop=None):
+                 prop=None, nav=None):
         self.model = model
         self.prop = prop               # airframe.PitchAero: the propeller's momentum (or None)
+        # the navigation filter, whose accelerometer bias estimate a model with raw_accel
+        # adds back to the specific force it is given (LateralAero.raw_accel)
+        self._nav = nav if model.raw_accel else None
         tests_per_hour = 3600e6 / (BAL_PERIOD_US * TEST_DIV)
         a_det = family_alpha(p_fa, 2 * tests_per_hour)     # two axes share the budget
         self.axes = {n: _Axis(n, window, alpha, a_det, prior=LAT_RES_PRIOR_RAD, prior_n=LAT_RES_PRIOR_N)
@@ -263,10 +426,16 @@ class LateralIdentifier:
             self._lp = None
             return
         w = nav.omega_b
+        if self._nav is not None:
+            ba = getattr(self._nav, "accel_bias", None)
+            if ba is not None:
+                f_b = (float(f_b[0]) + float(ba[0]), float(f_b[1]) + float(ba[1]), float(f_b[2]) + float(ba[2]))
         x = [float(w[0]), float(w[1]), float(w[2]), float(f_b[1]), V,
              float(controls[0]) * MAX_DEFLECTION_RAD, float(controls[2]) * MAX_DEFLECTION_RAD,
              float(controls[3]) * (V_REF / V) ** 2,
-             0.0 if self.prop is None else -self.prop.prop_momentum(float(controls[3]), V) * float(w[1])]
+             (-self.model.prop_momentum(float(controls[3]), V) * float(w[1]) if self.model.prop_ixx > 0.0
+              else 0.0 if self.prop is None else -self.prop.prop_momentum(float(controls[3]), V) * float(w[1])),
+             float(f_b[2])]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
             self._start_us = t_us
@@ -289,7 +458,7 @@ class LateralIdentifier:
         # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
         pd = (x[0] - lp[0]) / BAL_TAU_S
         rd = (x[2] - lp[2]) / BAL_TAU_S
-        za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8])
+        za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8], lp[9])
         phi = np.array((1.0, lp[7]))
         self._k += 1
         k_test = self._k >= TEST_DIV

@@ -275,7 +275,7 @@ class FaultMonitor:
             lat = LAT_MODELS.get(int(p["FDI_EL_MODEL"]))
             if lat is not None:
                 self.lateral = LateralIdentifier(lat, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"],
-                                                 prop=self.airframe)
+                                                 prop=self.airframe, nav=self.nav)
                 self.lateral_model = lat
         # the throttle's, autopilot/monitor/throttle.py
         self.throttle = None
