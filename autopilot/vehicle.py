@@ -297,7 +297,8 @@ class PlaneVehicle(VehicleBase):
         simulator advances its plant meanwhile (autopilot/cli.py); ``step`` runs both."""
         self._finish = None
         t_us = frame.t_us
-        dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
+        dt = 0.01 if self.last_t_us is None else (t_us - self.last_t_us) * 1e-6
+        dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
         if frame.gps is not None:
