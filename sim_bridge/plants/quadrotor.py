@@ -229,7 +229,9 @@ class QuadrotorPlant:
             vb = r[1] * ax + r[4] * ay + r[7] * az
             wb = r[2] * ax + r[5] * ay + r[8] * az
             alpha = math.atan2(wb, ub)
-            beta = math.asin(max(-1.0, min(1.0, vb / airspeed)))
+            s = vb / airspeed                      # max(-1, min(1, s)), spelt out: the
+            s = s if s < 1.0 else 1.0              # builtins' cost (autopilot/control/pid.py)
+            beta = math.asin(s if s > -1.0 else -1.0)
         arr = np.array((vn, ve, vd, *self.q, *self.w, *self._f_b, wn, we, wd))
         return PlantState(self._t_us, lat, lon, alt, arr[0:3], arr[3:7], arr[7:10], arr[10:13],
                           arr[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
