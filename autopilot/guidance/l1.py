@@ -29,14 +29,15 @@ positive bank turn right (clockwise seen from above).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from ..frozen import message
 
 G = 9.80665
 MIN_GROUNDSPEED_MPS = 3.0
 MAX_INTERCEPT_RAD = math.radians(60.0)  # capture angle when far from the path
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class LateralCommand:
     accel_mps2: float        # lateral acceleration, + right [m/s^2]
     bank_rad: float          # bank command (before the roll limit) [rad]

@@ -53,10 +53,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE,
@@ -112,7 +112,7 @@ ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this lo
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class NavTarget:
     kind: str                    # "idle" | "takeoff" | "line" | "loiter" | "direct"
     seq: int                     # mission item being flown

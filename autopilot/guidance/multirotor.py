@@ -55,8 +55,8 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
 
+from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
@@ -95,7 +95,7 @@ COPTER_GUIDANCE_PARAMS = (
 )
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class CopterTarget:
     """What guidance asks of the position and altitude loops (home NED frame)."""
 
