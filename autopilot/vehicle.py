@@ -262,10 +262,10 @@ class PlaneVehicle(VehicleBase):
         or down and stopped at the end of a landing (guidance/landing.py)."""
         if not self.armed or self.home_frame is None or self.nav_state is None:
             return True
-        land = self.sequencer.landing
+        land = self._sequencer.landing
         if land is not None and land.phase == "ground":
             return True   # (rollout: still sliding; ground stations see it land when it stops)
-        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self.sequencer.launched
+        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self._sequencer.launched
 
     @property
     def landing_phase(self) -> str | None:
@@ -308,7 +308,8 @@ class PlaneVehicle(VehicleBase):
         simulator advances its plant meanwhile (autopilot/cli.py); ``step`` runs both."""
         self._finish = None
         t_us = frame.t_us
-        dt = 0.01 if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
+        dt = 0.01 if self.last_t_us is None else (t_us - self.last_t_us) * 1e-6
+        dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
         if frame.gps is not None:
@@ -402,7 +403,7 @@ class PlaneVehicle(VehicleBase):
             controls = self._fly(nav, dt, t_us)
             if self.terminated:
                 controls = (1.0, 1.0, 1.0, 0.0)
-        if self.armed and self.sequencer is not None:
+        if self.armed and self._sequencer is not None:
             self._land_disarm(t_us)
         self._finish = (t_us, nav, controls, truth, frame.gps is not None)
         return ActuatorOutputs(t_us, controls, self.armed)
@@ -427,7 +428,7 @@ class PlaneVehicle(VehicleBase):
     def _sequencer_requests(self, t_us: int, nav: NavState) -> None:
         """What the mission asked of the vehicle this step: its warnings and notes to the
         log and the ground stations (its notices), a new home (DO_SET_HOME)."""
-        seq = self.sequencer
+        seq = self._sequencer
         if seq.notices:
             for t_s, severity, text in seq.notices:
                 self.notice(t_s, severity, text)
@@ -515,7 +516,7 @@ class PlaneVehicle(VehicleBase):
 
     def _landing(self) -> bool:
         """A landing is being flown (where touching down is the plan)."""
-        seq = self.sequencer
+        seq = self._sequencer
         if seq is None or seq.finished or not 0 < seq.current < len(seq.items):
             return False
         return seq.items[seq.current].command == MAV_CMD_NAV_LAND
@@ -526,7 +527,7 @@ class PlaneVehicle(VehicleBase):
         friction: outside the models its statistics test)."""
         if not self.armed or self.landed:
             return False
-        land = self.sequencer.landing if self.sequencer is not None else None
+        land = self._sequencer.landing if self._sequencer is not None else None
         return land is None or land.phase in ("approach", "descend")
 
     def go_around(self, alt_m: float, t_us: int) -> str | None:
@@ -557,7 +558,7 @@ class PlaneVehicle(VehicleBase):
     def _land_disarm(self, t_us: int) -> None:
         """NAV_LAND: disarm LAND_DISARMDELAY after the landing is complete (stopped on
         the ground, guidance/landing.py); the mission is then over."""
-        seq = self.sequencer
+        seq = self._sequencer
         land = seq.landing
         if land is None or land.landed_us is None:
             return
@@ -587,9 +588,9 @@ class PlaneVehicle(VehicleBase):
                 return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
             tgt = hold
         else:
-            if self.mode == PlaneMode.RTL and not self.sequencer.finished:
-                self.sequencer.finished = True  # RTL mode: go straight to the home loiter
-            seq = self.sequencer
+            if self.mode == PlaneMode.RTL and not self._sequencer.finished:
+                self._sequencer.finished = True  # RTL mode: go straight to the home loiter
+            seq = self._sequencer
             # (no landing in the sequencer: no rangefinder landing, no correction)
             landing = seq.landing is not None and self._rf_landing() is not None
             seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0

@@ -86,6 +86,8 @@ class VehicleBase:
 
     @property
     def sequencer(self):
+        """The mission sequencer (None without a mission). The vehicles' per-step paths
+        read ``_sequencer`` itself: this call costs more than the read, 15 times a step."""
         return self._sequencer
 
     @sequencer.setter

@@ -436,7 +436,8 @@ class QuadVehicle(VehicleBase):
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:
         t_us = frame.t_us
-        dt = self.dt_nominal if self.last_t_us is None else max((t_us - self.last_t_us) * 1e-6, 1e-4)
+        dt = self.dt_nominal if self.last_t_us is None else (t_us - self.last_t_us) * 1e-6
+        dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
         if frame.gps is not None:

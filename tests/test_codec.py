@@ -60,3 +60,121 @@ def test_bad_crc_unknown_id_and_noise_cost_only_themselves():
     # claiming a long frame may hold back at most the frames inside its claimed length
     assert len(msgs) >= 2 + 3 + 20 - 13
     assert rx.bad_frames >= 3
+
+
+# --- the lockstep link's lean path (Codec.encode_values, Codec.decode with raw_ids) ---
+_RANGES = {"uint8_t": (0, 255), "uint16_t": (0, 65535), "uint32_t": (0, 2**32 - 1),
+           "uint64_t": (0, 2**64 - 1), "int8_t": (-128, 127), "int16_t": (-32768, 32767),
+           "int32_t": (-2**31, 2**31 - 1)}
+
+
+def _flat_values(cls, rng, zero_from: float = 1.0) -> tuple:
+    """Random flat field values (declared order, arrays flattened) for ``cls``; the
+    fields in the last ``1 - zero_from`` of the wire order are 0, so that MAVLink 2's
+    truncation of the payload's trailing zeros is exercised."""
+    out = []
+    nwire = len(cls.ordered_fieldnames)
+    for i, ftype in enumerate(cls.fieldtypes):
+        w = cls.orders[i]
+        for _ in range(cls.array_lengths[w] or 1):
+            if w >= zero_from * nwire:
+                out.append(0.0 if ftype in ("float", "double") else 0)
+            elif ftype in ("float", "double"):
+                out.append(float(rng.normal(0.0, 300.0)))
+            else:
+                lo, hi = _RANGES[ftype]
+                out.append(int(rng.integers(lo, hi, endpoint=True, dtype=np.uint64 if lo == 0 else np.int64)))
+    return tuple(out)
+
+
+def _pymavlink_message(cls, flat):
+    """The pymavlink message of flat values (arrays as lists)."""
+    args, k = [], 0
+    for i in range(len(cls.fieldnames)):
+        n = cls.array_lengths[cls.orders[i]]
+        args.append(list(flat[k:k + n]) if n else flat[k])
+        k += n or 1
+    assert k == len(flat)
+    return cls(*args)
+
+
+def _flatten(msg) -> tuple:
+    out = []
+    for name in msg.fieldnames:
+        v = getattr(msg, name)
+        out += list(v) if isinstance(v, (list, tuple)) else [v]
+    return tuple(out)
+
+
+def test_lockstep_frames_are_pymavlinks_bytes_and_decode_as_pymavlink_decodes():
+    """Every message of the HIL link, packed by the lean path from flat values: the same
+    bytes as pymavlink's own MAVLink 2 encoding of the same fields (payload truncation
+    included: trailing zero fields, an all-zero payload), and decoded back to the field
+    values pymavlink decodes from them."""
+    from autopilot.link.hil import HIL_IDS
+    rng = np.random.default_rng(18)
+    ours = Codec(1, 25)
+    ref = MAV.MAVLink(None, srcSystem=1, srcComponent=25)
+    rx = Codec(1, 1)
+    assert len(HIL_IDS) == 6
+    for msg_id in sorted(HIL_IDS):
+        cls = MAV.mavlink_map[msg_id]
+        for zero_from in (1.0, 1.0, 0.5, 0.9, 0.0):
+            flat = _flat_values(cls, rng, zero_from)
+            ref.seq = ours.mav.seq
+            expected = bytes(_pymavlink_message(cls, flat).pack(ref))
+            buf = ours.encode_values(msg_id, flat)
+            assert buf == expected, (cls.msgname, zero_from)
+            (got,) = rx.decode(buf, HIL_IDS)
+            assert (got.msg_id, got.src_system, got.src_component) == (msg_id, 1, 25)
+            assert got.values == _flatten(ref.decode(bytearray(expected))), cls.msgname
+            # the general path (not asked for raw values) reads the same message
+            (full,) = Codec(1, 1).decode(buf)
+            assert _flatten(full) == got.values
+    assert rx.bad_frames == 0
+
+
+def test_signed_lockstep_messages_are_pymavlinks_signed_bytes():
+    """With a signing key the codec signs what ``encode`` sends: the same bytes as
+    pymavlink's signing of the same message (key, link id, timestamp); the lockstep
+    link itself is never signed (``encode_values`` frames stay unsigned, as before)."""
+    from autopilot.link.hil import ID_SENSOR
+    from autopilot.link.signing import Signing, passphrase_key
+    key = passphrase_key("lockstep")
+    rng = np.random.default_rng(4)
+    ours = Codec(1, 25)
+    ours.signing = Signing(key, 10**12, clock=lambda: 1.75e9)
+    ours.link_id = 3
+    ref = MAV.MAVLink(None, srcSystem=1, srcComponent=25)
+    ref.signing.secret_key, ref.signing.link_id, ref.signing.sign_outgoing = key, 3, True
+    for msg_id in (ID_SENSOR, MAV.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS,
+                   MAV.MAVLINK_MSG_ID_HIL_STATE_QUATERNION):
+        cls = MAV.mavlink_map[msg_id]
+        flat = _flat_values(cls, rng, 0.9)
+        ref.seq = ours.mav.seq
+        ref.signing.timestamp = ours.signing.timestamp + 1       # what ours signs with next
+        expected = bytes(_pymavlink_message(cls, flat).pack(ref))
+        assert expected[2] & 0x01 and len(expected) == 12 + expected[1] + 13
+        assert ours.encode(_pymavlink_message(cls, flat)) == expected, cls.msgname
+    unsigned = ours.encode_values(ID_SENSOR, _flat_values(MAV.mavlink_map[ID_SENSOR], rng))
+    assert not unsigned[2] & 0x01 and len(unsigned) == 12 + unsigned[1]
+
+
+def test_lockstep_decoder_round_trips_and_refuses_a_corrupted_crc():
+    from autopilot.link.hil import HIL_IDS, ID_ACTUATORS, ID_SENSOR
+    tx = Codec(1, 25)
+    sensor = (123456789, 0.5, -0.25, -9.75, 0.125, 0.0625, -0.5, 0.25, 0.0, 0.375, 1001.5, 0.5,
+              120.25, 15.5, 7167, 0)
+    act = (123456789, 0.5, -0.25, 0.125, 0.75) + (0.0,) * 12 + (128, 0)
+    good = tx.encode_values(ID_SENSOR, sensor) + tx.encode_values(ID_ACTUATORS, act)
+    rx = Codec(1, 1)
+    assert [(m.msg_id, m.values) for m in rx.decode(good, HIL_IDS)] == [(ID_SENSOR, sensor), (ID_ACTUATORS, act)]
+    n = len(good) - len(tx.encode_values(ID_ACTUATORS, act))
+    for k in (1, 12, n - 2, n - 1):                # length, payload, CRC low and high bytes
+        bad = bytearray(good)
+        bad[k] ^= 0x20
+        rx = Codec(1, 1)
+        got = rx.decode(bytes(bad), HIL_IDS)
+        assert ID_SENSOR not in [m.msg_id for m in got] and rx.bad_frames >= 1, k
+        if k != 1:                                 # (a wrong length may swallow what follows)
+            assert [(m.msg_id, m.values) for m in got] == [(ID_ACTUATORS, act)], k

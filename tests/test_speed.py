@@ -215,7 +215,8 @@ def test_quadrotor_flight_step_is_the_plants_law():
     q = qbatch.from_euler(np.array(0.2), np.array(-0.1), np.array(1.0))
     w, T, T_ss = np.array([0.3, -0.2, 0.1]), np.array([3.0, 3.5, 3.2, 3.4]), np.array([3.6, 3.1, 3.3, 3.0])
     wind = np.array([2.0, -1.0, 0.3])
-    out = flight_step(np.concatenate((p, v, q, w, T, T_ss, wind, [0.0, 0.0])), pl._consts)
+    out = np.full(21, np.nan)
+    flight_step(np.concatenate((p, v, q, w, T, T_ss, wind, [0.0, 0.0])), pl._consts, out)
     T1 = T + (T_ss - T) * pl._lag
     R = qbatch.to_dcm(q)
     va = v - wind

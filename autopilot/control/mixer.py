@@ -114,16 +114,19 @@ class QuadPlusMixer:
         span = hi - lo
         sat_rp = sat_y = sat_c = False
         # roll / pitch differential: rotor pairs (2, 4) and (3, 1)
-        rp = max(abs(u_phi), abs(u_theta))
+        # max(a, b) spelt out here and below: the builtin's cost (control/pid.py)
+        rp, rt = abs(u_phi), abs(u_theta)
+        rp = rt if rt > rp else rp
         if 2.0 * rp > span:
             k = 0.5 * span / rp
             u_phi, u_theta = u_phi * k, u_theta * k
             sat_rp = True
         # yaw: every rotor carries +-u_psi on top of its roll/pitch share
-        room = 0.5 * span - max(abs(u_phi), abs(u_theta))
+        rp, rt = abs(u_phi), abs(u_theta)
+        room = 0.5 * span - (rt if rt > rp else rp)
         ay = abs(u_psi)
         if ay > room:
-            u_psi = math.copysign(max(room, 0.0), u_psi)
+            u_psi = math.copysign(0.0 if 0.0 > room else room, u_psi)
             sat_y = True
         d1 = -u_theta + u_psi
         d2 = u_phi - u_psi

@@ -31,10 +31,17 @@ class Pid:
             rate = 0.0 if self._prev_meas is None or dt <= 0 else (measurement - self._prev_meas) / dt
         self._prev_meas = measurement
         unsat = feedforward + scale * (self.kp * err + self.integ - self.kd * rate)
-        out = min(max(unsat, self.out_min), self.out_max)
+        # min(max(unsat, lo), hi) spelt out, here and below: the same comparisons and
+        # result, without the builtins' argument tuple and iterator (they cost more than
+        # the rest of this call)
+        lo, hi = self.out_min, self.out_max
+        out = lo if lo > unsat else unsat
+        out = hi if hi < out else out
         # anti-windup: integrate unless saturated and the error pushes further out
         if self.ki > 0.0 and dt > 0.0:
-            pushing_out = (unsat >= self.out_max and err > 0) or (unsat <= self.out_min and err < 0)
+            pushing_out = (unsat >= hi and err > 0) or (unsat <= lo and err < 0)
             if not pushing_out:
-                self.integ = min(max(self.integ + self.ki * err * dt, -self.i_max), self.i_max)
+                integ, i_max = self.integ + self.ki * err * dt, self.i_max
+                integ = -i_max if -i_max > integ else integ
+                self.integ = i_max if i_max < integ else integ
         return out

@@ -103,7 +103,8 @@ def quat_to_euler(q: np.ndarray) -> tuple[float, float, float]:
     w, x, y, z = q
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     s = 2.0 * (w * y - z * x)
-    pitch = math.asin(max(-1.0, min(1.0, s)))
+    s = s if s < 1.0 else 1.0                      # max(-1.0, min(1.0, s)), without the
+    pitch = math.asin(s if s > -1.0 else -1.0)     # builtins' cost (control/pid.py)
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     return roll, pitch, wrap_pi(yaw)
 

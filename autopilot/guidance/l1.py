@@ -29,14 +29,15 @@ positive bank turn right (clockwise seen from above).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from ..frozen import message
 
 G = 9.80665
 MIN_GROUNDSPEED_MPS = 3.0
 MAX_INTERCEPT_RAD = math.radians(60.0)  # capture angle when far from the path
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class LateralCommand:
     accel_mps2: float        # lateral acceleration, + right [m/s^2]
     bank_rad: float          # bank command (before the roll limit) [rad]
@@ -64,7 +65,7 @@ class L1Guidance:
         gs = math.hypot(vn, ve)
         if gs < MIN_GROUNDSPEED_MPS:
             # near-zero or unreliable ground speed: steer by heading instead
-            s = max(airspeed_mps, MIN_GROUNDSPEED_MPS)
+            s = MIN_GROUNDSPEED_MPS if MIN_GROUNDSPEED_MPS > airspeed_mps else airspeed_mps
             return s * math.cos(heading_rad), s * math.sin(heading_rad), s
         return vn, ve, gs
 
@@ -84,7 +85,8 @@ class L1Guidance:
              airspeed_mps: float = 0.0) -> LateralCommand:
         """Track the straight line from A through B."""
         vn, ve, gs = self._ground_velocity(v_ne, heading_rad, airspeed_mps)
-        l1 = max(self.l1_distance(gs), 1.0)
+        l1 = self.l1_distance(gs)
+        l1 = 1.0 if 1.0 > l1 else l1                 # (max spelt out: control/pid.py)
         dn, de = b_ne[0] - a_ne[0], b_ne[1] - a_ne[1]
         length = math.hypot(dn, de)
         pn, pe = p_ne[0] - a_ne[0], p_ne[1] - a_ne[1]
@@ -95,8 +97,10 @@ class L1Guidance:
         nn, ne = -te, tn                     # unit normal, to the right of the track
         xtrack = pn * nn + pe * ne           # + right of the path
         along = pn * tn + pe * te
-        ahead = math.sqrt(max(l1 * l1 - xtrack * xtrack, 0.0))
-        ahead = max(ahead, abs(xtrack) / math.tan(MAX_INTERCEPT_RAD))
+        ahead = l1 * l1 - xtrack * xtrack
+        ahead = math.sqrt(0.0 if 0.0 > ahead else ahead)
+        steep = abs(xtrack) / math.tan(MAX_INTERCEPT_RAD)
+        ahead = steep if steep > ahead else ahead
         ln = tn * ahead - nn * xtrack
         le = te * ahead - ne * xtrack
         return self._command(vn, ve, gs, ln, le, l1, xtrack, along)
@@ -106,7 +110,8 @@ class L1Guidance:
         """Circle C with radius R; direction +1 clockwise, -1 counter-clockwise (seen
         from above). ``xtrack_m`` is the radial error, + outside."""
         vn, ve, gs = self._ground_velocity(v_ne, heading_rad, airspeed_mps)
-        l1 = max(self.l1_distance(gs), 1.0)
+        l1 = self.l1_distance(gs)
+        l1 = 1.0 if 1.0 > l1 else l1                 # (max spelt out: control/pid.py)
         rn, re = p_ne[0] - c_ne[0], p_ne[1] - c_ne[1]
         r = math.hypot(rn, re)
         if r < 1e-3:
@@ -116,8 +121,10 @@ class L1Guidance:
         nn, ne = -te, tn                                 # right of the tangent
         radial_err = r - radius_m                        # + outside the circle
         xtrack = -direction * radial_err                 # + right of the tangent
-        ahead = math.sqrt(max(l1 * l1 - xtrack * xtrack, 0.0))
-        ahead = max(ahead, abs(xtrack) / math.tan(MAX_INTERCEPT_RAD))
+        ahead = l1 * l1 - xtrack * xtrack
+        ahead = math.sqrt(0.0 if 0.0 > ahead else ahead)
+        steep = abs(xtrack) / math.tan(MAX_INTERCEPT_RAD)
+        ahead = steep if steep > ahead else ahead
         ln = tn * ahead - nn * xtrack
         le = te * ahead - ne * xtrack
         cmd = self._command(vn, ve, gs, ln, le, l1, radial_err, 0.0)

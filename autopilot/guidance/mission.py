@@ -53,10 +53,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE,
@@ -112,7 +112,7 @@ ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this lo
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class NavTarget:
     kind: str                    # "idle" | "takeoff" | "line" | "loiter" | "direct"
     seq: int                     # mission item being flown
@@ -416,7 +416,8 @@ class MissionSequencer:
         w_along = wn * u[0] + we * u[1]
         w_cross = -wn * u[1] + we * u[0]
         v = self.airspeed_mps
-        return w_along + math.sqrt(max(v * v - w_cross * w_cross, 1.0))
+        h = v * v - w_cross * w_cross
+        return w_along + math.sqrt(1.0 if 1.0 > h else h)    # (max spelt out: control/pid.py)
 
     # ---------------------------------------------------------------- stepping ---
     def _fillet(self, a_ne, b_ne, accept_b: float, p_ne=None):
@@ -743,7 +744,8 @@ class MissionSequencer:
         if nxt is not None and nxt[0] == "arc" and nxt[3] == direction:
             return 0.0
         changes = 2.0 if nxt is not None and nxt[0] == "arc" else 1.0
-        return min(changes * ROLL_LEAD_S * gs / r, 0.5)
+        lead = changes * ROLL_LEAD_S * gs / r
+        return 0.5 if 0.5 < lead else lead
 
     def _next_segment(self) -> None:
         self._path.pop(0)
@@ -1193,7 +1195,8 @@ class MissionSequencer:
             else (self.sink_rate_mps or p["DEM_CLMB_FRAC"] * p["SINK_MAX"])
         ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
-        return SLOPE_MARGIN * rate / max(self._groundspeed_along(u), 1.0)
+        gs = self._groundspeed_along(u)
+        return SLOPE_MARGIN * rate / (1.0 if 1.0 > gs else gs)
 
     def _join_alt(self, t_us, seq, p_ne, a_ne, b_ne, alt_b) -> float:
         """The altitude demand on a join: towards the waypoint's at the steepest slope,
@@ -1337,7 +1340,9 @@ class MissionSequencer:
 
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         b_ne, alt_b = self._resolve(item, p_ne, alt_m)
-        self._b_min = min(self._b_min, math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]))
+        d = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
+        if d < self._b_min:                  # min(), spelt out (control/pid.py)
+            self._b_min = d
         if self._leg_start is None:
             self._leg_start = self._prev_wp_ne if self._prev_wp_ne is not None else p_ne
             self._leg_start_alt = self._prev_alt

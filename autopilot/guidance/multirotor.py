@@ -55,8 +55,8 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
 
+from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
@@ -95,7 +95,7 @@ COPTER_GUIDANCE_PARAMS = (
 )
 
 
-@dataclass(frozen=True, slots=True)
+@message
 class CopterTarget:
     """What guidance asks of the position and altitude loops (home NED frame)."""
 
@@ -332,8 +332,10 @@ class Trajectory:
         lim = self._amax * dt
         # braking curve v = sqrt(2 a d): followed exactly (the discrete steps need a
         # little more than a_max at its very end), so the profile stops on the goal
-        v_brake = math.sqrt(2.0 * self._amax * max(remaining, 0.0) + self._v_end * self._v_end)
-        v_goal = min(self._vmax, v_brake)
+        # max() and min() spelt out (the builtins' cost: control/pid.py)
+        v_brake = math.sqrt(2.0 * self._amax * (0.0 if 0.0 > remaining else remaining)
+                            + self._v_end * self._v_end)
+        v_goal = v_brake if v_brake < self._vmax else self._vmax
         ex, ey, ez = r[0] - p_vehicle[0], r[1] - p_vehicle[1], r[2] - p_vehicle[2]
         if ex * ex + ey * ey + ez * ez > leash * leash:
             v_goal = 0.0
@@ -577,7 +579,8 @@ class CopterNavigator:
         elif goal is not None:
             err = wrap_pi(goal - self.yaw_ref)
             step = math.radians(prm["YAW_RATE_MAX"]) * dt
-            self.yaw_ref = wrap_pi(self.yaw_ref + max(-step, min(step, err)))
+            err = err if err < step else step          # max(-step, min(step, err)),
+            self.yaw_ref = wrap_pi(self.yaw_ref + (err if err > -step else -step))  # spelt out
 
     @property
     def arrived(self) -> bool:

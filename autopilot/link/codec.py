@@ -62,11 +62,13 @@ _PLANS: dict[int, tuple | None] = {}
 
 class _Flat:
     """For one message class: the declared-order flat field list <-> the wire-order
-    tuple of its struct (arrays flattened in place), as C-level itemgetters; and what
-    framing needs (the struct, its size, the CRC extra byte, the id's header bytes)."""
+    tuple of its struct (arrays flattened in place), as C-level itemgetters (``tuple``,
+    which hands a tuple back as it is, when the two orders agree: HIL_SENSOR,
+    HIL_STATE_QUATERNION); and what framing needs (the struct, its size, the CRC extra
+    byte, the id's header bytes)."""
 
-    __slots__ = ("cls", "to_declared", "to_wire", "n", "pack", "unpack", "unpack_from",
-                 "size", "extra", "id_bytes")
+    __slots__ = ("cls", "msg_id", "to_declared", "to_wire", "n", "pack", "unpack",
+                 "unpack_from", "size", "extra", "id_bytes")
 
     def __init__(self, cls):
         plan = _field_plan(cls)
@@ -77,15 +79,18 @@ class _Flat:
         for declared, wire in enumerate(flat):
             inverse[wire] = declared
         self.cls = cls
-        self.to_declared = itemgetter(*flat)
-        self.to_wire = itemgetter(*inverse)
+        if flat == inverse == list(range(len(flat))):
+            self.to_declared = self.to_wire = tuple
+        else:
+            self.to_declared = itemgetter(*flat)
+            self.to_wire = itemgetter(*inverse)
         self.n = len(flat)
         self.pack = cls.unpacker.pack
         self.unpack = cls.unpacker.unpack
         self.unpack_from = cls.unpacker.unpack_from
         self.size = cls.unpacker.size
         self.extra = bytes((cls.crc_extra,))
-        msg_id = cls.id
+        self.msg_id = msg_id = cls.id
         self.id_bytes = bytes((msg_id & 0xFF, (msg_id >> 8) & 0xFF, msg_id >> 16))
 
 
@@ -97,6 +102,17 @@ def _flat(msg_id: int) -> _Flat:
     if f is None:
         f = _FLAT[msg_id] = _Flat(_MAP[msg_id])
     return f
+
+
+_RAW: dict[frozenset, dict[int, _Flat]] = {}
+
+
+def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
+    """msg_id -> _Flat of the ids a decode is asked to return raw (one look-up a frame)."""
+    flats = _RAW.get(raw_ids)
+    if flats is None:
+        flats = _RAW[raw_ids] = {i: _flat(i) for i in raw_ids if i in _MAP and _field_plan(_MAP[i])}
+    return flats
 
 
 class RawMessage:
@@ -201,18 +217,18 @@ class Codec:
             # the lockstep stream's case: whole unsigned MAVLink 2 frames of raw_ids back
             # to back, read without the general loop's cases; anything else (another
             # message, a partial frame, garbage, a signature) goes on below from there
+            flats = _RAW.get(raw_ids) or _raw_flats(raw_ids)
             while n - i >= 12 and data[i] == STX_V2 and not data[i + 2]:
                 plen = data[i + 1]
                 end = i + 10 + plen
-                msg_id = data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16)
-                if end + 2 > n or msg_id not in raw_ids:
+                f = flats.get(data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16))
+                if f is None or end + 2 > n:
                     break
-                f = _FLAT.get(msg_id) or _flat(msg_id)
                 if (data[end] | (data[end + 1] << 8)) != crc16(f.extra, crc16(data[i + 1:end], 0xFFFF)):
                     break
                 size = f.size
                 t = f.unpack_from(data, i + 10) if plen >= size else f.unpack(data[i + 10:end] + _ZEROS[:size - plen])
-                out.append(RawMessage(msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
+                out.append(RawMessage(f.msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
                 i = end + 2
             if i == n:
                 self.limited = False

@@ -111,7 +111,8 @@ class PitchAero:
         if self.prop_ixx <= 0.0:
             return 0.0
         a, b, c, d = self.rpm
-        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps, 0.0)
+        rpm = a + b * throttle + c * v_mps + d * throttle * v_mps
+        rpm = 0.0 if 0.0 > rpm else rpm               # max(rpm, 0) (control/pid.py)
         return self.prop_sense * self.prop_ixx * rpm * (2.0 * math.pi / 60.0)
 
     def gyro_elevator(self, r: float, throttle: float, v_mps: float) -> float:

@@ -167,7 +167,8 @@ class ThrustModel:
     def rotor_speed(self, throttle: float, V: float) -> float:
         """The rotor's steady speed at that throttle and airspeed [rad/s]."""
         w0, s = self._rpm_line(V)
-        return max(w0 + s * throttle, 0.0)
+        w = w0 + s * throttle
+        return 0.0 if 0.0 > w else w
 
     def rotor_step(self, w: float, throttle: float, V: float, dt: float) -> float:
         """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``:
@@ -182,16 +183,23 @@ class ThrustModel:
         motor has spun it up again (1.7 s at 0.55 from 1500 rpm at 27 m/s: with the
         first-order lag alone the throttle read 0.27 low, a false throttle alarm)."""
         w0, s = self._rpm_line(V)
-        wq = max(w, 1.0)
-        q_m = min(self.q_max_nm, self.p_max_w * max(throttle, 0.0) / wq)
-        q_p = max(self.p_max_w * max(w - w0, 0.0) / s / wq, self.k_idle * w * w)
-        return max(w + dt * (q_m - q_p) / self.prop_ixx, 0.0)
+        # max and min spelt out, here and below (the builtins' cost: control/pid.py)
+        wq = 1.0 if 1.0 > w else w
+        q_m = self.p_max_w * (0.0 if 0.0 > throttle else throttle) / wq
+        q_m = q_m if q_m < self.q_max_nm else self.q_max_nm
+        q_p = self.p_max_w * (0.0 if 0.0 > w - w0 else w - w0) / s / wq
+        q_idle = self.k_idle * w * w
+        q_p = q_idle if q_idle > q_p else q_p
+        w = w + dt * (q_m - q_p) / self.prop_ixx
+        return 0.0 if 0.0 > w else w
 
     def rotor_throttle(self, w: float, V: float) -> float:
         """The throttle whose steady rotor speed is ``w`` (0..1): the one whose thrust
         the rotor gives now."""
         w0, s = self._rpm_line(V)
-        return min(max((w - w0) / s, 0.0), 1.0)
+        u = (w - w0) / s
+        u = 0.0 if 0.0 > u else u
+        return 1.0 if 1.0 < u else u
 
     def prop_throttle(self, w: float, V: float, rho: float = RHO0) -> float:
         """The throttle whose shaft power the propeller takes at speed ``w`` [rad/s], true
@@ -212,10 +220,12 @@ class ThrustModel:
         plant's own rotor: ``I dw/dt = Q_motor - Q_prop``, the motor's torque
         ``throttle p_max / w`` capped by the speed controller at ``q_max`` (the FCS's
         esc-power-limit-norm), the propeller's ``P / w`` (:meth:`prop_throttle`)."""
-        wq = max(w, 1.0)
-        q_m = min(self.p_max_w * max(throttle, 0.0) / wq, self.q_max_nm)
+        wq = 1.0 if 1.0 > w else w
+        q_m = self.p_max_w * (0.0 if 0.0 > throttle else throttle) / wq
+        q_m = self.q_max_nm if self.q_max_nm < q_m else q_m
         q_p = self.p_max_w * self.prop_throttle(w, V, rho) / wq
-        return max(w + dt * (q_m - q_p) / self.prop_ixx, 0.0)
+        w = w + dt * (q_m - q_p) / self.prop_ixx
+        return 0.0 if 0.0 > w else w
 
     def level_drag(self, V: float) -> float:
         """The drag of level, unaccelerated flight at airspeed V [N]."""
@@ -256,7 +266,8 @@ THRUST_MODELS = {1: AEROSONDE_THRUST}
 def _isa_rho(alt_m: float) -> float:
     """The standard atmosphere's density at ``alt_m`` (ICAO Doc 7488 troposphere:
     ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``; the plant's is JSBSim's standard one)."""
-    return RHO0 * max(1.0 - 2.25577e-5 * alt_m, 0.1) ** 4.25588
+    r = 1.0 - 2.25577e-5 * alt_m
+    return RHO0 * (0.1 if 0.1 > r else r) ** 4.25588
 
 
 def _interp(x: float, xs: tuple, ys: tuple) -> float:
@@ -363,7 +374,8 @@ class ThrottleIdentifier:
                 # throttle 0.03 low
                 qS = 0.5 * RHO0 * V * V * m.wing_area_m2
                 alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
-                vt = V * math.sqrt(RHO0 / rho) * math.cos(min(max(alpha, -0.3), 0.3))
+                alpha = -0.3 if -0.3 > alpha else alpha
+                vt = V * math.sqrt(RHO0 / rho) * math.cos(0.3 if 0.3 < alpha else alpha)
                 if self._lpr is None or self._lp is None:
                     self._wr = self._rpm          # the model rotor starts where it is measured
                     z0 = m.prop_throttle(self._rpm, vt, rho)

@@ -302,7 +302,9 @@ class NavFilterBase:
         """One IMU step: predict with frame.imu, then fuse what else is present."""
         t = frame.t_us
         self.innovations = []
-        dt = 0.0 if self._t_us is None else min(max((t - self._t_us) * 1e-6, 0.0), _MAX_DT)
+        dt = 0.0 if self._t_us is None else (t - self._t_us) * 1e-6
+        dt = 0.0 if 0.0 > dt else dt                # min(max(dt, 0), _MAX_DT) spelt out
+        dt = _MAX_DT if _MAX_DT < dt else dt        # (the builtins' cost: control/pid.py)
         self._t_us = t
         imu = frame.imu
         if frame.airspeed is not None:

@@ -249,7 +249,8 @@ class JSBSimPlane:
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
             fdm["position/terrain-elevation-asl-ft"] = (self.home[2] if h is None else h) / FT_M
         imu = self._imu_getters
-        n_mean = min(self.imu_mean_steps, n_steps)
+        n_mean = self.imu_mean_steps
+        n_mean = n_steps if n_steps < n_mean else n_mean    # min() (autopilot/control/pid.py)
         acc = [0.0] * 6
         for k in range(n_steps):
             if self._phase != _FREE:
@@ -678,7 +679,8 @@ class _DrydenGusts:
         du = n["vn"]() * FT_M - wind[0]
         dv = n["ve"]() * FT_M - wind[1]
         dw = n["vd"]() * FT_M - wind[2]
-        speed = max(math.sqrt(du * du + dv * dv + dw * dw), 5.0)
+        speed = math.sqrt(du * du + dv * dv + dw * dw)
+        speed = 5.0 if 5.0 > speed else speed
         shape = 0.177 + 0.000823 * (h_m / FT_M)
         length_u = h_m / shape ** 1.2
         sigma_w = self._sigma_w

@@ -176,6 +176,7 @@ class QuadrotorPlant:
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
                                  af.gear_height_m))
+        self._out = np.empty(21)          # what flight_step writes
         # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
         # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
         # below home's ground point under the vehicle (NED down), updated every step()
@@ -229,7 +230,9 @@ class QuadrotorPlant:
             vb = r[1] * ax + r[4] * ay + r[7] * az
             wb = r[2] * ax + r[5] * ay + r[8] * az
             alpha = math.atan2(wb, ub)
-            beta = math.asin(max(-1.0, min(1.0, vb / airspeed)))
+            s = vb / airspeed                      # max(-1, min(1, s)), spelt out: the
+            s = s if s < 1.0 else 1.0              # builtins' cost (autopilot/control/pid.py)
+            beta = math.asin(s if s > -1.0 else -1.0)
         arr = np.array((vn, ve, vd, *self.q, *self.w, *self._f_b, wn, we, wd))
         return PlantState(self._t_us, lat, lon, alt, arr[0:3], arr[3:7], arr[7:10], arr[10:13],
                           arr[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
@@ -277,8 +280,8 @@ class QuadrotorPlant:
             wn, we, wd = wn + gn, we + ge, wd + gd
         x = np.array((*self.p, *self.v, *self.q, *self.w, *self.thrust, *t_ss, wn, we, wd,
                       1.0 if self.on_ground else 0.0, self._ground_d))
-        out = flight_step(x, self._consts)
-        o = out.tolist()
+        flight_step(x, self._consts, self._out)
+        o = self._out.tolist()
         self.thrust = o[13:17]
         code = o[20]
         if code == _ON_GROUND:
@@ -369,15 +372,16 @@ def _quat_step(qw, qx, qy, qz, ax, ay, az):
 
 
 @kernel
-def flight_step(x, c):
+def flight_step(x, c, out):
     """One step dt of eqs 3.23-3.26 (module docstring). ``x``: p (NED), v, q_nb, omega_b,
     the rotor thrusts T, their static values T_ss, the wind (steady + gust, NED),
     on-ground flag, the ground's depth below home (NED down); ``c``: dt, the thrust lag 1 - exp(-dt/tau), m, g, c_lin, rho, CdA,
-    l, k_M, Ixx, Iyy, Izz, the gear height. Returns p, v, q, omega, T, the specific force
-    f_b and a code: 0 flew, 1 rests on the ground (only T moved), 2 touched down."""
+    l, k_M, Ixx, Iyy, Izz, the gear height. Writes into ``out`` (21 floats) p, v, q,
+    omega, T, the specific force f_b and a code: 0 flew, 1 rests on the ground (only T
+    and the code written), 2 touched down. (Written into the caller's array: a kernel
+    that returns a new one costs about 0.6 us more a call, numba's boxing of it.)"""
     dt, lag, m, g, drag_lin, rho, cda, l, km, ixx, iyy, izz, gear = (
         c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12])
-    out = np.empty(21)
     # each rotor's thrust follows its static value (eq 3.31, discretised exactly)
     for j in range(4):
         out[13 + j] = x[13 + j] + (x[17 + j] - x[13 + j]) * lag
@@ -399,7 +403,7 @@ def flight_step(x, c):
     if x[24] != 0.0:
         if not (fdn + m * g < 0.0 and 1.0 - r8 < 0.02):   # thrust exceeds weight: lift off
             out[20] = 1.0
-            return out
+            return
     # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
     mx = l * (t2 - t4)
     my = l * (t3 - t1)
@@ -426,4 +430,3 @@ def flight_step(x, c):
     out[18] = (r1_ * dn + r4 * de + r7 * dd) / m
     out[19] = (r2 * dn + r5 * de + r8 * dd - total) / m
     out[20] = 2.0 if pdn1 > x[25] - gear else 0.0
-    return out

@@ -45,7 +45,7 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import GpsReading, SensorReadings, next_due_us
+from .readings import GpsReading, SensorReadings, frozen_floats, next_due_us
 from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
@@ -194,8 +194,7 @@ class SensorSuite:
         fx, fy, fz = state.f_b.tolist()
         wx, wy, wz = state.omega_b.tolist()
         e = self._imu_err_rows[i]
-        imu = np.array((fx + e[0], fy + e[1], fz + e[2], wx + e[3], wy + e[4], wz + e[5]))
-        imu.flags.writeable = False
+        imu = frozen_floats(fx + e[0], fy + e[1], fz + e[2], wx + e[3], wy + e[4], wz + e[5])
 
         # Barometer
         nxt = self._next_baro_us
@@ -229,16 +228,14 @@ class SensorSuite:
             hx, hy, hz = self._hard_iron
             s = self.params.mag_noise_sigma_gauss
             # m_b = R(q_nb)^T B_ned (columns of R as rows)
-            mag = np.array((
+            self._mag_b = frozen_floats(
                 (w * w + x * x - y * y - z * z) * bn + 2.0 * (x * y + w * z) * be
                 + 2.0 * (x * z - w * y) * bd + hx + s * n[_MAG_W],
                 2.0 * (x * y - w * z) * bn + (w * w - x * x + y * y - z * z) * be
                 + 2.0 * (y * z + w * x) * bd + hy + s * n[_MAG_W + 1],
                 2.0 * (x * z + w * y) * bn + 2.0 * (y * z - w * x) * be
                 + (w * w - x * x - y * y + z * z) * bd + hz + s * n[_MAG_W + 2],
-            ))
-            mag.flags.writeable = False
-            self._mag_b = mag
+            )
 
         # Airspeed
         nxt = self._next_arsp_us
@@ -289,9 +286,8 @@ class SensorSuite:
         alt_fix = alt - ed
         vn, ve, vd = state.v_ned.tolist()
         sh, _, sv = self._gps_vel
-        v_ned = np.array((vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
-                          vd + sv * n[_GPS_VEL + 2]))
-        v_ned.flags.writeable = False
+        v_ned = frozen_floats(vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
+                              vd + sv * n[_GPS_VEL + 2])
         # satellites: a +-1 step with probability p per epoch, reflected at the bounds
         zs = n[_GPS_SATS]
         if abs(zs) > self._sats_z:
