@@ -5,28 +5,12 @@ the plant's own motion for the deflections flown, and a stuck aileron is found."
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
-import jsbsim
 import numpy as np
 import pytest
 
 from autopilot.monitor.lateral import C172P_LAT, LAT_MODELS
-
-C172P_XML = Path(jsbsim.__file__).resolve().parent / "aircraft" / "c172p" / "c172p.xml"
-LB_KG, FT_M, IN_M, SLUGFT2 = 0.45359237, 0.3048, 0.0254, 1.3558179
-
-
-def _c172p_mass(root):
-    """Weight [lb] and CG (x, z) [in] of the empty aircraft, its point masses and fuel."""
-    items = [(float(root.find("mass_balance/emptywt").text), root.find("mass_balance/location"))]
-    for pm in root.findall("mass_balance/pointmass"):
-        items.append((float(pm.find("weight").text), pm.find("location")))
-    for tank in root.findall("propulsion/tank"):
-        items.append((float(tank.find("contents").text), tank.find("location")))
-    w = sum(m for m, _ in items)
-    return (w, sum(m * float(loc.find("x").text) for m, loc in items) / w,
-            sum(m * float(loc.find("z").text) for m, loc in items) / w)
+from test_monitor_airframe import C172P_XML, FT_M, IN_M, LB_KG, SLUGFT2, _c172p_mass
 
 
 def _fn(root, name: str):
