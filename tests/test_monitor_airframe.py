@@ -69,16 +69,21 @@ def test_trim_airspeed_inverts_the_balance():
 
 def test_level_flight_limits_are_the_plants():
     # GIVEN the plant 100 m above a 500 m home (equivalent airspeed sqrt(rho / rho0) V)
-    plant = JSBSimPlane(home=HOME)
-    rho = 1.225 * (1.0 - 2.25577e-5 * 600.0) ** 4.2559
-    tas = 1.0 / np.sqrt(rho / 1.225)
     # THEN it trims level just inside the model's limits and not 1 m/s beyond them
-    c = plant.trim(airspeed_mps=(AEROSONDE.v_level_max_mps - 0.5) * tas, height_m=100.0)
+    _trims_within_the_limits(JSBSimPlane(home=HOME), AEROSONDE, 100.0)
+
+
+def _trims_within_the_limits(plant, model, height_m: float) -> None:
+    """The plant trims level 0.5 m/s inside the model's level-flight limits (equivalent
+    airspeeds, at ``height_m`` above HOME) and not 1 m/s beyond them."""
+    rho = 1.225 * (1.0 - 2.25577e-5 * (HOME[2] + height_m)) ** 4.2559
+    tas = 1.0 / np.sqrt(rho / 1.225)
+    c = plant.trim(airspeed_mps=(model.v_level_max_mps - 0.5) * tas, height_m=height_m)
     assert c.throttle <= 1.0
-    plant.trim(airspeed_mps=(AEROSONDE.v_level_min_mps + 0.5) * tas, height_m=100.0)
-    for v in (AEROSONDE.v_level_max_mps + 1.0, AEROSONDE.v_level_min_mps - 1.0):
+    plant.trim(airspeed_mps=(model.v_level_min_mps + 0.5) * tas, height_m=height_m)
+    for v in (model.v_level_max_mps + 1.0, model.v_level_min_mps - 1.0):
         with pytest.raises(RuntimeError):
-            plant.trim(airspeed_mps=v * tas, height_m=100.0)
+            plant.trim(airspeed_mps=v * tas, height_m=height_m)
 
 
 def test_pitch_rate_terms():
@@ -238,12 +243,4 @@ def test_c172p_predicted_level_elevator_is_the_plants_trim(eas):
 
 
 def test_c172p_level_flight_limits_are_the_plants():
-    plant = JSBSimPlane("c172p", home=HOME)
-    rho = 1.225 * (1.0 - 2.25577e-5 * 800.0) ** 4.2559
-    tas = 1.0 / np.sqrt(rho / 1.225)
-    c = plant.trim(airspeed_mps=(C172P.v_level_max_mps - 0.5) * tas, height_m=300.0)
-    assert c.throttle <= 1.0
-    plant.trim(airspeed_mps=(C172P.v_level_min_mps + 0.5) * tas, height_m=300.0)
-    for v in (C172P.v_level_max_mps + 1.0, C172P.v_level_min_mps - 1.0):
-        with pytest.raises(RuntimeError):
-            plant.trim(airspeed_mps=v * tas, height_m=300.0)
+    _trims_within_the_limits(JSBSimPlane("c172p", home=HOME), C172P, 300.0)
