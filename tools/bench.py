@@ -84,6 +84,9 @@ def bench_memory(seconds: float, nav: str, timers: _Timers | None = None) -> tup
         timers.wrap(v.ctrl, "update", "control")
         if getattr(v, "monitor", None) is not None:
             timers.wrap(v.monitor, "update", "fault monitor")
+            # the actuator balances (elevator, aileron and rudder, throttle) step after
+            # the answer, in finish_step: their cost is the monitor's as well
+            timers.wrap(v.monitor, "observe_controls", "fault monitor")
         timers.wrap(v, "_log", "flight log")
     t_end = s.t_s + seconds
     best = 0.0
