@@ -361,6 +361,10 @@ class PlaneVehicle(VehicleBase):
                                  "throttle out: height held, airspeed free" if high
                                  else "throttle out: airspeed flown on the pitch")
                 self.ctrl.throttle_out = to
+            seq = self._sequencer
+            if seq is not None:
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
+                seq.bank_limit_rad = self.ctrl.reaction_bank_limit_rad()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full

@@ -193,6 +193,30 @@ class FixedWingController:
         self.eout_bank_max_rad = bank_max_rad
         self.eout_full_throttle = full_throttle
 
+    def roll_limit_rad(self) -> float:
+        """The bank limit in force [rad]: ROLL_LIMIT_DEG, or less under a fault's
+        reaction: the elevator out, the steepest level turn of its trim (not under
+        EOUT_BANK_MIN_DEG); an aileron or rudder out, the share of the other surface's
+        travel left after countering it (monitor.py, _lateral_reaction), not under
+        EOUT_BANK_MIN_DEG either. The mission's turns are planned at it
+        (guidance/mission.py, ``bank_limit_rad``)."""
+        roll_lim = math.radians(self.params["ROLL_LIMIT_DEG"])
+        if self.elevator_out and self.eout_bank_max_rad is not None:
+            roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
+        so = self.surface_out
+        if so is not None:
+            share = 1.0 - abs(so["counter_rad"]) / LAT_DEFLECTION_RAD
+            roll_lim = min(roll_lim, max(roll_lim * share, math.radians(EOUT_BANK_MIN_DEG)))
+        return roll_lim
+
+    def reaction_bank_limit_rad(self) -> float | None:
+        """The bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad], None
+        where there is none."""
+        if not self.elevator_out and self.surface_out is None:
+            return None
+        lim = self.roll_limit_rad()
+        return lim if lim < math.radians(self.params["ROLL_LIMIT_DEG"]) else None
+
     def reset(self) -> None:
         self.alt_dem_m = None
         for pid in (self.roll_pid, self.pitch_pid, self.climb_pid, self.speed_pid):
@@ -221,15 +245,8 @@ class FixedWingController:
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b.tolist()
         v_air = max(nav.airspeed_mps, 5.0)
-        roll_lim = math.radians(p["ROLL_LIMIT_DEG"])
-        if self.elevator_out and self.eout_bank_max_rad is not None:
-            roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
+        roll_lim = self.roll_limit_rad()
         so = self.surface_out
-        if so is not None:
-            # aileron or rudder out: the bank the authority left gives (monitor.py,
-            # _lateral_reaction), never under EOUT_BANK_MIN_DEG
-            share = 1.0 - abs(so["counter_rad"]) / LAT_DEFLECTION_RAD
-            roll_lim = min(roll_lim, max(roll_lim * share, math.radians(EOUT_BANK_MIN_DEG)))
         phi_c = min(max(bank_cmd_rad, -roll_lim), roll_lim)
 
         # altitude to climb rate (outer), climb rate to pitch (middle)

@@ -381,6 +381,28 @@ class MissionSequencer:
         estimated now."""
         return self.airspeed_mps + math.hypot(*self._wind_ne)
 
+    # the bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad] (an aileron or
+    # rudder flown on the other surface, the elevator out: control/fixed_wing.py,
+    # reaction_bank_limit_rad; the vehicle sets it every step), None: no reaction
+    bank_limit_rad: float | None = None
+
+    def _banks_deg(self) -> tuple[float, float]:
+        """The nominal bank of the turns and the bank limit [deg]: TURN_BANK_DEG and
+        ROLL_LIMIT_DEG, or, under a reaction's lower limit (``bank_limit_rad``), that
+        limit and the nominal bank scaled by the same share (the same margin for the
+        wind and the roll-in). A turn planned at the parameters' bank with the limit
+        lowered is flown wider than planned: a waypoint inside the wider circle was
+        circled for 650 s (the c172p with its aileron stuck at 0.1 rad, the turns
+        limited to 10 deg)."""
+        p = self.params
+        turn, limit = p["TURN_BANK_DEG"], p["ROLL_LIMIT_DEG"]
+        b = self.bank_limit_rad
+        if b is not None:
+            b = math.degrees(b)
+            if b < limit:
+                turn, limit = turn * b / limit, b
+        return turn, limit
+
     def turn_radius_m(self, wind: bool = False) -> float:
         """Radius of the fillets: the nominal bank at TURN_GS_FACTOR times the airspeed;
         with ``wind`` (the joins, which may turn through any course), at the airspeed
@@ -388,14 +410,14 @@ class MissionSequencer:
         v = self.airspeed_mps * self.params["TURN_GS_FACTOR"]
         if wind:
             v = max(v, self._ground_speed_max_mps())
-        return v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
+        return v * v / (G * math.tan(math.radians(self._banks_deg()[0])))
 
     def min_turn_radius_m(self, wind_ne=None) -> float:
         """The tightest circle the vehicle can hold over the ground: the bank limit at
         the highest ground speed (the airspeed plus the wind)."""
         w = self._wind_ne if wind_ne is None else wind_ne
         v = self.airspeed_mps + math.hypot(float(w[0]), float(w[1]))
-        return v * v / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+        return v * v / (G * math.tan(math.radians(self._banks_deg()[1])))
 
     def home_loiter_radius_m(self, t_us: int) -> float:
         """The loiter over home (RTL): LOITER_RAD, or the minimum turn radius if that is
@@ -569,7 +591,7 @@ class MissionSequencer:
     def _bank_limit_radius_m(self) -> float:
         """The turn radius at the bank limit and the airspeed (no wind)."""
         v_air = self.airspeed_mps
-        return v_air * v_air / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+        return v_air * v_air / (G * math.tan(math.radians(self._banks_deg()[1])))
 
     def _arc_radius_floor_m(self, u1, dchi: float) -> float:
         """The tightest arc the vehicle can hold over the ground through the courses
@@ -597,7 +619,7 @@ class MissionSequencer:
                 vg = max(self._groundspeed_along((math.cos(chi1), math.sin(chi1))),
                          self._groundspeed_along((math.cos(c2), math.sin(c2))))
             vg = max(vg, v)
-        return vg * vg / (G * math.tan(math.radians(self.params["ROLL_LIMIT_DEG"])))
+        return vg * vg / (G * math.tan(math.radians(self._banks_deg()[1])))
 
     def _corner_arc(self, x_ne, u1, u2, room1: float, room2: float, near: float | None = None,
                     r_max: float | None = None, room1_max: float | None = None):
@@ -1217,9 +1239,9 @@ class MissionSequencer:
         airspeed plus the wind) down to the radius of the bank midway between the
         nominal and the limit at that speed (as a fillet shrinks where legs are short)."""
         r = self.turn_radius_m(wind=True)
-        p = self.params
         v = self._ground_speed_max_mps()
-        bank = math.radians(0.5 * (p["TURN_BANK_DEG"] + p["ROLL_LIMIT_DEG"]))
+        turn_deg, limit_deg = self._banks_deg()
+        bank = math.radians(0.5 * (turn_deg + limit_deg))
         r_floor = min(v * v / (G * math.tan(bank)), r)
         while True:
             yield r
@@ -1633,7 +1655,7 @@ class MissionSequencer:
             # too high to fly the approach down from here: the height is lost first
             land = self.landing
             v = land.airspeed_mps + math.hypot(*self._wind_ne)
-            r = v * v / (G * math.tan(math.radians(self.params["TURN_BANK_DEG"])))
+            r = v * v / (G * math.tan(math.radians(self._banks_deg()[0])))
             sink = self.sink_rate_mps or self.params["DEM_CLMB_FRAC"] * self.params["SINK_MAX"]
             if land.descent_circle(p_ne, alt_m, r, sink, self._groundspeed_along(land.u)):
                 self.say(t_us, SEV_INFO, f"Landing: {alt_m - land.alt_a:.0f} m above the approach, "
