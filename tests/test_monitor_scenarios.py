@@ -379,3 +379,34 @@ def test_stuck_elevator_without_level_trim_terminates_with_fdi_el_term(tmp_path)
     assert after.any()
     assert (a["ctl_throttle"][after] == 0.0).all() and (a["ctl_aileron"][after] == 1.0).all()
     assert (a["ctl_elevator"][after] == 1.0).all() and (a["ctl_rudder"][after] == 1.0).all()
+
+
+@pytest.mark.parametrize("term", [0, 1])
+def test_stuck_aileron_the_rudder_cannot_counter_terminates_with_fdi_lat_term(tmp_path, term):
+    # GIVEN the aileron stuck at 0.3 rad 60 s after the start: the Aerosonde's model says
+    #       the rudder would need 0.364 rad to hold the wings level, more than its 0.35
+    scen = tmp_path / "ail03.toml"
+    scen.write_text('[wind]\nspeed_mps = 5.0\nfrom_deg = 270.0\nturbulence = "light"\n\n'
+                    '[[event]]\nat_s = 60.0\nunit = "servo"\ntype = "stuck"\ninstance = 0\n'
+                    'value_rad = 0.3\n')
+    s = Session(RunConfig(scenario=scen, duration_s=68.0, seed=1, param_overrides={"FDI_LAT_TERM": term}))
+    s.run()
+    texts = [e[2] for e in s.vehicle.monitor.events]
+    # THEN the monitor says so once the stuck reading has settled there (identified stuck
+    #      at 0.095 rad 1.2 s after the onset, the low-passed balance still rising; 0.294
+    #      at 5.2 s: the rudder would need 0.36 rad; before, the first reading's 67 % of
+    #      the rudder's travel for turns was kept and nothing was said)
+    assert any("rudder cannot hold the wings level" in t for t in texts), texts
+    said = [e for e in s.vehicle.monitor.events if "flight termination" in e[2]]
+    if not term:
+        # AND with FDI_LAT_TERM 0 flies on (the rudder full against it)
+        assert not said and not s.vehicle.terminated
+        return
+    # AND with FDI_LAT_TERM 1 the flight is terminated then (measured 65.2 s) as
+    #     ArduPlane's advanced failsafe does: said as an EMERGENCY, throttle closed, the
+    #     surfaces full
+    assert s.vehicle.terminated and said and said[0][1] == 0 and said[0][0] <= 66.5, said
+    a = s.log.arrays()
+    after = a["t_s"] >= said[0][0] + 0.1
+    assert after.any()
+    assert (a["ctl_throttle"][after] == 0.0).all() and (a["ctl_rudder"][after] == 1.0).all()

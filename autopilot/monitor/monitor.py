@@ -101,6 +101,9 @@ FDI_PARAMS = (
     Param("FDI_EL_TERM", 0.0, 0.0, 1.0, "", "elevator identified stuck where the airframe's model has no "
           "level trim: 0 fly on (full throttle, wings level, descending), 1 flight termination (as "
           "ArduPlane's advanced failsafe, AFS_TERM_ACTION)", is_int=True),
+    Param("FDI_LAT_TERM", 0.0, 0.0, 1.0, "", "aileron or rudder identified stuck where the airframe's "
+          "model says the other surface cannot hold the wings level: 0 fly on (the other surface "
+          "full against it), 1 flight termination (as FDI_EL_TERM)", is_int=True),
     Param("FDI_GPS_FS", 1.0, 0.0, 1.0, "", "GPS lost failsafe: 0 none, 1 RTL", is_int=True),
     Param("FDI_DR_TIME", 60.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
@@ -294,7 +297,7 @@ class FaultMonitor:
         self.elevator_trim_mps: float | None = None    # level trim airspeed of that (model)
         self.elevator_bank_max_rad: float | None = None  # steepest level turn at that trim
         self.elevator_full_throttle = False   # the model has no level trim: full throttle
-        self.terminate = False                # flight termination asked (FDI_EL_TERM)
+        self.terminate = False                # flight termination asked (FDI_EL_TERM, FDI_LAT_TERM)
         self._el_trim_said = 0        # the reaction said: 0 not yet, 1 a trim, 2 none
         self._el_notrim_n = 0
         self._el_k = 0                        # vehicle steps seen by observe_controls
@@ -310,6 +313,7 @@ class FaultMonitor:
         self._quiet_us: int | None = None
         self._gps_silent_us: int | None = None
         self._fs_done = False
+        self._lat_none_said = False           # "cannot hold the wings level" said
         self._step_max = 0.0
         self._iso_max = 0.0
         # largest detection statistic / threshold per channel while no fault is detected:
@@ -617,8 +621,7 @@ class FaultMonitor:
         self.surface_out = {"surface": name, "stuck_rad": value, "counter_rad": counter,
                             "roll_gain": m.roll_gain(name), "authority": share}
         if share <= 0.0:
-            self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} stuck at {value:.3f} rad: the {other} "
-                                                   f"cannot hold the wings level ({counter:.2f} rad needed)"))
+            self._lateral_no_counter(t_s, name, value, counter, final)
         else:
             what = "roll on the rudder" if name == "aileron" else "yaw damper off"
             self.events.append((t_s, SEV_WARNING, f"FDI: {name} {'stuck' if final else 'out'} at {value:.3f} rad: "
@@ -644,10 +647,32 @@ class FaultMonitor:
                 self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} identified stuck at {stuck:.3f} rad"))
                 self._lateral_reaction(t_s, name, stuck, final=True)
             elif self.surface_out is not None:
-                # the position refined as the transient settles (not said again)
-                self.surface_out["stuck_rad"] = stuck
-                self.surface_out["counter_rad"] = self.lateral_model.counter(name, stuck)
+                # the position refined as the reading settles (a large offset is first read
+                # short, the balance's signals low-passed: stuck at 0.3 rad, read 0.095,
+                # 0.149, 0.186, 0.256, 0.294 once a second from the first identification);
+                # not said again unless nothing can counter it now
+                from .actuator import MAX_DEFLECTION_RAD
+                counter = self.lateral_model.counter(name, stuck)
+                share = 1.0 - abs(counter) / MAX_DEFLECTION_RAD
+                self.surface_out.update(stuck_rad=stuck, counter_rad=counter, authority=share)
+                if share <= 0.0:
+                    self._lateral_no_counter(t_s, name, stuck, counter, True)
             self.stuck_surface[name] = stuck
+
+    def _lateral_no_counter(self, t_s: float, name: str, value: float, counter: float,
+                            final: bool) -> None:
+        """``name`` held where the other surface cannot hold the wings level: said once;
+        flight termination on FDI_LAT_TERM, once identified stuck there (not on the
+        detection's provisional reading, which still carries the onset's transient)."""
+        other = "rudder" if name == "aileron" else "aileron"
+        if not self._lat_none_said:
+            self._lat_none_said = True
+            self.events.append((t_s, SEV_CRITICAL, f"FDI: {name} stuck at {value:.3f} rad: the {other} "
+                                                   f"cannot hold the wings level ({counter:.2f} rad needed)"))
+        if final and self.p["FDI_LAT_TERM"] >= 1 and not self.terminate:
+            self.terminate = True
+            self.events.append((t_s, 0, f"FDI: {name} stuck: the {other} cannot hold the wings "
+                                        f"level: flight termination"))
 
     def _elevator_provisional(self, t_s: float, count: bool = True) -> None:
         """Until the surface is identified stuck: the reaction of the deflection the
