@@ -469,7 +469,7 @@ C172P_THRUST = ThrustModel("c172p", mass_kg=1880 * 0.45359237, wing_area_m2=174 
                                -0.062, -0.066, -0.069, -0.071, -0.072, -0.073, -0.073),
                            cp_mach=(0.85, 1.05, 2.0), cp_mach_k=(1.0, 1.8, 1.4),
                            ct_mach=(0.85, 1.05), ct_mach_k=(1.0, 0.8),
-                           v_cruise=45.0, ident_s=3.0)
+                           v_cruise=45.0, ident_s=4.0)
 
 THRUST_MODELS = {1: AEROSONDE_THRUST, 2: C172P_THRUST}
 
@@ -659,7 +659,9 @@ class ThrottleIdentifier:
             # its offset also on the throttle (a gain): the rotor model's error grows with
             # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
             # corrections not modelled: 0.02-0.04 of full throttle low at full)
-            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1], learn, k_test)
+            # (a piston's: no offset learnt, the variance only; module docstring)
+            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1],
+                                  learn and m.engine is None if learn is not None else None, k_test)
 
     def _piston(self, t_us: int, nav, controls: tuple, fz: float) -> float:
         """A piston engine's step (module docstring): the rotor's residual from the
