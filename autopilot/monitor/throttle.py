@@ -522,6 +522,7 @@ class ThrottleIdentifier:
         self._rpm_start_us = None
         self._wr = 0.0                 # the rotor model's speed for that residual [rad/s]
         self._map = 0.0                # a piston model's manifold pressure [Pa]
+        self._w_lp = [0.0, 0.0]        # ... its measured and model rotor speeds, low-passed
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
@@ -695,12 +696,20 @@ class ThrottleIdentifier:
                 _rho, p_amb, _a = _isa(alt)
                 self._map = m.engine.map_steady(z0, self._rpm * (30.0 / math.pi), p_amb + m.engine.ram * qbar)
                 self._lpr = [z0, z0]
+                self._w_lp = [self._rpm, self._rpm]
                 self._rpm_start_us = t_us
             elif dt > 0.0:
                 self._wr, self._map = m.piston_step(self._wr, self._map, thr, vt, alt, qbar, dt)
+                # the speeds low-passed before the throttle is read from them: near full
+                # throttle the manifold pressure hardly moves with the throttle, the
+                # reading's noise (0.5 % of the rpm) is 0.04 of throttle there, and its
+                # clipping at 1 read a stuck full throttle 0.02-0.04 low
                 a = dt / (RPM_TAU_S + dt)
-                self._lpr[0] += a * (m.piston_throttle(self._rpm, vt, alt, qbar) - self._lpr[0])
-                self._lpr[1] += a * (m.piston_throttle(self._wr, vt, alt, qbar) - self._lpr[1])
+                wl = self._w_lp
+                wl[0] += a * (self._rpm - wl[0])
+                wl[1] += a * (self._wr - wl[1])
+                self._lpr[0] = m.piston_throttle(wl[0], vt, alt, qbar)
+                self._lpr[1] = m.piston_throttle(wl[1], vt, alt, qbar)
         # the rotor's residual tested whenever the speed is measured (the engine's and the
         # propeller's model from their files, not learnt: no warm-up on the thrust balance)
         self.axes["throttle"] = self._rotor_axis if self._lpr is not None else self._thrust_axis
