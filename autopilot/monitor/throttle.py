@@ -70,7 +70,7 @@ from functools import cached_property
 import numpy as np
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       RESTART_HOLD_S, RSS_STUCK, identify_hist)
+                       RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
@@ -92,6 +92,7 @@ RPM_RSS_STUCK = 0.1             # on the rotor's speed: stuck where the stuck fi
                                 # surfaces' RSS_STUCK 0.05; docstring of identified)
 
 P_STD = 101325.0                # the standard sea-level pressure [Pa]
+T0_K = 288.15                   # ... and temperature [K]
 INHG_PA = 3386.389              # [Pa/inHg]
 THRUST_GRID_V = tuple(float(v) for v in range(15, 81, 5))   # a piston's thrust table [m/s, equivalent]
 THRUST_GRID_ALT_M = 800.0       # ... flown at this height of the standard atmosphere [m]
@@ -104,19 +105,23 @@ class PistonEngine:
     The manifold pressure: ``p_ram / MAP = 1 + rpm (map_a + map_b (1 - u)^2)``, the engine's
     impedance (the mean piston speed) over the air box's and the throttle plate's, whose
     constants FGPiston derives from the engine file: ``maxmp`` at ``maxrpm`` full open,
-    ``minmp`` at ``idlerpm`` closed (:meth:`from_file`). ``p_ram`` the ambient pressure
+    ``minmp`` at ``idlerpm`` closed (:meth:`map_constants`). ``p_ram`` the ambient pressure
     plus ``ram`` times the dynamic pressure. MAP lags that steady value by ``map_tau_s``.
-    The shaft power ``P = rpm (k_map MAP + k_amb p_amb + k_0 + k_rpm rpm)`` [W]: the air
-    (and fuel) the cylinders take, ``rpm MAP``, less the pumping and friction losses
-    (the pumping term with the ambient pressure, the friction's with the piston speed),
-    fitted on the plant as a dynamometer would."""
+
+    The shaft power [W], in the form FGPiston's is built of and fitted on the plant as a
+    dynamometer would (:attr:`k`)::
+
+        P = rpm [g (k1 MAP + k2 p) + g s (k3 MAP + k4 p) + k5 (MAP - p) + k6 + k7 rpm] + k8
+
+    the fuel burnt, ``rpm MAP``, less the charge the exhaust's back pressure keeps out
+    (``p``), per the air's density and the mixture's richness at the ambient pressure p
+    and temperature T (``g = p0 T0 / (p T)``, ``s = p0 / p``: the fixed mixture richens
+    as the air thins); the pumping loss ``(MAP - p) rpm``; the friction's, rising with the
+    piston speed (``k6``, ``k7``); and a static friction."""
 
     map_a: float               # [1/rpm]
     map_b: float               # [1/rpm]
-    k_map: float               # [W / (rpm Pa)]
-    k_amb: float               # [W / (rpm Pa)]
-    k_0: float                 # [W / rpm]
-    k_rpm: float               # [W / rpm^2]
+    k: tuple                   # (k1 .. k8) of the power (class docstring) [W, Pa, rpm]
     map_tau_s: float = 1.0     # the manifold pressure's lag [s]
     ram: float = 1.0           # the share of the dynamic pressure the intake recovers
 
@@ -133,16 +138,26 @@ class PistonEngine:
         x = 1.0 - throttle
         return p_ram / (1.0 + rpm * (self.map_a + self.map_b * x * x))
 
-    def power(self, map_pa: float, rpm: float, p_amb: float) -> float:
-        """The shaft power [W] at that manifold pressure, rpm and ambient pressure."""
-        return rpm * (self.k_map * map_pa + self.k_amb * p_amb + self.k_0 + self.k_rpm * rpm)
+    def _terms(self, p_amb: float, t_amb: float) -> tuple[float, float]:
+        """The power's factor on MAP and its other terms but rpm's, per rpm."""
+        k1, k2, k3, k4, k5, k6, _k7, _k8 = self.k
+        g = P_STD * T0_K / (p_amb * t_amb)
+        gs = g * P_STD / p_amb
+        return g * k1 + gs * k3 + k5, (g * k2 + gs * k4 - k5) * p_amb + k6
 
-    def throttle(self, power_w: float, rpm: float, p_amb: float, p_ram: float) -> float:
+    def power(self, map_pa: float, rpm: float, p_amb: float, t_amb: float) -> float:
+        """The shaft power [W] at that manifold pressure, rpm, ambient pressure [Pa] and
+        temperature [K]."""
+        c_map, c_0 = self._terms(p_amb, t_amb)
+        return rpm * (c_map * map_pa + c_0 + self.k[6] * rpm) + self.k[7]
+
+    def throttle(self, power_w: float, rpm: float, p_amb: float, t_amb: float, p_ram: float) -> float:
         """The throttle (0..1) whose steady manifold pressure gives ``power_w`` at that rpm:
         :meth:`power` and :meth:`map_steady` inverted."""
         if rpm <= 0.0:
             return 0.0
-        m = (power_w / rpm - self.k_amb * p_amb - self.k_0 - self.k_rpm * rpm) / self.k_map
+        c_map, c_0 = self._terms(p_amb, t_amb)
+        m = ((power_w - self.k[7]) / rpm - c_0 - self.k[6] * rpm) / c_map
         if m <= 0.0:
             return 0.0
         x2 = ((p_ram / m - 1.0) / rpm - self.map_a) / self.map_b
@@ -267,9 +282,9 @@ class ThrustModel:
         the propeller takes there (:meth:`shaft_power`, :meth:`PistonEngine.throttle`):
         in steady flight the throttle the engine runs at. V the true axial airspeed,
         the atmosphere the standard one at ``alt_m``, qbar the ram pressure [Pa]."""
-        rho, p, a_snd = _isa(alt_m)
+        rho, p, a_snd, t = _isa(alt_m)
         rpm = w * (30.0 / math.pi)
-        return self.engine.throttle(self.shaft_power(w, V, rho, a_snd), rpm, p, p + self.engine.ram * qbar)
+        return self.engine.throttle(self.shaft_power(w, V, rho, a_snd), rpm, p, t, p + self.engine.ram * qbar)
 
     def piston_step(self, w: float, map_pa: float, throttle: float, V: float, alt_m: float,
                     qbar: float, dt: float) -> tuple[float, float]:
@@ -277,13 +292,13 @@ class ThrustModel:
         ``throttle``: the manifold pressure lags its steady value by ``map_tau_s``
         (FGPiston's one-second lag), and ``I dw/dt = (P_engine - P_propeller) / w``."""
         e = self.engine
-        rho, p, a_snd = _isa(alt_m)
+        rho, p, a_snd, t = _isa(alt_m)
         rpm = w * (30.0 / math.pi)
         u = 0.0 if 0.0 > throttle else 1.0 if 1.0 < throttle else throttle
         target = e.map_steady(u, rpm, p + e.ram * qbar)
         map_pa += dt / (e.map_tau_s + dt) * (target - map_pa)
         wq = 1.0 if 1.0 > w else w
-        w = w + dt * (e.power(map_pa, rpm, p) - self.shaft_power(w, V, rho, a_snd)) / (self.prop_ixx * wq)
+        w = w + dt * (e.power(map_pa, rpm, p, t) - self.shaft_power(w, V, rho, a_snd)) / (self.prop_ixx * wq)
         return (0.0 if 0.0 > w else w), map_pa
 
     def piston_steady(self, throttle: float, V: float, alt_m: float, qbar: float) -> float:
@@ -291,13 +306,13 @@ class ThrustModel:
         standard atmosphere at ``alt_m`` and ram pressure qbar: where the engine's power at
         its steady manifold pressure meets the propeller's (bisection)."""
         e = self.engine
-        rho, p, a_snd = _isa(alt_m)
+        rho, p, a_snd, t = _isa(alt_m)
         p_ram = p + e.ram * qbar
         lo, hi = 1.0, 400.0
         for _ in range(50):
             w = 0.5 * (lo + hi)
             rpm = w * (30.0 / math.pi)
-            if e.power(e.map_steady(throttle, rpm, p_ram), rpm, p) > self.shaft_power(w, V, rho, a_snd):
+            if e.power(e.map_steady(throttle, rpm, p_ram), rpm, p, t) > self.shaft_power(w, V, rho, a_snd):
                 lo = w
             else:
                 hi = w
@@ -309,7 +324,7 @@ class ThrustModel:
         THRUST_GRID_V, level at the standard atmosphere's ``THRUST_GRID_ALT_M`` (alpha 0:
         the axial airspeed the true one), computed once from the engine and propeller."""
         us = tuple(i / 20.0 for i in range(21))
-        rho, p, a_snd = _isa(THRUST_GRID_ALT_M)
+        rho, p, a_snd, _t = _isa(THRUST_GRID_ALT_M)
         rows = []
         for u in us:
             row = []
@@ -455,8 +470,10 @@ C172P_THRUST = ThrustModel("c172p", mass_kg=1880 * 0.45359237, wing_area_m2=174 
                            CD0=0.0269, k_CD=0.0868, a=0.0, b=0.0, c=0.0, d=0.0,
                            CY_b=-0.137 / 0.349, tau_s=1.5,
                            prop_ixx=1.67 * 1.3558179, prop_d_m=75 * 0.0254,
-                           engine=PistonEngine(_C172P_MAP[0], _C172P_MAP[1], k_map=8.9024e-4,
-                                               k_amb=-3.0955e-4, k_0=13.951, k_rpm=-2.1843e-3),
+                           engine=PistonEngine(_C172P_MAP[0], _C172P_MAP[1],
+                                               k=(1.013930e-02, 3.976266e-02, -4.818017e-03,
+                                                  -2.652506e-03, -4.516146e-03, -4.230567e+03,
+                                                  -2.956126e-03, -1.091892e+03)),
                            cp_j=(0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2,
                                  1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3, 2.4, 5.0),
                            cp=(0.066, 0.07, 0.07, 0.066, 0.06, 0.053, 0.0501, 0.0469, 0.0426,
@@ -481,12 +498,14 @@ def _isa_rho(alt_m: float) -> float:
     return RHO0 * (0.1 if 0.1 > r else r) ** 4.25588
 
 
-def _isa(alt_m: float) -> tuple[float, float, float]:
-    """The standard atmosphere at ``alt_m`` (troposphere): density [kg/m^3], pressure [Pa]
-    and the speed of sound [m/s] (``sqrt(1.4 R T)``, R 287.05 J/(kg K): JSBSim's)."""
+def _isa(alt_m: float) -> tuple[float, float, float, float]:
+    """The standard atmosphere at ``alt_m`` (troposphere): density [kg/m^3], pressure [Pa],
+    the speed of sound [m/s] (``sqrt(1.4 R T)``, R 287.05 J/(kg K): JSBSim's) and the
+    temperature [K]."""
     r = 1.0 - 2.25577e-5 * alt_m
     r = 0.1 if 0.1 > r else r
-    return RHO0 * r ** 4.25588, P_STD * r ** 5.25588, math.sqrt(1.4 * 287.05 * 288.15 * r)
+    t = T0_K * r
+    return RHO0 * r ** 4.25588, P_STD * r ** 5.25588, math.sqrt(1.4 * 287.05 * t), t
 
 
 def _interp(x: float, xs: tuple, ys: tuple) -> float:
@@ -693,7 +712,7 @@ class ThrottleIdentifier:
                 # one that gives the power its propeller takes there
                 self._wr = self._rpm
                 z0 = m.piston_throttle(self._rpm, vt, alt, qbar)
-                _rho, p_amb, _a = _isa(alt)
+                _rho, p_amb, _a, _t = _isa(alt)
                 self._map = m.engine.map_steady(z0, self._rpm * (30.0 / math.pi), p_amb + m.engine.ram * qbar)
                 self._lpr = [z0, z0]
                 self._w_lp = [self._rpm, self._rpm]
@@ -748,8 +767,15 @@ class ThrottleIdentifier:
         rotor = self.rotor_measured
         win = self.model.ident_s - 1.0 if rotor else IDENT_WIN_S
         recent = None if self._t_us is None else self._t_us - int(win * 1e6)
+        # (a piston's: the onset's transient its manifold pressure's and rotor's, ident_s
+        # long, and the command's saturation counted after it, when the command has run
+        # up to full: stuck at 0.3, seed 1, z flat at 0.30 from 5 s after the onset and
+        # the command at full from 6.6 s read "effectiveness 0.41" 10 s after it with
+        # the surfaces' 3 s and the whole window's saturation)
+        piston = rotor and self.model.engine is not None
         r = identify_hist(self.axes["throttle"].hist, self._fault_us, stuck, recent, d_max=1.0,
-                          rss_share=RPM_RSS_STUCK if rotor else RSS_STUCK)
+                          rss_share=RPM_RSS_STUCK if rotor else RSS_STUCK,
+                          sat_late=piston, settle_s=self.model.ident_s if piston else SETTLE_S)
         if r is not None and "stuck_rad" in r:
             # the throttle is no angle: its stuck position as a fraction of full, clipped
             return {"stuck": round(min(max(r["stuck_rad"], 0.0), 1.0), 3)}
