@@ -59,6 +59,42 @@ full throttle, and wrong in idle descents, where the propeller runs past the J o
 thrust) is not used here: its residual alarmed on 2 of 10 flights before the onset.
 With no reading for RPM_TIMEOUT_S (none fitted, lost, or FDI_THR_RPM 0) the thrust
 balance's residual is tested, exactly as before; it runs, and learns, all along.
+
+A piston engine (the c172p: :data:`C172P_THRUST`, :class:`PistonEngine`; its rpm from
+the engine's tachometer, sim_bridge/sensors/rpm.py). Its power is not the throttle
+times a constant: the throttle sets the manifold pressure, and the power goes with the
+manifold pressure, the rpm and the air. FGPiston's manifold pressure is the ram
+pressure over ``1 + rpm (map_a + map_b (1 - u)^2)``, the constants from the IO-320
+file's minmp / maxmp at idlerpm / maxrpm (:meth:`PistonEngine.map_constants`; within
+0.7 % rms of the plant's settled MAP), lagging by one second. Its shaft power was
+measured on the plant as on a dynamometer: trimmed level at 30-65 m/s (equivalent),
+100-1100 m above a 500 m home, each throttle 0, 0.1, ... 1 (and 0.95) held 6 s, the
+engine's power, MAP and rpm read (540 points); the form FGPiston's is built of (the
+charge ``rpm MAP`` per the air's density and the mixture's richness at the ambient
+pressure, the pumping loss, friction rising with the piston speed) fitted to it
+within 208 W rms (a constant MAP coefficient left 0.04-0.06 of throttle at full at
+1400-1600 m). The fixed-pitch propeller's speed depends on the airspeed: its power
+``C_P(J) k_M rho n^3 D^5`` (the 75 in propeller's C_POWER table, k_M its CP_MACH
+factor: at full throttle and 60 m/s the tip runs at Mach 0.88, 12 % more power) and
+thrust ``C_T(J) k_M rho n^2 D^4`` (C_THRUST, CT_MACH; within 3 N of the plant's).
+z is the throttle whose steady manifold pressure makes the engine give, at the measured
+rpm, the power the propeller takes there (:meth:`ThrustModel.piston_throttle`, the
+two relations inverted in closed form): within 0.01 of the throttle set on the
+plant's grid but at full, 0.02 over 600-1600 m. Near full the manifold pressure hardly
+moves with the throttle (``(1 - u)^2``), so a 0.5 % power error reads 0.02 of throttle
+there, and the reading's noise (0.5 % of the rpm) 0.04: the speeds are low-passed
+(RPM_TAU_S) before z is read from them, not z after (clipped at 1, the noise read a
+stuck full throttle 0.02-0.04 low). The model rotor on the command: the manifold
+pressure's lag, then ``I dw/dt = (P_engine - P_propeller) / w`` with the propeller
+file's inertia (:meth:`ThrustModel.piston_step`; within 0.01 of the plant's through
+throttle steps). No offset is learnt (the fit extrapolated to the 60 m/s of a throttle
+stuck at full read it 0.03 low), and the residual is tested from the first rpm second,
+the take-off roll included: the thrust balance, the accelerometer on the runway, is
+only the fallback. The thrust curve (:meth:`ThrustModel.thrust_at`, for that balance
+and the reaction) is the steady thrust of the engine and propeller models, tabled once
+over the throttle and airspeed at 800 m. The onset's transient (the manifold pressure
+and the 2.3 kg m^2 propeller) is ``ident_s`` = 4 s long: the first identification then,
+the stuck-or-weakened test after it (:meth:`ThrottleIdentifier.identified`).
 """
 from __future__ import annotations
 
