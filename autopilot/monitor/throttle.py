@@ -79,8 +79,8 @@ factor: at full throttle and 60 m/s the tip runs at Mach 0.88, 12 % more power) 
 thrust ``C_T(J) k_M rho n^2 D^4`` (C_THRUST, CT_MACH; within 3 N of the plant's).
 z is the throttle whose steady manifold pressure makes the engine give, at the measured
 rpm, the power the propeller takes there (:meth:`ThrustModel.piston_throttle`, the
-two relations inverted in closed form): within 0.01 of the throttle set on the
-plant's grid but at full, 0.02 over 600-1600 m. Near full the manifold pressure hardly
+two relations inverted in closed form): within 0.02 (0.002-0.007 rms) of the
+throttle set on the plant's settled grid points, 600-1600 m. Near full the manifold pressure hardly
 moves with the throttle (``(1 - u)^2``), so a 0.5 % power error reads 0.02 of throttle
 there, and the reading's noise (0.5 % of the rpm) 0.04: the speeds are low-passed
 (RPM_TAU_S) before z is read from them, not z after (clipped at 1, the noise read a
