@@ -10,7 +10,8 @@ Rangefinders fitted per airframe (``RANGEFINDERS``): the Aerosonde carries a dow
 lidar (``sensors/rangefinder.py``, sent as DISTANCE_SENSOR); the c172p and the
 quadrotor carry none. The Aerosonde's motor reports its propeller's speed
 (``RPM_SENSORS``: ``sensors/rpm.py``, ESC telemetry sent as ESC_TELEMETRY_1_TO_4); the
-c172p and the quadrotor report none.
+c172p's engine tachometer reports its own (the IO-320 drives the propeller directly),
+read as the same message; the quadrotor reports none.
 """
 from __future__ import annotations
 
@@ -31,7 +32,10 @@ from .sensors.rpm import RpmParams, RpmSensor
 QUAD_DT_S = 0.004          # quadrotor plant step = its HIL period (250 Hz)
 QUAD_HIL_RATE_HZ = 250.0
 RANGEFINDERS = {"aerosonde": RangefinderParams()}   # airframe -> its downward rangefinder
-RPM_SENSORS = {"aerosonde": RpmParams()}            # airframe -> its ESC's rpm telemetry
+# airframe -> its rpm telemetry: the Aerosonde's ESC; the c172p's tachometer (an engine
+# monitor's magneto-pulse reading, as ArduPilot's RPM library takes a pulse input), the
+# same rate and noise
+RPM_SENSORS = {"aerosonde": RpmParams(), "c172p": RpmParams()}
 
 
 @dataclass

@@ -1,6 +1,7 @@
 """The c172p's elevator watched from the climb-out on, with its own model as the prior
 (FDI_EL_MODEL 2 in missions/params/c172p.parm; autopilot/monitor/airframe.py C172P):
-no alarm on its circuit, and an elevator stuck in the climb-out found within seconds."""
+no alarm on its circuit (nor on its throttle's: tests/test_monitor_throttle_c172p.py),
+and an elevator stuck in the climb-out found within seconds."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -31,6 +32,13 @@ def test_c172p_circuit_raises_no_elevator_alarm_with_its_model():
     assert summ["completed"] and not summ["crashed"]
     assert summ["false_alarms"] == 0 and summ["fdi_episodes"] == []
     assert summ["fdi_peak_ratio"]["elevator"] <= 0.3
+    # AND its throttle watched from the take-off roll on the tachometer's rpm with its
+    #     own thrust model (autopilot/monitor/throttle.py C172P_THRUST), its statistic
+    #     far under the threshold too (seeds 1-3, turbulence none / light / moderate:
+    #     peak 0.13-0.35; the largest at full throttle in the climb-out, where the
+    #     manifold pressure hardly moves with the throttle)
+    assert s.vehicle.monitor.throttle.model.name == "c172p" and s.vehicle.monitor.throttle.rotor_measured
+    assert summ["fdi_peak_ratio"]["throttle"] <= 0.6
 
 
 def test_c172p_elevator_stuck_in_the_climb_out_found_with_its_model():

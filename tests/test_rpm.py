@@ -104,7 +104,8 @@ def test_the_rpm_sensor_has_its_own_stream_and_leaves_the_others_as_they_were():
     from sim_bridge.world import build_world
     home = (-35.363262, 149.165237, 584.0, 0.0)
     w = build_world(home, 7)
-    assert w.rpm is not None and build_world(home, 7, airframe="c172p").rpm is None
+    # (the c172p's engine tachometer too: the throttle's monitor, FDI_EL_MODEL 2)
+    assert w.rpm is not None and build_world(home, 7, airframe="c172p").rpm is not None
     assert build_world(home, 7, vehicle="quad").rpm is None
     seq = np.random.SeedSequence(7).spawn(5)
     old = [np.random.default_rng(s) for s in np.random.SeedSequence(7).spawn(4)]

@@ -177,14 +177,20 @@ class MomentBalance:
 
 def identify_hist(hist: list, since_us: int, stuck: bool = False,
                   recent_us: int | None = None, d_max: float = MAX_DEFLECTION_RAD,
-                  rss_share: float = RSS_STUCK) -> dict | None:
+                  rss_share: float = RSS_STUCK, sat_late: bool = False,
+                  settle_s: float = SETTLE_S) -> dict | None:
     """The two hypotheses (2.23, 2.24) over the (t_us, z, delta_cmd) samples of ``hist``
     since ``since_us``; only the stuck one with ``stuck`` (a surface already found stuck). The stuck position is
     the mean of z since ``recent_us`` (the samples after the onset's transient) when
     given and at least 10 samples hold it; ``d_max`` the command's full travel (its
     saturation counts for the stuck hypothesis); ``rss_share`` the stuck fit's residual
     sum of squares under this share of the weakened fit's reads stuck (RSS_STUCK, the
-    surfaces'; the throttle on the rotor's speed its own, throttle.RPM_RSS_STUCK)."""
+    surfaces'; the throttle on the rotor's speed its own, throttle.RPM_RSS_STUCK);
+    ``sat_late``: the command's saturation counted over the samples after the onset's
+    transient (``settle_s`` on, as the late test below), not the whole window (a piston
+    engine's throttle: the command runs up to full over the seconds the rotor takes to
+    spin down, throttle.ThrottleIdentifier.identified); ``settle_s`` the transient's
+    length (SETTLE_S; the piston's rotor its own)."""
     h = [r for r in hist if r[0] >= since_us]
     if len(h) < 10:
         return None
@@ -203,13 +209,15 @@ def identify_hist(hist: list, since_us: int, stuck: bool = False,
     # the same test after the onset's transient (SETTLE_S after the window's start):
     # z settles on a stuck position a few BAL_TAU_S after the onset, and the
     # transient's spread counted against the stuck hypothesis
-    late = np.array([r[0] >= since_us + SETTLE_S * 1e6 for r in h])
+    late = np.array([r[0] >= since_us + settle_s * 1e6 for r in h])
     if late.sum() >= 20:
         zl, dl = z[late], d[late]
         ddl = float(dl @ dl)
         kl = float(zl @ dl) / ddl if ddl > 0.0 else 0.0
         if float(np.sum((zl - zl.mean()) ** 2)) < rss_share * float(np.sum((zl - kl * dl) ** 2)):
             rss_stuck = 0.0
+        if sat_late:
+            sat = float(np.mean(np.abs(dl) >= 0.98 * d_max))
     if (stuck or k < K_MIN or k > K_MAX or sat >= SAT_SHARE
             or rss_stuck < rss_share * rss_loe):
         return {"stuck_rad": round(s_pos, 4)}

@@ -554,20 +554,22 @@ class FaultMonitor:
         down whose level drag it meets (``v_fly``) flown on the pitch. Said by
         STATUSTEXT."""
         m = self.throttle.model
-        # the fastest airspeed, from the cruise (TRIM_ARSPD's default, 25 m/s) down to 1.3
-        # times the slowest level flight (the stall margin), where the stuck throttle's
-        # thrust still meets the level drag: the airspeed to fly on the pitch
+        # the fastest airspeed, from the cruise (the model's: the Aerosonde's 25 m/s,
+        # TRIM_ARSPD's default; the c172p's 45) down to 1.3 times the slowest level flight
+        # (the stall margin), where the stuck throttle's thrust still meets the level
+        # drag: the airspeed to fly on the pitch
         v_min = 1.3 * (self.airframe.v_level_min_mps if self.airframe is not None else 15.0)
+        v_c = m.v_cruise
         v_fly, excess = None, -1e9
         for i in range(51):
-            v = 25.0 - i * (25.0 - v_min) / 50.0
+            v = v_c - i * (v_c - v_min) / 50.0
             e = m.thrust_at(value, v) - m.level_drag(v)
             if e >= 0.0:
                 v_fly, excess = v, e
                 break
             excess = max(excess, e)
         level = v_fly is not None
-        v = v_fly if level else 25.0
+        v = v_fly if level else v_c
         # where the stuck thrust holds level flight, the height is held on the pitch and
         # the airspeed left to float to where that thrust meets the level drag (TECS's
         # height priority, control/fixed_wing.py): ``v_top``, the fastest level flight it
@@ -579,7 +581,11 @@ class FaultMonitor:
         v_top = None
         if level:
             v_top = v
-            while v_top < 60.0 and m.thrust_at(value, v_top + 0.5) - m.level_drag(v_top + 0.5) > 0.0:
+            # (searched to 60 m/s, or the airframe's fastest level flight if faster)
+            v_cap = 60.0
+            if self.airframe is not None and self.airframe.v_level_max_mps > v_cap:
+                v_cap = self.airframe.v_level_max_mps
+            while v_top < v_cap and m.thrust_at(value, v_top + 0.5) - m.level_drag(v_top + 0.5) > 0.0:
                 v_top += 0.5
         # the glide: at the best lift-to-drag ratio's airspeed, C_L = sqrt(C_D0 / k)
         # (Beard & McLain eq 4.11's polar), the controller never under ARSPD_FBW_MIN
@@ -587,14 +593,14 @@ class FaultMonitor:
         v_glide = math.sqrt(2.0 * m.mass_kg * G0 / (RHO0_ISA * m.wing_area_m2 * cl_md))
         self.throttle_out = {"stuck": value, "level": level, "v_glide": v_glide, "v_fly": v,
                              "v_top": v_top}
-        sink = max(-excess * 25.0 / (m.mass_kg * G0), 0.0)
+        sink = max(-excess * v_c / (m.mass_kg * G0), 0.0)
         if level:
             self.events.append((t_s, SEV_WARNING, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
                                                   f"height held on the pitch, airspeed free "
                                                   f"(level flight up to {v_top:.0f} m/s)"))
         else:
             self.events.append((t_s, SEV_CRITICAL, f"FDI: throttle {'stuck' if final else 'out'} at {value:.2f}: "
-                                                   f"no level flight ({sink:.1f} m/s sink at 25 m/s): "
+                                                   f"no level flight ({sink:.1f} m/s sink at {v_c:.0f} m/s): "
                                                    f"airspeed on the pitch"
                                                    + (", failsafe RTL" if final else "")))
             # the failsafe on the identification, not on the detection's provisional

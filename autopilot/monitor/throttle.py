@@ -59,17 +59,54 @@ full throttle, and wrong in idle descents, where the propeller runs past the J o
 thrust) is not used here: its residual alarmed on 2 of 10 flights before the onset.
 With no reading for RPM_TIMEOUT_S (none fitted, lost, or FDI_THR_RPM 0) the thrust
 balance's residual is tested, exactly as before; it runs, and learns, all along.
+
+A piston engine (the c172p: :data:`C172P_THRUST`, :class:`PistonEngine`; its rpm from
+the engine's tachometer, sim_bridge/sensors/rpm.py). Its power is not the throttle
+times a constant: the throttle sets the manifold pressure, and the power goes with the
+manifold pressure, the rpm and the air. FGPiston's manifold pressure is the ram
+pressure over ``1 + rpm (map_a + map_b (1 - u)^2)``, the constants from the IO-320
+file's minmp / maxmp at idlerpm / maxrpm (:meth:`PistonEngine.map_constants`; within
+0.7 % rms of the plant's settled MAP), lagging by one second. Its shaft power was
+measured on the plant as on a dynamometer: trimmed level at 30-65 m/s (equivalent),
+100-1100 m above a 500 m home, each throttle 0, 0.1, ... 1 (and 0.95) held 6 s, the
+engine's power, MAP and rpm read (540 points); the form FGPiston's is built of (the
+charge ``rpm MAP`` per the air's density and the mixture's richness at the ambient
+pressure, the pumping loss, friction rising with the piston speed) fitted to it
+within 208 W rms (a constant MAP coefficient left 0.04-0.06 of throttle at full at
+1400-1600 m). The fixed-pitch propeller's speed depends on the airspeed: its power
+``C_P(J) k_M rho n^3 D^5`` (the 75 in propeller's C_POWER table, k_M its CP_MACH
+factor: at full throttle and 60 m/s the tip runs at Mach 0.88, 12 % more power) and
+thrust ``C_T(J) k_M rho n^2 D^4`` (C_THRUST, CT_MACH; within 3 N of the plant's).
+z is the throttle whose steady manifold pressure makes the engine give, at the measured
+rpm, the power the propeller takes there (:meth:`ThrustModel.piston_throttle`, the
+two relations inverted in closed form): within 0.02 (0.002-0.007 rms) of the
+throttle set on the plant's settled grid points, 600-1600 m. Near full the manifold pressure hardly
+moves with the throttle (``(1 - u)^2``), so a 0.5 % power error reads 0.02 of throttle
+there, and the reading's noise (0.5 % of the rpm) 0.04: the speeds are low-passed
+(RPM_TAU_S) before z is read from them, not z after (clipped at 1, the noise read a
+stuck full throttle 0.02-0.04 low). The model rotor on the command: the manifold
+pressure's lag, then ``I dw/dt = (P_engine - P_propeller) / w`` with the propeller
+file's inertia (:meth:`ThrustModel.piston_step`; within 0.01 of the plant's through
+throttle steps). No offset is learnt (the fit extrapolated to the 60 m/s of a throttle
+stuck at full read it 0.03 low), and the residual is tested from the first rpm second,
+the take-off roll included: the thrust balance, the accelerometer on the runway, is
+only the fallback. The thrust curve (:meth:`ThrustModel.thrust_at`, for that balance
+and the reaction) is the steady thrust of the engine and propeller models, tabled once
+over the throttle and airspeed at 800 m. The onset's transient (the manifold pressure
+and the 2.3 kg m^2 propeller) is ``ident_s`` = 4 s long: the first identification then,
+the stuck-or-weakened test after it (:meth:`ThrottleIdentifier.identified`).
 """
 from __future__ import annotations
 
 import math
 from bisect import bisect_right
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       RESTART_HOLD_S, RSS_STUCK, identify_hist)
+                       RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
@@ -89,6 +126,83 @@ RPM_IDENT_S = 2.0               # on the rotor's speed: the first identification
 RPM_RSS_STUCK = 0.1             # on the rotor's speed: stuck where the stuck fit's residual sum
                                 # of squares is under this share of the weakened fit's (the
                                 # surfaces' RSS_STUCK 0.05; docstring of identified)
+PISTON_RSS_STUCK = 0.5          # ... a piston's (docstring of identified)
+
+P_STD = 101325.0                # the standard sea-level pressure [Pa]
+T0_K = 288.15                   # ... and temperature [K]
+INHG_PA = 3386.389              # [Pa/inHg]
+THRUST_GRID_V = tuple(float(v) for v in range(15, 81, 5))   # a piston's thrust table [m/s, equivalent]
+THRUST_GRID_ALT_M = 800.0       # ... flown at this height of the standard atmosphere [m]
+
+
+@dataclass(frozen=True)
+class PistonEngine:
+    """A normally aspirated piston engine as JSBSim's FGPiston runs it (module docstring).
+
+    The manifold pressure: ``p_ram / MAP = 1 + rpm (map_a + map_b (1 - u)^2)``, the engine's
+    impedance (the mean piston speed) over the air box's and the throttle plate's, whose
+    constants FGPiston derives from the engine file: ``maxmp`` at ``maxrpm`` full open,
+    ``minmp`` at ``idlerpm`` closed (:meth:`map_constants`). ``p_ram`` the ambient pressure
+    plus ``ram`` times the dynamic pressure. MAP lags that steady value by ``map_tau_s``.
+
+    The shaft power [W], in the form FGPiston's is built of and fitted on the plant as a
+    dynamometer would (:attr:`k`)::
+
+        P = rpm [g (k1 MAP + k2 p) + g s (k3 MAP + k4 p) + k5 (MAP - p) + k6 + k7 rpm] + k8
+
+    the fuel burnt, ``rpm MAP``, less the charge the exhaust's back pressure keeps out
+    (``p``), per the air's density and the mixture's richness at the ambient pressure p
+    and temperature T (``g = p0 T0 / (p T)``, ``s = p0 / p``: the fixed mixture richens
+    as the air thins); the pumping loss ``(MAP - p) rpm``; the friction's, rising with the
+    piston speed (``k6``, ``k7``); and a static friction."""
+
+    map_a: float               # [1/rpm]
+    map_b: float               # [1/rpm]
+    k: tuple                   # (k1 .. k8) of the power (class docstring) [W, Pa, rpm]
+    map_tau_s: float = 1.0     # the manifold pressure's lag [s]
+    ram: float = 1.0           # the share of the dynamic pressure the intake recovers
+
+    @staticmethod
+    def map_constants(minmp_inhg: float, maxmp_inhg: float, idle_rpm: float, max_rpm: float) -> tuple:
+        """(map_a, map_b) from the engine file's numbers, as FGPiston derives its air box's
+        and throttle's impedances: full open, ``maxmp`` at ``maxrpm``; closed, ``minmp``
+        at ``idlerpm`` (standard sea-level pressure at the intake)."""
+        a = (P_STD / (maxmp_inhg * INHG_PA) - 1.0) / max_rpm
+        return a, (P_STD / (minmp_inhg * INHG_PA) - 1.0) / idle_rpm - a
+
+    def map_steady(self, throttle: float, rpm: float, p_ram: float) -> float:
+        """The manifold pressure [Pa] the throttle settles to at that rpm."""
+        x = 1.0 - throttle
+        return p_ram / (1.0 + rpm * (self.map_a + self.map_b * x * x))
+
+    def _terms(self, p_amb: float, t_amb: float) -> tuple[float, float]:
+        """The power's factor on MAP and its other terms but rpm's, per rpm."""
+        k1, k2, k3, k4, k5, k6, _k7, _k8 = self.k
+        g = P_STD * T0_K / (p_amb * t_amb)
+        gs = g * P_STD / p_amb
+        return g * k1 + gs * k3 + k5, (g * k2 + gs * k4 - k5) * p_amb + k6
+
+    def power(self, map_pa: float, rpm: float, p_amb: float, t_amb: float) -> float:
+        """The shaft power [W] at that manifold pressure, rpm, ambient pressure [Pa] and
+        temperature [K]."""
+        c_map, c_0 = self._terms(p_amb, t_amb)
+        return rpm * (c_map * map_pa + c_0 + self.k[6] * rpm) + self.k[7]
+
+    def throttle(self, power_w: float, rpm: float, p_amb: float, t_amb: float, p_ram: float) -> float:
+        """The throttle (0..1) whose steady manifold pressure gives ``power_w`` at that rpm:
+        :meth:`power` and :meth:`map_steady` inverted."""
+        if rpm <= 0.0:
+            return 0.0
+        c_map, c_0 = self._terms(p_amb, t_amb)
+        m = ((power_w - self.k[7]) / rpm - c_0 - self.k[6] * rpm) / c_map
+        if m <= 0.0:
+            return 0.0
+        x2 = ((p_ram / m - 1.0) / rpm - self.map_a) / self.map_b
+        if x2 <= 0.0:
+            return 1.0
+        if x2 >= 1.0:
+            return 0.0
+        return 1.0 - math.sqrt(x2)
 
 
 @dataclass(frozen=True)
@@ -123,6 +237,19 @@ class ThrustModel:
     cp: tuple = ()
     cp_rpm: tuple = ()
     cp_rpm_k: tuple = ()
+    # a piston engine (:class:`PistonEngine`; None: the electric motor above) and what
+    # its fixed-pitch propeller adds: C_T against J and both coefficients' factors
+    # against the helical tip Mach number (the propeller file's CT_MACH, CP_MACH)
+    engine: PistonEngine | None = None
+    ct_j: tuple = ()
+    ct: tuple = ()
+    cp_mach: tuple = ()
+    cp_mach_k: tuple = ()
+    ct_mach: tuple = ()
+    ct_mach_k: tuple = ()
+    v_cruise: float = 25.0     # the airspeed the throttle-out reaction searches down from [m/s]
+    ident_s: float = 2.0       # on the rotor's speed: the first identification this long after
+                               # the detection (RPM_IDENT_S; the last second's mean)
 
     def thrust(self, V: float, f_x: float, f_z: float, elevator_rad: float,
                var_fz: float = 0.0, var_fy: float = 0.0) -> float:
@@ -152,10 +279,116 @@ class ThrustModel:
 
     def throttle_for(self, thrust: float, V: float) -> float:
         """The throttle that gives ``thrust`` at airspeed V (the curve inverted)."""
+        if self.engine is not None:
+            return self._table_throttle(thrust, V)
         return (thrust - self.c - self.d * V) / (self.a + self.b * V)
 
     def thrust_at(self, throttle: float, V: float) -> float:
+        if self.engine is not None:
+            return self._table_thrust(throttle, V)
         return throttle * (self.a + self.b * V) + self.c + self.d * V
+
+    # ---- the piston engine and its fixed-pitch propeller (module docstring) ----
+    def shaft_power(self, w: float, V: float, rho: float, a_snd: float) -> float:
+        """The power [W] the propeller takes at speed ``w`` [rad/s], true axial airspeed
+        V [m/s], density rho and speed of sound a_snd [m/s]: ``C_P(J) k_M rho n^3 D^5``
+        (JSBSim's FGPropeller, power required), k_M the CP_MACH factor at the helical tip
+        Mach number ``sqrt((pi D n)^2 + V^2) / a``."""
+        n = w / (2.0 * math.pi)
+        if n <= 0.0:
+            return 0.0
+        D = self.prop_d_m
+        cp = _interp(V / (n * D), self.cp_j, self.cp)
+        if self.cp_mach:
+            cp *= _interp(math.hypot(math.pi * D * n, V) / a_snd, self.cp_mach, self.cp_mach_k)
+        return cp * rho * n * n * n * D ** 5
+
+    def prop_thrust(self, w: float, V: float, rho: float, a_snd: float) -> float:
+        """The propeller's thrust [N]: ``C_T(J) k_M rho n^2 D^4`` (CT_MACH's k_M)."""
+        n = w / (2.0 * math.pi)
+        if n <= 0.0:
+            return 0.0
+        D = self.prop_d_m
+        ct = _interp(V / (n * D), self.ct_j, self.ct)
+        if self.ct_mach:
+            ct *= _interp(math.hypot(math.pi * D * n, V) / a_snd, self.ct_mach, self.ct_mach_k)
+        return ct * rho * n * n * D ** 4
+
+    def piston_throttle(self, w: float, V: float, alt_m: float, qbar: float) -> float:
+        """The throttle whose engine gives, at the rotor's speed ``w`` [rad/s], the power
+        the propeller takes there (:meth:`shaft_power`, :meth:`PistonEngine.throttle`):
+        in steady flight the throttle the engine runs at. V the true axial airspeed,
+        the atmosphere the standard one at ``alt_m``, qbar the ram pressure [Pa]."""
+        rho, p, a_snd, t = _isa(alt_m)
+        rpm = w * (30.0 / math.pi)
+        return self.engine.throttle(self.shaft_power(w, V, rho, a_snd), rpm, p, t, p + self.engine.ram * qbar)
+
+    def piston_step(self, w: float, map_pa: float, throttle: float, V: float, alt_m: float,
+                    qbar: float, dt: float) -> tuple[float, float]:
+        """The rotor's speed [rad/s] and the manifold pressure [Pa] after ``dt`` seconds at
+        ``throttle``: the manifold pressure lags its steady value by ``map_tau_s``
+        (FGPiston's one-second lag), and ``I dw/dt = (P_engine - P_propeller) / w``."""
+        e = self.engine
+        rho, p, a_snd, t = _isa(alt_m)
+        rpm = w * (30.0 / math.pi)
+        u = 0.0 if 0.0 > throttle else 1.0 if 1.0 < throttle else throttle
+        target = e.map_steady(u, rpm, p + e.ram * qbar)
+        map_pa += dt / (e.map_tau_s + dt) * (target - map_pa)
+        wq = 1.0 if 1.0 > w else w
+        w = w + dt * (e.power(map_pa, rpm, p, t) - self.shaft_power(w, V, rho, a_snd)) / (self.prop_ixx * wq)
+        return (0.0 if 0.0 > w else w), map_pa
+
+    def piston_steady(self, throttle: float, V: float, alt_m: float, qbar: float) -> float:
+        """The rotor's steady speed [rad/s] at ``throttle``, true axial airspeed V, the
+        standard atmosphere at ``alt_m`` and ram pressure qbar: where the engine's power at
+        its steady manifold pressure meets the propeller's (bisection)."""
+        e = self.engine
+        rho, p, a_snd, t = _isa(alt_m)
+        p_ram = p + e.ram * qbar
+        lo, hi = 1.0, 400.0
+        for _ in range(50):
+            w = 0.5 * (lo + hi)
+            rpm = w * (30.0 / math.pi)
+            if e.power(e.map_steady(throttle, rpm, p_ram), rpm, p, t) > self.shaft_power(w, V, rho, a_snd):
+                lo = w
+            else:
+                hi = w
+        return 0.5 * (lo + hi)
+
+    @cached_property
+    def _thrust_grid(self) -> tuple:
+        """The steady thrust [N] over throttle 0, 0.05, ... 1 and equivalent airspeed
+        THRUST_GRID_V, level at the standard atmosphere's ``THRUST_GRID_ALT_M`` (alpha 0:
+        the axial airspeed the true one), computed once from the engine and propeller."""
+        us = tuple(i / 20.0 for i in range(21))
+        rho, p, a_snd, _t = _isa(THRUST_GRID_ALT_M)
+        rows = []
+        for u in us:
+            row = []
+            for v in THRUST_GRID_V:
+                vt = v * math.sqrt(RHO0 / rho)
+                w = self.piston_steady(u, vt, THRUST_GRID_ALT_M, 0.5 * RHO0 * v * v)
+                row.append(self.prop_thrust(w, vt, rho, a_snd))
+            rows.append(tuple(row))
+        return us, tuple(rows)
+
+    def _thrusts_at(self, V: float) -> tuple:
+        us, rows = self._thrust_grid
+        return us, [_interp(V, THRUST_GRID_V, r) for r in rows]
+
+    def _table_thrust(self, throttle: float, V: float) -> float:
+        us, ts = self._thrusts_at(V)
+        return _interp(throttle, us, ts)
+
+    def _table_throttle(self, thrust: float, V: float) -> float:
+        """The table inverted at V (the thrust rises with the throttle), extrapolated
+        linearly past its ends as the electric motor's straight curve is."""
+        us, ts = self._thrusts_at(V)
+        i = 1
+        while i < len(us) - 1 and ts[i] < thrust:
+            i += 1
+        t0, t1 = ts[i - 1], ts[i]
+        return us[i - 1] + (us[i] - us[i - 1]) * (thrust - t0) / (t1 - t0 if t1 != t0 else 1e-9)
 
     def _rpm_line(self, V: float) -> tuple[float, float]:
         """The steady rotor speed at zero throttle and its rise per unit of throttle at
@@ -260,7 +493,39 @@ AEROSONDE_THRUST = ThrustModel("aerosonde", mass_kg=13.5, wing_area_m2=0.55, CL0
                                cp_rpm_k=(1.132, 1.036, 0.996, 0.972, 0.964, 0.96, 0.964, 0.972,
                                          0.984, 1, 1.04, 1.16, 1.396))
 
-THRUST_MODELS = {1: AEROSONDE_THRUST}
+# JSBSim's Cessna 172P (the jsbsim package's aircraft/c172p/c172p.xml, its engine
+# engine/eng_io320.xml and propeller engine/prop_75in2f.xml; tests/test_monitor_throttle_c172p.py
+# reads them and checks these numbers): the mass, wing, lift and elevator as airframe.C172P
+# (CLde per the autopilot's rad: 0.43 times the surface's 1.147 rad per rad), the drag
+# polar fitted to CDo + CDwbh over alpha -0.05..0.12 (within 2e-4), the side force per
+# sideslip as lateral.C172P_LAT. The engine: the IO-320's manifold pressure from its file
+# (minmp 10 inHg at idlerpm 550, maxmp 28.5 at maxrpm 2700), its power fitted on the plant
+# (module docstring); the 75 in two-blade fixed-pitch propeller's tables and inertia.
+_C172P_MAP = PistonEngine.map_constants(10.0, 28.5, 550.0, 2700.0)
+C172P_THRUST = ThrustModel("c172p", mass_kg=1880 * 0.45359237, wing_area_m2=174 * 0.09290304,
+                           CL0=0.25, CLa=(0.73 - 0.25) / 0.09, CLde=0.43 * 23.0 * 0.01745 / 0.35,
+                           CD0=0.0269, k_CD=0.0868, a=0.0, b=0.0, c=0.0, d=0.0,
+                           CY_b=-0.137 / 0.349, tau_s=1.5,
+                           prop_ixx=1.67 * 1.3558179, prop_d_m=75 * 0.0254,
+                           engine=PistonEngine(_C172P_MAP[0], _C172P_MAP[1],
+                                               k=(1.013930e-02, 3.976266e-02, -4.818017e-03,
+                                                  -2.652506e-03, -4.516146e-03, -4.230567e+03,
+                                                  -2.956126e-03, -1.091892e+03)),
+                           cp_j=(0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2,
+                                 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3, 2.4, 5.0),
+                           cp=(0.066, 0.07, 0.07, 0.066, 0.06, 0.053, 0.0501, 0.0469, 0.0426,
+                               0.036, 0.0282, 0.0191, 0.0155, 0.0191, 0.0282, 0.036, 0.0426,
+                               0.0469, 0.0501, 0.0516, 0.0525, 0.0525, 0.0522, 0.0511, 0.0504, 0.0493),
+                           ct_j=(0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2,
+                                 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3, 5.0),
+                           ct=(0.073, 0.073, 0.072, 0.071, 0.069, 0.066, 0.062, 0.055, 0.045, 0.034,
+                               0.024, 0.013, -0.006, -0.013, -0.024, -0.034, -0.045, -0.055,
+                               -0.062, -0.066, -0.069, -0.071, -0.072, -0.073, -0.073),
+                           cp_mach=(0.85, 1.05, 2.0), cp_mach_k=(1.0, 1.8, 1.4),
+                           ct_mach=(0.85, 1.05), ct_mach_k=(1.0, 0.8),
+                           v_cruise=45.0, ident_s=4.0)
+
+THRUST_MODELS = {1: AEROSONDE_THRUST, 2: C172P_THRUST}
 
 
 def _isa_rho(alt_m: float) -> float:
@@ -268,6 +533,16 @@ def _isa_rho(alt_m: float) -> float:
     ``rho / rho0 = (1 - 2.25577e-5 h)^4.25588``; the plant's is JSBSim's standard one)."""
     r = 1.0 - 2.25577e-5 * alt_m
     return RHO0 * (0.1 if 0.1 > r else r) ** 4.25588
+
+
+def _isa(alt_m: float) -> tuple[float, float, float, float]:
+    """The standard atmosphere at ``alt_m`` (troposphere): density [kg/m^3], pressure [Pa],
+    the speed of sound [m/s] (``sqrt(1.4 R T)``, R 287.05 J/(kg K): JSBSim's) and the
+    temperature [K]."""
+    r = 1.0 - 2.25577e-5 * alt_m
+    r = 0.1 if 0.1 > r else r
+    t = T0_K * r
+    return RHO0 * r ** 4.25588, P_STD * r ** 5.25588, math.sqrt(1.4 * 287.05 * t), t
 
 
 def _interp(x: float, xs: tuple, ys: tuple) -> float:
@@ -302,6 +577,8 @@ class ThrottleIdentifier:
         self._lpr = None               # low-passed (rotor's throttle, model's), RPM_TAU_S
         self._rpm_start_us = None
         self._wr = 0.0                 # the rotor model's speed for that residual [rad/s]
+        self._map = 0.0                # a piston model's manifold pressure [Pa]
+        self._w_lp = [0.0, 0.0]        # ... its measured and model rotor speeds, low-passed
         self._lp = None
         self._t_us = None
         self._start_us = None          # the low-passes' latest (re)start
@@ -334,7 +611,7 @@ class ThrottleIdentifier:
     @property
     def first_ident_s(self) -> float:
         """The monitor's first identification this long after the detection [s]."""
-        return RPM_IDENT_S if self.rotor_measured else 1.0
+        return self.model.ident_s if self.rotor_measured else 1.0
 
     @property
     def rotor_measured(self) -> bool:
@@ -350,7 +627,9 @@ class ThrottleIdentifier:
         fz, fy = float(f_b[2]), float(f_b[1])
         thr = float(controls[3])
         m = self.model
-        if m.prop_ixx > 0.0:
+        if m.engine is not None:
+            thr = self._piston(t_us, nav, controls, fz)
+        elif m.prop_ixx > 0.0:
             # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
             # whose steady speed the rotor has now, as the thrust it asks for
             if self._lp is None:
@@ -437,7 +716,60 @@ class ThrottleIdentifier:
             # its offset also on the throttle (a gain): the rotor model's error grows with
             # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
             # corrections not modelled: 0.02-0.04 of full throttle low at full)
-            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1], learn, k_test)
+            # (a piston's: no offset learnt, the variance only; module docstring)
+            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1],
+                                  learn and m.engine is None if learn is not None else None, k_test)
+
+    def _piston(self, t_us: int, nav, controls: tuple, fz: float) -> float:
+        """A piston engine's step (module docstring): the rotor's residual from the
+        measured rpm, tested from its first second (:meth:`step`); the command through
+        ``tau_s`` returned for the thrust balance."""
+        m = self.model
+        thr = float(controls[3])
+        V = nav.airspeed_mps
+        dt = 0.0 if self._lp is None else (t_us - self._t_us) * 1e-6
+        if self._lp is None:
+            self._thr_lag = thr
+        elif dt > 0.0:
+            self._thr_lag += dt / (m.tau_s + dt) * (thr - self._thr_lag)
+        rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
+        if not rpm_on:
+            self._lpr = None
+        else:
+            alt = nav.alt_m
+            rho = _isa_rho(alt)
+            # the propeller's axial inflow, V cos(alpha) true (alpha from the lift)
+            qS = 0.5 * RHO0 * V * V * m.wing_area_m2
+            alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
+            alpha = -0.3 if -0.3 > alpha else 0.3 if 0.3 < alpha else alpha
+            vt = V * math.sqrt(RHO0 / rho) * math.cos(alpha)
+            qbar = 0.5 * RHO0 * V * V
+            if self._lpr is None or self._lp is None:
+                # the model rotor starts where it is measured, its manifold pressure the
+                # one that gives the power its propeller takes there
+                self._wr = self._rpm
+                z0 = m.piston_throttle(self._rpm, vt, alt, qbar)
+                _rho, p_amb, _a, _t = _isa(alt)
+                self._map = m.engine.map_steady(z0, self._rpm * (30.0 / math.pi), p_amb + m.engine.ram * qbar)
+                self._lpr = [z0, z0]
+                self._w_lp = [self._rpm, self._rpm]
+                self._rpm_start_us = t_us
+            elif dt > 0.0:
+                self._wr, self._map = m.piston_step(self._wr, self._map, thr, vt, alt, qbar, dt)
+                # the speeds low-passed before the throttle is read from them: near full
+                # throttle the manifold pressure hardly moves with the throttle, the
+                # reading's noise (0.5 % of the rpm) is 0.04 of throttle there, and its
+                # clipping at 1 read a stuck full throttle 0.02-0.04 low
+                a = dt / (RPM_TAU_S + dt)
+                wl = self._w_lp
+                wl[0] += a * (self._rpm - wl[0])
+                wl[1] += a * (self._wr - wl[1])
+                self._lpr[0] = m.piston_throttle(wl[0], vt, alt, qbar)
+                self._lpr[1] = m.piston_throttle(wl[1], vt, alt, qbar)
+        # the rotor's residual tested whenever the speed is measured (the engine's and the
+        # propeller's model from their files, not learnt: no warm-up on the thrust balance)
+        self.axes["throttle"] = self._rotor_axis if self._lpr is not None else self._thrust_axis
+        return self._thr_lag
 
     def worst(self) -> tuple[str, float]:
         return "throttle", self.axes["throttle"].ratio
@@ -464,16 +796,35 @@ class ThrottleIdentifier:
         (a deviation of 0.005, not the surfaces' balance, whose model errors go with the
         command) the two hypotheses stand apart by more than the factor 20, and 0.1
         keeps 30 and 5 times from those. On the thrust balance (no speed measured: a
-        residual of 0.1, systematic) the surfaces' share."""
+        residual of 0.1, systematic) the surfaces' share.
+
+        A piston (the c172p): its manifold pressure's lag and its heavy propeller make the
+        onset's transient ``ident_s`` (4 s) long, and the late test starts there. A stuck
+        throttle under what level flight needs pins the command at full within seconds,
+        and a command that hardly moves leaves the two hypotheses apart by the reading's
+        noise alone (z flat within 0.003): the share is PISTON_RSS_STUCK, 0.5, and the
+        command's saturation is counted in that late window. Stuck at 0.3 from 100 s,
+        seed 5, the command at 0.89-0.97 for 3 s before it stayed at full, read
+        "effectiveness 0.398" 10 s after the onset at 0.1, stuck at 0.302 at 0.5. A
+        weakened throttle (0.7, seeds 1 and 2) still reads weakened (0.742, 0.741) while
+        its command moves; 0.5, whose command is at full at once, reads stuck at 0.50, the
+        thrust it gives (as the Aerosonde's final readings)."""
         if self._fault_us is None:
             return None
         # the stuck position over the last IDENT_WIN_S; on the rotor's speed, which follows
         # the throttle within a second, over the last second
         rotor = self.rotor_measured
-        win = RPM_IDENT_S - 1.0 if rotor else IDENT_WIN_S
+        win = self.model.ident_s - 1.0 if rotor else IDENT_WIN_S
         recent = None if self._t_us is None else self._t_us - int(win * 1e6)
+        # (a piston's: the onset's transient its manifold pressure's and rotor's, ident_s
+        # long, and the command's saturation counted after it, when the command has run
+        # up to full: stuck at 0.3, seed 1, z flat at 0.30 from 5 s after the onset and
+        # the command at full from 6.6 s read "effectiveness 0.41" 10 s after it with
+        # the surfaces' 3 s and the whole window's saturation)
+        piston = rotor and self.model.engine is not None
         r = identify_hist(self.axes["throttle"].hist, self._fault_us, stuck, recent, d_max=1.0,
-                          rss_share=RPM_RSS_STUCK if rotor else RSS_STUCK)
+                          rss_share=(PISTON_RSS_STUCK if piston else RPM_RSS_STUCK) if rotor else RSS_STUCK,
+                          sat_late=piston, settle_s=self.model.ident_s if piston else SETTLE_S)
         if r is not None and "stuck_rad" in r:
             # the throttle is no angle: its stuck position as a fraction of full, clipped
             return {"stuck": round(min(max(r["stuck_rad"], 0.0), 1.0), 3)}

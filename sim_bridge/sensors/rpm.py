@@ -10,7 +10,9 @@ true speed is read with a small relative error and reported to the rpm.
 
 The plant's speed is its propeller's (JSBSim ``propulsion/engine/propeller-rpm``, the
 plant's ``PlantState.rpm``): the Aerosonde's electric motor drives the propeller
-directly, so the motor's speed is the propeller's.
+directly, so the motor's speed is the propeller's; so does the c172p's piston engine,
+whose tachometer (an engine monitor counting the magneto's pulses; ArduPilot's RPM
+library reads such a pulse input) this sensor stands for there, the same wire message.
 
 Noise and rate. A reading every ``1 / rate_hz`` of simulation time (the first at the
 first step): the true speed times ``1 + noise_frac n`` (n standard normal), rounded to
@@ -21,7 +23,8 @@ flight when the autopilot does not use it, unchanged.
 
 The default is a BLHeli_32-class ESC's telemetry, read at 20 Hz (its telemetry is
 requested motor by motor, a few tens of frames a second) with 0.5 % of the reading
-(1 sigma): at the Aerosonde's cruise, about 6000 rpm, 30 rpm.
+(1 sigma): at the Aerosonde's cruise, about 6000 rpm, 30 rpm; at the c172p's, about
+1900 rpm, 10 rpm.
 """
 from __future__ import annotations
 
