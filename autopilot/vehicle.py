@@ -365,6 +365,7 @@ class PlaneVehicle(VehicleBase):
             if seq is not None:
                 # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
                 seq.bank_limit_rad = self.ctrl.reaction_bank_limit_rad()
+                seq.reaction_airspeed_mps = self.ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full

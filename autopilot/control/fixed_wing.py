@@ -217,6 +217,22 @@ class FixedWingController:
         lim = self.roll_limit_rad()
         return lim if lim < math.radians(self.params["ROLL_LIMIT_DEG"]) else None
 
+    def reaction_airspeed_mps(self) -> float | None:
+        """The airspeed a fault's reaction flies instead of the commanded one [m/s], None
+        where there is none: a stuck throttle whose thrust holds level flight, the speed
+        it floats to (the model's top level speed, under TOUT_ARSPD_MAX); a stuck
+        elevator, its trim. The mission's turns are sized for it where it is faster
+        (guidance/mission.py, ``reaction_airspeed_mps``)."""
+        tout = self.throttle_out
+        p = self.params
+        if tout is not None and tout["level"] and p["TOUT_ARSPD_MAX"] > 0.0:
+            v_hi = max(p["TOUT_ARSPD_MAX"], p["ARSPD_FBW_MIN"])
+            v_top = tout.get("v_top")
+            return v_hi if v_top is None or v_top > v_hi else v_top
+        if self.elevator_out and self.eout_trim_mps is not None:
+            return self.eout_trim_mps
+        return None
+
     def reset(self) -> None:
         self.alt_dem_m = None
         for pid in (self.roll_pid, self.pitch_pid, self.climb_pid, self.speed_pid):

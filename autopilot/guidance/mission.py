@@ -377,9 +377,22 @@ class MissionSequencer:
 
     # ------------------------------------------------------------- turn sizes ---
     def _ground_speed_max_mps(self) -> float:
-        """The fastest ground speed at the commanded airspeed: downwind, in the wind
-        estimated now."""
-        return self.airspeed_mps + math.hypot(*self._wind_ne)
+        """The fastest ground speed at the airspeed the turns are sized for: downwind, in
+        the wind estimated now."""
+        return self._turn_airspeed_mps() + math.hypot(*self._wind_ne)
+
+    # the airspeed a fault's reaction flies instead of the commanded one [m/s] (a stuck
+    # throttle's level speed, a stuck elevator's trim: control/fixed_wing.py,
+    # reaction_airspeed_mps; the vehicle sets it every step), None: the commanded
+    reaction_airspeed_mps: float | None = None
+
+    def _turn_airspeed_mps(self) -> float:
+        """The airspeed the turns are sized for: the commanded one, or the one a reaction
+        flies where that is faster (a turn planned at the commanded 45 m/s and flown at
+        a stuck full throttle's 70 passed the c172p's waypoints outside their radius)."""
+        v = self.airspeed_mps
+        r = self.reaction_airspeed_mps
+        return r if r is not None and r > v else v
 
     # the bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad] (an aileron or
     # rudder flown on the other surface, the elevator out: control/fixed_wing.py,
@@ -407,7 +420,7 @@ class MissionSequencer:
         """Radius of the fillets: the nominal bank at TURN_GS_FACTOR times the airspeed;
         with ``wind`` (the joins, which may turn through any course), at the airspeed
         plus the wind speed if that is more."""
-        v = self.airspeed_mps * self.params["TURN_GS_FACTOR"]
+        v = self._turn_airspeed_mps() * self.params["TURN_GS_FACTOR"]
         if wind:
             v = max(v, self._ground_speed_max_mps())
         return v * v / (G * math.tan(math.radians(self._banks_deg()[0])))
@@ -416,7 +429,7 @@ class MissionSequencer:
         """The tightest circle the vehicle can hold over the ground: the bank limit at
         the highest ground speed (the airspeed plus the wind)."""
         w = self._wind_ne if wind_ne is None else wind_ne
-        v = self.airspeed_mps + math.hypot(float(w[0]), float(w[1]))
+        v = self._turn_airspeed_mps() + math.hypot(float(w[0]), float(w[1]))
         return v * v / (G * math.tan(math.radians(self._banks_deg()[1])))
 
     def home_loiter_radius_m(self, t_us: int) -> float:
@@ -590,7 +603,7 @@ class MissionSequencer:
 
     def _bank_limit_radius_m(self) -> float:
         """The turn radius at the bank limit and the airspeed (no wind)."""
-        v_air = self.airspeed_mps
+        v_air = self._turn_airspeed_mps()
         return v_air * v_air / (G * math.tan(math.radians(self._banks_deg()[1])))
 
     def _arc_radius_floor_m(self, u1, dchi: float) -> float:
@@ -603,7 +616,7 @@ class MissionSequencer:
         chi1 = math.atan2(u1[1], u1[0])
         wn, we = self._wind_ne
         w = math.hypot(wn, we)
-        v = self.airspeed_mps
+        v = self._turn_airspeed_mps()
         if w < 0.1:
             vg = v
         else:
