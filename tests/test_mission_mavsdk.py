@@ -59,6 +59,7 @@ async def _fly_default_waypoints(sitl, fig: dict) -> None:
 
             await asyncio.wait_for(_until(mission.subscribe_mission_progress(), done), 150)
             fig["progress"] = progress
+            await asyncio.sleep(3.0)              # the loiter over home that ends it (sim time runs fast)
             fig["texts"] = list(texts)
         finally:
             task.cancel()
