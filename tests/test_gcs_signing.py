@@ -7,7 +7,7 @@ refused for their reasons; RADIO_STATUS passes unsigned. Over real sockets, with
 a user would) with the right key, a wrong key, no key, and a captured signed
 COMMAND_LONG replayed; the key survives a restart, is removed by an all-zero
 SETUP_SIGNING over a signed link only, and by ``--wipe``. MAVProxy (``signing setup``)
-flies the default mission while another MAVProxy without the key changes nothing.
+flies a mission while another MAVProxy without the key changes nothing.
 """
 import hashlib
 import os
@@ -330,10 +330,17 @@ def test_mavproxy_sets_up_signing_and_flies_while_one_without_the_key_changes_no
     the key, then tries to set a parameter, upload another mission, arm, switch to AUTO
     and inject a GPS failure; the vehicle's state (checked by a signed pymavlink client)
     is unchanged. Then A -- whose next stage script the test writes only now -- loads the
-    mission, sets a parameter, arms and flies it to the end."""
+    mission, sets a parameter, arms and flies it to the end. (Its mission is the default
+    mission's take-off, speed change and first three waypoints, then RTL: a mission other
+    than the one on the vehicle, so its upload is seen to take, and a third of the default
+    mission's flight; test_gcs_mavproxy.py flies the whole default mission, its DO_JUMP
+    included, with MAVProxy unsigned.)"""
     from test_gcs_mavproxy import MavProxy
     default = (REPO / "missions" / "default.waypoints").read_text()
-    (tmp_path / "mission.waypoints").write_text(default)
+    lines = default.splitlines()
+    (tmp_path / "mission.waypoints").write_text("\n".join(lines[:7] + [lines[-1].replace("12\t", "6\t", 1)])
+                                                + "\n")
+    last = 6                                             # RTL
     (tmp_path / "other.waypoints").write_text("\n".join(default.splitlines()[:5]) + "\n")
     (tmp_path / "a1.scr").write_text("signing setup sesame-7\nrepeat clean\nrepeat add 2 script a2.scr\n")
     (tmp_path / "b.scr").write_text("param set NAVL1_PERIOD 25\nwp load other.waypoints\narm throttle\n"
@@ -369,11 +376,12 @@ def test_mavproxy_sets_up_signing_and_flies_while_one_without_the_key_changes_no
         # now A flies
         (tmp_path / "a2.scr").write_text(a2)
         deadline = time.monotonic() + 150
-        while time.monotonic() < deadline and 12 not in reached:
+        while time.monotonic() < deadline and last not in reached:
             msg = watch.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=0.2)
             if msg is not None:
                 reached.add(msg.seq)
         assert _param(s, "NAVL1_PERIOD") == 18.5
+        assert _mission_count(s) == last + 1                           # A's mission, home first
         s.close()
     finally:
         a.close()
@@ -381,8 +389,8 @@ def test_mavproxy_sets_up_signing_and_flies_while_one_without_the_key_changes_no
             b.close()
         watch.close()
         summary = sitl.stop()
-    assert set(range(1, 13)) <= reached
-    assert summary["gcs_signing"] is True and summary["mission_items_reached"] >= 12
+    assert set(range(1, last + 1)) <= reached
+    assert summary["gcs_signing"] is True and summary["mission_items_reached"] >= last
     assert summary["faults_injected"] == []                            # B's failure never relayed
     assert summary["gcs_refused_by_reason"].get("unsigned", 0) >= 5     # B's attempts, refused
 
