@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from . import heap
+from .interrupt import StopOnInterrupt
 from .link.hil import AutopilotHilEnd
 from .link.transports import TransportError, open_url
 from .log.flightlog import FlightLog
@@ -125,27 +126,29 @@ def main(argv: list[str] | None = None) -> int:
     last_rx = time.monotonic()
     t_s = 0.0
     heap.settle()              # what exists now kept out of the collector (heap.py)
+    stop = StopOnInterrupt()   # Ctrl-C: the loop stops after its step (interrupt.py)
     try:
-        while t_s < args.duration:
-            steps = end.poll(timeout_s=0.5 if gcs is None else 0.005)
-            for frame, truth in steps:
-                out = vehicle.control_step(frame, truth)
-                end.answer(out)          # the simulator advances while the step finishes
-                vehicle.finish_step()
-                t_s = frame.t_us * 1e-6
-                if gcs is not None:
-                    gcs.after_step(frame, out)
-                    gcs.step(frame.t_us)
-            if steps:
-                last_rx = time.monotonic()
-            elif getattr(transport, "closed", False) or time.monotonic() - last_rx > 10.0:
-                break
-            elif gcs is not None:
-                gcs.wait(0.005)
-            seq = vehicle.sequencer
-            if gcs is None and seq is not None and seq.finished and seq.rtl_established:
-                print(f"autopilot: mission complete at t={t_s:.1f} s", file=sys.stderr)
-                break
+        with stop:
+            while t_s < args.duration and not stop.requested:
+                steps = end.poll(timeout_s=0.5 if gcs is None else 0.005)
+                for frame, truth in steps:
+                    out = vehicle.control_step(frame, truth)
+                    end.answer(out)          # the simulator advances while the step finishes
+                    vehicle.finish_step()
+                    t_s = frame.t_us * 1e-6
+                    if gcs is not None:
+                        gcs.after_step(frame, out)
+                        gcs.step(frame.t_us)
+                if steps:
+                    last_rx = time.monotonic()
+                elif getattr(transport, "closed", False) or time.monotonic() - last_rx > 10.0:
+                    break
+                elif gcs is not None:
+                    gcs.wait(0.005)
+                seq = vehicle.sequencer
+                if gcs is None and seq is not None and seq.finished and seq.rtl_established:
+                    print(f"autopilot: mission complete at t={t_s:.1f} s", file=sys.stderr)
+                    break
     except KeyboardInterrupt:
         pass
     finally:

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from autopilot import heap
+from autopilot.interrupt import StopOnInterrupt
 from autopilot.link.transports import TransportError, open_url
 
 from .sensors.params import GPS_PRESETS, SensorParams
@@ -83,16 +84,18 @@ def main(argv: list[str] | None = None) -> int:
             transport.recv(0.5)
     heap.settle()              # what exists now kept out of the collector (autopilot/heap.py)
     t0 = time.perf_counter()
+    stop = StopOnInterrupt()   # Ctrl-C: the loop stops after its step (autopilot/interrupt.py)
     try:
-        while bridge.t_us * 1e-6 < args.duration:
-            if not bridge.run_step():
-                if bridge.link.missed >= 3:
-                    print("sim-bridge: autopilot stopped answering", file=sys.stderr)
-                    break
-            if args.speedup:
-                ahead = bridge.t_us * 1e-6 / args.speedup - (time.perf_counter() - t0)
-                if ahead > 0.002:
-                    time.sleep(ahead)
+        with stop:
+            while bridge.t_us * 1e-6 < args.duration and not stop.requested:
+                if not bridge.run_step():
+                    if bridge.link.missed >= 3:
+                        print("sim-bridge: autopilot stopped answering", file=sys.stderr)
+                        break
+                if args.speedup:
+                    ahead = bridge.t_us * 1e-6 / args.speedup - (time.perf_counter() - t0)
+                    if ahead > 0.002:
+                        time.sleep(ahead)
     except KeyboardInterrupt:
         pass
     finally:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from autopilot.heap import settled_heap
+from autopilot.interrupt import StopOnInterrupt
 from autopilot.link.hil import AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.mission.files import MissionFileError, save_waypoints
@@ -265,31 +266,37 @@ class Session:
 
     def _run(self) -> None:
         cfg = self.cfg
-        end_s = cfg.duration_s
         t0 = time.perf_counter()
-        sim0 = self.t_s
-        next_progress = 0.0
-        gcs = self.gcs
+        stop = StopOnInterrupt()
         try:
-            while self.t_s < end_s:
-                self.step()
-                if gcs is None and self.done():
-                    break  # interactive runs go on until Ctrl-C or --duration
-                if cfg.speedup is not None:
-                    ahead = (self.t_s - sim0) / cfg.speedup - (time.perf_counter() - t0)
-                    if gcs is not None:
-                        if ahead > 0.0:
-                            gcs.wait(ahead)  # answer requests while waiting for real time
-                    elif ahead > 0.002:
-                        time.sleep(ahead)
-                if cfg.progress and self.t_s >= next_progress:
-                    _progress(self, end_s)
-                    next_progress = self.t_s + 10.0
+            with stop:      # Ctrl-C: the loop stops after its step (autopilot/interrupt.py)
+                self._loop(cfg.duration_s, t0, self.t_s, stop)
         except KeyboardInterrupt:
+            self.interrupted = True  # a second Ctrl-C
+        if stop.requested:
             self.interrupted = True  # Ctrl-C: stop cleanly, the run folder is still written
         self.wall_loop_s = time.perf_counter() - t0
         if cfg.progress:
             sys.stderr.write("\n")
+
+    def _loop(self, end_s: float, t0: float, sim0: float, stop: StopOnInterrupt) -> None:
+        cfg = self.cfg
+        gcs = self.gcs
+        next_progress = 0.0
+        while self.t_s < end_s and not stop.requested:
+            self.step()
+            if gcs is None and self.done():
+                break  # interactive runs go on until Ctrl-C or --duration
+            if cfg.speedup is not None:
+                ahead = (self.t_s - sim0) / cfg.speedup - (time.perf_counter() - t0)
+                if gcs is not None:
+                    if ahead > 0.0:
+                        gcs.wait(ahead)  # answer requests while waiting for real time
+                elif ahead > 0.002:
+                    time.sleep(ahead)
+            if cfg.progress and self.t_s >= next_progress:
+                _progress(self, end_s)
+                next_progress = self.t_s + 10.0
 
     def close(self) -> None:
         """Close the ground-station links and flush their telemetry log."""
