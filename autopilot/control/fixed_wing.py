@@ -198,8 +198,8 @@ class FixedWingController:
         reaction: the elevator out, the steepest level turn of its trim (not under
         EOUT_BANK_MIN_DEG); an aileron or rudder out, the share of the other surface's
         travel left after countering it (monitor.py, _lateral_reaction), not under
-        EOUT_BANK_MIN_DEG either. The mission's turns are planned at it
-        (guidance/mission.py, ``bank_limit_rad``)."""
+        EOUT_BANK_MIN_DEG either. With an aileron or rudder out the mission's turns are
+        planned at it (guidance/mission.py, ``bank_limit_rad``)."""
         roll_lim = math.radians(self.params["ROLL_LIMIT_DEG"])
         if self.elevator_out and self.eout_bank_max_rad is not None:
             roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
@@ -210,9 +210,14 @@ class FixedWingController:
         return roll_lim
 
     def reaction_bank_limit_rad(self) -> float | None:
-        """The bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad], None
-        where there is none."""
-        if not self.elevator_out and self.surface_out is None:
+        """The bank limit an aileron's or rudder's reaction imposes below ROLL_LIMIT_DEG
+        [rad], None where there is none. Not the elevator out's: with the elevator stuck
+        the height is what matters, and a turn replanned wider may turn the other way,
+        where the propeller's gyroscopic moment pitches the nose down with nothing to
+        answer it (fault_elevator_stuck_launch.toml trial 2, 0.051 rad from 119 m:
+        replanned, it turned left and hit the ground, 68 m lost turning right before;
+        over the 200 trials 4 lost and 2 saved)."""
+        if self.surface_out is None:
             return None
         lim = self.roll_limit_rad()
         return lim if lim < math.radians(self.params["ROLL_LIMIT_DEG"]) else None
@@ -220,17 +225,16 @@ class FixedWingController:
     def reaction_airspeed_mps(self) -> float | None:
         """The airspeed a fault's reaction flies instead of the commanded one [m/s], None
         where there is none: a stuck throttle whose thrust holds level flight, the speed
-        it floats to (the model's top level speed, under TOUT_ARSPD_MAX); a stuck
-        elevator, its trim. The mission's turns are sized for it where it is faster
-        (guidance/mission.py, ``reaction_airspeed_mps``)."""
+        it floats to (the model's top level speed, under TOUT_ARSPD_MAX). The mission's
+        turns are sized for it where it is faster (guidance/mission.py,
+        ``reaction_airspeed_mps``). Not a stuck elevator's trim, for the reason of
+        :meth:`reaction_bank_limit_rad`."""
         tout = self.throttle_out
         p = self.params
         if tout is not None and tout["level"] and p["TOUT_ARSPD_MAX"] > 0.0:
             v_hi = max(p["TOUT_ARSPD_MAX"], p["ARSPD_FBW_MIN"])
             v_top = tout.get("v_top")
             return v_hi if v_top is None or v_top > v_hi else v_top
-        if self.elevator_out and self.eout_trim_mps is not None:
-            return self.eout_trim_mps
         return None
 
     def reset(self) -> None:

@@ -382,8 +382,8 @@ class MissionSequencer:
         return self._turn_airspeed_mps() + math.hypot(*self._wind_ne)
 
     # the airspeed a fault's reaction flies instead of the commanded one [m/s] (a stuck
-    # throttle's level speed, a stuck elevator's trim: control/fixed_wing.py,
-    # reaction_airspeed_mps; the vehicle sets it every step), None: the commanded
+    # throttle's level speed: control/fixed_wing.py, reaction_airspeed_mps; the vehicle
+    # sets it every step), None: the commanded
     reaction_airspeed_mps: float | None = None
 
     def _turn_airspeed_mps(self) -> float:
@@ -395,8 +395,8 @@ class MissionSequencer:
         return r if r is not None and r > v else v
 
     # the bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad] (an aileron or
-    # rudder flown on the other surface, the elevator out: control/fixed_wing.py,
-    # reaction_bank_limit_rad; the vehicle sets it every step), None: no reaction
+    # rudder flown on the other surface: control/fixed_wing.py, reaction_bank_limit_rad;
+    # the vehicle sets it every step), None: no reaction
     bank_limit_rad: float | None = None
 
     def _banks_deg(self) -> tuple[float, float]:
