@@ -241,7 +241,7 @@ def test_the_autopilot_imports_nothing_of_the_simulator_or_the_tools():
 
 def test_the_simulator_imports_only_the_autopilots_leaves_and_nothing_of_the_tools():
     allowed = ("autopilot.geo", "autopilot.link", "autopilot.mission", "autopilot.frozen",
-               "autopilot.jit", "autopilot.heap")
+               "autopilot.jit", "autopilot.heap", "autopilot.interrupt")
     bad = [f"{p.relative_to(ROOT)}: {m}" for p in _modules("sim_bridge") for m in _imports(p)
            if _within(m, ("tools",)) or (_within(m, ("autopilot",)) and not _within(m, allowed)
                                         and m != "autopilot")]

@@ -6,8 +6,19 @@ import os
 import signal
 import threading
 
+import pytest
+
 from autopilot.interrupt import StopOnInterrupt
 from tools.runner import RunConfig, Session
+
+
+@pytest.fixture(autouse=True)
+def python_sigint():
+    """Python's own SIGINT handler for the test (a suite started as a shell's background
+    job inherits SIGINT ignored), the process's restored after."""
+    prev = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, prev)
 
 
 def test_sigint_stops_the_flight_after_its_step_and_the_handler_is_restored():
