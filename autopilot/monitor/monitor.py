@@ -620,9 +620,7 @@ class FaultMonitor:
         10 deg. Said by STATUSTEXT at the detection (provisional) and at the stuck
         identification."""
         m = self.lateral_model
-        from .actuator import MAX_DEFLECTION_RAD
-        counter = m.counter(name, value)
-        share = 1.0 - abs(counter) / MAX_DEFLECTION_RAD
+        counter, share = self._lateral_counter(name, value)
         other = "rudder" if name == "aileron" else "aileron"
         self.surface_out = {"surface": name, "stuck_rad": value, "counter_rad": counter,
                             "roll_gain": m.roll_gain(name), "authority": share}
@@ -657,13 +655,18 @@ class FaultMonitor:
                 # short, the balance's signals low-passed: stuck at 0.3 rad, read 0.095,
                 # 0.149, 0.186, 0.256, 0.294 once a second from the first identification);
                 # not said again unless nothing can counter it now
-                from .actuator import MAX_DEFLECTION_RAD
-                counter = self.lateral_model.counter(name, stuck)
-                share = 1.0 - abs(counter) / MAX_DEFLECTION_RAD
+                counter, share = self._lateral_counter(name, stuck)
                 self.surface_out.update(stuck_rad=stuck, counter_rad=counter, authority=share)
                 if share <= 0.0:
                     self._lateral_no_counter(t_s, name, stuck, counter, True)
             self.stuck_surface[name] = stuck
+
+    def _lateral_counter(self, name: str, value: float) -> tuple[float, float]:
+        """(the other surface's deflection [rad] that holds the wings level against
+        ``name`` held at ``value`` [rad], the share of its travel left after it)."""
+        from .actuator import MAX_DEFLECTION_RAD
+        counter = self.lateral_model.counter(name, value)
+        return counter, 1.0 - abs(counter) / MAX_DEFLECTION_RAD
 
     def _lateral_no_counter(self, t_s: float, name: str, value: float, counter: float,
                             final: bool) -> None:

@@ -290,30 +290,31 @@ class ThrustModel:
         return throttle * (self.a + self.b * V) + self.c + self.d * V
 
     # ---- the piston engine and its fixed-pitch propeller (module docstring) ----
+    def _prop_coef(self, w: float, V: float, a_snd: float, j_tab: tuple, c_tab: tuple,
+                   mach_tab: tuple, mach_k: tuple) -> tuple[float, float]:
+        """(n [rev/s], the coefficient of ``c_tab`` against J = V / (n D), times its
+        factor ``mach_k`` at the helical tip Mach number ``sqrt((pi D n)^2 + V^2) / a``);
+        n = 0 where the propeller does not turn forward."""
+        n = w / (2.0 * math.pi)
+        if n <= 0.0:
+            return 0.0, 0.0
+        D = self.prop_d_m
+        c = _interp(V / (n * D), j_tab, c_tab)
+        if mach_tab:
+            c *= _interp(math.hypot(math.pi * D * n, V) / a_snd, mach_tab, mach_k)
+        return n, c
+
     def shaft_power(self, w: float, V: float, rho: float, a_snd: float) -> float:
         """The power [W] the propeller takes at speed ``w`` [rad/s], true axial airspeed
         V [m/s], density rho and speed of sound a_snd [m/s]: ``C_P(J) k_M rho n^3 D^5``
-        (JSBSim's FGPropeller, power required), k_M the CP_MACH factor at the helical tip
-        Mach number ``sqrt((pi D n)^2 + V^2) / a``."""
-        n = w / (2.0 * math.pi)
-        if n <= 0.0:
-            return 0.0
-        D = self.prop_d_m
-        cp = _interp(V / (n * D), self.cp_j, self.cp)
-        if self.cp_mach:
-            cp *= _interp(math.hypot(math.pi * D * n, V) / a_snd, self.cp_mach, self.cp_mach_k)
-        return cp * rho * n * n * n * D ** 5
+        (JSBSim's FGPropeller, power required), k_M the CP_MACH factor."""
+        n, cp = self._prop_coef(w, V, a_snd, self.cp_j, self.cp, self.cp_mach, self.cp_mach_k)
+        return cp * rho * n * n * n * self.prop_d_m ** 5 if n > 0.0 else 0.0
 
     def prop_thrust(self, w: float, V: float, rho: float, a_snd: float) -> float:
         """The propeller's thrust [N]: ``C_T(J) k_M rho n^2 D^4`` (CT_MACH's k_M)."""
-        n = w / (2.0 * math.pi)
-        if n <= 0.0:
-            return 0.0
-        D = self.prop_d_m
-        ct = _interp(V / (n * D), self.ct_j, self.ct)
-        if self.ct_mach:
-            ct *= _interp(math.hypot(math.pi * D * n, V) / a_snd, self.ct_mach, self.ct_mach_k)
-        return ct * rho * n * n * D ** 4
+        n, ct = self._prop_coef(w, V, a_snd, self.ct_j, self.ct, self.ct_mach, self.ct_mach_k)
+        return ct * rho * n * n * self.prop_d_m ** 4 if n > 0.0 else 0.0
 
     def piston_throttle(self, w: float, V: float, alt_m: float, qbar: float) -> float:
         """The throttle whose engine gives, at the rotor's speed ``w`` [rad/s], the power
