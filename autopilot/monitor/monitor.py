@@ -249,6 +249,10 @@ class FaultMonitor:
         self._anchor = None                   # the ring's oldest entry at detection
         self._bias_next_us = 0
         self.bias_ratio = [0.0, 0.0, 0.0]
+        # the evaluation's inputs unchanged since (update): armed then, and the time
+        # after which a channel may fall silent (-1: evaluate at every step)
+        self._eval_armed = None
+        self._eval_until_us = -1
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
@@ -372,6 +376,7 @@ class FaultMonitor:
         okf = self.radapt.okf_sd
         aiding = self.aiding
         height = None
+        changed = False                   # a window pushed or reset this step
         for r in nav.innovations:
             ch = aiding.get(r.source)
             if ch is None:
@@ -394,6 +399,7 @@ class FaultMonitor:
                     if ch.win.n:
                         ch.win.reset()
                         ch.rdet = ch.riso = 0.0
+                        changed = True
                     continue
             sd = okf.get(r.source)
             if sd is None:
@@ -413,13 +419,19 @@ class FaultMonitor:
             d = [g * yi / math.sqrt(si) for yi, si in zip(y, sl)]
             w = ch.win
             w.push(d)
+            changed = True
             ch.rdet = w.ratio_det
             ch.riso = w.ratio_iso
             rs = w.chi / w.thr_step
             if rs > step_max:
                 step_max = rs
         self._step_max = step_max
-        self._evaluate(t_us, armed)
+        # with no fault detected, no window moved, the bias test not due, armed as it
+        # was and no channel able to fall silent yet, the evaluation would find what it
+        # found last time: skipped
+        if (changed or self.detected or t_us >= self._bias_next_us or armed != self._eval_armed
+                or t_us > self._eval_until_us):
+            self._evaluate(t_us, armed)
 
     def observe_rpm(self, sample) -> None:
         """The propeller's measured speed (an ``RpmSample``, ESC telemetry): the throttle's
@@ -821,6 +833,7 @@ class FaultMonitor:
         iso_over = []                  # (ratio, channel) over the isolation threshold
         det_over = []                  # (ratio, channel) over the detection threshold
         heard = getattr(self.nav, "heard_us", None)
+        until = 1 << 62                # the earliest time a channel may fall silent
         for ch in self._aiding_list:
             last = ch.last_us
             # silent: it had been updating regularly (SILENT_RUN updates in a row) and
@@ -835,6 +848,8 @@ class FaultMonitor:
                 h = heard.get(ch.name)
                 if h is not None and h > last:
                     last = h
+            if last is not None and last + tout < until:
+                until = last + tout
             if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
                 if not ch.silent:
                     ch.silent = True
@@ -862,6 +877,8 @@ class FaultMonitor:
                 iso_over.append((ir, ch.name))
             if ir > iso_ratio:
                 iso, iso_ratio = ch.name, ir
+        self._eval_armed = armed
+        self._eval_until_us = -1 if busy else until
         for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
             if r > 1.0 and r > over_ratio:
                 over, over_ratio = name, r
@@ -1011,6 +1028,7 @@ class FaultMonitor:
             self.events.append((t_s, SEV_NOTICE, "FDI: fading off"))
         ep.end_s = round(t_s, 3)
         self.detected = False
+        self._eval_until_us = -1          # the next step evaluates (the peaks resume)
         self.isolated = None
         self._quiet_us = None
         self._fs_done = False
