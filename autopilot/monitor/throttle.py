@@ -701,9 +701,7 @@ class ThrottleIdentifier:
         if dt <= 0.0:
             return
         a = dt / (BAL_TAU_S + dt)
-        lp = self._lp
-        for i in range(len(x)):
-            lp[i] += a * (x[i] - lp[i])
+        self._lp = lp = [v + a * (xi - v) for v, xi in zip(self._lp, x)]
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
