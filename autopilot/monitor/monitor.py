@@ -465,8 +465,6 @@ class FaultMonitor:
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
         if not self.detected:
-            quiet = (all(ch.ratio < 1.0 for ch in self._aiding_list) and max(self.bias_ratio) < 1.0
-                     and max(self.accel_ratio) < 1.0)
             r_el = el.ratio / self.p["FDI_ACT_THR"]
             if r_el > self.peaks.get("elevator", 0.0):
                 self.peaks["elevator"] = r_el
@@ -478,6 +476,9 @@ class FaultMonitor:
                         self.peaks[name] = r
                     if r > r_best:
                         best, r_best = name, r
+            # the navigation quiet (asked only when a balance is over its threshold)
+            quiet = ((r_best > 1.0 or r_el > 1.0) and all(ch.ratio < 1.0 for ch in self._aiding_list)
+                     and max(self.bias_ratio) < 1.0 and max(self.accel_ratio) < 1.0)
             if quiet and r_best > 1.0 and r_best > r_el:
                 self._lateral_detected(t_us, best, r_best)
                 return
