@@ -48,7 +48,7 @@ class QuadPlusMixer:
     """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective", "eff")
+                 "thrusts", "collective", "eff", "_t_full", "_inv")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float):
         self.t_max = t_max_n
@@ -79,6 +79,10 @@ class QuadPlusMixer:
             self._limits()
 
     def _limits(self) -> None:
+        # the thrust curve's constants, for command_of (each as its formula writes it)
+        e = self.expo
+        self._t_full = self.t_max * self.rho_ratio
+        self._inv = None if e < 1e-6 else (e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e)
         self.t_hi = self.thrust_of(1.0)
         self.t_lo = self.thrust_of(self.spin_min)
 
@@ -90,14 +94,15 @@ class QuadPlusMixer:
 
     def command_of(self, thrust_n: float) -> float:
         """Inverse of :meth:`thrust_of`, clipped to [0, 1]."""
-        t = thrust_n / (self.t_max * self.rho_ratio)
+        t = thrust_n / self._t_full
         if t <= 0.0:
             return 0.0
-        e = self.expo
-        if e < 1e-6:
+        inv = self._inv
+        if inv is None:                  # e = 0: linear
             u = t
-        else:
-            u = ((e - 1.0) + math.sqrt((1.0 - e) ** 2 + 4.0 * e * t)) / (2.0 * e)
+        else:                            # ((e - 1) + sqrt((1 - e)^2 + 4 e t)) / (2 e)
+            em1, e1sq, e4, e2 = inv
+            u = (em1 + math.sqrt(e1sq + e4 * t)) / e2
         return 1.0 if u > 1.0 else u
 
     # ----------------------------------------------------------------- mixing ---

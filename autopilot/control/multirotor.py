@@ -154,7 +154,7 @@ class DiscretePdd:
     equations (Tustin at ``dt``). ``update(e, omega) -> u`` [N per rotor]."""
 
     __slots__ = ("k_p", "k_d", "k_dd", "p_d", "lead", "dt", "_fb", "_fa", "_lb", "_la",
-                 "_f1", "_f2", "_l1")
+                 "_f1", "_f2", "_l1", "_c")
 
     def __init__(self, k_p: float, k_d: float, k_dd: float, p_d: float, lead: tuple, dt: float):
         self.k_p, self.k_d, self.k_dd, self.p_d, self.lead, self.dt = k_p, k_d, k_dd, p_d, lead, dt
@@ -162,6 +162,8 @@ class DiscretePdd:
         self._fb, self._fa = _tustin([k_d + k_dd, k_d * p_d], [1.0, 2.0 * p_d, p_d * p_d], dt)
         g, z, p = lead
         self._lb, self._la = _tustin([g, g * z], [1.0, p], dt)
+        # update()'s coefficients, one tuple: F's b0 b1 b2 a1 a2, Cbar's b0 b1 a1
+        self._c = (*self._fb, *self._fa[1:], *self._lb, self._la[1])
         self.reset()
 
     def reset(self, omega: float = 0.0, e: float = 0.0) -> None:
@@ -179,15 +181,13 @@ class DiscretePdd:
         self._l1 = lb1 * v - la1 * u
 
     def update(self, e: float, omega: float) -> float:
-        b0, b1, b2 = self._fb
-        _, a1, a2 = self._fa
+        b0, b1, b2, a1, a2, lb0, lb1, la1 = self._c
         f = b0 * omega + self._f1
         self._f1 = b1 * omega - a1 * f + self._f2
         self._f2 = b2 * omega - a2 * f
         v = self.k_p * e - f
-        lb0, lb1 = self._lb
         u = lb0 * v + self._l1
-        self._l1 = lb1 * v - self._la[1] * u
+        self._l1 = lb1 * v - la1 * u
         return u
 
 
@@ -321,6 +321,8 @@ class ReferenceAngleGenerator:
             self.pitch = self.roll = k
         self.angle_max = math.radians(p["ANGLE_MAX_DEG"])
         self.i_max = math.radians(p["QD_POS_IMAX"])
+        # keep each axis' integral action within QD_POS_IMAX: |i_ne| <= i_lim
+        self.i_lim = self.i_max / max(self.pitch[1], self.roll[1], 1e-6)
 
     def reset(self) -> None:
         self.i_n = self.i_e = 0.0
@@ -344,8 +346,7 @@ class ReferenceAngleGenerator:
         if not hold_integrator and not saturated:
             self.i_n += e_n * dt
             self.i_e += e_e * dt
-            # keep each axis' integral action within QD_POS_IMAX
-            lim_n = self.i_max / max(kip, kir, 1e-6)
+            lim_n = self.i_lim
             m = math.hypot(self.i_n, self.i_e)
             if m > lim_n:
                 self.i_n *= lim_n / m

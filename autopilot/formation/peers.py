@@ -112,7 +112,8 @@ class PeerTable:
             if e is not None:
                 t, p, v, a = e
                 age = t_s - t
-                h = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+                h = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age   # max(0, min(age,
+                h = h if h > 0.0 else 0.0               # MAX)), spelt out: the builtins' cost
                 hh = 0.5 * h * h
                 return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh,
                          p[2] + v[2] * h + a[2] * hh),
@@ -122,5 +123,6 @@ class PeerTable:
             return None
         t, p, v = e
         age = t_s - t
-        a = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+        a = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age
+        a = a if a > 0.0 else 0.0
         return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age, (0.0, 0.0, 0.0)

@@ -118,7 +118,7 @@ class FormationQuad(QuadVehicle):
         if t_s < self.start_s:
             r, tv, ta = tuple(self.start_ned), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         else:
-            g = self.guidance.update(t_s, dt, tuple(self.vt.r), self.peers)
+            g = self.guidance.update(t_s, dt, self.vt.r, self.peers)
             self.last_guidance = g
             r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
         h = self.home_in_form
