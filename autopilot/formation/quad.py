@@ -60,7 +60,7 @@ class FormationQuad(QuadVehicle):
         self.start_ned = spec.vehicle(vid).start_ned
         self._start = tuple(self.start_ned)
         self.guidance = FormationGuidance(spec, vid)
-        self.peers = PeerTable(vid, self.origin, use_targets=True)
+        self.peers = PeerTable(vid, self.origin, use_targets=True, only=self.guidance.follows)
         self.publisher = PositionPublisher(vid, spec.ground_alt_m)
         self.period_us = int(round(1e6 / spec.network.rate_hz))
         self._next_pub_us = 0
