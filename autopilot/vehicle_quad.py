@@ -40,6 +40,7 @@ from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
+from .jit import kernel
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
@@ -81,6 +82,7 @@ LOG_COLUMNS = (
     "fdi_motor_det", "fdi_motor_iso", "fdi_gamma_1", "fdi_gamma_2", "fdi_gamma_3",
     "fdi_gamma_4", "fdi_motor_lam",
 )
+_LAND = CopterMode.LAND
 KIND_CODES = {"ground": 0, "takeoff": 1, "move": 2, "hold": 3, "land": 4, "idle": 5, "manual": 6}
 
 
@@ -129,6 +131,7 @@ class DecimatedNav:
         self._gps = self._air = None
         self.nav: NavState | None = None
         self._p = self._v = self._q = None
+        self._x = None                  # the output predictor's state (predict_output)
         self._ba = (0.0, 0.0, 0.0)
         self._bg = (0.0, 0.0, 0.0)
         self._g = G
@@ -210,26 +213,16 @@ class DecimatedNav:
                 self._ba = tuple(nom.ba)
                 self._bg = tuple(nom.bg)
                 self._g = getattr(self.filt, "_g", G)
+            # the output predictor starts from here
+            self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
             return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
-        # output predictor
-        bg, ba = self._bg, self._ba
-        wx -= bg[0]; wy -= bg[1]; wz -= bg[2]
-        fx -= ba[0]; fy -= ba[1]; fz -= ba[2]
-        qw, qx, qy, qz = self._q
-        r = _dcm(qw, qx, qy, qz)
-        an = r[0] * fx + r[1] * fy + r[2] * fz
-        ae = r[3] * fx + r[4] * fy + r[5] * fz
-        ad = r[6] * fx + r[7] * fy + r[8] * fz + self._g
-        v = self._v
-        v1 = [v[0] + an * dt, v[1] + ae * dt, v[2] + ad * dt]
-        p = self._p
-        self._p = [p[0] + 0.5 * (v[0] + v1[0]) * dt, p[1] + 0.5 * (v[1] + v1[1]) * dt,
-                   p[2] + 0.5 * (v[2] + v1[2]) * dt]
-        self._v = v1
-        self._q = _quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
-        return self.nav, self._p, self._v, self._q, [wx, wy, wz]
+        x = self._x
+        w = list(predict_output(x, fx, fy, fz, wx, wy, wz, dt))
+        o = x.tolist()
+        self._p, self._v, self._q = o[0:3], o[3:6], o[6:10]
+        return self.nav, self._p, self._v, self._q, w
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -484,7 +477,7 @@ class QuadVehicle(VehicleBase):
             self._monitor(mon, frame, omega, t_us)
 
         fence_step(self, t_us, self.armed and not self.on_ground,
-                   landing=self.mode == CopterMode.LAND or self.navigator.phase.startswith("land"))
+                   landing=self.mode is _LAND or self.navigator.phase.startswith("land"))
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)
@@ -686,7 +679,8 @@ class QuadVehicle(VehicleBase):
                 mon.lam)
 
 
-def _dcm(w: float, x: float, y: float, z: float) -> tuple:
+@kernel
+def _dcm(w, x, y, z):
     """R(q_nb) row-major (autopilot.geo.quat_to_dcm, on floats)."""
     ww, xx, yy, zz = w * w, x * x, y * y, z * z
     return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
@@ -694,7 +688,8 @@ def _dcm(w: float, x: float, y: float, z: float) -> tuple:
             2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
 
 
-def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
+@kernel
+def _quat_step(qw, qx, qy, qz, ax, ay, az):
     """q (x) Exp([ax, ay, az]) renormalised (autopilot.geo.quat_integrate, on floats)."""
     ang = math.sqrt(ax * ax + ay * ay + az * az)
     if ang > 1e-9:
@@ -709,4 +704,31 @@ def _quat_step(qw, qx, qy, qz, ax, ay, az) -> list[float]:
     n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     if rw < 0.0:
         n = -n
-    return [rw * n, rx * n, ry * n, rz * n]
+    return rw * n, rx * n, ry * n, rz * n
+
+
+@kernel
+def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
+    """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
+    accelerometer bias, gyro bias, g), its p, v, q updated in place;
+    q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
+    omega the bias-corrected specific force and rate. Returns omega."""
+    wx -= x[13]
+    wy -= x[14]
+    wz -= x[15]
+    fx -= x[10]
+    fy -= x[11]
+    fz -= x[12]
+    qw, qx, qy, qz = x[6], x[7], x[8], x[9]
+    r = _dcm(qw, qx, qy, qz)
+    an = r[0] * fx + r[1] * fy + r[2] * fz
+    ae = r[3] * fx + r[4] * fy + r[5] * fz
+    ad = r[6] * fx + r[7] * fy + r[8] * fz + x[16]
+    vn, ve, vd = x[3], x[4], x[5]
+    vn1, ve1, vd1 = vn + an * dt, ve + ae * dt, vd + ad * dt
+    x[0] += 0.5 * (vn + vn1) * dt
+    x[1] += 0.5 * (ve + ve1) * dt
+    x[2] += 0.5 * (vd + vd1) * dt
+    x[3], x[4], x[5] = vn1, ve1, vd1
+    x[6], x[7], x[8], x[9] = _quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
+    return wx, wy, wz

@@ -268,3 +268,41 @@ def test_reference_integral_stays_in_the_earth_frame_and_tilt_is_limited():
 def test_copter_modes_are_numbered_as_arducopter():
     assert {m.name: int(m) for m in CopterMode} == {
         "STABILIZE": 0, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
+
+
+def test_output_predictor_kernel_is_the_strapdown_step():
+    """The output predictor (autopilot/vehicle_quad.py, predict_output) against its law
+    written out with autopilot.geo: q <- q (x) Exp(omega dt), v <- v + (R f + g) dt,
+    p <- p + (v + v') dt / 2, f and omega less the filter's bias estimates."""
+    from autopilot.geo import quat_integrate, quat_to_dcm
+    from autopilot.vehicle_quad import predict_output
+    p, v = np.array([3.0, -2.0, -15.0]), np.array([4.0, 1.0, -0.5])
+    q = euler_to_quat(0.2, -0.1, 1.0)
+    ba, bg, g = np.array([0.02, -0.01, 0.05]), np.array([0.001, -0.002, 0.003]), 9.79
+    f, w, dt = np.array([0.4, -0.3, -9.9]), np.array([0.3, -0.2, 0.1]), 0.004
+    x = np.concatenate((p, v, q, ba, bg, [g]))
+    omega = predict_output(x, *f, *w, dt)
+    a = quat_to_dcm(q) @ (f - ba) + np.array([0.0, 0.0, g])
+    v1 = v + a * dt
+    assert np.max(np.abs(np.array(omega) - (w - bg))) < 1e-15
+    assert np.max(np.abs(x[3:6] - v1)) < 1e-12
+    assert np.max(np.abs(x[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
+    assert np.max(np.abs(x[6:10] - quat_integrate(q, w - bg, dt))) < 1e-12
+    assert np.all(x[10:] == np.concatenate((ba, bg, [g])))          # biases untouched
+
+
+def test_mixer_with_a_weak_rotor_keeps_every_rotor_within_its_share():
+    """Fault accommodation (mix_rotors with k_j < 1): each rotor's thrust within
+    k_j [T_lo, T_hi], its command that of T_j / k_j, the roll differential kept first."""
+    m = QuadPlusMixer(15.7, 0.78, 0.10)
+    m.set_effectiveness((1.0, 0.6, 1.0, 1.0))
+    eff = m.eff
+    t = m.mix_thrusts(4 * 9.0, 1.0, 0.0, 0.2)
+    for k, tj in zip(eff, t):
+        assert k * m.t_lo - 1e-9 <= tj <= k * m.t_hi + 1e-9
+    cmd = m.mix(4 * 9.0, 1.0, 0.0, 0.2)
+    assert cmd == tuple(m.command_of(tj / k) for tj, k in zip(t, eff))
+    assert t[1] - t[3] == pytest.approx(2.0)                        # roll kept
+    assert m.saturated[2]                                           # height gave way
+    m.set_effectiveness(None)
+    assert m.eff is None and m.mix_thrusts(14.0, 0.0, 0.0, 0.0) == (3.5, 3.5, 3.5, 3.5)

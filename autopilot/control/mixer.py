@@ -40,15 +40,20 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from ..jit import kernel
+
 # channel order of eq 3.30's rotors: (roll sign, pitch sign, yaw sign)
 ROTOR_SIGNS = ((0.0, -1.0, 1.0), (1.0, 0.0, -1.0), (0.0, 1.0, 1.0), (-1.0, 0.0, -1.0))
 
 
 class QuadPlusMixer:
-    """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1."""
+    """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1 (the law:
+    :func:`mix_rotors`; its constants in ``k``, rebuilt when a parameter changes)."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective", "eff")
+                 "thrusts", "collective", "eff", "k")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float):
         self.t_max = t_max_n
@@ -71,6 +76,7 @@ class QuadPlusMixer:
             self.eff = None
         else:
             self.eff = tuple(min(max(float(k), 0.2), 1.0) for k in eff)
+        self._limits()
 
     def set_density_ratio(self, rho_ratio: float) -> None:
         r = min(max(rho_ratio, 0.5), 1.3)
@@ -81,6 +87,12 @@ class QuadPlusMixer:
     def _limits(self) -> None:
         self.t_hi = self.thrust_of(1.0)
         self.t_lo = self.thrust_of(self.spin_min)
+        # the kernels' constants (K_* below), each as its formula writes it
+        e = self.expo
+        eff = self.eff
+        self.k = np.array((self.t_lo, self.t_hi, self.t_max * self.rho_ratio,
+                           1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
+                           0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
 
     # -------------------------------------------------------------- thrust curve --
     def thrust_of(self, u: float) -> float:
@@ -90,78 +102,119 @@ class QuadPlusMixer:
 
     def command_of(self, thrust_n: float) -> float:
         """Inverse of :meth:`thrust_of`, clipped to [0, 1]."""
-        t = thrust_n / (self.t_max * self.rho_ratio)
-        if t <= 0.0:
-            return 0.0
-        e = self.expo
-        if e < 1e-6:
-            u = t
-        else:
-            u = ((e - 1.0) + math.sqrt((1.0 - e) ** 2 + 4.0 * e * t)) / (2.0 * e)
-        return 1.0 if u > 1.0 else u
+        return command_of_thrust(self.k, thrust_n)
 
     # ----------------------------------------------------------------- mixing ---
     def mix_thrusts(self, u_z: float, u_phi: float, u_theta: float,
                     u_psi: float) -> tuple[float, float, float, float]:
         """Rotor thrusts [N] of eq 3.30 after the attitude-first saturation."""
-        lo, hi = self.t_lo, self.t_hi
-        eff = self.eff
-        if eff is not None:
-            # a weak rotor's limits shrink to k_j [T_lo, T_hi]: the differential has to
-            # fit the narrowest span, the collective the tightest rotor (below)
-            hi = min(eff) * self.t_hi
-            lo = max(eff) * self.t_lo
-        span = hi - lo
-        sat_rp = sat_y = sat_c = False
-        # roll / pitch differential: rotor pairs (2, 4) and (3, 1)
-        # max(a, b) spelt out here and below: the builtin's cost (control/pid.py)
-        rp, rt = abs(u_phi), abs(u_theta)
-        rp = rt if rt > rp else rp
-        if 2.0 * rp > span:
-            k = 0.5 * span / rp
-            u_phi, u_theta = u_phi * k, u_theta * k
-            sat_rp = True
-        # yaw: every rotor carries +-u_psi on top of its roll/pitch share
-        rp, rt = abs(u_phi), abs(u_theta)
-        room = 0.5 * span - (rt if rt > rp else rp)
-        ay = abs(u_psi)
-        if ay > room:
-            u_psi = math.copysign(0.0 if 0.0 > room else room, u_psi)
-            sat_y = True
-        d1 = -u_theta + u_psi
-        d2 = u_phi - u_psi
-        d3 = u_theta + u_psi
-        d4 = -u_phi - u_psi
-        c = 0.25 * u_z
-        if eff is None:
-            dmin = min(d1, d2, d3, d4)
-            dmax = max(d1, d2, d3, d4)
-            if c + dmax > hi:
-                c = hi - dmax
-                sat_c = True
-            if c + dmin < lo:
-                c = lo - dmin
-                sat_c = True
-        else:
-            th, tl = self.t_hi, self.t_lo
-            c_hi = min(k * th - d for k, d in zip(eff, (d1, d2, d3, d4)))
-            c_lo = max(k * tl - d for k, d in zip(eff, (d1, d2, d3, d4)))
-            if c > c_hi:
-                c = c_hi
-                sat_c = True
-            if c < c_lo:
-                c = c_lo
-                sat_c = True
-        self.saturated = (sat_rp, sat_y, sat_c)
-        self.collective = 4.0 * c
-        t = (c + d1, c + d2, c + d3, c + d4)
-        self.thrusts = t
-        return t
+        self.mix(u_z, u_phi, u_theta, u_psi)
+        return self.thrusts
 
     def mix(self, u_z: float, u_phi: float, u_theta: float, u_psi: float) -> tuple:
-        t1, t2, t3, t4 = self.mix_thrusts(u_z, u_phi, u_theta, u_psi)
-        cmd = self.command_of
-        eff = self.eff
-        if eff is not None:
-            return (cmd(t1 / eff[0]), cmd(t2 / eff[1]), cmd(t3 / eff[2]), cmd(t4 / eff[3]))
-        return (cmd(t1), cmd(t2), cmd(t3), cmd(t4))
+        t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(
+            u_z, u_phi, u_theta, u_psi, self.k)
+        self.saturated = (s_rp, s_y, s_c)
+        self.collective = coll
+        self.thrusts = (t1, t2, t3, t4)
+        return (c1, c2, c3, c4)
+
+
+# QuadPlusMixer.k: the thrust limits, T_max rho/rho0, the thrust curve's inverse (linear
+# flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and k_1..k_4
+K_LO, K_HI, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(10)
+
+
+@kernel
+def command_of_thrust(k, thrust_n):
+    """The command of a rotor thrust [N]: the thrust curve T / (T_max rho/rho0) =
+    (1 - e) u + e u^2 inverted, clipped to [0, 1]."""
+    t = thrust_n / k[K_FULL]
+    if t <= 0.0:
+        return 0.0
+    if k[K_LINEAR] != 0.0:           # e = 0
+        u = t
+    else:                            # ((e - 1) + sqrt((1 - e)^2 + 4 e t)) / (2 e)
+        u = (k[K_EM1] + math.sqrt(k[K_E1SQ] + k[K_E4] * t)) / k[K_E2]
+    return 1.0 if u > 1.0 else u
+
+
+@kernel
+def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
+    """Eq 3.30 with the attitude-first saturation and the effectiveness (module
+    docstring): (T_1..T_4 [N], their commands c_1..c_4, the collective 4 c [N],
+    saturated roll/pitch, yaw, collective). (min / max spelt out as Python's: the first
+    of equal values.)"""
+    lo, hi = k[K_LO], k[K_HI]
+    healthy = k[K_HAS_EFF] == 0.0
+    e1, e2, e3, e4 = k[K_EFF], k[K_EFF + 1], k[K_EFF + 2], k[K_EFF + 3]
+    if not healthy:
+        # a weak rotor's limits shrink to k_j [T_lo, T_hi]: the differential has to fit
+        # the narrowest span, the collective the tightest rotor (below)
+        e_min = e_max = e1
+        for e in (e2, e3, e4):
+            if e < e_min:
+                e_min = e
+            if e > e_max:
+                e_max = e
+        hi = e_min * k[K_HI]
+        lo = e_max * k[K_LO]
+    span = hi - lo
+    sat_rp = sat_y = sat_c = False
+    # roll / pitch differential: rotor pairs (2, 4) and (3, 1)
+    rp, rt = abs(u_phi), abs(u_theta)
+    rp = rt if rt > rp else rp
+    if 2.0 * rp > span:
+        s = 0.5 * span / rp
+        u_phi, u_theta = u_phi * s, u_theta * s
+        sat_rp = True
+    # yaw: every rotor carries +-u_psi on top of its roll/pitch share
+    rp, rt = abs(u_phi), abs(u_theta)
+    room = 0.5 * span - (rt if rt > rp else rp)
+    ay = abs(u_psi)
+    if ay > room:
+        u_psi = math.copysign(0.0 if 0.0 > room else room, u_psi)
+        sat_y = True
+    d1 = -u_theta + u_psi
+    d2 = u_phi - u_psi
+    d3 = u_theta + u_psi
+    d4 = -u_phi - u_psi
+    c = 0.25 * u_z
+    if healthy:
+        d_min = d_max = d1
+        for d in (d2, d3, d4):
+            if d < d_min:
+                d_min = d
+            if d > d_max:
+                d_max = d
+        if c + d_max > hi:
+            c = hi - d_max
+            sat_c = True
+        if c + d_min < lo:
+            c = lo - d_min
+            sat_c = True
+    else:
+        th, tl = k[K_HI], k[K_LO]
+        c_hi = e1 * th - d1
+        c_lo = e1 * tl - d1
+        for e, d in ((e2, d2), (e3, d3), (e4, d4)):
+            x = e * th - d
+            if x < c_hi:
+                c_hi = x
+            x = e * tl - d
+            if x > c_lo:
+                c_lo = x
+        if c > c_hi:
+            c = c_hi
+            sat_c = True
+        if c < c_lo:
+            c = c_lo
+            sat_c = True
+    t1, t2, t3, t4 = c + d1, c + d2, c + d3, c + d4
+    if healthy:
+        m1, m2, m3, m4 = (command_of_thrust(k, t1), command_of_thrust(k, t2),
+                          command_of_thrust(k, t3), command_of_thrust(k, t4))
+    else:
+        m1, m2, m3, m4 = (command_of_thrust(k, t1 / e1), command_of_thrust(k, t2 / e2),
+                          command_of_thrust(k, t3 / e3), command_of_thrust(k, t4 / e4))
+    return t1, t2, t3, t4, m1, m2, m3, m4, 4.0 * c, sat_rp, sat_y, sat_c

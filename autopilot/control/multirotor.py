@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 
+from ..jit import kernel
 from ..params import Param
 from .mixer import QuadPlusMixer
 
@@ -149,12 +150,30 @@ def _tustin(num, den, dt: float) -> tuple[list[float], list[float]]:
     return (b / a[0]).tolist(), (a / a[0]).tolist()
 
 
+@kernel
+def pdd_step(c, s, e, omega):
+    """One axis of eqs 3.32-3.36 on its difference equations: ``c`` = (b0, b1, b2, a1, a2)
+    of F(z), (b0, b1, a1) of Cbar(z), k_P; ``s`` = the filter states (f1, f2, l1),
+    updated. Returns u [N per rotor]."""
+    # F(z) omega, transposed direct form II
+    f = c[0] * omega + s[0]
+    s[0] = c[1] * omega - c[3] * f + s[1]
+    s[1] = c[2] * omega - c[4] * f
+    # u = Cbar(z) [k_P e - F omega]
+    v = c[8] * e - f
+    u = c[5] * v + s[2]
+    s[2] = c[6] * v - c[7] * u
+    return u
+
+
 class DiscretePdd:
     """One axis of eq 3.32-3.36: ``u = Cbar(s) [k_P e - F(s) omega]`` as difference
-    equations (Tustin at ``dt``). ``update(e, omega) -> u`` [N per rotor]."""
+    equations (Tustin at ``dt``). ``update(e, omega) -> u`` [N per rotor]. Its
+    coefficients and states are arrays for :func:`pdd_step` (the attitude controller
+    keeps the three axes' states in one array: ``state`` is then a row of it)."""
 
     __slots__ = ("k_p", "k_d", "k_dd", "p_d", "lead", "dt", "_fb", "_fa", "_lb", "_la",
-                 "_f1", "_f2", "_l1")
+                 "coef", "state")
 
     def __init__(self, k_p: float, k_d: float, k_dd: float, p_d: float, lead: tuple, dt: float):
         self.k_p, self.k_d, self.k_dd, self.p_d, self.lead, self.dt = k_p, k_d, k_dd, p_d, lead, dt
@@ -162,6 +181,8 @@ class DiscretePdd:
         self._fb, self._fa = _tustin([k_d + k_dd, k_d * p_d], [1.0, 2.0 * p_d, p_d * p_d], dt)
         g, z, p = lead
         self._lb, self._la = _tustin([g, g * z], [1.0, p], dt)
+        self.coef = np.array((*self._fb, *self._fa[1:], *self._lb, self._la[1], k_p))
+        self.state = np.zeros(3)
         self.reset()
 
     def reset(self, omega: float = 0.0, e: float = 0.0) -> None:
@@ -170,29 +191,22 @@ class DiscretePdd:
         b0, b1, b2 = self._fb
         _, a1, a2 = self._fa
         y = (self.k_d / self.p_d) * omega
-        self._f2 = b2 * omega - a2 * y
-        self._f1 = b1 * omega - a1 * y + self._f2
+        f2 = b2 * omega - a2 * y
+        f1 = b1 * omega - a1 * y + f2
         v = self.k_p * e - y
         lb0, lb1 = self._lb
         _, la1 = self._la
         u = v * (self.lead[0] * self.lead[1] / self.lead[2])
-        self._l1 = lb1 * v - la1 * u
+        s = self.state
+        s[0], s[1], s[2] = f1, f2, lb1 * v - la1 * u
 
     def update(self, e: float, omega: float) -> float:
-        b0, b1, b2 = self._fb
-        _, a1, a2 = self._fa
-        f = b0 * omega + self._f1
-        self._f1 = b1 * omega - a1 * f + self._f2
-        self._f2 = b2 * omega - a2 * f
-        v = self.k_p * e - f
-        lb0, lb1 = self._lb
-        u = lb0 * v + self._l1
-        self._l1 = lb1 * v - self._la[1] * u
-        return u
+        return pdd_step(self.coef, self.state, e, omega)
 
 
 # ----------------------------------------------------------------- attitude --------
-def _euler_quat(roll: float, pitch: float, yaw: float) -> tuple:
+@kernel
+def _euler_quat(roll, pitch, yaw):
     """q_nb of 3-2-1 Euler angles (autopilot.geo.euler_to_quat, on floats)."""
     cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
     cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
@@ -208,7 +222,12 @@ def attitude_error(q, roll_d: float, pitch_d: float, yaw_d: float) -> tuple[floa
     generator computed them in -- so a heading still turning towards psi_d does not
     turn the tilt; the yaw part is wrap(psi_d - psi). (Tilt and heading decoupled, as
     ArduCopter's and PX4's attitude controllers do.)"""
-    qw, qx, qy, qz = q
+    return _attitude_error(q[0], q[1], q[2], q[3], roll_d, pitch_d, yaw_d)
+
+
+@kernel
+def _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d):
+    """:func:`attitude_error` on the quaternion's components."""
     yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
     dw, dx, dy, dz = _euler_quat(roll_d, pitch_d, yaw)
     # conj(q) (x) q_d
@@ -222,6 +241,16 @@ def attitude_error(q, roll_d: float, pitch_d: float, yaw_d: float) -> tuple[floa
     k = 2.0 * math.atan2(s, ew) / s if s > 1e-9 else 2.0
     e_yaw = (yaw_d - yaw + math.pi) % (2.0 * math.pi) - math.pi
     return ex * k, ey * k, ez * k + e_yaw
+
+
+@kernel
+def attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, coef, state):
+    """The three PDD loops on the attitude error (:class:`AttitudeController`): ``coef``
+    and ``state`` hold the roll, pitch and yaw rows of :func:`pdd_step`'s. Returns the
+    error (3) and (u_phi, u_theta, u_psi)."""
+    ex, ey, ez = _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d)
+    return (ex, ey, ez, pdd_step(coef[0], state[0], ex, wx), pdd_step(coef[1], state[1], ey, wy),
+            pdd_step(coef[2], state[2], ez, wz))
 
 
 class AttitudeController:
@@ -251,6 +280,12 @@ class AttitudeController:
     def configure(self) -> None:
         g = self.gains()
         self.loops = tuple(DiscretePdd(dt=self.dt, **g[a]) for a in ("roll", "pitch", "yaw"))
+        # the three loops' coefficients and states as rows of one array each (the
+        # loops' own ``state`` are views of these rows)
+        self.coef = np.array([loop.coef for loop in self.loops])
+        self.state = np.array([loop.state for loop in self.loops])
+        for k, loop in enumerate(self.loops):
+            loop.state = self.state[k]
         self.error = (0.0, 0.0, 0.0)
 
     def reset(self) -> None:
@@ -258,11 +293,11 @@ class AttitudeController:
             loop.reset()
 
     def update(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float) -> tuple:
-        ex, ey, ez = attitude_error(q, roll_d, pitch_d, yaw_d)
+        ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(
+            q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
+            self.coef, self.state)
         self.error = (ex, ey, ez)
-        w0, w1, w2 = omega_b
-        lr, lp, ly = self.loops
-        return lr.update(ex, w0), lp.update(ey, w1), ly.update(ez, w2)
+        return u_phi, u_theta, u_psi
 
 
 # ----------------------------------------------------------------- altitude --------
@@ -321,6 +356,8 @@ class ReferenceAngleGenerator:
             self.pitch = self.roll = k
         self.angle_max = math.radians(p["ANGLE_MAX_DEG"])
         self.i_max = math.radians(p["QD_POS_IMAX"])
+        # keep each axis' integral action within QD_POS_IMAX: |i_ne| <= i_lim
+        self.i_lim = self.i_max / max(self.pitch[1], self.roll[1], 1e-6)
 
     def reset(self) -> None:
         self.i_n = self.i_e = 0.0
@@ -344,8 +381,7 @@ class ReferenceAngleGenerator:
         if not hold_integrator and not saturated:
             self.i_n += e_n * dt
             self.i_e += e_e * dt
-            # keep each axis' integral action within QD_POS_IMAX
-            lim_n = self.i_max / max(kip, kir, 1e-6)
+            lim_n = self.i_lim
             m = math.hypot(self.i_n, self.i_e)
             if m > lim_n:
                 self.i_n *= lim_n / m

@@ -87,11 +87,12 @@ def _any_perpendicular(u: Vec) -> Vec:
 def nearest_on_sphere(c, r: float, q) -> tuple[Vec, str]:
     """The point of S(c, r) nearest ``q`` (the first follower's constraint). ``q`` at
     the centre: any point (``"degenerate"``)."""
-    d = _sub(q, c)
-    n = norm(d)
+    dn, de, dd = q[0] - c[0], q[1] - c[1], q[2] - c[2]
+    n = math.sqrt(dn * dn + de * de + dd * dd)
     if n < EPS_M:
         return _add(c, (r, 0.0, 0.0)), "degenerate"
-    return _add(c, _scale(d, r / n)), "ok"
+    k = r / n
+    return (c[0] + dn * k, c[1] + de * k, c[2] + dd * k), "ok"
 
 
 def nearest_on_circle(c1, r1: float, c2, r2: float, q) -> tuple[Vec, str]:
@@ -100,42 +101,50 @@ def nearest_on_circle(c1, r1: float, c2, r2: float, q) -> tuple[Vec, str]:
     sphere, nearest point of S(c1, r1)); spheres apart or nested: ``"empty"`` (the
     point of the centre line between them that splits the radii's excess); ``q`` on the
     axis of the circle: ``"degenerate"`` (a fixed point of the circle)."""
-    axis = _sub(c2, c1)
-    d = norm(axis)
+    un, ue, ud = c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]
+    d = math.sqrt(un * un + ue * ue + ud * ud)
     if d < EPS_M:
         p, _ = nearest_on_sphere(c1, r1, q)
         return p, "collinear"
-    u = _scale(axis, 1.0 / d)
+    k = 1.0 / d
+    un, ue, ud = un * k, ue * k, ud * k
     a = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)     # eq 3.4 with x_2 = d
     h2 = r1 * r1 - a * a                             # eq 3.5 with the circle's radius^2
-    centre = _add(c1, _scale(u, a))
+    cn, ce, cd = c1[0] + un * a, c1[1] + ue * a, c1[2] + ud * a
     if h2 <= 0.0:
-        return centre, ("empty" if h2 < -EPS_M * EPS_M else "tangent")
+        return (cn, ce, cd), ("empty" if h2 < -EPS_M * EPS_M else "tangent")
     h = math.sqrt(h2)
-    w = _sub(q, centre)
-    w = _sub(w, _scale(u, _dot(w, u)))               # q's offset normal to the axis
-    n = norm(w)
+    wn, we, wd = q[0] - cn, q[1] - ce, q[2] - cd
+    k = wn * un + we * ue + wd * ud
+    wn, we, wd = wn - un * k, we - ue * k, wd - ud * k   # q's offset normal to the axis
+    n = math.sqrt(wn * wn + we * we + wd * wd)
     if n < EPS_M:
-        return _add(centre, _scale(_any_perpendicular(u), h)), "degenerate"
-    return _add(centre, _scale(w, h / n)), "ok"
+        return _add((cn, ce, cd), _scale(_any_perpendicular((un, ue, ud)), h)), "degenerate"
+    k = h / n
+    return (cn + wn * k, ce + we * k, cd + wd * k), "ok"
 
 
 def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Vec, Vec, str]:
     """Both intersection points of three spheres (eqs 3.1-3.12) and a status
-    (module docstring). In the degenerate cases both points are the same fallback."""
-    ex = _sub(p2, p1)
-    x2 = norm(ex)                                    # s_2 = (x_2, 0, 0)
+    (module docstring). In the degenerate cases both points are the same fallback.
+    (Written out on scalars: the formation's hot path, once per step per follower.)"""
+    p1n, p1e, p1d = p1
+    exn, exe, exd = p2[0] - p1n, p2[1] - p1e, p2[2] - p1d
+    x2 = math.sqrt(exn * exn + exe * exe + exd * exd)           # s_2 = (x_2, 0, 0)
     if x2 < EPS_M:
         return p1, p1, "collinear"
-    ex = _scale(ex, 1.0 / x2)
-    w3 = _sub(p3, p1)
-    x3 = _dot(ex, w3)                                # s_3 = (x_3, y_3, 0)   eq 3.8
-    ey = _sub(w3, _scale(ex, x3))
-    y3 = norm(ey)
+    k = 1.0 / x2
+    exn, exe, exd = exn * k, exe * k, exd * k
+    wn, we, wd = p3[0] - p1n, p3[1] - p1e, p3[2] - p1d
+    x3 = exn * wn + exe * we + exd * wd                          # s_3 = (x_3, y_3, 0)   eq 3.8
+    eyn, eye, eyd = wn - exn * x3, we - exe * x3, wd - exd * x3
+    y3 = math.sqrt(eyn * eyn + eye * eye + eyd * eyd)
     if y3 < EPS_M:
         return p1, p1, "collinear"
-    ey = _scale(ey, 1.0 / y3)
-    ez = _cross(ex, ey)                              # R = [e_x; e_y; e_z]   eqs 3.9-3.10
+    k = 1.0 / y3
+    eyn, eye, eyd = eyn * k, eye * k, eyd * k
+    # R = [e_x; e_y; e_z], e_z = e_x x e_y                                eqs 3.9-3.10
+    ezn, eze, ezd = exe * eyd - exd * eye, exd * eyn - exn * eyd, exn * eye - exe * eyn
     x = (r1 * r1 - r2 * r2 + x2 * x2) / (2.0 * x2)                                   # eq 3.4
     y = (r1 * r1 - r3 * r3 + x3 * x3 + y3 * y3) / (2.0 * y3) - (x3 / y3) * x         # eq 3.6
     z2 = r1 * r1 - x * x - y * y                                                     # eq 3.5
@@ -147,13 +156,20 @@ def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Ve
         z = math.sqrt(z2)                                                            # eq 3.7
         if z < EPS_M:
             status = "tangent"
-    base = _add(p1, _add(_scale(ex, x), _scale(ey, y)))   # eq 3.12: P = p_1 + R^T (x, y, z)
-    return _add(base, _scale(ez, z)), _add(base, _scale(ez, -z)), status
+    # eq 3.12: P = p_1 + R^T (x, y, z)
+    bn, be, bd = p1n + (exn * x + eyn * y), p1e + (exe * x + eye * y), p1d + (exd * x + eyd * y)
+    mz = -z
+    return ((bn + ezn * z, be + eze * z, bd + ezd * z),
+            (bn + ezn * mz, be + eze * mz, bd + ezd * mz), status)
 
 
 def nearer(a, b, ref) -> Vec:
     """Eq 3.17: of two candidate points, the one nearer ``ref`` (ties: ``a``)."""
-    return a if dist(a, ref) <= dist(b, ref) else b
+    an, ae, ad = a[0] - ref[0], a[1] - ref[1], a[2] - ref[2]
+    bn, be, bd = b[0] - ref[0], b[1] - ref[1], b[2] - ref[2]
+    # (the distances themselves, not their squares: the same tie-break as dist())
+    return a if (math.sqrt(an * an + ae * ae + ad * ad)
+                 <= math.sqrt(bn * bn + be * be + bd * bd)) else b
 
 
 def intersection_near(p1, r1, p2, r2, p3, r3, ref) -> tuple[Vec, str]:
@@ -161,14 +177,14 @@ def intersection_near(p1, r1, p2, r2, p3, r3, ref) -> tuple[Vec, str]:
     centres: the point of the first two spheres' circle nearest ``ref``. Empty: the
     solution of eqs 3.4 and 3.6 at ``ref``'s own height above the centres' plane."""
     a, b, status = sphere_intersection(p1, r1, p2, r2, p3, r3)
+    if status == "ok" or status == "tangent":
+        return nearer(a, b, ref), status
     if status == "collinear":
         p, _ = nearest_on_circle(p1, r1, p2, r2, ref)
         return p, status
-    if status == "empty":
-        n = _cross(_sub(p2, p1), _sub(p3, p1))
-        n = _scale(n, 1.0 / norm(n))
-        return _add(a, _scale(n, _dot(n, _sub(ref, a)))), status
-    return nearer(a, b, ref), status
+    n = _cross(_sub(p2, p1), _sub(p3, p1))                 # empty
+    n = _scale(n, 1.0 / norm(n))
+    return _add(a, _scale(n, _dot(n, _sub(ref, a)))), status
 
 
 def side_of_plane(p1, p2, p3, q) -> float:

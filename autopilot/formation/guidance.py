@@ -67,7 +67,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .geometry import intersection_near, nearest_on_circle, nearest_on_sphere, norm
+from .geometry import intersection_near, nearest_on_circle, nearest_on_sphere
 from .spec import FormationSpec
 
 
@@ -116,65 +116,79 @@ class FormationGuidance:
         self.degenerate_events = 0
         self.last_status = "ok"
         self._p_des = tuple(v.start_ned)
+        # the distances to the followed vehicles in the order of ``follows``, and for a
+        # second follower which of its two is the leader
+        self._d_follows = tuple(self.d[j] for j in v.follows)
+        self._lead_k = v.follows.index(self.leader_id) if v.role == "second" else 0
 
     def desired(self, t_s: float, p_own, peers):
         """(p_id, v_ff, a_ff, status) from eqs 3.14-3.17."""
-        zero = (0.0, 0.0, 0.0)
         if self.role == "leader":
-            return self.p_final, zero, zero, "ok"
-        got = []
-        for j in self.follows:
-            g = peers.get(j, t_s)
-            if g is None:
-                return self._p_des, zero, zero, "waiting"
-            got.append(g)
-        n = len(got)
-        v_ff = tuple(sum(g[1][k] for g in got) / n for k in range(3))
-        a_ff = tuple(sum(g[3][k] for g in got) / n for k in range(3))
+            return self.p_final, _ZERO, _ZERO, "ok"
+        get = peers.get
+        got = [get(j, t_s) for j in self.follows]
+        if None in got:
+            return self._p_des, _ZERO, _ZERO, "waiting"
+        v_ff = _mean([g[1] for g in got])
+        a_ff = _mean([g[3] for g in got])
+        d = self._d_follows
         if self.role == "first":
             p1 = got[0][0]
-            ref = self._carrot(p1, p_own)
-            p, status = nearest_on_sphere(p1, self.d[self.follows[0]], ref)
+            p, status = nearest_on_sphere(p1, d[0], self._carrot(p1, p_own))
         elif self.role == "second":
-            lead_k = self.follows.index(self.leader_id)
+            lead_k = self._lead_k
             p1, p2 = got[lead_k][0], got[1 - lead_k][0]
-            j2 = self.follows[1 - lead_k]
-            ref = self._carrot(p1, p_own)
-            p, status = nearest_on_circle(p1, self.d[self.leader_id], p2, self.d[j2], ref)
+            p, status = nearest_on_circle(p1, d[lead_k], p2, d[1 - lead_k], self._carrot(p1, p_own))
         else:
-            j, k, l = self.follows
-            p, status = intersection_near(got[0][0], self.d[j], got[1][0], self.d[k],
-                                          got[2][0], self.d[l], p_own)
+            p, status = intersection_near(got[0][0], d[0], got[1][0], d[1], got[2][0], d[2], p_own)
         return p, v_ff, a_ff, status
 
     def _carrot(self, p1, p_own):
         """p_1 + p_1i (eqs 3.15, 3.16), approached at most ``reshape_step_m`` at a time."""
-        o = self.offset
-        w = (p1[0] + o[0] - p_own[0], p1[1] + o[1] - p_own[1], p1[2] + o[2] - p_own[2])
-        n = norm(w)
-        if n > self.step_m:
-            w = (w[0] * self.step_m / n, w[1] * self.step_m / n, w[2] * self.step_m / n)
-        return (p_own[0] + w[0], p_own[1] + w[1], p_own[2] + w[2])
+        o, step = self.offset, self.step_m
+        wn, we, wd = p1[0] + o[0] - p_own[0], p1[1] + o[1] - p_own[1], p1[2] + o[2] - p_own[2]
+        n = math.sqrt(wn * wn + we * we + wd * wd)
+        if n > step:
+            wn, we, wd = wn * step / n, we * step / n, wd * step / n
+        return (p_own[0] + wn, p_own[1] + we, p_own[2] + wd)
 
     def update(self, t_s: float, dt: float, p_own, peers) -> GuidanceOutput:
         p_des, v_ff, a_ff, status = self.desired(t_s, p_own, peers)
-        if status not in ("ok", "waiting", "tangent"):
+        if status not in _REGULAR:
             self.degenerate_events += 1
         self.last_status = status
         self._p_des = p_des
-        pb = (p_des[0] - p_own[0], p_des[1] - p_own[1], p_des[2] - p_own[2])   # eq 3.13
-        e = norm(pb)
+        pn, pe, pd = (p_des[0] - p_own[0], p_des[1] - p_own[1], p_des[2] - p_own[2])   # eq 3.13
+        e = math.sqrt(pn * pn + pe * pe + pd * pd)
         s = sigma(e, self.eps)                                                   # eq 3.21
         ig = self.integ
-        u = [self.k_p * pb[k] + self.k_i * ig[k] for k in range(3)]             # eq 3.22
-        un = norm(u)
-        if un > self.v_max:
-            u = [x * self.v_max / un for x in u]                                 # sat, no integration
+        k_p, k_i = self.k_p, self.k_i
+        un, ue, ud = k_p * pn + k_i * ig[0], k_p * pe + k_i * ig[1], k_p * pd + k_i * ig[2]   # eq 3.22
+        u_abs = math.sqrt(un * un + ue * ue + ud * ud)
+        v_max = self.v_max
+        if u_abs > v_max:                                                        # sat, no integration
+            un, ue, ud = un * v_max / u_abs, ue * v_max / u_abs, ud * v_max / u_abs
         elif dt > 0.0:
-            for k in range(3):
-                ig[k] += s * pb[k] * dt
-        v_cmd = tuple(v_ff[k] + s * u[k] for k in range(3))                      # eq 3.20
+            ig[0] += s * pn * dt
+            ig[1] += s * pe * dt
+            ig[2] += s * pd * dt
+        v_cmd = (v_ff[0] + s * un, v_ff[1] + s * ue, v_ff[2] + s * ud)          # eq 3.20
         return GuidanceOutput(tuple(p_des), v_cmd, a_ff, e, s, status)
+
+
+_ZERO = (0.0, 0.0, 0.0)
+_REGULAR = frozenset(("ok", "waiting", "tangent"))     # statuses that are no degenerate event
+
+
+def _mean(vs) -> tuple:
+    """The mean of 3-vectors, each component summed in order from 0.0 (as ``sum`` does)."""
+    x = y = z = 0.0
+    for v in vs:
+        x += v[0]
+        y += v[1]
+        z += v[2]
+    n = len(vs)
+    return (x / n, y / n, z / n)
 
 
 class VirtualTarget:
@@ -188,9 +202,9 @@ class VirtualTarget:
     grow down the follower chain. ``step(v_cmd, dt, a_ff) -> (r, v, a)``."""
 
     def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2):
-        self.r = [float(c) for c in p0]
-        self.v = [0.0, 0.0, 0.0]
-        self.a = [0.0, 0.0, 0.0]
+        self.r = tuple(float(c) for c in p0)
+        self.v = (0.0, 0.0, 0.0)
+        self.a = (0.0, 0.0, 0.0)
         self.a_max = a_max
         self.j_max = j_max
         self.tau = tau_s
@@ -198,18 +212,22 @@ class VirtualTarget:
     def step(self, v_cmd, dt: float, a_ff=(0.0, 0.0, 0.0)):
         if dt <= 0.0:
             return tuple(self.r), tuple(self.v), tuple(self.a)
-        a_des = [a_ff[k] + (v_cmd[k] - self.v[k]) / self.tau for k in range(3)]
-        n = norm(a_des)
-        if n > self.a_max:
-            a_des = [x * self.a_max / n for x in a_des]
-        da = [a_des[k] - self.a[k] for k in range(3)]
-        n = norm(da)
+        (vn, ve, vd), (an, ae, ad), tau = self.v, self.a, self.tau
+        xn = a_ff[0] + (v_cmd[0] - vn) / tau
+        xe = a_ff[1] + (v_cmd[1] - ve) / tau
+        xd = a_ff[2] + (v_cmd[2] - vd) / tau
+        n = math.sqrt(xn * xn + xe * xe + xd * xd)
+        a_max = self.a_max
+        if n > a_max:
+            xn, xe, xd = xn * a_max / n, xe * a_max / n, xd * a_max / n
+        dn, de, dd = xn - an, xe - ae, xd - ad
+        n = math.sqrt(dn * dn + de * de + dd * dd)
         lim = self.j_max * dt
         if n > lim:
-            da = [x * lim / n for x in da]
-        a = [self.a[k] + da[k] for k in range(3)]
-        v0 = self.v
-        self.a = a
-        self.v = [v0[k] + a[k] * dt for k in range(3)]
-        self.r = [self.r[k] + 0.5 * (v0[k] + self.v[k]) * dt for k in range(3)]
-        return tuple(self.r), tuple(self.v), tuple(self.a)
+            dn, de, dd = dn * lim / n, de * lim / n, dd * lim / n
+        a = (an + dn, ae + de, ad + dd)
+        v = (vn + a[0] * dt, ve + a[1] * dt, vd + a[2] * dt)
+        r = self.r
+        r = (r[0] + 0.5 * (vn + v[0]) * dt, r[1] + 0.5 * (ve + v[1]) * dt, r[2] + 0.5 * (vd + v[2]) * dt)
+        self.r, self.v, self.a = r, v, a
+        return r, v, a

@@ -66,18 +66,25 @@ def _cm(v: float) -> int:
 
 
 class PeerTable:
-    """Latest position of every other vehicle, from received bytes."""
+    """Latest position of every other vehicle, from received bytes; with ``only``, of
+    those vehicles only (the ones a vehicle follows: a datagram from any other is
+    dropped on its MAVLink 2 header's system id, byte 5, undecoded)."""
 
-    def __init__(self, own_id: int, frame: LocalFrame, use_targets: bool = False):
+    def __init__(self, own_id: int, frame: LocalFrame, use_targets: bool = False,
+                 only=None):
         self.own_id = own_id
         self.frame = frame
         self.use_targets = use_targets
+        self.only = None if only is None else frozenset(only)
         self.codec = Codec(own_id, MAV.MAV_COMP_ID_AUTOPILOT1)
         self.latest: dict[int, tuple[float, tuple, tuple]] = {}   # id -> (t_s, p_ned, v_ned)
         self.targets: dict[int, tuple[float, tuple, tuple, tuple]] = {}  # + a_ned
         self.received = 0
 
     def receive(self, data: bytes) -> None:
+        only = self.only
+        if only is not None and len(data) > 5 and data[0] == 0xFD and data[5] not in only:
+            return
         for m in self.codec.decode(data, _RAW):
             if m.src_system == self.own_id:
                 continue
@@ -91,8 +98,8 @@ class PeerTable:
                 self.targets[m.src_system] = (t_s, tuple(p), (vx, vy, vz), (ax, ay, az))
                 self.received += 1
                 continue
-            if m.msg_id != MSG_ID:
-                continue
+            if m.msg_id != MSG_ID or (self.use_targets and m.src_system in self.targets):
+                continue        # (with a setpoint heard, get() answers from the setpoints)
             t_ms, lat, lon, alt, _, vx, vy, vz, _ = m.values
             t_s = t_ms * 1e-3
             prev = self.latest.get(m.src_system)
@@ -112,7 +119,8 @@ class PeerTable:
             if e is not None:
                 t, p, v, a = e
                 age = t_s - t
-                h = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+                h = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age   # max(0, min(age,
+                h = h if h > 0.0 else 0.0               # MAX)), spelt out: the builtins' cost
                 hh = 0.5 * h * h
                 return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh,
                          p[2] + v[2] * h + a[2] * hh),
@@ -122,5 +130,6 @@ class PeerTable:
             return None
         t, p, v = e
         age = t_s - t
-        a = max(0.0, min(age, MAX_EXTRAPOLATION_S))
+        a = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age
+        a = a if a > 0.0 else 0.0
         return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age, (0.0, 0.0, 0.0)

@@ -45,6 +45,10 @@ from .peers import PeerTable, PositionPublisher
 from .spec import FormationSpec
 
 
+_GUIDED = CopterMode.GUIDED
+_ZERO = (0.0, 0.0, 0.0)
+
+
 class FormationQuad(QuadVehicle):
     def __init__(self, params, spec: FormationSpec, vid: int, nav_source: str = "ekf",
                  log=None, dt_s: float = 0.008, start_s: float = 8.0, a_max: float = 4.0):
@@ -54,8 +58,9 @@ class FormationQuad(QuadVehicle):
         self.start_s = start_s
         self.origin = LocalFrame.from_degrees(*spec.origin)
         self.start_ned = spec.vehicle(vid).start_ned
+        self._start = tuple(self.start_ned)
         self.guidance = FormationGuidance(spec, vid)
-        self.peers = PeerTable(vid, self.origin, use_targets=True)
+        self.peers = PeerTable(vid, self.origin, use_targets=True, only=self.guidance.follows)
         self.publisher = PositionPublisher(vid, spec.ground_alt_m)
         self.period_us = int(round(1e6 / spec.network.rate_hz))
         self._next_pub_us = 0
@@ -109,22 +114,22 @@ class FormationQuad(QuadVehicle):
         return out
 
     def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
-        if self.mode != CopterMode.GUIDED:
+        if self.mode is not _GUIDED:
             return super()._fly(dt, t_us, q, omega)
         ctrl = self.ctrl
         roll, pitch, yaw = self.euler
         pos, v = self.p_home, self.v_ned
         t_s = t_us * 1e-6
         if t_s < self.start_s:
-            r, tv, ta = tuple(self.start_ned), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+            r, tv, ta = self._start, _ZERO, _ZERO
         else:
-            g = self.guidance.update(t_s, dt, tuple(self.vt.r), self.peers)
+            g = self.guidance.update(t_s, dt, self.vt.r, self.peers)
             self.last_guidance = g
             r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
         h = self.home_in_form
         tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
-        self.target = CopterTarget("move", 0, self.vid, tp, tv, ta, 0.0, goal_ne=(tp[0], tp[1]),
-                                   leg_a=(tp[0], tp[1]))
+        ne = (tp[0], tp[1])
+        self.target = CopterTarget("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne)
         r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
                                    ta[0], ta[1], yaw, dt, False)
         u_z = self._altitude(-tp[2], -tv[2], -ta[2], -pos[2], v, roll, pitch, dt)
