@@ -384,7 +384,11 @@ class QuadMember:
         return tuple(origin.to_ned_fast(st.lat_rad, st.lon_rad, st.alt_m).tolist())
 
 
-def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool = False) -> dict:
+def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool = False,
+             to_the_end: bool = False) -> dict:
+    """Fly the quadrotor formation ``duration_s`` after the common start (it ends
+    earlier once the formation has completed, unless ``to_the_end``: the bench's windows,
+    the same simulated time for every formation)."""
     origin = LocalFrame.from_degrees(*spec.origin)
     members = [QuadMember(spec, v.id, seed, 5760 + 10 * (v.id - 1) if gcs else None)
                for v in spec.vehicles]
@@ -416,7 +420,7 @@ def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool =
                     des = [m.vehicle.last_guidance.p_des if m.vehicle.last_guidance is not None
                            else m.vehicle.start_ned for m in members]
                     rec.add(t_us * 1e-6, ps, des)
-                    if t_us * 1e-6 > QUAD_START_S and done.check(t_us * 1e-6, ps):
+                    if t_us * 1e-6 > QUAD_START_S and done.check(t_us * 1e-6, ps) and not to_the_end:
                         break
                     if any(m.plant.crashed for m in members):
                         break
