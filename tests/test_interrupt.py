@@ -28,9 +28,18 @@ def test_sigint_stops_the_flight_after_its_step_and_the_handler_is_restored():
         s.step()
     before = signal.getsignal(signal.SIGINT)
     assert before is signal.default_int_handler
-    # WHEN SIGINT arrives 0.3 s into the run (by the wall clock, from another thread)
+    # WHEN SIGINT arrives 0.3 s (by the wall clock, from another thread) after the run's
+    #      first step (not after run() is called: settling the heap before the first step
+    #      takes longer than that on a loaded host)
     timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
-    timer.start()
+    step = s.step
+
+    def first_step_starts_the_timer():
+        if not timer.is_alive() and not timer.finished.is_set():
+            timer.start()
+        step()
+
+    s.step = first_step_starts_the_timer
     s.run()
     timer.join()
     # THEN the run returns normally, marked interrupted, long before the mission's end,
@@ -58,3 +67,69 @@ def test_a_second_sigint_raises_and_an_ignored_sigint_stays_ignored():
         assert not stop.requested
     finally:
         signal.signal(signal.SIGINT, prev)
+
+
+def test_sigint_while_the_heap_is_settled_stops_the_run_before_its_first_step(monkeypatch):
+    # GIVEN a flight whose run is interrupted while its heap is being settled (before the
+    #       loop: a loaded host's collection takes a second, and the signal landed there
+    #       as a KeyboardInterrupt out of run())
+    import tools.runner as runner
+    from contextlib import contextmanager
+
+    settled = runner.settled_heap
+
+    @contextmanager
+    def interrupted_while_settling():
+        os.kill(os.getpid(), signal.SIGINT)
+        with settled():
+            yield
+
+    monkeypatch.setattr(runner, "settled_heap", interrupted_while_settling)
+    s = Session(RunConfig(duration_s=1e9, seed=1))
+    s.step()
+    t_before = s.t_s
+    # WHEN it runs: THEN run() returns normally, marked interrupted, no step flown
+    s.run()
+    assert s.interrupted
+    assert s.t_s == t_before
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigint_stops_a_quadrotor_formation_cleanly(monkeypatch):
+    # GIVEN the seed's 5-quad formation asked for 60 s after its start, SIGINT arriving
+    #       while its heap is settled (before the loop) and again 0.5 s into its flight
+    import tools.formation as formation
+    from contextlib import contextmanager
+    from pathlib import Path
+    settled = formation.settled_heap
+
+    @contextmanager
+    def interrupted_while_settling():
+        os.kill(os.getpid(), signal.SIGINT)
+        with settled():
+            yield
+
+    monkeypatch.setattr(formation, "settled_heap", interrupted_while_settling)
+    # WHEN it flies: THEN it returns its summary without a step flown, and Python's
+    #      handler is back
+    path = Path(__file__).parent.parent / "missions" / "formation_seed_quad.toml"
+    out = formation.run_formation(path, seed=1, duration_s=60.0)
+    assert out["sim_time_s"] == 0.0, out["sim_time_s"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # AND flown again with SIGINT 0.5 s after its first step (the quadrotors' control is
+    #     compiled kernels, where a KeyboardInterrupt came out as a SystemError), it stops
+    #     early with its summary
+    monkeypatch.setattr(formation, "settled_heap", settled)
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    step = formation.QuadMember.step
+
+    def first_step_starts_the_timer(member):
+        if not timer.is_alive() and not timer.finished.is_set():
+            timer.start()
+        step(member)
+
+    monkeypatch.setattr(formation.QuadMember, "step", first_step_starts_the_timer)
+    out = formation.run_formation(path, seed=1, duration_s=60.0)
+    timer.join()
+    assert 0.0 < out["sim_time_s"] < 60.0, out["sim_time_s"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from autopilot.heap import settled_heap
+from autopilot.interrupt import StopOnInterrupt
 from autopilot.formation import FormationGuidance, FormationSpec, load_formation
 from autopilot.formation.geometry import dist
 from autopilot.formation.peers import PeerTable, PositionPublisher
@@ -168,7 +169,9 @@ class Recorder:
         self.p_des.append(p_des)
 
     def arrays(self):
-        return np.array(self.t), np.array(self.p, dtype=float), np.array(self.p_des, dtype=float)
+        n = len(self.spec.vehicles)     # (samples x vehicles x 3, also with no sample)
+        return (np.array(self.t, dtype=float), np.array(self.p, dtype=float).reshape(-1, n, 3),
+                np.array(self.p_des, dtype=float).reshape(-1, n, 3))
 
 
 def pair_distances(spec: FormationSpec, P: np.ndarray) -> np.ndarray:
@@ -187,6 +190,10 @@ def min_separation(P: np.ndarray) -> float:
 
 
 def formation_figures(spec: FormationSpec, t: np.ndarray, P: np.ndarray, t0_s: float) -> dict:
+    if len(t) == 0:                     # stopped (Ctrl-C) before its first sample
+        return {"distance_error_max_m": None, "distance_error_rms_m": None, "min_separation_m": None,
+                "leader_final_error_m": None, "final_errors_m": {}, "final_errors_to_file_m": {},
+                "pair_distance_error_max_m": {}}
     d_want = np.array([d for _, _, d in spec.pairs])
     D = pair_distances(spec, P)
     E = D - d_want
@@ -400,10 +407,12 @@ def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool =
     end_us = int((QUAD_START_S + duration_s) * 1e6)
     k = 0
     t_us = 0
-    with settled_heap():       # the objects built so far kept out of the collector
-        wall0 = time.perf_counter()
-        try:
-            while t_us < end_us:
+    stop = StopOnInterrupt()   # Ctrl-C: the loop stops after its step (autopilot/interrupt.py)
+    wall = 0.0
+    try:
+        with stop, settled_heap():   # the objects built so far kept out of the collector
+            wall0 = time.perf_counter()
+            while t_us < end_us and not stop.requested:
                 for dst, data in net.due(t_us):
                     by_id[dst].vehicle.peers.receive(data)
                 for m in members:
@@ -424,13 +433,13 @@ def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool =
                         break
                     if any(m.plant.crashed for m in members):
                         break
-        except KeyboardInterrupt:
-            pass
-        finally:
-            for m in members:
-                if m.gcs is not None:
-                    m.gcs.close()
-        wall = time.perf_counter() - wall0
+            wall = time.perf_counter() - wall0
+    except KeyboardInterrupt:
+        pass                   # a second Ctrl-C
+    finally:
+        for m in members:
+            if m.gcs is not None:
+                m.gcs.close()
     t, P, Pd = rec.arrays()
     out = {"vehicles": len(members), "model": "quad", "sim_time_s": round(t_us * 1e-6, 3),
            "formation_start_s": QUAD_START_S, "wall_s": round(wall, 3),

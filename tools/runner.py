@@ -261,21 +261,21 @@ class Session:
     _rest_alt_m = None       # where it rested at the start [m]: the height it flew from
 
     def run(self) -> None:
-        with settled_heap():   # the objects built so far kept out of the collector (autopilot/heap.py)
-            self._run()
-
-    def _run(self) -> None:
         cfg = self.cfg
-        t0 = time.perf_counter()
         stop = StopOnInterrupt()
+        t0 = None
         try:
-            with stop:      # Ctrl-C: the loop stops after its step (autopilot/interrupt.py)
+            # Ctrl-C: the loop stops after its step (autopilot/interrupt.py); caught from
+            # before the heap is settled (its collection can take a second on a loaded
+            # host, and a Ctrl-C landing there escaped as a KeyboardInterrupt)
+            with stop, settled_heap():   # the objects built so far kept out of the collector
+                t0 = time.perf_counter()
                 self._loop(cfg.duration_s, t0, self.t_s, stop)
         except KeyboardInterrupt:
             self.interrupted = True  # a second Ctrl-C
         if stop.requested:
             self.interrupted = True  # Ctrl-C: stop cleanly, the run folder is still written
-        self.wall_loop_s = time.perf_counter() - t0
+        self.wall_loop_s = 0.0 if t0 is None else time.perf_counter() - t0
         if cfg.progress:
             sys.stderr.write("\n")
 
