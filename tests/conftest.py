@@ -75,6 +75,7 @@ def pytest_runtest_protocol(item, nextitem):
 # (duration_s is only where Session's loop stops; nothing else reads it).
 
 _FLIGHTS: dict = {}
+_ACROSS_FILES: set = set()
 
 
 def _flight_key(cfg) -> str:
@@ -92,15 +93,20 @@ def flown():
 
     ``flown(cfg, until_s=T)``: (session, summary) of the same flight paused at T, the
     session flown on from there if a later test asks for a longer one (take the summary,
-    and the session only where nothing asked later can have moved it)."""
+    and the session only where nothing asked later can have moved it).
+
+    A flight is dropped at the end of the test file that flew it (a held flight is tens
+    of megabytes), unless ``across_files=True``: kept for the tests of another file."""
     import dataclasses
 
     from tools.runner import Session
     from tools.summary import run_summary
 
-    def fly(cfg, until_s=None):
+    def fly(cfg, until_s=None, across_files=False):
         end = float(cfg.duration_s if until_s is None else until_s)
         key = _flight_key(cfg)
+        if across_files:
+            _ACROSS_FILES.add(key)
         runs = _FLIGHTS.setdefault(key, [])
         for run in runs:
             if end in run["at"]:
@@ -122,3 +128,10 @@ def flown():
         return s, run["at"][end]
 
     return fly
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _drop_flights_of_the_file():
+    yield
+    for key in [k for k in _FLIGHTS if k not in _ACROSS_FILES]:
+        del _FLIGHTS[key]
