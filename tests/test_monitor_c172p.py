@@ -20,10 +20,11 @@ def _fly(duration_s: float, scenario: Path | None = None, **params) -> tuple[Ses
     return s, run_summary(s)
 
 
-def test_c172p_circuit_raises_no_elevator_alarm_with_its_model():
+def test_c172p_circuit_raises_no_elevator_alarm_with_its_model(flown):
     # GIVEN the c172p's circuit (take-off, full-throttle climb-out, turns, the descent),
-    #       its parameter file giving the monitor the c172p's model
-    s, summ = _fly(300.0)
+    #       its parameter file giving the monitor the c172p's model (the flight whose first
+    #       70 s tests/test_crash_detect.py checks: flown once, tests/conftest.py)
+    s, summ = flown(RunConfig(airframe="c172p", mission=CIRCUIT, seed=1, duration_s=300.0), across_files=True)
     assert s.params["FDI_EL_MODEL"] == 2.0
     assert s.vehicle.monitor.airframe.name == "c172p"
     # THEN no alarm, and the elevator's statistic stays far under its threshold (seeds

@@ -63,10 +63,11 @@ def position_floor_rms(a: dict, latency_s: float, gm_sd: float, tau_s: float, wh
 
 
 @pytest.fixture(scope="module")
-def default_mission():
+def default_mission(flown):
     # GIVEN the default mission in a 5 m/s crosswind with light turbulence, seed 1,
-    # WHEN the EKF navigates it (the closed loop's own sensors, latency, launch)
-    return fly(nav="ekf", scenario=DEFAULT_SCENARIO, seed=1)
+    # WHEN the EKF navigates it (the closed loop's own sensors, latency, launch; the
+    # flight tests/test_e2e_plane.py scores too: flown once, tests/conftest.py)
+    return flown(RunConfig(nav="ekf", scenario=DEFAULT_SCENARIO, seed=1), across_files=True)
 
 
 def test_default_mission_navigation_figures(default_mission):

@@ -146,11 +146,10 @@ def test_moderate_turbulence_after_launch_raises_no_airspeed_alarm(seed, wind):
     ("fault_airspeed_bias_400pa.toml", 0.5),   # detected 0.3 s after the onset with and without the reset
     ("fault_airspeed_bias_150pa.toml", 2.0),   # 1.9 s with and without
 ])
-def test_a_real_airspeed_fault_is_still_detected_in_time(scenario, delay_max):
-    # GIVEN the default mission with the airspeed biased from 100 s
-    s = Session(RunConfig(scenario=SCENARIOS / scenario, duration_s=130.0, seed=1))
-    s.run()
-    f = run_summary(s)["faults"][0]
+def test_a_real_airspeed_fault_is_still_detected_in_time(scenario, delay_max, flown):
+    # GIVEN the default mission with the airspeed biased from 100 s (the 400 Pa flight is
+    # also the next test's: flown once, tests/conftest.py)
+    f = flown(RunConfig(scenario=SCENARIOS / scenario, duration_s=130.0, seed=1))[1]["faults"][0]
     # THEN it is detected as soon as before the wind reset existed, and isolated to the
     #      airspeed
     assert f["unit"] == "airspeed"
@@ -158,11 +157,10 @@ def test_a_real_airspeed_fault_is_still_detected_in_time(scenario, delay_max):
     assert f["isolated"] == "airspeed"
 
 
-def test_a_large_airspeed_fault_is_held_not_absorbed_into_the_wind():
+def test_a_large_airspeed_fault_is_held_not_absorbed_into_the_wind(flown):
     # GIVEN an airspeed biased by 400 Pa (about 11 m/s) from 100 s: rejected by the gate,
     #       detected by the monitor, which adapts its R
-    s = Session(RunConfig(scenario=SCENARIOS / "fault_airspeed_bias_400pa.toml", duration_s=130.0, seed=1))
-    s.run()
+    s = flown(RunConfig(scenario=SCENARIOS / "fault_airspeed_bias_400pa.toml", duration_s=130.0, seed=1))[0]
     fdi = [(t, text) for t, text in s.log.events if text.startswith("FDI")]
     # THEN the fault stays declared to the end: no wind reset while the monitor holds
     #      the sensor suspect (with one, the wind took the bias, the fault was cleared
