@@ -69,14 +69,11 @@ def test_a_second_sigint_raises_and_an_ignored_sigint_stays_ignored():
         signal.signal(signal.SIGINT, prev)
 
 
-def test_sigint_while_the_heap_is_settled_stops_the_run_before_its_first_step(monkeypatch):
-    # GIVEN a flight whose run is interrupted while its heap is being settled (before the
-    #       loop: a loaded host's collection takes a second, and the signal landed there
-    #       as a KeyboardInterrupt out of run())
-    import tools.runner as runner
+def _interrupt_while_settling(monkeypatch, module) -> None:
+    """``module``'s ``settled_heap`` sends SIGINT to this process before it settles (a
+    loaded host's collection there takes up to a second: a Ctrl-C lands in it)."""
     from contextlib import contextmanager
-
-    settled = runner.settled_heap
+    settled = module.settled_heap
 
     @contextmanager
     def interrupted_while_settling():
@@ -84,7 +81,15 @@ def test_sigint_while_the_heap_is_settled_stops_the_run_before_its_first_step(mo
         with settled():
             yield
 
-    monkeypatch.setattr(runner, "settled_heap", interrupted_while_settling)
+    monkeypatch.setattr(module, "settled_heap", interrupted_while_settling)
+
+
+def test_sigint_while_the_heap_is_settled_stops_the_run_before_its_first_step(monkeypatch):
+    # GIVEN a flight whose run is interrupted while its heap is being settled (before the
+    #       loop: a loaded host's collection takes a second, and the signal landed there
+    #       as a KeyboardInterrupt out of run())
+    import tools.runner as runner
+    _interrupt_while_settling(monkeypatch, runner)
     s = Session(RunConfig(duration_s=1e9, seed=1))
     s.step()
     t_before = s.t_s
@@ -99,17 +104,9 @@ def test_sigint_stops_a_quadrotor_formation_cleanly(monkeypatch):
     # GIVEN the seed's 5-quad formation asked for 60 s after its start, SIGINT arriving
     #       while its heap is settled (before the loop) and again 0.5 s into its flight
     import tools.formation as formation
-    from contextlib import contextmanager
     from pathlib import Path
     settled = formation.settled_heap
-
-    @contextmanager
-    def interrupted_while_settling():
-        os.kill(os.getpid(), signal.SIGINT)
-        with settled():
-            yield
-
-    monkeypatch.setattr(formation, "settled_heap", interrupted_while_settling)
+    _interrupt_while_settling(monkeypatch, formation)
     # WHEN it flies: THEN it returns its summary without a step flown, and Python's
     #      handler is back
     path = Path(__file__).parent.parent / "missions" / "formation_seed_quad.toml"

@@ -140,6 +140,19 @@ def command_of_thrust(k, thrust_n):
 
 
 @kernel
+def _low_high(a, b, c, d):
+    """(min, max) of four values, spelt out as Python's min / max (the first of equal
+    values)."""
+    lo = hi = a
+    for x in (b, c, d):
+        if x < lo:
+            lo = x
+        if x > hi:
+            hi = x
+    return lo, hi
+
+
+@kernel
 def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     """Eq 3.30 with the attitude-first saturation and the effectiveness (module
     docstring): (T_1..T_4 [N], their commands c_1..c_4, the collective 4 c [N],
@@ -151,12 +164,7 @@ def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     if not healthy:
         # a weak rotor's limits shrink to k_j [T_lo, T_hi]: the differential has to fit
         # the narrowest span, the collective the tightest rotor (below)
-        e_min = e_max = e1
-        for e in (e2, e3, e4):
-            if e < e_min:
-                e_min = e
-            if e > e_max:
-                e_max = e
+        e_min, e_max = _low_high(e1, e2, e3, e4)
         hi = e_min * k[K_HI]
         lo = e_max * k[K_LO]
     span = hi - lo
@@ -181,12 +189,7 @@ def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     d4 = -u_phi - u_psi
     c = 0.25 * u_z
     if healthy:
-        d_min = d_max = d1
-        for d in (d2, d3, d4):
-            if d < d_min:
-                d_min = d
-            if d > d_max:
-                d_max = d
+        d_min, d_max = _low_high(d1, d2, d3, d4)
         if c + d_max > hi:
             c = hi - d_max
             sat_c = True
