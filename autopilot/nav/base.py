@@ -200,6 +200,7 @@ class NavFilterBase:
         self._qs_idx = [i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
                         for j in range(blk.start, blk.stop)]
         self._sf = [0.0, 0.0, 0.0]            # running integral of f_n dt [m/s] (GPS latency)
+        self._gm_step = (-1.0, -1.0, 1.0)     # (dt, tau, exp(-dt / tau)) of the last step
         self._qs_sum = [0.0, 0.0, 0.0]        # running sum of the velocity sampling variances [m^2/s^2]
         self._air: tuple[float, float] | None = None  # last baro (pressure [Pa], temperature [K])
         self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
@@ -713,7 +714,10 @@ class NavFilterBase:
         propagate(nom, f_m, omega_m, dt, self._g, self._w_ie)
         fn, sf = nom.f_n, self._sf
         self._sf = [sf[0] + fn[0] * dt, sf[1] + fn[1] * dt, sf[2] + fn[2] * dt]
-        a = math.exp(-dt / self.params["EK_GPSB_TAU"])
+        tau = self.params["EK_GPSB_TAU"]
+        if dt != self._gm_step[0] or tau != self._gm_step[1]:
+            self._gm_step = (dt, tau, math.exp(-dt / tau))   # the same dt every step
+        a = self._gm_step[2]
         gb = nom.gb
         nom.gb = [gb[0] * a, gb[1] * a, gb[2] * a]
         return a

@@ -26,8 +26,10 @@ force ``f_m`` is the sample at the end of the step; ``omega_m`` is the mean of t
 samples at both ends (point samples, integrated by the trapezoidal rule as PX4's
 sensor integrator does).
 
-The nominal state is kept in Python floats: in the 100 Hz loop one numpy call on a
-3-vector costs as much as the whole float mechanisation.
+The nominal state is kept in lists of Python floats (in the 100 Hz loop one numpy call on a
+3-vector costs as much as the whole float mechanisation); the mechanisation is a kernel
+(autopilot/jit.py) on tuples of those floats, cheaper than the same arithmetic in the
+interpreter, with the same operations in the same order.
 """
 from __future__ import annotations
 
@@ -36,6 +38,7 @@ import math
 import numpy as np
 
 from autopilot.geo import euler_to_quat, wrap_pi
+from autopilot.jit import kernel
 
 #: Earth rotation rate (WGS-84) [rad/s].
 EARTH_RATE = 7.292115e-5
@@ -48,14 +51,21 @@ def earth_rate_ned(lat_rad: float) -> tuple[float, float, float]:
     return (EARTH_RATE * math.cos(lat_rad), 0.0, -EARTH_RATE * math.sin(lat_rad))
 
 
-def dcm9(q) -> tuple:
-    """R(q_nb) as a row-major 9-tuple (same formula as autopilot.geo.quat_to_dcm)."""
-    w, x, y, z = q
+@kernel
+def dcm(w, x, y, z):
+    """R(q_nb) of q = (w, x, y, z) as a row-major 9-tuple (the formula of
+    autopilot.geo.quat_to_dcm)."""
     ww, xx, yy, zz = w * w, x * x, y * y, z * z
     xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
     return (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy),
             2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx),
             2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz)
+
+
+def dcm9(q) -> tuple:
+    """R(q_nb) of a 4-sequence q as a row-major 9-tuple (:func:`dcm`)."""
+    w, x, y, z = q
+    return dcm(float(w), float(x), float(y), float(z))
 
 
 class Nominal:
@@ -96,18 +106,31 @@ def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
               w_ie: tuple = (0.0, 0.0, 0.0)) -> None:
     """Advance the nominal state by one IMU step (module docstring), in place.
     ``f_m``, ``omega_m``: 3 floats each; ``g`` gravity at the origin [m/s^2];
-    ``w_ie``: the Earth rate in NED [rad/s]."""
-    bg = nom.bg
-    ba = nom.ba
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = nom.R
-    ex, ey, ez = w_ie
+    ``w_ie``: the Earth rate in NED [rad/s]. The arithmetic: :func:`mechanise`."""
+    o = mechanise(*nom.p, *nom.v, *nom.q, *nom.R, *nom.bg, *nom.ba, *f_m, *omega_m, dt, g, *w_ie)
+    nom.p = list(o[0:3])
+    nom.v = list(o[3:6])
+    nom.q = list(o[6:10])
+    nom.R = o[10:19]
+    nom.f_n = list(o[19:22])
+    nom.omega_b = list(o[22:25])
+
+
+@kernel
+def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+              bgx, bgy, bgz, bax, bay, baz, fmx, fmy, fmz, omx, omy, omz, dt, g, ex, ey, ez):
+    """One step of the mechanisation (module docstring) on floats (a kernel's arguments
+    cost least as floats): the nominal position, velocity, attitude q_nb and its R
+    (row-major), the gyro and accelerometer biases, the samples f_m and omega_m, dt,
+    gravity and the Earth rate in NED. Returns the 25 floats of p', v', q', R(q'), f_n
+    and omega."""
     # omega = omega_m - b_g - R^T w_ie
-    wx = omega_m[0] - bg[0] - (r00 * ex + r10 * ey + r20 * ez)
-    wy = omega_m[1] - bg[1] - (r01 * ex + r11 * ey + r21 * ez)
-    wz = omega_m[2] - bg[2] - (r02 * ex + r12 * ey + r22 * ez)
-    fx = f_m[0] - ba[0]
-    fy = f_m[1] - ba[1]
-    fz = f_m[2] - ba[2]
+    wx = omx - bgx - (r00 * ex + r10 * ey + r20 * ez)
+    wy = omy - bgy - (r01 * ex + r11 * ey + r21 * ez)
+    wz = omz - bgz - (r02 * ex + r12 * ey + r22 * ez)
+    fx = fmx - bax
+    fy = fmy - bay
+    fz = fmz - baz
     h = 0.5 * dt
     # f + 1/2 dt omega x f  (rotation to mid-step)
     gx = fx + h * (wy * fz - wz * fy)
@@ -117,55 +140,58 @@ def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
     fny = r10 * gx + r11 * gy + r12 * gz
     fnz = r20 * gx + r21 * gy + r22 * gz
     # v' = v + (f_n + g_n - 2 w_ie x v) dt ;  p' = p + 1/2 (v + v') dt
-    vx, vy, vz = nom.v
-    px, py, pz = nom.p
     ux = vx + (fnx - 2.0 * (ey * vz - ez * vy)) * dt
     uy = vy + (fny - 2.0 * (ez * vx - ex * vz)) * dt
     uz = vz + (fnz + g + GRAVITY_GRADIENT * pz - 2.0 * (ex * vy - ey * vx)) * dt
-    nom.p = [px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h]
-    nom.v = [ux, uy, uz]
     # q' = q (x) Exp(omega dt)
-    ax, ay, az = wx * dt, wy * dt, wz * dt
+    dw, dx, dy, dz = exp_rotvec(wx * dt, wy * dt, wz * dt)
+    sw, sx, sy, sz = unit_positive(qw * dw - qx * dx - qy * dy - qz * dz,
+                                   qw * dx + qx * dw + qy * dz - qz * dy,
+                                   qw * dy - qx * dz + qy * dw + qz * dx,
+                                   qw * dz + qx * dy - qy * dx + qz * dw)
+    R = dcm(sw, sx, sy, sz)
+    return (px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h, ux, uy, uz,
+            sw, sx, sy, sz, R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8],
+            fnx, fny, fnz, wx, wy, wz)
+
+
+@kernel
+def exp_rotvec(ax, ay, az):
+    """Exp: a rotation vector to its unit quaternion (below 1e-9 rad, the first order)."""
     ang = math.sqrt(ax * ax + ay * ay + az * az)
     if ang > 1e-9:
         s = math.sin(0.5 * ang) / ang
-        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
-    else:
-        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    qw, qx, qy, qz = nom.q
-    rw = qw * dw - qx * dx - qy * dy - qz * dz
-    rx = qw * dx + qx * dw + qy * dz - qz * dy
-    ry = qw * dy - qx * dz + qy * dw + qz * dx
-    rz = qw * dz + qx * dy - qy * dx + qz * dw
+        return math.cos(0.5 * ang), ax * s, ay * s, az * s
+    return 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
+
+
+@kernel
+def unit_positive(rw, rx, ry, rz):
+    """The quaternion (rw, rx, ry, rz) normalised, with a non-negative scalar part."""
     n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
     if rw < 0.0:
         n = -n
-    q = [rw * n, rx * n, ry * n, rz * n]
-    nom.q = q
-    nom.R = dcm9(q)
-    nom.f_n = [fnx, fny, fnz]
-    nom.omega_b = [wx, wy, wz]
+    return rw * n, rx * n, ry * n, rz * n
+
+
+@kernel
+def rotate_global(q, ax, ay, az):
+    """q <- Exp(dtheta) (x) q for a global (NED-frame) rotation vector dtheta = (ax, ay,
+    az). Returns (q', R(q'))."""
+    dw, dx, dy, dz = exp_rotvec(ax, ay, az)
+    qw, qx, qy, qz = q
+    q1 = unit_positive(dw * qw - dx * qx - dy * qy - dz * qz,
+                       dw * qx + dx * qw + dy * qz - dz * qy,
+                       dw * qy - dx * qz + dy * qw + dz * qx,
+                       dw * qz + dx * qy - dy * qx + dz * qw)
+    return q1, dcm(q1[0], q1[1], q1[2], q1[3])
 
 
 def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:
     """q <- Exp(dtheta) (x) q: apply a global (NED-frame) attitude correction."""
-    ang = math.sqrt(ax * ax + ay * ay + az * az)
-    if ang > 1e-9:
-        s = math.sin(0.5 * ang) / ang
-        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
-    else:
-        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    qw, qx, qy, qz = nom.q
-    rw = dw * qw - dx * qx - dy * qy - dz * qz
-    rx = dw * qx + dx * qw + dy * qz - dz * qy
-    ry = dw * qy - dx * qz + dy * qw + dz * qx
-    rz = dw * qz + dx * qy - dy * qx + dz * qw
-    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-    if rw < 0.0:
-        n = -n
-    q = [rw * n, rx * n, ry * n, rz * n]
-    nom.q = q
-    nom.R = dcm9(q)
+    q, R = rotate_global(tuple(nom.q), ax, ay, az)
+    nom.q = list(q)
+    nom.R = R
 
 
 def mag_ned(R: tuple, m_b: np.ndarray) -> tuple[float, float, float]:
