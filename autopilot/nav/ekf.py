@@ -35,7 +35,8 @@ stacked update (equivalent to sequential updates for independent noises, and che
 Aiding sources, GPS latency and alignment: see :mod:`.base`.
 
 Cost (campaigns pay every microsecond of the loop): the prediction and the update are
-compiled kernels (``predict_covariance``, ``joseph_update``; autopilot/jit.py). F is
+compiled kernels (``predict_covariance_into``, ``joseph_update_into``; autopilot/jit.py),
+writing into two covariance arrays used in turn (no allocation per call). F is
 never formed: its nonzero blocks (30 of 441 entries off the identity) multiply P
 directly, a few thousand multiplications instead of two dense 21 x 21 products; the
 Joseph form likewise uses the few states each row of H touches, and the gain comes from
@@ -115,32 +116,36 @@ def _transition_times(X, T, S, Rs, a, Y):
 
 
 @kernel
-def predict_covariance(P, T, S, Rs, a, q, qs, qs_idx):
+def predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out):
     """Covariance prediction over an interval T (module docstring; Sola 2017 eq 269):
 
         P' = F P F^T + diag(q)   (+ the IMU sampling error ``qs`` at the flat indices
                                   ``qs_idx``, base.py; ``qs`` empty: none)
 
-    computed as F (F P)^T transposed, F's blocks as in ``_transition_times``. Returns
-    a new array."""
+    computed as F (F P)^T transposed, F's blocks as in ``_transition_times``, written
+    into ``out`` (n x n, not P itself: a kernel that hands back a new array costs the
+    loop more than the prediction's arithmetic)."""
     n = P.shape[0]
     Y = np.empty((n, n))
     _transition_times(P, T, S, Rs, a, Y)          # Y = F P
-    Z = np.empty((n, n))
-    _transition_times(Y.T, T, S, Rs, a, Z)        # Z = F Y^T = (F P F^T)^T
-    out = np.empty((n, n))
+    _transition_times(Y.T, T, S, Rs, a, out.T)    # out^T = F Y^T = (F P F^T)^T
     for r in range(n):
-        for c in range(n):
-            out[r, c] = Z[c, r]
         out[r, r] += q[r]
     for k in range(qs.shape[0]):
         i = qs_idx[k]
         out[i // n, i % n] += qs[k]
+
+
+@kernel
+def predict_covariance(P, T, S, Rs, a, q, qs, qs_idx):
+    """:func:`predict_covariance_into` into a new array, returned."""
+    out = np.empty(P.shape)
+    predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out)
     return out
 
 
 @kernel
-def joseph_update(P, H, PHt, S, R, y, floor, ceil):
+def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
     """The measurement update in Joseph form (Simon 2006 eq 5.19; Groves 2013 eq 3.25):
 
         S = H P H^T + R,   K = P H^T S^-1   (Cholesky: S = L L^T)
@@ -150,18 +155,20 @@ def joseph_update(P, H, PHt, S, R, y, floor, ceil):
 
     then P' symmetrised and its diagonal kept within [floor, ceil] (base.py's
     _condition). ``PHt`` = P H^T and ``S`` = H P H^T (without R) as the gate computed
-    them; R diagonal. Returns (dx, P', ok); ok False (nothing computed) when S is not
-    positive definite."""
+    them; R diagonal. dx and P' are written into ``dx`` (n) and ``out`` (n x n, not P
+    itself; as predict_covariance_into). Returns ok: False (nothing written) when S is
+    not positive definite."""
     n = P.shape[0]
     m = H.shape[0]
     # S + R = L L^T;  K^T = (L L^T)^-1 (P H^T)^T
     L = np.zeros((m, m))
     if not cholesky_lower(S, R, L):
-        return np.zeros(n), P, False
+        return False
     KT = np.empty((m, n))
     cholesky_gain(L, PHt, KT)
     # dx = K y
-    dx = np.zeros(n)
+    for r in range(n):
+        dx[r] = 0.0
     for k in range(m):
         yk = y[k]
         for r in range(n):
@@ -195,11 +202,22 @@ def joseph_update(P, H, PHt, S, R, y, floor, ceil):
             w = KT[k, r] * R[k] - AHt[r, k]
             for j in range(n):
                 A[r, j] += w * KT[k, j]
-    out = np.empty((n, n))
     for r in range(n):
         for c in range(n):
             out[r, c] = 0.5 * (A[r, c] + A[c, r])
         out[r, r] = min(max(out[r, r], floor[r]), ceil[r])
+    return True
+
+
+@kernel
+def joseph_update(P, H, PHt, S, R, y, floor, ceil):
+    """:func:`joseph_update_into` into new arrays: returns (dx, P', ok), (zeros, P,
+    False) when S is not positive definite."""
+    n = P.shape[0]
+    dx = np.zeros(n)
+    out = np.empty((n, n))
+    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
+        return dx, P, False
     return dx, out, True
 
 
@@ -223,6 +241,10 @@ class InsGpsEkf(NavFilterBase):
         self._clear_pending()
         n = self.n
         self._P = np.eye(n)
+        # the kernels write the next P here; the P they read becomes the next spare
+        # (two arrays in turn: no allocation per prediction or update)
+        self._P_spare = np.empty((n, n))
+        self._dx = np.empty(n)       # the update's dx, written by the kernel
         self._q = np.zeros(n)        # diag Q of a step of _q_dt
         self._a_gm = 1.0             # the Gauss-Markov decay over _q_dt
         self._q_dt = -1.0
@@ -231,10 +253,17 @@ class InsGpsEkf(NavFilterBase):
 
     @property
     def P(self) -> np.ndarray:
+        """The error covariance (the filter's own array: read it, or copy it to keep it;
+        the kernels reuse its memory two predictions or updates later)."""
         return self._P
 
     def _set_P(self, P: np.ndarray) -> None:
         self._P = P
+
+    def _next_P(self, out: np.ndarray) -> None:
+        """``out`` (the spare, now written) becomes P; the old P the spare."""
+        self._P_spare = self._P
+        self._P = out
 
     def _init_covariance(self, sd: np.ndarray) -> None:
         self._P = np.diag(np.asarray(sd, dtype=float) ** 2)
@@ -277,10 +306,12 @@ class InsGpsEkf(NavFilterBase):
         fx, fy, fz = nom.f_n
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = nom.R
         # P = F P F^T + Q (+ the sampling error of this step's IMU samples, base.py)
-        self._P = predict_covariance(
+        out = self._P_spare
+        predict_covariance_into(
             self._P, dt, (fx * dt, fy * dt, fz * dt),
             (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt, r5 * dt, r6 * dt, r7 * dt, r8 * dt),
-            self._a_gm, self._noise(self._q, dt), self._sampling(self._q_sample), self._qs_flat)
+            self._a_gm, self._noise(self._q, dt), self._sampling(self._q_sample), self._qs_flat, out)
+        self._next_P(out)
 
     # ------------------------------------------- covariance every cov_div steps --
     def _clear_pending(self) -> None:
@@ -320,31 +351,32 @@ class InsGpsEkf(NavFilterBase):
         if not pend:
             return
         self._pend = []
-        # sums over the steps of f_n dt and R dt
-        dt, (fx, fy, fz), r, qs = pend[0]
+        # sums over the steps of f_n dt and R dt (written out: a comprehension over the
+        # nine entries costs twice as much)
+        dt, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8), qs = pend[0]
+        fx, fy, fz = fx * dt, fy * dt, fz * dt
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt,
+                                              r5 * dt, r6 * dt, r7 * dt, r8 * dt)
         if len(pend) == 1:
             dts = (dt,)
             T = dt
-            fx, fy, fz = fx * dt, fy * dt, fz * dt
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt,
-                                                  r5 * dt, r6 * dt, r7 * dt, r8 * dt)
         else:
             dts = tuple([e[0] for e in pend])
             T = math.fsum(dts)
-            fx, fy, fz = fx * dt, fy * dt, fz * dt
-            r = [c * dt for c in r]
-            for dt, f, rk, qk in pend[1:]:
+            for dt, f, (k0, k1, k2, k3, k4, k5, k6, k7, k8), qk in pend[1:]:
                 fx, fy, fz = fx + f[0] * dt, fy + f[1] * dt, fz + f[2] * dt
-                r = [c + ck * dt for c, ck in zip(r, rk)]
+                r0, r1, r2 = r0 + k0 * dt, r1 + k1 * dt, r2 + k2 * dt
+                r3, r4, r5 = r3 + k3 * dt, r4 + k4 * dt, r5 + k5 * dt
+                r6, r7, r8 = r6 + k6 * dt, r7 + k7 * dt, r8 + k8 * dt
                 if qk is not None:
                     qs = qk if qs is None else [c + ck for c, ck in zip(qs, qk)]
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
         q, a = self._interval_noise(dts)
         # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt,
         #                 F[POS, VEL] = T I,  F[GPSB, GPSB] = (product of the decays) I
-        self._P = predict_covariance(self._P, T, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8),
-                                     a, self._noise(q, T), self._sampling(qs), self._qs_flat)
+        out = self._P_spare
+        predict_covariance_into(self._P, T, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8),
+                                a, self._noise(q, T), self._sampling(qs), self._qs_flat, out)
+        self._next_P(out)
 
     def _gate_stats(self, batch) -> None:
         H = batch.H
@@ -363,8 +395,8 @@ class InsGpsEkf(NavFilterBase):
             H, PHt, R, y = H[rows], np.ascontiguousarray(PHt[:, rows]), R[rows], y[rows]
             S = S[np.ix_(rows, rows)]
         # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P (kernel above)
-        dx, P, ok = joseph_update(self._P, H, PHt, S, R, y, self._floor, self._ceil)
-        if not ok:
+        out, dx = self._P_spare, self._dx
+        if not joseph_update_into(self._P, H, PHt, S, R, y, self._floor, self._ceil, dx, out):
             return                           # S not positive definite: skip this update
-        self._P = P
+        self._next_P(out)
         self._inject(dx)

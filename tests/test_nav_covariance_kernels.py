@@ -1,0 +1,89 @@
+"""The EKF's covariance kernels that write into the caller's arrays (autopilot/nav/ekf.py:
+``predict_covariance_into``, ``joseph_update_into``) against the equations written out in
+numpy, and the filter's two covariance arrays used in turn."""
+from __future__ import annotations
+
+import numpy as np
+
+from autopilot.nav.ekf import InsGpsEkf, joseph_update_into, predict_covariance_into
+from autopilot.nav.layout import ABIAS, ATT, GBIAS, GPSB, POS, VEL
+
+
+def _spd(rng, n):
+    A = rng.standard_normal((n, n))
+    return A @ A.T + n * np.eye(n)
+
+
+def test_predict_covariance_into_writes_F_P_Ft_plus_Q_into_the_given_array():
+    rng = np.random.default_rng(21)
+    for n in (19, 21):
+        P = _spd(rng, n)
+        P0 = P.copy()
+        T, a = 0.04, 0.998
+        S = tuple(rng.standard_normal(3) * 0.4)
+        Rs = tuple(rng.standard_normal(9) * 0.04)
+        q = rng.uniform(0, 1e-4, n)
+        qs = rng.uniform(0, 1e-5, 18)
+        qs_idx = np.array([i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
+                           for j in range(blk.start, blk.stop)], dtype=np.int64)
+        F = np.eye(n)
+        F[POS, VEL] = T * np.eye(3)
+        sx, sy, sz = S
+        F[VEL, ATT] = -np.array([[0.0, -sz, sy], [sz, 0.0, -sx], [-sy, sx, 0.0]])
+        F[VEL, ABIAS] = F[ATT, GBIAS] = -np.reshape(Rs, (3, 3))
+        F[GPSB, GPSB] = a * np.eye(3)
+        want = F @ P @ F.T + np.diag(q)
+        want.flat[qs_idx] += qs
+        out = np.full((n, n), np.nan)                 # every entry must be written
+        assert predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out) is None
+        assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
+        assert np.array_equal(P, P0)                  # P itself untouched
+
+
+def test_joseph_update_into_writes_dx_and_P_and_nothing_when_S_is_not_definite():
+    rng = np.random.default_rng(22)
+    n, m = 21, 6
+    P = _spd(rng, n) * 1e-2
+    P0 = P.copy()
+    H = np.zeros((m, n))
+    for k in range(m):
+        H[k, rng.choice(n, 3, replace=False)] = rng.standard_normal(3)
+    R = rng.uniform(0.1, 2.0, m)
+    y = rng.standard_normal(m)
+    floor, ceil = np.full(n, 1e-9), np.full(n, 0.04)
+    PHt = P @ H.T
+    S = H @ PHt
+    K = PHt @ np.linalg.inv(S + np.diag(R))
+    A = np.eye(n) - K @ H
+    want = A @ P @ A.T + K @ np.diag(R) @ K.T
+    want = 0.5 * (want + want.T)
+    want[np.diag_indices(n)] = np.clip(want.diagonal(), floor, ceil)
+    dx = np.full(n, np.nan)
+    out = np.full((n, n), np.nan)
+    assert joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out)
+    assert np.abs(dx - K @ y).max() <= 1e-12 * np.abs(K @ y).max()
+    assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
+    assert np.array_equal(P, P0)
+    bad = S.copy()
+    bad[0, 0] = -1.0 - R[0]
+    dx[:] = 7.0
+    out[:] = 7.0
+    assert not joseph_update_into(P, H, PHt, bad, R, y, floor, ceil, dx, out)
+    assert (dx == 7.0).all() and (out == 7.0).all()
+
+
+def test_the_filter_uses_two_covariance_arrays_in_turn():
+    # GIVEN an aligned filter (its covariance initialised) predicting every step
+    f = InsGpsEkf(vehicle="quad")
+    f._init_covariance(np.full(f.n, 0.1))
+    f.aligned = True
+    P0 = f.P
+    P0_values = P0.copy()
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    P1 = f.P
+    # THEN a prediction writes a new array, leaving the one handed out before as it was
+    assert P1 is not P0 and np.array_equal(P0, P0_values)
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    # AND the next one reuses the older array (the filter's own memory: copy P to keep it)
+    assert f.P is P0 and f.P is not P1
+    assert np.all(np.diag(f.P) > np.diag(P1))
