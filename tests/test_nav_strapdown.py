@@ -40,7 +40,7 @@ def test_mechanise_matches_the_equations():
             omega_m = bg + 1e-13                           # the small-angle branch of Exp
         w_ie = np.array(earth_rate_ned(rng.uniform(-1.2, 1.2)))
         dt, g = float(rng.choice([0.004, 0.01, 0.016])), 9.79
-        o = mechanise(*p, *v, *q, *dcm(*q), *bg, *ba, *f_m, *omega_m, dt, g, *w_ie)
+        o = mechanise(*p, *v, *q, *bg, *ba, *f_m, *omega_m, dt, g, *w_ie)
         p1, v1, q1, f_n, omega = _mechanise_numpy(p, v, q, bg, ba, f_m, omega_m, dt, g, w_ie)
         assert np.allclose(o[0:3], p1, rtol=0.0, atol=1e-9)
         assert np.allclose(o[3:6], v1, rtol=0.0, atol=1e-11)

@@ -167,6 +167,8 @@ class NavFilterBase:
         self._h_offsets = {name: tuple(row * self.n + col for row, col in cols)
                            for name, cols in _H_COLS.items()}
         self._h_index: dict[tuple, np.ndarray] = {}   # sources of a batch -> H's flat indices
+        # flat indices of P's diagonal entries the health reads: p_N, p_E, att_N, att_D
+        self._health_idx = tuple(i * (self.n + 1) for i in (_IP, _IP + 1, _IA, _IA + 2))
         self._floor = _P_FLOOR[: self.n].copy()
         self._ceil = _P_CEIL[: self.n].copy()
         self.reset()
@@ -914,9 +916,11 @@ class NavFilterBase:
     def _update_health(self, t: int) -> None:
         ok = False
         if self.aligned and self._pos_src == "gps":
-            d = self.P.diagonal().tolist()
-            ok = (math.isfinite(d[_IP] + d[_IP + 1] + d[_IA] + d[_IA + 2])
-                  and d[_IP] + d[_IP + 1] <= self.params["EK_HPOS_MAX"] ** 2)
+            item = self.P.item                 # (4 entries: not the whole diagonal)
+            d = self._health_idx
+            pn, pe = item(d[0]), item(d[1])
+            ok = (math.isfinite(pn + pe + item(d[2]) + item(d[3]))
+                  and pn + pe <= self.params["EK_HPOS_MAX"] ** 2)
         if ok and self._rej_since:
             tout = self.params["EK_REJ_TOUT"] * 1e6
             for since in self._rej_since.values():

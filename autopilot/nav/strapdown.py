@@ -70,7 +70,8 @@ def dcm9(q) -> tuple:
 
 class Nominal:
     """The nominal (full) navigation state around which the error state is estimated.
-    Lists of floats; ``R`` is R(q_nb) row-major, kept in step with ``q``."""
+    Lists of floats; ``R`` is R(q_nb) row-major, kept in step with ``q`` (set both, as
+    ``set_attitude`` does: the mechanisation reads q and recomputes R)."""
 
     __slots__ = ("p", "v", "q", "ba", "bg", "bb", "gb", "wind", "R", "f_n", "omega_b")
 
@@ -107,7 +108,7 @@ def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
     """Advance the nominal state by one IMU step (module docstring), in place.
     ``f_m``, ``omega_m``: 3 floats each; ``g`` gravity at the origin [m/s^2];
     ``w_ie``: the Earth rate in NED [rad/s]. The arithmetic: :func:`mechanise`."""
-    o = mechanise(*nom.p, *nom.v, *nom.q, *nom.R, *nom.bg, *nom.ba, *f_m, *omega_m, dt, g, *w_ie)
+    o = mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m, *omega_m, dt, g, *w_ie)
     nom.p = list(o[0:3])
     nom.v = list(o[3:6])
     nom.q = list(o[6:10])
@@ -117,13 +118,13 @@ def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
 
 
 @kernel
-def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
-              bgx, bgy, bgz, bax, bay, baz, fmx, fmy, fmz, omx, omy, omz, dt, g, ex, ey, ez):
+def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+              fmx, fmy, fmz, omx, omy, omz, dt, g, ex, ey, ez):
     """One step of the mechanisation (module docstring) on floats (a kernel's arguments
-    cost least as floats): the nominal position, velocity, attitude q_nb and its R
-    (row-major), the gyro and accelerometer biases, the samples f_m and omega_m, dt,
-    gravity and the Earth rate in NED. Returns the 25 floats of p', v', q', R(q'), f_n
-    and omega."""
+    cost least as floats): the nominal position, velocity and attitude q_nb, the gyro and
+    accelerometer biases, the samples f_m and omega_m, dt, gravity and the Earth rate in
+    NED. Returns the 25 floats of p', v', q', R(q') (row-major), f_n and omega."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = dcm(qw, qx, qy, qz)
     # omega = omega_m - b_g - R^T w_ie
     wx = omx - bgx - (r00 * ex + r10 * ey + r20 * ez)
     wy = omy - bgy - (r01 * ex + r11 * ey + r21 * ez)
