@@ -462,7 +462,7 @@ class PlaneVehicle(VehicleBase):
         # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
         # nothing of where the ground is
         h = nav.alt_m - self._launch_alt_m
-        ground = self._ground_m(nav)
+        ground = self._ground_m(nav) if self.terrain is not None else None
         if ground is not None and self._launch_ground_m is not None:
             # over known terrain: the height above the ground under the aircraft (less
             # the launcher's height above it at arming), not above the launch point

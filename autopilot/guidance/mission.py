@@ -75,10 +75,11 @@ from .l1 import G
 RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
 TERRAIN_FRAMES = (10, 11)    # GLOBAL_TERRAIN_ALT(_INT)
 
-LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
-                   MAV_CMD_NAV_LOITER_TO_ALT)
-NAV_ITEMS = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-             MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND) + LOITER_COMMANDS
+# (sets: ``in`` is asked every step)
+LOITER_COMMANDS = frozenset((MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
+                             MAV_CMD_NAV_LOITER_TO_ALT))
+NAV_ITEMS = frozenset((MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                       MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND)) | LOITER_COMMANDS
 SEV_WARNING, SEV_NOTICE, SEV_INFO = 4, 5, 6   # MAV_SEVERITY
 
 # no join is planned onto a leg the vehicle already flies: this close to its line and
@@ -1036,7 +1037,9 @@ class MissionSequencer:
                     self._next_wp = (it.seq, b)
         if self._next_wp:
             b = self._next_wp[1]
-            self._next_min = min(self._next_min, math.hypot(b[0] - p_ne[0], b[1] - p_ne[1]))
+            d = math.hypot(b[0] - p_ne[0], b[1] - p_ne[1])
+            if d < self._next_min:               # min(), spelt out (control/pid.py)
+                self._next_min = d
 
     def _takeoff(self, t_us, item, p_ne, heading_rad, alt_m) -> NavTarget | None:
         if self._takeoff_heading is None:
@@ -1244,7 +1247,9 @@ class MissionSequencer:
         if abs(dh) < 1e-3:
             return alt_b
         slope = self._steepest_slope(dh, a_ne, b_ne)
-        self._join_alt_now = self._leg_start_alt + math.copysign(min(abs(dh), slope * self._join_run), dh)
+        rise = slope * self._join_run
+        rise = rise if rise < abs(dh) else abs(dh)     # min(), spelt out (control/pid.py)
+        self._join_alt_now = self._leg_start_alt + math.copysign(rise, dh)
         return self._join_alt_now
 
     def _join_radii(self):
@@ -1511,7 +1516,12 @@ class MissionSequencer:
             self._leg_along0 = min(max(along, 0.0), max(length - d_turn, 0.0))
         ramp = length - d_turn - self._leg_along0
         dh = alt_b - self._leg_start_alt
-        frac = min(max((along - self._leg_along0) / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
+        if ramp > 1e-3:
+            frac = (along - self._leg_along0) / ramp
+            frac = 0.0 if 0.0 > frac else frac   # min(max(., 0), 1), spelt out (control/pid.py)
+            frac = 1.0 if 1.0 < frac else frac
+        else:
+            frac = 1.0
         alt = self._leg_start_alt + dh * frac
         if abs(dh) > 0.5 and length > 1e-3:
             slope = self._steepest_slope(dh, a_ne, b_ne)
