@@ -592,9 +592,9 @@ class PlaneVehicle(VehicleBase):
 
     def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
         p = self.params
-        # the position in home's frame and the velocities as lists: the guidance reads
-        # them element by element, and a numpy element costs more than its arithmetic
-        pl = self.home_frame.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
+        # the position in home's frame and the velocities as tuples / lists: the guidance
+        # reads them element by element, and a numpy element costs more than its arithmetic
+        pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
         vl = nav.v_ned.tolist()
         yaw = self.euler[2]
         mode = self.mode
@@ -691,7 +691,7 @@ class PlaneVehicle(VehicleBase):
         if ph is not None and ph[0] is nav:
             _, p_est, v = ph                     # computed by _fly this step
         else:
-            p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
+            p_est = hf.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
             v = nav.v_ned.tolist()
         er, ep, ey = self.euler
         p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
