@@ -1379,7 +1379,8 @@ class MissionSequencer:
         return True
 
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
-        b_ne, alt_b = self._resolve(item, p_ne, alt_m)
+        nav_pos = self._nav_pos               # (resolved at the item's first step)
+        b_ne, alt_b = nav_pos if nav_pos is not None else self._resolve(item, p_ne, alt_m)
         d = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         if d < self._b_min:                  # min(), spelt out (control/pid.py)
             self._b_min = d
