@@ -1143,26 +1143,28 @@ class MissionSequencer:
         """Fly the leg A->B: plan its join, fly the join, then the leg; None once B is
         reached (within ``accept`` of it in any phase)."""
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        if dist <= accept and not self._joined:
+        joined = self._joined
+        if dist <= accept and not joined:
             return None   # already there when the item starts: counts at once
-        if length > 1e-3:
-            tn, te = (b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length
-            along = (p_ne[0] - a_ne[0]) * tn + (p_ne[1] - a_ne[1]) * te
-            xt = (p_ne[0] - a_ne[0]) * -te + (p_ne[1] - a_ne[1]) * tn
-        else:
-            along = xt = 0.0
         if self._carry_path and self._path and dist <= accept:
             return None   # passed within its radius on an arc carried past it
-        if not self._joined and self._skip_join and self._path and length > 1e-3 \
-                and not self._path_ends_on(a_ne, b_ne, 3.0 + self._through_arcs.get(self._path[-1], 0.0)) \
-                and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
-            # an arc carried past items counted at once (a cluster of waypoints within
-            # each other's radius) that turns onto another line than this leg's: the
-            # leg is joined by a planned turn instead of left to L1 at a large angle
-            self._path = []
-            self._skip_join = self._carry_path = False
-        if not self._joined:
+        if not joined:
+            # the leg's first step: where the vehicle is on it decides how it is joined
+            length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            if length > 1e-3:
+                tn, te = (b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length
+                along = (p_ne[0] - a_ne[0]) * tn + (p_ne[1] - a_ne[1]) * te
+                xt = (p_ne[0] - a_ne[0]) * -te + (p_ne[1] - a_ne[1]) * tn
+            else:
+                along = xt = 0.0
+            if self._skip_join and self._path and length > 1e-3 \
+                    and not self._path_ends_on(a_ne, b_ne, 3.0 + self._through_arcs.get(self._path[-1], 0.0)) \
+                    and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
+                # an arc carried past items counted at once (a cluster of waypoints within
+                # each other's radius) that turns onto another line than this leg's: the
+                # leg is joined by a planned turn instead of left to L1 at a large angle
+                self._path = []
+                self._skip_join = self._carry_path = False
             self._joined = True
             if length <= 1e-3:
                 # a point on the one before (a duplicate, a jump back to it): its finish
@@ -1433,12 +1435,11 @@ class MissionSequencer:
             return None
         if r != "leg":
             return r
-        a_ne = self._leg_start
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        # (_leg moves neither A nor B: the leg's length and the distance to B stand)
         along = 0.0
         if length > 1e-3:
             along = ((p_ne[0] - a_ne[0]) * (b_ne[0] - a_ne[0]) + (p_ne[1] - a_ne[1]) * (b_ne[1] - a_ne[1])) / length
-        dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
+        dist = d
         alt, steep = self._slope_alt(t_us, item.seq, a_ne, b_ne, along, length, d_turn, alt_b)
         # the acceptance radius only stands in for the arc where there is none
         if along >= length - d_turn or (arc is None and dist <= min(accept, 0.5 * length)):
