@@ -330,6 +330,7 @@ class PlaneVehicle(VehicleBase):
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
         self.euler = quat_to_euler(nav.q_nb.tolist())  # (roll, pitch, yaw), once per step
+        vl = nav.v_ned.tolist()                         # the velocity [m/s], once per step
 
         # navigation -> fault monitor
         p = self.params
@@ -409,12 +410,12 @@ class PlaneVehicle(VehicleBase):
             if note is not None:
                 self.notice(t_us * 1e-6, SEV_INFO, note)
         if self.armed and self.mode == _AUTO and p["CRASH_DETECT"] >= 1:
-            self._crash_check(nav, t_us)
+            self._crash_check(nav, t_us, vl)
         if fence_watching(self.geofence):
             fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
         controls = (0.0, 0.0, 0.0, 0.0)
         if self.armed and self.home_frame is not None and self.mode != _MANUAL:
-            controls = self._fly(nav, dt, t_us)
+            controls = self._fly(nav, dt, t_us, vl)
             if self.terminated:
                 controls = (1.0, 1.0, 1.0, 0.0)
         if self.armed and self._sequencer is not None and self._sequencer.landing is not None:
@@ -453,8 +454,9 @@ class PlaneVehicle(VehicleBase):
                 req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
             self.set_home(*req, t_us)
 
-    def _crash_check(self, nav: NavState, t_us: int) -> None:
-        """Crash detection (module docstring); disarms on a crash."""
+    def _crash_check(self, nav: NavState, t_us: int, v_ned: list) -> None:
+        """Crash detection (module docstring); disarms on a crash. ``v_ned``: nav.v_ned
+        as a list."""
         p = self.params
         if self._launch_alt_m is None:
             return
@@ -487,7 +489,7 @@ class PlaneVehicle(VehicleBase):
         if self._landing():
             self._ground_since_us = None
             return
-        vn, ve, vd = nav.v_ned.tolist()
+        vn, ve, vd = v_ned
         on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
         stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
         if not (on_ground or stopped):
@@ -590,12 +592,12 @@ class PlaneVehicle(VehicleBase):
         self.notice(t_us * 1e-6, SEV_EMERGENCY, f"Crash detected: {why}")
         self.disarm(t_us, force=True)            # throttle cut: nothing flies disarmed
 
-    def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
+    def _fly(self, nav: NavState, dt: float, t_us: int, vl: list) -> tuple:
+        """The step's controls in the modes that fly; ``vl``: nav.v_ned as a list."""
         p = self.params
         # the position in home's frame and the velocities as tuples / lists: the guidance
         # reads them element by element, and a numpy element costs more than its arithmetic
         pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        vl = nav.v_ned.tolist()
         yaw = self.euler[2]
         mode = self.mode
         if mode in _HOLD_MODES or (mode == _RTL and self.rtl_hold is not None):
