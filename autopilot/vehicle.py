@@ -29,7 +29,6 @@ EMERGENCY "Crash detected: ...", in ``notices``; the reason stays in ``crash``).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -256,7 +255,7 @@ class PlaneVehicle(VehicleBase):
         lo, hi = self.params["ARSPD_FBW_MIN"], self.params["ARSPD_FBW_MAX"]
         self.sequencer.airspeed_mps = min(max(airspeed_mps, lo), hi)
         if self.hold is not None:
-            self.hold = dataclasses.replace(self.hold, airspeed_mps=self.sequencer.airspeed_mps)
+            self.hold = self.hold._replace(airspeed_mps=self.sequencer.airspeed_mps)
         return None
 
     @property
@@ -640,7 +639,7 @@ class PlaneVehicle(VehicleBase):
             pitch_min, pitch_max = math.radians(p["LAND_PITCH_DEG"]), math.radians(p["LAND_PITCH_MAX"])
             # the trim angle of attack at the airspeed flown, not the approach speed's:
             # the speed decays at idle, and the nose must rise with it (to LAND_PITCH_MAX)
-            tgt = dataclasses.replace(tgt, airspeed_mps=max(nav.airspeed_mps, 0.75 * p["ARSPD_FBW_MIN"]))
+            tgt = tgt._replace(airspeed_mps=max(nav.airspeed_mps, 0.75 * p["ARSPD_FBW_MIN"]))
         if kind == "takeoff":
             # wings level on the launch heading, full throttle, climb at the takeoff pitch
             err = wrap_pi(tgt.heading_rad - yaw)
