@@ -29,13 +29,12 @@ EMERGENCY "Crash detected: ...", in ``notices``; the reason stays in ``crash``).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
 from .control.fixed_wing import FW_PARAMS, FixedWingController
-from .fence.actions import fence_step, home_ll
+from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .guidance.l1 import G, L1Guidance
@@ -104,6 +103,10 @@ _FDI_IDLE = (0.0, -1.0) + (0.0,) * (len(FDI_LOG_COLUMNS) - 3) + (1.0,)
 KIND_CODES = {"idle": 0, "takeoff": 1, "line": 2, "loiter": 3, "direct": 4}
 LOG_DIV = 2          # flight log: one row every LOG_DIV-th step (50 Hz) and at every GPS fix
 NAV_COV_DIV = 4      # EKF covariance prediction every 4th step, and before every fusion (autopilot/nav/ekf.py)
+# the modes as module constants for the per-step tests: reading a member off its enum
+# class (PlaneMode.AUTO) costs about 0.2 us, as much as the rest of such a test
+_MANUAL, _AUTO, _RTL = PlaneMode.MANUAL, PlaneMode.AUTO, PlaneMode.RTL
+_HOLD_MODES = (PlaneMode.LOITER, PlaneMode.GUIDED)
 
 
 def plane_param_declarations() -> list[Param]:
@@ -252,7 +255,7 @@ class PlaneVehicle(VehicleBase):
         lo, hi = self.params["ARSPD_FBW_MIN"], self.params["ARSPD_FBW_MAX"]
         self.sequencer.airspeed_mps = min(max(airspeed_mps, lo), hi)
         if self.hold is not None:
-            self.hold = dataclasses.replace(self.hold, airspeed_mps=self.sequencer.airspeed_mps)
+            self.hold = self.hold._replace(airspeed_mps=self.sequencer.airspeed_mps)
         return None
 
     @property
@@ -312,9 +315,10 @@ class PlaneVehicle(VehicleBase):
         dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
-        if frame.gps is not None:
-            self._gps_this_step = frame.gps
-            self.gps_fix_type = frame.gps.fix_type
+        gps = frame.gps
+        if gps is not None:
+            self._gps_this_step = gps
+            self.gps_fix_type = gps.fix_type
 
         # sensors -> navigation
         if self.nav_source == "truth":
@@ -325,53 +329,57 @@ class PlaneVehicle(VehicleBase):
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
         self.euler = quat_to_euler(nav.q_nb.tolist())  # (roll, pitch, yaw), once per step
+        vl = nav.v_ned.tolist()                         # the velocity [m/s], once per step
 
         # navigation -> fault monitor
+        p = self.params
+        ctrl = self.ctrl
         mon = self.monitor
         if mon is not None:
             mon.update(t_us, self._monitoring())
-            self._forward_events(mon)
-            eout = mon.elevator_fault_s is not None and self.params["EOUT_ENABLE"] > 0
-            if eout != self.ctrl.elevator_out:
+            if len(mon.events) > self._fdi_events:
+                self._forward_events(mon)
+            eout = mon.elevator_fault_s is not None and p["EOUT_ENABLE"] > 0
+            if eout != ctrl.elevator_out:
                 # the elevator is faulty: height on the throttle (control/fixed_wing.py)
-                self.ctrl.set_elevator_out(eout)
+                ctrl.set_elevator_out(eout)
                 mon.announce(t_us * 1e-6, SEV_WARNING, "elevator out: height flown on the throttle"
                               if eout else "elevator out: off")
             if eout and (mon.elevator_trim_mps, mon.elevator_bank_max_rad, mon.elevator_full_throttle) != (
-                    self.ctrl.eout_trim_mps, self.ctrl.eout_bank_max_rad, self.ctrl.eout_full_throttle):
+                    ctrl.eout_trim_mps, ctrl.eout_bank_max_rad, ctrl.eout_full_throttle):
                 # the model's trim speed, steepest level turn, and full throttle if no trim
-                self.ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
-                                            mon.elevator_full_throttle)
-            so = mon.surface_out if self.params["LOUT_ENABLE"] > 0 else None
-            if so is not self.ctrl.surface_out:
+                ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
+                                       mon.elevator_full_throttle)
+            so = mon.surface_out if p["LOUT_ENABLE"] > 0 else None
+            if so is not ctrl.surface_out:
                 # a stuck aileron or rudder: countered with the other (control/fixed_wing.py)
-                new = self.ctrl.surface_out is None
-                self.ctrl.surface_out = so
+                new = ctrl.surface_out is None
+                ctrl.surface_out = so
                 if new:
                     mon.announce(t_us * 1e-6, SEV_WARNING,
                                  f"{so['surface']} out: roll flown on the "
                                  f"{'rudder' if so['surface'] == 'aileron' else 'aileron'}")
-            to = mon.throttle_out if self.params["TOUT_ENABLE"] > 0 else None
-            if to is not self.ctrl.throttle_out:
+            to = mon.throttle_out if p["TOUT_ENABLE"] > 0 else None
+            if to is not ctrl.throttle_out:
                 # a stuck throttle: where it holds level flight the height held and the
                 # airspeed free, else the airspeed on the pitch (control/fixed_wing.py)
-                if self.ctrl.throttle_out is None:
-                    high = to["level"] and self.params["TOUT_ARSPD_MAX"] > 0
+                if ctrl.throttle_out is None:
+                    high = to["level"] and p["TOUT_ARSPD_MAX"] > 0
                     mon.announce(t_us * 1e-6, SEV_WARNING,
                                  "throttle out: height held, airspeed free" if high
                                  else "throttle out: airspeed flown on the pitch")
-                self.ctrl.throttle_out = to
+                ctrl.throttle_out = to
             seq = self._sequencer
             if seq is not None:
                 # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
-                seq.bank_limit_rad = self.ctrl.reaction_bank_limit_rad()
-                seq.reaction_airspeed_mps = self.ctrl.reaction_airspeed_mps()
+                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
+                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full
                 self.terminated = True
                 mon.announce(t_us * 1e-6, 0, "flight termination: throttle closed, surfaces full")
-            if mon.failsafe == "RTL" and self.armed and self.mode not in (PlaneMode.RTL, PlaneMode.MANUAL):
+            if mon.failsafe == "RTL" and self.armed and self.mode != _RTL and self.mode != _MANUAL:
                 mon.failsafe = None
                 self.set_mode(PlaneMode.RTL, t_us)
 
@@ -400,17 +408,18 @@ class PlaneVehicle(VehicleBase):
                                            land is not None, self._rf_terrain(nav, land))
             if note is not None:
                 self.notice(t_us * 1e-6, SEV_INFO, note)
-        if self.armed and self.mode == PlaneMode.AUTO and self.params["CRASH_DETECT"] >= 1:
-            self._crash_check(nav, t_us)
-        fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
+        if self.armed and self.mode == _AUTO and p["CRASH_DETECT"] >= 1:
+            self._crash_check(nav, t_us, vl)
+        if fence_watching(self.geofence):
+            fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
         controls = (0.0, 0.0, 0.0, 0.0)
-        if self.armed and self.home_frame is not None and self.mode != PlaneMode.MANUAL:
-            controls = self._fly(nav, dt, t_us)
+        if self.armed and self.home_frame is not None and self.mode != _MANUAL:
+            controls = self._fly(nav, dt, t_us, vl)
             if self.terminated:
                 controls = (1.0, 1.0, 1.0, 0.0)
-        if self.armed and self._sequencer is not None:
+        if self.armed and self._sequencer is not None and self._sequencer.landing is not None:
             self._land_disarm(t_us)
-        self._finish = (t_us, nav, controls, truth, frame.gps is not None)
+        self._finish = (t_us, nav, controls, truth, gps is not None)
         return ActuatorOutputs(t_us, controls, self.armed)
 
     _finish = None      # (t_us, nav, controls, truth, gps) of a step not yet finished
@@ -444,8 +453,9 @@ class PlaneVehicle(VehicleBase):
                 req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
             self.set_home(*req, t_us)
 
-    def _crash_check(self, nav: NavState, t_us: int) -> None:
-        """Crash detection (module docstring); disarms on a crash."""
+    def _crash_check(self, nav: NavState, t_us: int, v_ned: list) -> None:
+        """Crash detection (module docstring); disarms on a crash. ``v_ned``: nav.v_ned
+        as a list."""
         p = self.params
         if self._launch_alt_m is None:
             return
@@ -453,7 +463,7 @@ class PlaneVehicle(VehicleBase):
         # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
         # nothing of where the ground is
         h = nav.alt_m - self._launch_alt_m
-        ground = self._ground_m(nav)
+        ground = self._ground_m(nav) if self.terrain is not None else None
         if ground is not None and self._launch_ground_m is not None:
             # over known terrain: the height above the ground under the aircraft (less
             # the launcher's height above it at arming), not above the launch point
@@ -478,7 +488,7 @@ class PlaneVehicle(VehicleBase):
         if self._landing():
             self._ground_since_us = None
             return
-        vn, ve, vd = nav.v_ned.tolist()
+        vn, ve, vd = v_ned
         on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
         stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
         if not (on_ground or stopped):
@@ -581,50 +591,56 @@ class PlaneVehicle(VehicleBase):
         self.notice(t_us * 1e-6, SEV_EMERGENCY, f"Crash detected: {why}")
         self.disarm(t_us, force=True)            # throttle cut: nothing flies disarmed
 
-    def _fly(self, nav: NavState, dt: float, t_us: int) -> tuple:
+    def _fly(self, nav: NavState, dt: float, t_us: int, vl: list) -> tuple:
+        """The step's controls in the modes that fly; ``vl``: nav.v_ned as a list."""
         p = self.params
-        hf = self.home_frame
-        p_ned = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        # the position in home's frame and the velocities as tuples / lists: the guidance
+        # reads them element by element, and a numpy element costs more than its arithmetic
+        pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
         yaw = self.euler[2]
-        if self.mode in (PlaneMode.LOITER, PlaneMode.GUIDED) or (self.mode == PlaneMode.RTL
-                                                                 and self.rtl_hold is not None):
-            hold = self.rtl_hold if self.mode == PlaneMode.RTL else self.hold
+        mode = self.mode
+        if mode in _HOLD_MODES or (mode == _RTL and self.rtl_hold is not None):
+            hold = self.rtl_hold if mode == _RTL else self.hold
             if hold is None or self.landed:
                 return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
             tgt = hold
         else:
-            if self.mode == PlaneMode.RTL and not self._sequencer.finished:
-                self._sequencer.finished = True  # RTL mode: go straight to the home loiter
             seq = self._sequencer
+            if mode == _RTL and not seq.finished:
+                seq.finished = True  # RTL mode: go straight to the home loiter
             # (no landing in the sequencer: no rangefinder landing, no correction)
             landing = seq.landing is not None and self._rf_landing() is not None
             seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0
-            tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
-                             airspeed_mps=nav.airspeed_mps)
-            if self.mode == PlaneMode.RTL and seq.rtl_established and self.params["RTL_AUTOLAND"] == 1 \
+            wl = nav.wind_ned.tolist()
+            tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
+            if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
-                tgt = seq.update(t_us, p_ned, nav.v_ned, yaw, nav.alt_m, wind_ne=nav.wind_ned[:2],
-                                 airspeed_mps=nav.airspeed_mps)
-            self._sequencer_requests(t_us, nav)
+                tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
+            if seq.notices or seq.home_request is not None:
+                self._sequencer_requests(t_us, nav)
         self.target = tgt
-        vn, ve, _ = nav.v_ned.tolist()
-        pn, pe, pd = pl = p_ned.tolist()
-        self._p_home = (nav, pl)                 # for the log row of this step
+        vn, ve, _ = vl
+        pn, pe, pd = pl
+        self._p_home = (nav, pl, vl)             # for the log row of this step
         v_ne = (vn, ve)
         p_ne = (pn, pe)
-        self.l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
+        l1 = self.l1
+        if l1.period_s != p["NAVL1_PERIOD"] or l1.damping != p["NAVL1_DAMPING"]:
+            l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
         pitch_min = pitch_max = climb = None
         throttle = rudder = None
-        if tgt.land == "go_around":
+        land = tgt.land
+        kind = tgt.kind
+        if land == "go_around":
             pitch_min = math.radians(p["TKOFF_PITCH"]) if tgt.alt_m - nav.alt_m > p["TKOFF_ALT_TOL"] else None
-        if tgt.land in ("flare", "rollout", "ground"):
+        if land in ("flare", "rollout", "ground"):
             # the flare (guidance/landing.py): idle, the sink rate on the pitch
             throttle, climb = 0.0, tgt.climb_mps
             pitch_min, pitch_max = math.radians(p["LAND_PITCH_DEG"]), math.radians(p["LAND_PITCH_MAX"])
             # the trim angle of attack at the airspeed flown, not the approach speed's:
             # the speed decays at idle, and the nose must rise with it (to LAND_PITCH_MAX)
-            tgt = dataclasses.replace(tgt, airspeed_mps=max(nav.airspeed_mps, 0.75 * p["ARSPD_FBW_MIN"]))
-        if tgt.kind == "takeoff":
+            tgt = tgt._replace(airspeed_mps=max(nav.airspeed_mps, 0.75 * p["ARSPD_FBW_MIN"]))
+        if kind == "takeoff":
             # wings level on the launch heading, full throttle, climb at the takeoff pitch
             err = wrap_pi(tgt.heading_rad - yaw)
             bank = max(min(1.0 * err, math.radians(p["TKOFF_LVL_BANK"])), -math.radians(p["TKOFF_LVL_BANK"]))
@@ -646,20 +662,20 @@ class PlaneVehicle(VehicleBase):
                     err = wrap_pi(err - math.atan(xt / GSTEER_LINE_M))
                 rudder = p["GSTEER_KP"] * err - p["GSTEER_KD"] * float(nav.omega_b[2])
                 rudder = max(min(rudder, 1.0), -1.0)
-        elif tgt.kind in ("line", "direct"):
-            cmd = self.l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
+        elif kind == "line" or kind == "direct":
+            cmd = l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
             bank = cmd.bank_rad
             self.xtrack_m = cmd.xtrack_m
-        elif tgt.kind == "loiter":
-            cmd = self.l1.loiter(p_ne, v_ne, tgt.c_ne, tgt.radius_m, tgt.direction, yaw, nav.airspeed_mps)
+        elif kind == "loiter":
+            cmd = l1.loiter(p_ne, v_ne, tgt.c_ne, tgt.radius_m, tgt.direction, yaw, nav.airspeed_mps)
             bank = cmd.bank_rad
             self.xtrack_m = cmd.xtrack_m
         else:
             bank = 0.0
-        if tgt.kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
+        if kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
-        if tgt.land in ("rollout", "ground"):
+        if land == "rollout" or land == "ground":
             bank = 0.0                           # on the skids: wings level (landing.py)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
                                 euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
@@ -674,31 +690,37 @@ class PlaneVehicle(VehicleBase):
             return
         ph = self._p_home
         if ph is not None and ph[0] is nav:
-            p_est = ph[1]                        # computed by _fly this step
+            _, p_est, v = ph                     # computed by _fly this step
         else:
-            p_est = hf.to_ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m).tolist()
+            p_est = hf.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+            v = nav.v_ned.tolist()
         er, ep, ey = self.euler
         p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         rf = self.rangefinder
+        seq = self._sequencer
+        mon = self.monitor
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         w = nav.wind_ned.tolist()
-        v = nav.v_ned.tolist()
         sig, gps_row = self._nav_rows(hf, gps)
+        a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
+        alt_dem = c.alt_dem_m
+        h_rf = rf.height_m
+        # one tuple built from its parts at once (``*``: no intermediate tuples)
         self.log.append((
-            t_us * 1e-6, float(self.armed), float(self.mode.value), float(tgt.seq), float(tgt.leg_id),
+            t_us * 1e-6, float(self.armed), float(self.mode), float(tgt.seq), float(tgt.leg_id),
             float(KIND_CODES[tgt.kind]),
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
-            c.alt_dem_m if c.alt_dem_m is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
-            tgt.a_ne[0], tgt.a_ne[1], tgt.b_ne[0], tgt.b_ne[1], tgt.c_ne[0], tgt.c_ne[1],
+            alt_dem if alt_dem is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
+            a[0], a[1], b[0], b[1], cc[0], cc[1],
             tgt.radius_m, float(tgt.direction), self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],
-            rf.height_m if rf.height_m is not None else -1.0,
-            self.sequencer.land_h_corr_m if self.sequencer is not None else 0.0,
+            h_rf if h_rf is not None else -1.0,
+            seq.land_h_corr_m if seq is not None else 0.0,
             self.rpm,
-        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row
-            + (self.monitor.log_row() if self.monitor is not None else _FDI_IDLE))
+            *sig, float(nav.aligned), float(nav.healthy), *gps_row,
+            *(mon.log_row() if mon is not None else _FDI_IDLE)))

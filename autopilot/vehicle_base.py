@@ -246,7 +246,7 @@ class VehicleBase:
         and airspeed; NaN on a step without truth."""
         if truth is None:
             return _NAN3, math.nan, math.nan, math.nan, _NAN3, math.nan, math.nan
-        p_tru = hf.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m).tolist()
+        p_tru = hf.ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
         tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
         return p_tru, tr, tp, ty, truth.v_ned.tolist(), truth.alt_m, truth.airspeed_mps
 
@@ -258,7 +258,7 @@ class VehicleBase:
         if out_sig is not None:
             sig = out_sig()
         if gps is not None:
-            g = hf.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
+            g = hf.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
             gps_row = (g[0], g[1], gps.alt_m)
         else:
             gps_row = _NAN3

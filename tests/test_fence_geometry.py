@@ -101,3 +101,25 @@ def test_rally_point_choice(incl_home, limit_km, where, expect):
     else:
         assert r[:2] == pytest.approx(pts[expect]) and r[2] == 664.0
     assert distance_m(*at(0, 0), *at(0, 1000)) == pytest.approx(1000.0, abs=0.01)
+
+
+def test_fence_watching_is_what_fence_step_has_to_do():
+    # GIVEN a fence, enabled, then disabled with and without a breach standing
+    from autopilot.fence.actions import fence_step, fence_watching
+    g = fence(poly(5001, L_SHAPE))
+    assert fence_watching(g)                       # enabled: checked every step
+    g.params.set("FENCE_ENABLE", 0)
+    assert not fence_watching(g)                   # off, nothing breached: nothing to do
+    g.breached = 1
+    assert fence_watching(g)                       # off with a breach: still to be cleared
+
+    # THEN fence_step does nothing exactly where fence_watching says so (no look at the
+    # vehicle at all: a vehicle without a navigation state would fail)
+    class NoVehicle:
+        geofence = g
+
+    g.breached = 0
+    fence_step(NoVehicle(), 0, True)
+    g.breached = 1
+    with pytest.raises(AttributeError):
+        fence_step(NoVehicle(), 0, True)

@@ -104,3 +104,18 @@ def test_fast_ned_matches_exact_within_a_few_km():
         exact = f.to_ned(lat, lon, alt)
         assert np.allclose(exact[:2], p[:2], atol=0.05)  # horizontal: centimetres over 5 km
         assert np.allclose(f.to_ned_fast(lat, lon, alt), p, atol=1e-6)  # fast round trip
+
+
+def test_ned_fast_is_to_ned_fast_as_a_tuple():
+    # GIVEN an origin and points around it (and across the 180-degree meridian)
+    rng = np.random.default_rng(7)
+    for lat0, lon0 in ((-35.36, 149.16), (-41.0, 179.999)):
+        f = LocalFrame.from_degrees(lat0, lon0, 584.0)
+        for _ in range(50):
+            lat = math.radians(lat0 + rng.uniform(-0.05, 0.05))
+            lon = math.radians(lon0 + rng.uniform(-0.05, 0.05))
+            alt = rng.uniform(0.0, 3000.0)
+            # THEN the tuple holds exactly the array's numbers, as Python floats
+            t = f.ned_fast(lat, lon, alt)
+            assert type(t) is tuple and all(type(x) is float for x in t)
+            assert t == tuple(f.to_ned_fast(lat, lon, alt).tolist())

@@ -426,3 +426,28 @@ def test_a_loiter_is_left_onto_the_line_out_of_its_centre_wherever_its_turns_end
     crossed = np.flatnonzero(np.sign(x) != np.sign(x[0]))
     overshoot = float(np.max(np.abs(x[crossed[0]:]))) if crossed.size else 0.0
     assert overshoot < 1.0 and np.max(np.abs(x)) <= 10.0
+
+
+def test_positions_as_arrays_or_as_tuples_give_the_same_targets():
+    # GIVEN two sequencers on a mission with turns, a loiter and RTL, one fed numpy
+    # arrays (as the tests do), the other tuples and lists (as the vehicle does)
+    def m():
+        return mission(item(1, NAV_WAYPOINT, 600, 0), item(2, NAV_WAYPOINT, 600, 500),
+                       item(3, NAV_LOITER_TURNS, 0, 500, p=(1, 0, 80, 0)),
+                       item(4, NAV_RETURN_TO_LAUNCH, frame=FRAME_MISSION))
+    a, b = seq_for(m()), seq_for(m())
+    # WHEN both follow the same scripted flight: along the legs, round the loiter, home
+    path = [(n, 5.0) for n in range(0, 600, 20)] + [(600, e) for e in range(0, 500, 20)] \
+        + [(80 * math.cos(k * 0.1), 500 + 80 * math.sin(k * 0.1)) for k in range(80)] \
+        + [(0, e) for e in range(500, -100, -25)]
+    vs = [(25.0, 0.0, 0.0)] * 30 + [(0.0, 25.0, 0.0)] * 25 \
+        + [(-25.0 * math.sin(k * 0.1), 25.0 * math.cos(k * 0.1), 0.0) for k in range(80)] \
+        + [(0.0, -25.0, 0.0)] * 24
+    for k, ((n, e), v) in enumerate(zip(path, vs)):
+        ta = a.update(k * 100_000, np.array([n, e, -100.0]), np.array(v), 0.0, 600.0,
+                      wind_ne=np.array([2.0, -1.0]), airspeed_mps=25.0)
+        tb = b.update(k * 100_000, (float(n), float(e), -100.0), list(v), 0.0, 600.0,
+                      wind_ne=[2.0, -1.0, 0.0], airspeed_mps=25.0)
+        # THEN every target is the same, number for number
+        assert ta == tb
+    assert a.reached == b.reached and len(a.reached) >= 2

@@ -218,19 +218,19 @@ class Session:
         return self.bridge.t_us * 1e-6
 
     def step(self) -> None:
-        self.bridge.send_current()
-        gcs = self.gcs
-        for frame, truth in self.ap_end.poll():
-            out = self.vehicle.step(frame, truth)
-            self.ap_end.answer(out)
+        bridge, ap_end, vehicle, gcs = self.bridge, self.ap_end, self.vehicle, self.gcs
+        bridge.send_current()
+        for frame, truth in ap_end.poll():
+            out = vehicle.step(frame, truth)
+            ap_end.answer(out)
             if gcs is not None:
                 gcs.after_step(frame, out)
-        controls = self.sim_end.poll_answer(self.bridge.t_us)
-        self.bridge.advance(controls)
+        controls = self.sim_end.poll_answer(bridge.t_us)
+        bridge.advance(controls)
         if self.landing_score is not None:
-            self.landing_score.update(self.bridge.state, self.vehicle, not self.plant.on_launcher)
+            self.landing_score.update(bridge.state, vehicle, not self.plant.on_launcher)
         if gcs is not None:
-            gcs.step(self.bridge.t_us)
+            gcs.step(bridge.t_us)
 
     def done(self) -> bool:
         if self.cfg.vehicle == "quad":

@@ -261,28 +261,40 @@ class FixedWingController:
         ground steering asks, and the roll loop's integrator held at zero (the wings
         cannot roll on the gear: it would wind up against it and roll the aircraft at
         the lift-off)."""
+        # (every min(max(x, lo), hi) of the steps flown in every step is spelt out, as in
+        # control/pid.py: the builtins cost more than the rest of the line)
         p = self.params
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
         omega = nav.omega_b.tolist()
-        v_air = max(nav.airspeed_mps, 5.0)
+        v_air = nav.airspeed_mps
+        v_air = 5.0 if 5.0 > v_air else v_air                        # max(V, 5)
         roll_lim = self.roll_limit_rad()
         so = self.surface_out
-        phi_c = min(max(bank_cmd_rad, -roll_lim), roll_lim)
+        phi_c = -roll_lim if -roll_lim > bank_cmd_rad else bank_cmd_rad
+        phi_c = roll_lim if roll_lim < phi_c else phi_c
 
         # altitude to climb rate (outer), climb rate to pitch (middle)
         hdot = -float(nav.v_ned[2])
         if self.alt_dem_m is None or throttle_override is not None:
             self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
-        up, down = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
+        sink_max, clmb_max = p["SINK_MAX"], p["CLMB_MAX"]
+        up, down = p["DEM_CLMB_FRAC"] * clmb_max, p["DEM_CLMB_FRAC"] * sink_max
         if self.elevator_out:
             up, down = min(up, p["EOUT_DEM_RATE"]), min(down, p["EOUT_DEM_RATE"])
-        hdot_dem = min(max((alt_cmd_m - self.alt_dem_m) / dt, -down), up) if dt > 0 else 0.0
+        if dt > 0:
+            hdot_dem = (alt_cmd_m - self.alt_dem_m) / dt
+            hdot_dem = -down if -down > hdot_dem else hdot_dem
+            hdot_dem = up if up < hdot_dem else hdot_dem
+        else:
+            hdot_dem = 0.0
         self.alt_dem_m += hdot_dem * dt
         if throttle_override is not None:
             hdot_dem, alt_err = 0.0, alt_cmd_m - nav.alt_m
         else:
             alt_err = self.alt_dem_m - nav.alt_m
-        hdot_c = min(max(hdot_dem + p["ALT_KP"] * alt_err, -p["SINK_MAX"]), p["CLMB_MAX"])
+        hdot_c = hdot_dem + p["ALT_KP"] * alt_err
+        hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
+        hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
         if climb_override is not None:
             self.alt_dem_m = nav.alt_m
             hdot_c = min(max(climb_override, -p["SINK_MAX"]), p["CLMB_MAX"])
@@ -326,24 +338,33 @@ class FixedWingController:
                 hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), p["CLMB_MAX"])
         elif abs(dv) > db and climb_override is None:
             hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
-            hdot_c = min(max(hdot_c, -p["SINK_MAX"]), p["CLMB_MAX"])
-        q_ratio = (p["TRIM_ARSPD"] / v_air) ** 2
-        scale = min(max(q_ratio, 0.5), 2.0)
-        turn_ff = p["PTCH_TURN_FF"] * (1.0 / max(math.cos(roll), 0.5) - 1.0)
-        gamma_c = math.asin(min(max(hdot_c / v_air, -0.5), 0.5))
+            hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
+            hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
+        trim_arspd = p["TRIM_ARSPD"]
+        q_ratio = (trim_arspd / v_air) ** 2
+        scale = 0.5 if 0.5 > q_ratio else q_ratio
+        scale = 2.0 if 2.0 < scale else scale
+        cos_roll = math.cos(roll)
+        turn_ff = p["PTCH_TURN_FF"] * (1.0 / (0.5 if 0.5 > cos_roll else cos_roll) - 1.0)
+        sin_gamma = hdot_c / v_air
+        sin_gamma = -0.5 if -0.5 > sin_gamma else sin_gamma
+        gamma_c = math.asin(0.5 if 0.5 < sin_gamma else sin_gamma)
         # trim angle of attack at the *commanded* airspeed: using the measured one would
         # raise the nose further as the aircraft slows (positive feedback towards stall)
-        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * min((p["TRIM_ARSPD"] / max(airspeed_cmd_mps, 5.0)) ** 2, 2.0)
-        kp = self.climb_pid.kp
+        v_c = 5.0 if 5.0 > airspeed_cmd_mps else airspeed_cmd_mps
+        alpha_ratio = (trim_arspd / v_c) ** 2
+        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * (2.0 if 2.0 < alpha_ratio else alpha_ratio)
+        climb_pid = self.climb_pid
+        kp = climb_pid.kp
         if climb_kp is not None:
-            self.climb_pid.kp = climb_kp
-        theta_c = self.climb_pid.update(hdot_c, hdot, dt, rate=0.0,
-                                        feedforward=alpha_ff + gamma_c + turn_ff)
-        self.climb_pid.kp = kp
+            climb_pid.kp = climb_kp
+        theta_c = climb_pid.update(hdot_c, hdot, dt, rate=0.0,
+                                   feedforward=alpha_ff + gamma_c + turn_ff)
+        climb_pid.kp = kp
         if pitch_max_rad is not None:
-            theta_c = min(theta_c, pitch_max_rad)
+            theta_c = pitch_max_rad if pitch_max_rad < theta_c else theta_c     # min()
         if pitch_min_rad is not None:
-            theta_c = max(theta_c, pitch_min_rad)
+            theta_c = pitch_min_rad if pitch_min_rad > theta_c else theta_c     # max()
 
         # airspeed from throttle (with the climb feed-forward)
         if throttle_override is not None:
@@ -369,11 +390,13 @@ class FixedWingController:
         da = self.roll_pid.update(phi_c, roll, dt, rate=omega[0], scale=scale)
         if rudder_override is not None:
             self.roll_pid.integ = 0.0
-        de_ff = p["ELEV_TRIM"] * min(q_ratio, 2.0)
+        de_ff = p["ELEV_TRIM"] * (2.0 if 2.0 < q_ratio else q_ratio)
         de = self.pitch_pid.update(theta_c, pitch, dt, rate=omega[1], feedforward=de_ff,
                                    scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
-        dr = min(max(p["YAW_KD"] * (r_c - omega[2]), -1.0), 1.0)
+        dr = p["YAW_KD"] * (r_c - omega[2])
+        dr = -1.0 if -1.0 > dr else dr
+        dr = 1.0 if 1.0 < dr else dr
         if rudder_override is not None:
             dr = rudder_override
         if so is not None:

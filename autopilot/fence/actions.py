@@ -18,10 +18,17 @@ def home_ll(v) -> tuple[float, float, float] | None:
     return (math.degrees(hf.lat0_rad), math.degrees(hf.lon0_rad), hf.alt0_m)
 
 
+def fence_watching(g) -> bool:
+    """Whether ``fence_step`` has anything to do with geofence ``g``: a fence enabled, or
+    a breach still to clear. (A vehicle asks this first, every step, and leaves out the
+    arguments it would have worked out for ``fence_step``.)"""
+    return bool(g.breached) or g.params["FENCE_ENABLE"] >= 1
+
+
 def fence_step(v, t_us: int, flying: bool, landing: bool = False) -> None:
     """Check the fence on ``v.nav_state``; on a breach take the action, on its end say so."""
     g = v.geofence
-    if not g.breached and g.params["FENCE_ENABLE"] < 1:
+    if not fence_watching(g):
         return                                   # (off: nothing to do, every step)
     nav = v.nav_state
     home = home_ll(v)

@@ -51,12 +51,11 @@ altitude when the item starts.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE,
@@ -75,10 +74,11 @@ from .l1 import G
 RELATIVE_FRAMES = (3, 6)     # GLOBAL_RELATIVE_ALT(_INT)
 TERRAIN_FRAMES = (10, 11)    # GLOBAL_TERRAIN_ALT(_INT)
 
-LOITER_COMMANDS = (MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
-                   MAV_CMD_NAV_LOITER_TO_ALT)
-NAV_ITEMS = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
-             MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND) + LOITER_COMMANDS
+# (sets: ``in`` is asked every step)
+LOITER_COMMANDS = frozenset((MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TIME,
+                             MAV_CMD_NAV_LOITER_TO_ALT))
+NAV_ITEMS = frozenset((MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_TAKEOFF, MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                       MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LAND)) | LOITER_COMMANDS
 SEV_WARNING, SEV_NOTICE, SEV_INFO = 4, 5, 6   # MAV_SEVERITY
 
 # no join is planned onto a leg the vehicle already flies: this close to its line and
@@ -112,8 +112,11 @@ ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this lo
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
-@message
-class NavTarget:
+class NavTarget(NamedTuple):
+    """What guidance asks of the control loops, one a step. An immutable record as a
+    NamedTuple rather than ``@message`` (autopilot/frozen.py): a tuple is built in one
+    call, where a frozen dataclass stores each of these 15 fields through its slot's
+    descriptor (about 0.2 us a field); changed copies by ``_replace``."""
     kind: str                    # "idle" | "takeoff" | "line" | "loiter" | "direct"
     seq: int                     # mission item being flown
     leg_id: int                  # increments at every new leg/loiter (for scoring)
@@ -942,7 +945,7 @@ class MissionSequencer:
             chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
             if v != tgt.airspeed_mps:
-                tgt = dataclasses.replace(tgt, airspeed_mps=v)
+                tgt = tgt._replace(airspeed_mps=v)
         return tgt
 
     def _above_terrain(self, tgt: NavTarget, p_ned, v_ned) -> NavTarget:
@@ -957,7 +960,7 @@ class MissionSequencer:
         h = self.terrain(math.degrees(lat), math.degrees(lon))
         if h is None or math.isnan(item.z_alt_m):
             return tgt
-        return dataclasses.replace(tgt, alt_m=float(h) + item.z_alt_m)
+        return tgt._replace(alt_m=float(h) + item.z_alt_m)
 
     @staticmethod
     def _course(v_ned, heading_rad: float) -> float:
@@ -1036,7 +1039,9 @@ class MissionSequencer:
                     self._next_wp = (it.seq, b)
         if self._next_wp:
             b = self._next_wp[1]
-            self._next_min = min(self._next_min, math.hypot(b[0] - p_ne[0], b[1] - p_ne[1]))
+            d = math.hypot(b[0] - p_ne[0], b[1] - p_ne[1])
+            if d < self._next_min:               # min(), spelt out (control/pid.py)
+                self._next_min = d
 
     def _takeoff(self, t_us, item, p_ne, heading_rad, alt_m) -> NavTarget | None:
         if self._takeoff_heading is None:
@@ -1140,26 +1145,28 @@ class MissionSequencer:
         """Fly the leg A->B: plan its join, fly the join, then the leg; None once B is
         reached (within ``accept`` of it in any phase)."""
         dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        if dist <= accept and not self._joined:
+        joined = self._joined
+        if dist <= accept and not joined:
             return None   # already there when the item starts: counts at once
-        if length > 1e-3:
-            tn, te = (b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length
-            along = (p_ne[0] - a_ne[0]) * tn + (p_ne[1] - a_ne[1]) * te
-            xt = (p_ne[0] - a_ne[0]) * -te + (p_ne[1] - a_ne[1]) * tn
-        else:
-            along = xt = 0.0
         if self._carry_path and self._path and dist <= accept:
             return None   # passed within its radius on an arc carried past it
-        if not self._joined and self._skip_join and self._path and length > 1e-3 \
-                and not self._path_ends_on(a_ne, b_ne, 3.0 + self._through_arcs.get(self._path[-1], 0.0)) \
-                and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
-            # an arc carried past items counted at once (a cluster of waypoints within
-            # each other's radius) that turns onto another line than this leg's: the
-            # leg is joined by a planned turn instead of left to L1 at a large angle
-            self._path = []
-            self._skip_join = self._carry_path = False
-        if not self._joined:
+        if not joined:
+            # the leg's first step: where the vehicle is on it decides how it is joined
+            length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            if length > 1e-3:
+                tn, te = (b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length
+                along = (p_ne[0] - a_ne[0]) * tn + (p_ne[1] - a_ne[1]) * te
+                xt = (p_ne[0] - a_ne[0]) * -te + (p_ne[1] - a_ne[1]) * tn
+            else:
+                along = xt = 0.0
+            if self._skip_join and self._path and length > 1e-3 \
+                    and not self._path_ends_on(a_ne, b_ne, 3.0 + self._through_arcs.get(self._path[-1], 0.0)) \
+                    and not (self._carry_path and _passes_within(self._path, b_ne, accept)):
+                # an arc carried past items counted at once (a cluster of waypoints within
+                # each other's radius) that turns onto another line than this leg's: the
+                # leg is joined by a planned turn instead of left to L1 at a large angle
+                self._path = []
+                self._skip_join = self._carry_path = False
             self._joined = True
             if length <= 1e-3:
                 # a point on the one before (a duplicate, a jump back to it): its finish
@@ -1244,7 +1251,9 @@ class MissionSequencer:
         if abs(dh) < 1e-3:
             return alt_b
         slope = self._steepest_slope(dh, a_ne, b_ne)
-        self._join_alt_now = self._leg_start_alt + math.copysign(min(abs(dh), slope * self._join_run), dh)
+        rise = slope * self._join_run
+        rise = rise if rise < abs(dh) else abs(dh)     # min(), spelt out (control/pid.py)
+        self._join_alt_now = self._leg_start_alt + math.copysign(rise, dh)
         return self._join_alt_now
 
     def _join_radii(self):
@@ -1374,7 +1383,8 @@ class MissionSequencer:
         return True
 
     def _waypoint(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
-        b_ne, alt_b = self._resolve(item, p_ne, alt_m)
+        nav_pos = self._nav_pos               # (resolved at the item's first step)
+        b_ne, alt_b = nav_pos if nav_pos is not None else self._resolve(item, p_ne, alt_m)
         d = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         if d < self._b_min:                  # min(), spelt out (control/pid.py)
             self._b_min = d
@@ -1427,12 +1437,11 @@ class MissionSequencer:
             return None
         if r != "leg":
             return r
-        a_ne = self._leg_start
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        # (_leg moves neither A nor B: the leg's length and the distance to B stand)
         along = 0.0
         if length > 1e-3:
             along = ((p_ne[0] - a_ne[0]) * (b_ne[0] - a_ne[0]) + (p_ne[1] - a_ne[1]) * (b_ne[1] - a_ne[1])) / length
-        dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
+        dist = d
         alt, steep = self._slope_alt(t_us, item.seq, a_ne, b_ne, along, length, d_turn, alt_b)
         # the acceptance radius only stands in for the arc where there is none
         if along >= length - d_turn or (arc is None and dist <= min(accept, 0.5 * length)):
@@ -1511,7 +1520,12 @@ class MissionSequencer:
             self._leg_along0 = min(max(along, 0.0), max(length - d_turn, 0.0))
         ramp = length - d_turn - self._leg_along0
         dh = alt_b - self._leg_start_alt
-        frac = min(max((along - self._leg_along0) / ramp, 0.0), 1.0) if ramp > 1e-3 else 1.0
+        if ramp > 1e-3:
+            frac = (along - self._leg_along0) / ramp
+            frac = 0.0 if 0.0 > frac else frac   # min(max(., 0), 1), spelt out (control/pid.py)
+            frac = 1.0 if 1.0 < frac else frac
+        else:
+            frac = 1.0
         alt = self._leg_start_alt + dh * frac
         if abs(dh) > 0.5 and length > 1e-3:
             slope = self._steepest_slope(dh, a_ne, b_ne)
@@ -1696,8 +1710,8 @@ class MissionSequencer:
                 return self._go_around_climb(t_us, item, p_ne, alt_m)
             r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
-                return dataclasses.replace(r, airspeed_mps=land.airspeed_mps, land="approach",
-                                           alt_m=land.glide_demand(land.along(p_ne)))
+                return r._replace(airspeed_mps=land.airspeed_mps, land="approach",
+                                  alt_m=land.glide_demand(land.along(p_ne)))
         alt, climb = land.step(t_us, p_ne, alt_m, self._v_ned, self._airspeed_mps)
         if land.phase != "approach" and land.flare_info is not None and land.flare_us == t_us:
             h, s, v, d = land.flare_info
