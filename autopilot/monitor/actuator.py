@@ -144,7 +144,7 @@ class MomentBalance:
                 Pp = P @ ph
                 g = Pp / (1.0 + ph @ Pp)
                 self.c = self.c + g * (dd - ph @ self.c)
-                self.P = P - np.outer(g, Pp)
+                self.P = P - np.multiply.outer(g, Pp)   # (np.outer, without its wrapper)
                 self.n += 1
         if self.ready:
             z = float(phi @ self.c) + z_dyn
@@ -305,9 +305,10 @@ class ElevatorIdentifier:
             qw, qx, qy, qz = (float(c) for c in nav.q_nb)
             c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
             n = 1.0 / max(c_bank, 0.5)
+        _p, q_b, r_b = nav.omega_b.tolist()     # body rates (bias-corrected)
         if q is None:
-            q = float(nav.omega_b[1])  # pitch rate (bias-corrected)
-        sample = self.balance.step(t_us, V, throttle, d, n, q, float(nav.omega_b[2]))
+            q = q_b                    # pitch rate
+        sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)
         if sample is None:
             return
         z, dcmd = sample

@@ -452,28 +452,34 @@ class FaultMonitor:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
         sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
-        el.suspend(sensor_fault)
+        # (suspend(on) with the state it has changes nothing: asked on a change only)
+        if el.suspended != sensor_fault:
+            el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
+        learning = flying and bool(nav_state.healthy)
         if len(controls) >= 4:
             for ident in self._act_idents:
-                ident.suspend(sensor_fault)
-                ident.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
-        el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
+                if ident.suspended != sensor_fault:
+                    ident.suspend(sensor_fault)
+                ident.step(t_us, nav_state, controls, learning, f)
+        el.step(t_us, nav_state, float(controls[1]), learning,
                 float(controls[3]) if len(controls) > 3 else 0.0,
                 None if f is None else -f[2] / G0)
-        t_s = t_us * 1e-6
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
+        t_s = t_us * 1e-6
         if not self.detected:
-            r_el = el.ratio / self.p["FDI_ACT_THR"]
-            if r_el > self.peaks.get("elevator", 0.0):
-                self.peaks["elevator"] = r_el
+            act_thr = self.p["FDI_ACT_THR"]
+            peaks = self.peaks
+            r_el = el.ratio / act_thr
+            if r_el > peaks.get("elevator", 0.0):
+                peaks["elevator"] = r_el
             best, r_best = None, 0.0
             for ident in self._act_idents:
                 for name, ax in ident.axes.items():
-                    r = ax.ratio / self.p["FDI_ACT_THR"]
-                    if r > self.peaks.get(name, 0.0):
-                        self.peaks[name] = r
+                    r = ax.ratio / act_thr
+                    if r > peaks.get(name, 0.0):
+                        peaks[name] = r
                     if r > r_best:
                         best, r_best = name, r
             # the navigation quiet (asked only when a balance is over its threshold)
