@@ -96,10 +96,17 @@ def test_the_electric_rotor_kernels_are_the_laws_bit_for_bit():
         assert _same(M.rotor_throttle(w, V), rotor_throttle(w, V))
         assert _same(M.prop_throttle(w, V, rho), prop_throttle(w, V, rho))
         assert _same(M.prop_step(w, thr, V, rho, dt), prop_step(w, thr, V, rho, dt))
-        w2, l0, l1, a = float(rng.uniform(0.0, 1500.0)), float(rng.uniform()), float(rng.uniform()), dt / (0.25 + dt)
-        got = throttle._prop_lowpass(l0, l1, a, w, w2, V, rho, M._rotor, *tabs)
-        assert _same(got[0], l0 + a * (prop_throttle(w, V, rho) - l0))
-        assert _same(got[1], l1 + a * (prop_throttle(w2, V, rho) - l1))
+        # the residual's step on the measured speed w: the model rotor w2 on the command
+        w2, l0, l1 = float(rng.uniform(0.0, 1500.0)), float(rng.uniform()), float(rng.uniform())
+        got = throttle._prop_advance(w2, l0, l1, thr, w, V, rho, dt, M._rotor, *tabs)
+        a = dt / (0.25 + dt)
+        w2 = prop_step(w2, thr, V, rho, dt)
+        assert _same(got[0], w2)
+        assert _same(got[1], l0 + a * (prop_throttle(w, V, rho) - l0))
+        assert _same(got[2], l1 + a * (prop_throttle(w2, V, rho) - l1))
+        got = throttle._rotor_advance(w, thr, V, dt, M._rotor)
+        w2 = rotor_step(w, thr, V, dt) if dt > 0.0 else w
+        assert _same(got[0], w2) and _same(got[1], rotor_throttle(w2, V))
 
 
 def test_the_table_kernel_is_the_interpolation_with_bisect():

@@ -795,7 +795,8 @@ class FaultMonitor:
         P = nav.P
         # layout.GBIAS.start, layout.ABIAS.start (kept here to read P without importing nav)
         idx = (12, 13, 14, 9, 10, 11)[:len(b)]
-        var = [float(P[i, i]) for i in idx]
+        diag = P.diagonal().tolist()
+        var = [diag[i] for i in idx]
         ring = self._bias_ring
         ring.append((t_us, b, var))
         if len(ring) <= self.bias_n:

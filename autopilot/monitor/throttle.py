@@ -643,13 +643,27 @@ def _prop_step(w, throttle, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
 
 
 @kernel
-def _prop_lowpass(l0, l1, a, w_meas, w_model, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
-    """One step of the two first-order low-passes (gain ``a``, values ``l0``, ``l1``) of
-    the propeller's throttle (:func:`_prop_throttle`) at the measured speed and at the
-    model rotor's: the two new values."""
-    l0 += a * (_prop_throttle(w_meas, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l0)
-    l1 += a * (_prop_throttle(w_model, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l1)
-    return l0, l1
+def _rotor_advance(w, throttle, V, dt, rotor):
+    """The rotor's speed after ``dt`` seconds at ``throttle`` (:func:`_rotor_step`; not
+    moved where dt <= 0) and the throttle whose steady speed that is
+    (:func:`_rotor_throttle`): (w, throttle)."""
+    if dt > 0.0:
+        w = _rotor_step(w, throttle, V, dt, rotor)
+    return w, _rotor_throttle(w, V, rotor)
+
+
+@kernel
+def _prop_advance(w_model, l_meas, l_model, throttle, w_meas, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
+    """One step of the rotor's residual on its measured speed (ThrottleIdentifier.step):
+    the model rotor ``w_model`` advanced ``dt`` seconds on the command ``throttle``
+    (:func:`_prop_step`), and the first-order low-passes over RPM_TAU_S of the
+    propeller's throttle (:func:`_prop_throttle`) at the measured speed (``l_meas``)
+    and at the model's (``l_model``): the three new values."""
+    w_model = _prop_step(w_model, throttle, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k)
+    a = dt / (RPM_TAU_S + dt)
+    l_meas += a * (_prop_throttle(w_meas, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l_meas)
+    l_model += a * (_prop_throttle(w_model, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l_model)
+    return w_model, l_meas, l_model
 
 
 class ThrottleIdentifier:
@@ -731,11 +745,9 @@ class ThrottleIdentifier:
             rotor = m._rotor
             if self._lp is None:
                 self._w = _rotor_speed(thr, V, rotor)
+                thr = _rotor_throttle(self._w, V, rotor)
             else:
-                dt = (t_us - self._t_us) * 1e-6
-                if dt > 0.0:
-                    self._w = _rotor_step(self._w, thr, V, dt, rotor)
-            thr = _rotor_throttle(self._w, V, rotor)
+                self._w, thr = _rotor_advance(self._w, thr, V, (t_us - self._t_us) * 1e-6, rotor)
             # the rotor's speed measured: the throttle its propeller takes, against the
             # model rotor's (prop_step) on the command, on the true airspeed and the
             # density of the standard atmosphere at the height flown
@@ -760,12 +772,9 @@ class ThrottleIdentifier:
                 else:
                     dt = (t_us - self._t_us) * 1e-6
                     if dt > 0.0:
-                        tabs = m._cp_tables
-                        self._wr = _prop_step(self._wr, float(controls[3]), vt, rho, dt, rotor, *tabs)
-                        a = dt / (RPM_TAU_S + dt)
                         lpr = self._lpr
-                        lpr[0], lpr[1] = _prop_lowpass(lpr[0], lpr[1], a, self._rpm, self._wr, vt, rho,
-                                                       rotor, *tabs)
+                        self._wr, lpr[0], lpr[1] = _prop_advance(self._wr, lpr[0], lpr[1], float(controls[3]),
+                                                                 self._rpm, vt, rho, dt, rotor, *m._cp_tables)
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
                                      else self._thrust_axis)
@@ -790,7 +799,11 @@ class ThrottleIdentifier:
         if dt <= 0.0:
             return
         a = dt / (BAL_TAU_S + dt)
-        self._lp = lp = [v + a * (xi - v) for v, xi in zip(self._lp, x)]
+        # lp + a (x - lp), each signal (written out: lateral.LateralIdentifier.step)
+        l0, l1, l2, l3, l4, l5, l6, l7 = self._lp
+        x0, x1, x2, x3, x4, x5, x6, x7 = x
+        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
+                         l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7)]
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
