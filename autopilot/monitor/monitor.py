@@ -464,7 +464,7 @@ class FaultMonitor:
                 ident.step(t_us, nav_state, controls, learning, f)
         el.step(t_us, nav_state, float(controls[1]), learning,
                 float(controls[3]) if len(controls) > 3 else 0.0,
-                None if f is None else -f[2] / G0)
+                None if f is None else -float(f[2]) / G0)
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
         t_s = t_us * 1e-6
@@ -842,6 +842,8 @@ class FaultMonitor:
         det_over = []                  # (ratio, channel) over the detection threshold
         heard = getattr(self.nav, "heard_us", None)
         until = 1 << 62                # the earliest time a channel may fall silent
+        # the largest statistic per channel while no fault is detected (self.peaks)
+        peaks = None if self.detected else self.peaks
         for ch in self._aiding_list:
             last = ch.last_us
             # silent: it had been updating regularly (SILENT_RUN updates in a row) and
@@ -873,6 +875,8 @@ class FaultMonitor:
                 ratio = ch.rdet
                 ir = ch.riso
             ch.ratio = ratio
+            if peaks is not None and ratio > peaks.get(ch.name, 0.0):
+                peaks[ch.name] = ratio
             if ch.silent or ch.refill:
                 busy = True
             if ratio > 1.0 and ratio > over_ratio:
@@ -888,6 +892,8 @@ class FaultMonitor:
         self._eval_armed = armed
         self._eval_until_us = -1 if busy else until
         for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
+            if peaks is not None and r > peaks.get(name, 0.0):
+                peaks[name] = r
             if r > 1.0 and r > over_ratio:
                 over, over_ratio = name, r
             if r > iso_max:
@@ -898,14 +904,6 @@ class FaultMonitor:
             if r > iso_ratio:
                 iso, iso_ratio = name, r
         self._iso_max = iso_max
-        if not self.detected:
-            peaks = self.peaks
-            for ch in self._aiding_list:
-                if ch.ratio > peaks.get(ch.name, 0.0):
-                    peaks[ch.name] = ch.ratio
-            for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
-                if r > peaks.get(name, 0.0):
-                    peaks[name] = r
         t_s = t_us * 1e-6
         if over is not None and not self.detected:
             self.detected = True
