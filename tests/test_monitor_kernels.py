@@ -148,3 +148,16 @@ def test_a_singular_lateral_solve_raises_as_numpys():
     A = np.array(((1.0, 2.0, 3.0), (2.0, 4.0, 6.0), (0.0, 1.0, 1.0)))
     with pytest.raises(np.linalg.LinAlgError), np.errstate(invalid="ignore"):
         lateral._solve(A, np.ones(3))
+
+
+def test_dot_is_the_matmul_of_the_balances_bit_for_bit():
+    """The balances' least squares and stage 2 call ``a.dot(b)`` for ``a @ b`` (the same
+    BLAS routine without the matmul ufunc's set-up): the same numbers at their sizes."""
+    rng = np.random.default_rng(9)
+    for _ in range(20000):
+        n = (2, 3)[int(rng.integers(2))]
+        P = rng.standard_normal((n, n)) * rng.choice((1e-6, 1.0, 1e4))
+        h, c = rng.standard_normal(n), rng.standard_normal(n)
+        assert np.array_equal(P.dot(h), P @ h)
+        assert h.dot(c) == h @ c
+        assert h.dot(P).dot(h) == h @ P @ h

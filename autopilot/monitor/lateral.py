@@ -366,7 +366,8 @@ class _Axis:
         """``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
         raw = z - d
-        zc = z - float(phi @ self.c)            # z with the learnt offset removed
+        # (.dot: the BLAS call of @ without the matmul ufunc's set-up, actuator.MomentBalance.step)
+        zc = z - float(phi.dot(self.c))         # z with the learnt offset removed
         r = zc - d
         self.residual = r
         h = self.hist
@@ -379,14 +380,14 @@ class _Axis:
             while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, rw, ro = q.pop(0)
                 if self.refit:
-                    ro = rw - float(ph @ self.c)        # the residual the fit leaves
+                    ro = rw - float(ph.dot(self.c))        # the residual the fit leaves
                     if learn and not self.fitting:
                         self.fitting = True             # the warm-up's variance, now a prior
                         self.n_var = 0
                 if learn:
-                    Pp = self.P @ ph
-                    g = Pp / (1.0 + ph @ Pp)
-                    self.c = self.c + g * (rw - ph @ self.c)
+                    Pp = self.P.dot(ph)
+                    g = Pp / (1.0 + ph.dot(Pp))
+                    self.c = self.c + g * (rw - ph.dot(self.c))
                     self.P = self.P - np.multiply.outer(g, Pp)   # (np.outer, without its wrapper)
                 self.n_var += 1
                 # the running mean of r^2 with the prior as prior_n samples, then
