@@ -161,3 +161,21 @@ def test_dot_is_the_matmul_of_the_balances_bit_for_bit():
         assert np.array_equal(P.dot(h), P @ h)
         assert h.dot(c) == h @ c
         assert h.dot(P).dot(h) == h @ P @ h
+
+
+def test_the_least_squares_kernel_is_numpys_update_bit_for_bit():
+    """actuator.rls_update against the update as it was written in numpy: g = P phi /
+    (1 + phi^T P phi), c + g (y - phi^T c), P - outer(g, P phi)."""
+    from autopilot.monitor.actuator import rls_update
+    rng = np.random.default_rng(4)
+    for _ in range(20000):
+        n = (2, 3)[int(rng.integers(2))]
+        A = rng.standard_normal((n, n))
+        P = A @ A.T * rng.choice((1e-4, 1.0, 1e4))
+        c, ph, y = rng.standard_normal(n), rng.standard_normal(n), float(rng.standard_normal())
+        Pp = P.dot(ph)
+        g = Pp / (1.0 + ph @ Pp)
+        c_ref = c + g * (y - ph @ c)
+        P_ref = P - np.outer(g, Pp)
+        c_new, P_new = rls_update(c, P, Pp, float(1.0 + ph.dot(Pp)), float(y - ph.dot(c)))
+        assert np.array_equal(c_new, c_ref) and np.array_equal(P_new, P_ref)

@@ -25,6 +25,8 @@ import math
 
 import numpy as np
 
+from autopilot.jit import kernel
+
 from .stats import WindowChi2, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
@@ -61,6 +63,25 @@ RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
                                 # with it the healthy residual is 0.0008 rad sd, 0.005 at most
                                 # (default mission seed 1), 0.013 rms in the worst 5 s of
                                 # moderate turbulence (false_alarms.toml's first 16 trials)
+
+
+@kernel
+def rls_update(c, P, Pp, s, e):
+    """One step of recursive least squares, the products with the regressor phi given
+    (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose sums this
+    does not redo) and the prediction error ``e = y - phi^T c``: the gain
+    ``g = Pp / s``, then ``c + g e`` and ``P - g Pp^T`` (new arrays)."""
+    n = c.shape[0]
+    g = np.empty(n)
+    c_new = np.empty(n)
+    P_new = np.empty((n, n))
+    for i in range(n):
+        g[i] = Pp[i] / s
+        c_new[i] = c[i] + g[i] * e
+    for i in range(n):
+        for j in range(n):
+            P_new[i, j] = P[i, j] - g[i] * Pp[j]
+    return c_new, P_new
 
 
 class MomentBalance:
@@ -145,13 +166,11 @@ class MomentBalance:
             q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, dd = q_.pop(0)
-                P = self.P
                 # (.dot: the BLAS call of @, without the matmul ufunc's set-up, which cost
                 # twice the product at these sizes; the same routine, the same result)
-                Pp = P.dot(ph)
-                g = Pp / (1.0 + ph.dot(Pp))
-                self.c = self.c + g * (dd - ph.dot(self.c))
-                self.P = P - np.multiply.outer(g, Pp)   # (np.outer, without its wrapper)
+                Pp = self.P.dot(ph)
+                self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
+                                            float(dd - ph.dot(self.c)))
                 self.n += 1
         if self.ready:
             z = float(phi.dot(self.c)) + z_dyn

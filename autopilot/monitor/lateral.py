@@ -60,7 +60,7 @@ import numpy as np
 from numpy.linalg._umath_linalg import solve1 as _solve1
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
-                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist)
+                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist, rls_update)
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
@@ -386,9 +386,8 @@ class _Axis:
                         self.n_var = 0
                 if learn:
                     Pp = self.P.dot(ph)
-                    g = Pp / (1.0 + ph.dot(Pp))
-                    self.c = self.c + g * (rw - ph.dot(self.c))
-                    self.P = self.P - np.multiply.outer(g, Pp)   # (np.outer, without its wrapper)
+                    self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
+                                                float(rw - ph.dot(self.c)))
                 self.n_var += 1
                 # the running mean of r^2 with the prior as prior_n samples, then
                 # exponentially weighted over RES_TAU_S

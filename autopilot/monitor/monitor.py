@@ -788,10 +788,13 @@ class FaultMonitor:
             return
         self._bias_next_us = t_us + _BIAS_PERIOD_US
         nav = self.nav
-        if not hasattr(nav, "gyro_bias"):
+        # (each read of the filter's bias properties builds an array: read once)
+        bg = getattr(nav, "gyro_bias", None)
+        if bg is None:
             return
-        acc = self._acc_on and hasattr(nav, "accel_bias")
-        b = nav.gyro_bias.tolist() + (nav.accel_bias.tolist() if acc else [])
+        ba = getattr(nav, "accel_bias", None) if self._acc_on else None
+        acc = ba is not None
+        b = bg.tolist() + (ba.tolist() if acc else [])
         P = nav.P
         # layout.GBIAS.start, layout.ABIAS.start (kept here to read P without importing nav)
         idx = (12, 13, 14, 9, 10, 11)[:len(b)]
