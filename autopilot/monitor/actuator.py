@@ -25,6 +25,8 @@ import math
 
 import numpy as np
 
+from autopilot.jit import kernel
+
 from .stats import WindowChi2, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
@@ -61,6 +63,25 @@ RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
                                 # with it the healthy residual is 0.0008 rad sd, 0.005 at most
                                 # (default mission seed 1), 0.013 rms in the worst 5 s of
                                 # moderate turbulence (false_alarms.toml's first 16 trials)
+
+
+@kernel
+def rls_update(c, P, Pp, s, e):
+    """One step of recursive least squares, the products with the regressor phi given
+    (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose sums this
+    does not redo) and the prediction error ``e = y - phi^T c``: the gain
+    ``g = Pp / s``, then ``c + g e`` and ``P - g Pp^T`` (new arrays)."""
+    n = c.shape[0]
+    g = np.empty(n)
+    c_new = np.empty(n)
+    P_new = np.empty((n, n))
+    for i in range(n):
+        g[i] = Pp[i] / s
+        c_new[i] = c[i] + g[i] * e
+    for i in range(n):
+        for j in range(n):
+            P_new[i, j] = P[i, j] - g[i] * Pp[j]
+    return c_new, P_new
 
 
 class MomentBalance:
@@ -124,7 +145,12 @@ class MomentBalance:
         if dt <= 0.0:
             return None
         a = dt / (BAL_TAU_S + dt)
-        self._lp = lp = [v + a * (xi - v) for v, xi in zip(self._lp, x)]
+        # lp + a (x - lp), each signal (written out: a comprehension costs twice as much,
+        # and this runs at 50 Hz)
+        l0, l1, l2, l3, l4, l5 = self._lp
+        x0, x1, x2, x3, x4, x5 = x
+        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
+                         l4 + a * (x4 - l4), l5 + a * (x5 - l5)]
         if t_us < self._next_us:
             return None
         self._next_us = t_us + BAL_PERIOD_US
@@ -140,14 +166,14 @@ class MomentBalance:
             q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, dd = q_.pop(0)
-                P = self.P
-                Pp = P @ ph
-                g = Pp / (1.0 + ph @ Pp)
-                self.c = self.c + g * (dd - ph @ self.c)
-                self.P = P - np.outer(g, Pp)
+                # (.dot: the BLAS call of @, without the matmul ufunc's set-up, which cost
+                # twice the product at these sizes; the same routine, the same result)
+                Pp = self.P.dot(ph)
+                self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
+                                            float(dd - ph.dot(self.c)))
                 self.n += 1
         if self.ready:
-            z = float(phi @ self.c) + z_dyn
+            z = float(phi.dot(self.c)) + z_dyn
             h = self.hist
             h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:
@@ -305,9 +331,11 @@ class ElevatorIdentifier:
             qw, qx, qy, qz = (float(c) for c in nav.q_nb)
             c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
             n = 1.0 / max(c_bank, 0.5)
+        w = nav.omega_b                # body rates, bias-corrected (an array; a tuple in some tests)
+        _p, q_b, r_b = w.tolist() if isinstance(w, np.ndarray) else (0.0, float(w[1]), float(w[2]))
         if q is None:
-            q = float(nav.omega_b[1])  # pitch rate (bias-corrected)
-        sample = self.balance.step(t_us, V, throttle, d, n, q, float(nav.omega_b[2]))
+            q = q_b                    # pitch rate
+        sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)
         if sample is None:
             return
         z, dcmd = sample
@@ -340,7 +368,7 @@ class ElevatorIdentifier:
         # P = P + Lambda Q (2.40), Lambda from the innovations' excess (2.35-2.39)
         H = np.array([dcmd, 1.0])
         Pg = self.P_gamma
-        e = z - H @ self.gamma
+        e = z - H.dot(self.gamma)          # (.dot: MomentBalance.step)
         e2 = self._e2
         e2.append(e * e)
         if len(e2) > self.win.M:
@@ -349,7 +377,7 @@ class ElevatorIdentifier:
         if self.adapt and len(e2) >= self.win.M:
             C = sum(e2) / len(e2)
             hqh = self.q_gamma * (dcmd * dcmd + 1.0)
-            lam = min(max(1.0, (C - float(H @ Pg @ H) - R) / hqh), 1e6)
+            lam = min(max(1.0, (C - float(H.dot(Pg).dot(H)) - R) / hqh), 1e6)
         self.lam = lam
         # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
         self.gamma, self.P_gamma = stage2_update(self.gamma, Pg, H.reshape(1, 2), np.array((e,)),

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -73,7 +74,7 @@ class PitchAero:
     de_per_rad: float = 1.0        # the surface's deflection per autopilot radian (the
                                    # normalised command times MAX_DEFLECTION_RAD)
 
-    @property
+    @cached_property
     def D(self) -> float:
         """The elevator's moment per autopilot radian less its lift's through alpha,
         ``Cmde wash g - (Cma / CLa) CLde g`` (g = :attr:`de_per_rad`)."""

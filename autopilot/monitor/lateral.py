@@ -54,14 +54,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+from numpy.linalg._umath_linalg import solve1 as _solve1
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
-                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist)
+                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist, rls_update)
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
+
+
+def _solve(A: np.ndarray, y: np.ndarray) -> list:
+    """``np.linalg.solve(A, y).tolist()`` for one system: the same LAPACK routine
+    (numpy's ``_umath_linalg.solve1``), the same result, without its Python wrapper (its
+    checks and its floating-point error state cost three times LAPACK's solve of 3
+    unknowns, and the balance solves at 10 Hz). Where that gives a NaN (a singular A,
+    which none of the models' is, or a NaN in y) np.linalg.solve is asked instead, and
+    raises or returns as it always did."""
+    x = _solve1(A, y, signature="dd->d").tolist()
+    for v in x:
+        if v != v:
+            return np.linalg.solve(A, y).tolist()
+    return x
 LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
 LAT_RES_PRIOR_RAD = 0.02       # that deviation before any sample is learnt [rad]
 LAT_RES_PRIOR_N = 50           # the warm-up's mean square, once the offset fit starts, is
@@ -160,14 +176,11 @@ class LateralAero:
         N = self.Jz * rd - self.Jxz * (pd - q * r) + (self.Jy - self.Jx) * p * q
         if self._simple:
             # the Aerosonde's (bit for bit as before)
-            A = np.array(((self.CY_b, 0.0, self.CY_dr),
-                          (self.Cl_b, self.Cl_da, self.Cl_dr),
-                          (self.Cn_b, self.Cn_da, self.Cn_dr)))
             y = np.array((self.mass_kg * a_y / qS,
                           L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
                           (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-            _beta, da, dr = np.linalg.solve(A, y)
-            return float(da), float(-dr)
+            _beta, da, dr = _solve(self._A_simple, y)
+            return da, -dr
         # the rate derivatives at the angle of attack the measured normal force gives
         al = 0.0
         if a_z is not None and self.CLa > 0.0:
@@ -190,18 +203,26 @@ class LateralAero:
         y = np.array((self.mass_kg * a_y / qS - cy_rates,
                       L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
                       (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates))
-        beta, sa, sr = np.linalg.solve(A, y)
+        beta, sa, sr = _solve(A, y)
         if self.CD_beta:
             # the sideslip's own drag (CD_beta |beta|): its side part -CD_beta |beta| beta,
             # taken at the sideslip first solved, and solved again
-            e = self.CD_beta * abs(float(beta))
+            e = self.CD_beta * abs(beta)
             A[0, 0] -= e
             A[1, 0] -= zb * e
             A[2, 0] += xb * e
-            _beta, sa, sr = np.linalg.solve(A, y)
+            _beta, sa, sr = _solve(A, y)
         # the surfaces' deflections back to the autopilot's rad
         da = sa / (self.da_right if sa >= 0.0 else self.da_left)
         return float(da), float(-sr / self.dr_gain)
+
+    @cached_property
+    def _A_simple(self) -> np.ndarray:
+        """The Aerosonde's (:attr:`_simple`) matrix of the balance in (beta, da, dr_book):
+        its coefficients alone, the same at every sample."""
+        return np.array(((self.CY_b, 0.0, self.CY_dr),
+                         (self.Cl_b, self.Cl_da, self.Cl_dr),
+                         (self.Cn_b, self.Cn_da, self.Cn_dr)))
 
     @property
     def _simple(self) -> bool:
@@ -345,7 +366,8 @@ class _Axis:
         """``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
         raw = z - d
-        zc = z - float(phi @ self.c)            # z with the learnt offset removed
+        # (.dot: the BLAS call of @ without the matmul ufunc's set-up, actuator.MomentBalance.step)
+        zc = z - float(phi.dot(self.c))         # z with the learnt offset removed
         r = zc - d
         self.residual = r
         h = self.hist
@@ -358,15 +380,14 @@ class _Axis:
             while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, rw, ro = q.pop(0)
                 if self.refit:
-                    ro = rw - float(ph @ self.c)        # the residual the fit leaves
+                    ro = rw - float(ph.dot(self.c))        # the residual the fit leaves
                     if learn and not self.fitting:
                         self.fitting = True             # the warm-up's variance, now a prior
                         self.n_var = 0
                 if learn:
-                    Pp = self.P @ ph
-                    g = Pp / (1.0 + ph @ Pp)
-                    self.c = self.c + g * (rw - ph @ self.c)
-                    self.P = self.P - np.outer(g, Pp)
+                    Pp = self.P.dot(ph)
+                    self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
+                                                float(rw - ph.dot(self.c)))
                 self.n_var += 1
                 # the running mean of r^2 with the prior as prior_n samples, then
                 # exponentially weighted over RES_TAU_S
@@ -425,16 +446,18 @@ class LateralIdentifier:
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             return
-        w = nav.omega_b
+        w = nav.omega_b                # an array (NavState), a tuple in some tests
+        w0, w1, w2 = w.tolist() if isinstance(w, np.ndarray) else (float(w[0]), float(w[1]), float(w[2]))
         if self._nav is not None:
             ba = getattr(self._nav, "accel_bias", None)
             if ba is not None:
                 f_b = (float(f_b[0]) + float(ba[0]), float(f_b[1]) + float(ba[1]), float(f_b[2]) + float(ba[2]))
-        x = [float(w[0]), float(w[1]), float(w[2]), float(f_b[1]), V,
+        thr = float(controls[3])
+        x = [w0, w1, w2, float(f_b[1]), V,
              float(controls[0]) * MAX_DEFLECTION_RAD, float(controls[2]) * MAX_DEFLECTION_RAD,
-             float(controls[3]) * (V_REF / V) ** 2,
-             (-self.model.prop_momentum(float(controls[3]), V) * float(w[1]) if self.model.prop_ixx > 0.0
-              else 0.0 if self.prop is None else -self.prop.prop_momentum(float(controls[3]), V) * float(w[1])),
+             thr * (V_REF / V) ** 2,
+             (-self.model.prop_momentum(thr, V) * w1 if self.model.prop_ixx > 0.0
+              else 0.0 if self.prop is None else -self.prop.prop_momentum(thr, V) * w1),
              float(f_b[2])]
         if self._lp is None:
             self._lp, self._t_us = list(x), t_us
@@ -447,7 +470,13 @@ class LateralIdentifier:
         if dt <= 0.0:
             return
         a = dt / (BAL_TAU_S + dt)
-        self._lp = lp = [v + a * (xi - v) for v, xi in zip(self._lp, x)]
+        # lp + a (x - lp), each signal (written out: a comprehension over the ten costs
+        # twice as much, and this runs at 50 Hz)
+        l0, l1, l2, l3, l4, l5, l6, l7, l8, l9 = self._lp
+        x0, x1, x2, x3, x4, x5, x6, x7, x8, x9 = x
+        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
+                         l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7),
+                         l8 + a * (x8 - l8), l9 + a * (x9 - l9)]
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US

@@ -452,28 +452,34 @@ class FaultMonitor:
             return
         # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
         sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
-        el.suspend(sensor_fault)
+        # (suspend(on) with the state it has changes nothing: asked on a change only)
+        if el.suspended != sensor_fault:
+            el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
+        learning = flying and bool(nav_state.healthy)
         if len(controls) >= 4:
             for ident in self._act_idents:
-                ident.suspend(sensor_fault)
-                ident.step(t_us, nav_state, controls, flying and bool(nav_state.healthy), f)
-        el.step(t_us, nav_state, float(controls[1]), flying and bool(nav_state.healthy),
+                if ident.suspended != sensor_fault:
+                    ident.suspend(sensor_fault)
+                ident.step(t_us, nav_state, controls, learning, f)
+        el.step(t_us, nav_state, float(controls[1]), learning,
                 float(controls[3]) if len(controls) > 3 else 0.0,
-                None if f is None else -f[2] / G0)
-        t_s = t_us * 1e-6
+                None if f is None else -float(f[2]) / G0)
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
+        t_s = t_us * 1e-6
         if not self.detected:
-            r_el = el.ratio / self.p["FDI_ACT_THR"]
-            if r_el > self.peaks.get("elevator", 0.0):
-                self.peaks["elevator"] = r_el
+            act_thr = self.p["FDI_ACT_THR"]
+            peaks = self.peaks
+            r_el = el.ratio / act_thr
+            if r_el > peaks.get("elevator", 0.0):
+                peaks["elevator"] = r_el
             best, r_best = None, 0.0
             for ident in self._act_idents:
                 for name, ax in ident.axes.items():
-                    r = ax.ratio / self.p["FDI_ACT_THR"]
-                    if r > self.peaks.get(name, 0.0):
-                        self.peaks[name] = r
+                    r = ax.ratio / act_thr
+                    if r > peaks.get(name, 0.0):
+                        peaks[name] = r
                     if r > r_best:
                         best, r_best = name, r
             # the navigation quiet (asked only when a balance is over its threshold)
@@ -782,14 +788,18 @@ class FaultMonitor:
             return
         self._bias_next_us = t_us + _BIAS_PERIOD_US
         nav = self.nav
-        if not hasattr(nav, "gyro_bias"):
+        # (each read of the filter's bias properties builds an array: read once)
+        bg = getattr(nav, "gyro_bias", None)
+        if bg is None:
             return
-        acc = self._acc_on and hasattr(nav, "accel_bias")
-        b = nav.gyro_bias.tolist() + (nav.accel_bias.tolist() if acc else [])
+        ba = getattr(nav, "accel_bias", None) if self._acc_on else None
+        acc = ba is not None
+        b = bg.tolist() + (ba.tolist() if acc else [])
         P = nav.P
         # layout.GBIAS.start, layout.ABIAS.start (kept here to read P without importing nav)
         idx = (12, 13, 14, 9, 10, 11)[:len(b)]
-        var = [float(P[i, i]) for i in idx]
+        diag = P.diagonal().tolist()
+        var = [diag[i] for i in idx]
         ring = self._bias_ring
         ring.append((t_us, b, var))
         if len(ring) <= self.bias_n:
@@ -835,6 +845,8 @@ class FaultMonitor:
         det_over = []                  # (ratio, channel) over the detection threshold
         heard = getattr(self.nav, "heard_us", None)
         until = 1 << 62                # the earliest time a channel may fall silent
+        # the largest statistic per channel while no fault is detected (self.peaks)
+        peaks = None if self.detected else self.peaks
         for ch in self._aiding_list:
             last = ch.last_us
             # silent: it had been updating regularly (SILENT_RUN updates in a row) and
@@ -866,6 +878,8 @@ class FaultMonitor:
                 ratio = ch.rdet
                 ir = ch.riso
             ch.ratio = ratio
+            if peaks is not None and ratio > peaks.get(ch.name, 0.0):
+                peaks[ch.name] = ratio
             if ch.silent or ch.refill:
                 busy = True
             if ratio > 1.0 and ratio > over_ratio:
@@ -881,6 +895,8 @@ class FaultMonitor:
         self._eval_armed = armed
         self._eval_until_us = -1 if busy else until
         for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
+            if peaks is not None and r > peaks.get(name, 0.0):
+                peaks[name] = r
             if r > 1.0 and r > over_ratio:
                 over, over_ratio = name, r
             if r > iso_max:
@@ -891,14 +907,6 @@ class FaultMonitor:
             if r > iso_ratio:
                 iso, iso_ratio = name, r
         self._iso_max = iso_max
-        if not self.detected:
-            peaks = self.peaks
-            for ch in self._aiding_list:
-                if ch.ratio > peaks.get(ch.name, 0.0):
-                    peaks[ch.name] = ch.ratio
-            for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
-                if r > peaks.get(name, 0.0):
-                    peaks[name] = r
         t_s = t_us * 1e-6
         if over is not None and not self.detected:
             self.detected = True

@@ -105,6 +105,8 @@ from functools import cached_property
 
 import numpy as np
 
+from autopilot.jit import kernel
+
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
                        RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
@@ -392,75 +394,41 @@ class ThrustModel:
         t0, t1 = ts[i - 1], ts[i]
         return us[i - 1] + (us[i] - us[i - 1]) * (thrust - t0) / (t1 - t0 if t1 != t0 else 1e-9)
 
-    def _rpm_line(self, V: float) -> tuple[float, float]:
-        """The steady rotor speed at zero throttle and its rise per unit of throttle at
-        airspeed V [rad/s]."""
+    @cached_property
+    def _rotor(self) -> np.ndarray:
+        """The electric rotor's numbers as its kernels take them (:data:`_ROTOR_FIELDS`)."""
         a, b, c, d = self.rpm
-        k = 2.0 * math.pi / 60.0
-        return (a + c * V) * k, (b + d * V) * k
+        return np.array((self.p_max_w, self.q_max_nm, self.prop_ixx, self.k_idle, a, b, c, d,
+                         self.prop_d_m, self.prop_d_m ** 5), dtype=float)
+
+    @cached_property
+    def _cp_tables(self) -> tuple:
+        """The propeller's C_P(J) and CP_RPM_FACTOR tables as arrays (:func:`_prop_throttle`)."""
+        return tuple(np.array(t, dtype=float) for t in (self.cp_j, self.cp, self.cp_rpm, self.cp_rpm_k))
 
     def rotor_speed(self, throttle: float, V: float) -> float:
         """The rotor's steady speed at that throttle and airspeed [rad/s]."""
-        w0, s = self._rpm_line(V)
-        w = w0 + s * throttle
-        return 0.0 if 0.0 > w else w
+        return _rotor_speed(throttle, V, self._rotor)
 
     def rotor_step(self, w: float, throttle: float, V: float, dt: float) -> float:
-        """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``:
-        ``I dw/dt = Q_motor - Q_prop``. The motor gives ``throttle p_max / w``, at most
-        the speed controller's ``q_max``; the propeller takes the power the steady speeds
-        say it takes at ``w`` (the throttle whose steady speed is ``w``, times p_max: the
-        steady state is the measured one, and about it the time constant is
-        ``I s w / p_max``, 0.5 s, the thrust's lag measured after throttle steps), and
-        at least the unpowered propeller's drag ``k_idle w^2``: at idle the propeller
-        slows below the speed where it gives thrust (on the plant from 6000 to 1500 rpm in
-        40 s of an idle descent), and a throttle opened then gives no thrust until the
-        motor has spun it up again (1.7 s at 0.55 from 1500 rpm at 27 m/s: with the
-        first-order lag alone the throttle read 0.27 low, a false throttle alarm)."""
-        w0, s = self._rpm_line(V)
-        # max and min spelt out, here and below (the builtins' cost: control/pid.py)
-        wq = 1.0 if 1.0 > w else w
-        q_m = self.p_max_w * (0.0 if 0.0 > throttle else throttle) / wq
-        q_m = q_m if q_m < self.q_max_nm else self.q_max_nm
-        q_p = self.p_max_w * (0.0 if 0.0 > w - w0 else w - w0) / s / wq
-        q_idle = self.k_idle * w * w
-        q_p = q_idle if q_idle > q_p else q_p
-        w = w + dt * (q_m - q_p) / self.prop_ixx
-        return 0.0 if 0.0 > w else w
+        """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``
+        (:func:`_rotor_step`)."""
+        return _rotor_step(w, throttle, V, dt, self._rotor)
 
     def rotor_throttle(self, w: float, V: float) -> float:
         """The throttle whose steady rotor speed is ``w`` (0..1): the one whose thrust
         the rotor gives now."""
-        w0, s = self._rpm_line(V)
-        u = (w - w0) / s
-        u = 0.0 if 0.0 > u else u
-        return 1.0 if 1.0 < u else u
+        return _rotor_throttle(w, V, self._rotor)
 
     def prop_throttle(self, w: float, V: float, rho: float = RHO0) -> float:
         """The throttle whose shaft power the propeller takes at speed ``w`` [rad/s], true
-        axial airspeed V [m/s] and air density rho [kg/m^3]: ``P = C_P(J) k(rpm) rho n^3
-        D^5`` over ``p_max_w``, n in rev/s, ``J = V / (n D)`` (JSBSim's FGPropeller,
-        "power required", with the propeller file's C_POWER and CP_RPM_FACTOR tables,
-        held at their ends as JSBSim's tables are). The motor gives ``throttle p_max``
-        (FGElectric), so in steady flight this is the throttle the motor delivers."""
-        n = w / (2.0 * math.pi)
-        if n <= 0.0:
-            return 0.0
-        cp = _interp(V / (n * self.prop_d_m), self.cp_j, self.cp)
-        k = _interp(n * 60.0, self.cp_rpm, self.cp_rpm_k)
-        return cp * k * rho * n * n * n * self.prop_d_m ** 5 / self.p_max_w
+        axial airspeed V [m/s] and air density rho [kg/m^3] (:func:`_prop_throttle`)."""
+        return _prop_throttle(w, V, rho, self._rotor, *self._cp_tables)
 
     def prop_step(self, w: float, throttle: float, V: float, rho: float, dt: float) -> float:
         """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``, the
-        plant's own rotor: ``I dw/dt = Q_motor - Q_prop``, the motor's torque
-        ``throttle p_max / w`` capped by the speed controller at ``q_max`` (the FCS's
-        esc-power-limit-norm), the propeller's ``P / w`` (:meth:`prop_throttle`)."""
-        wq = 1.0 if 1.0 > w else w
-        q_m = self.p_max_w * (0.0 if 0.0 > throttle else throttle) / wq
-        q_m = self.q_max_nm if self.q_max_nm < q_m else q_m
-        q_p = self.p_max_w * self.prop_throttle(w, V, rho) / wq
-        w = w + dt * (q_m - q_p) / self.prop_ixx
-        return 0.0 if 0.0 > w else w
+        plant's own rotor (:func:`_prop_step`)."""
+        return _prop_step(w, throttle, V, rho, dt, self._rotor, *self._cp_tables)
 
     def level_drag(self, V: float) -> float:
         """The drag of level, unaccelerated flight at airspeed V [N]."""
@@ -566,6 +534,138 @@ def _interp(x: float, xs: tuple, ys: tuple) -> float:
     return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - x0) / (x1 - x0)
 
 
+# ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
+# balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor, its fields:
+_P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
+_ROTOR_FIELDS = ("p_max_w", "q_max_nm", "prop_ixx", "k_idle", "rpm a", "rpm b", "rpm c", "rpm d",
+                 "prop_d_m", "prop_d_m ** 5")
+
+
+@kernel
+def _table(x, xs, ys):
+    """Linear interpolation in a table, held at its ends (:func:`_interp` on arrays; the
+    interval found as ``bisect_right`` finds it)."""
+    n = xs.shape[0]
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[n - 1]:
+        return ys[n - 1]
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if x < xs[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    x0, x1 = xs[lo - 1], xs[lo]
+    return ys[lo - 1] + (ys[lo] - ys[lo - 1]) * (x - x0) / (x1 - x0)
+
+
+@kernel
+def _rpm_line(V, rotor):
+    """The steady rotor speed at zero throttle and its rise per unit of throttle at
+    airspeed V [rad/s] (the rpm fit ``a + b throttle + c V + d throttle V``)."""
+    k = 2.0 * math.pi / 60.0
+    return (rotor[_RPM_A] + rotor[_RPM_C] * V) * k, (rotor[_RPM_B] + rotor[_RPM_D] * V) * k
+
+
+@kernel
+def _rotor_speed(throttle, V, rotor):
+    """The rotor's steady speed at that throttle and airspeed [rad/s]."""
+    w0, s = _rpm_line(V, rotor)
+    w = w0 + s * throttle
+    return 0.0 if 0.0 > w else w
+
+
+@kernel
+def _rotor_step(w, throttle, V, dt, rotor):
+    """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``:
+    ``I dw/dt = Q_motor - Q_prop``. The motor gives ``throttle p_max / w``, at most
+    the speed controller's ``q_max``; the propeller takes the power the steady speeds
+    say it takes at ``w`` (the throttle whose steady speed is ``w``, times p_max: the
+    steady state is the measured one, and about it the time constant is
+    ``I s w / p_max``, 0.5 s, the thrust's lag measured after throttle steps), and
+    at least the unpowered propeller's drag ``k_idle w^2``: at idle the propeller
+    slows below the speed where it gives thrust (on the plant from 6000 to 1500 rpm in
+    40 s of an idle descent), and a throttle opened then gives no thrust until the
+    motor has spun it up again (1.7 s at 0.55 from 1500 rpm at 27 m/s: with the
+    first-order lag alone the throttle read 0.27 low, a false throttle alarm)."""
+    w0, s = _rpm_line(V, rotor)
+    p_max, q_max = rotor[_P_MAX], rotor[_Q_MAX]
+    wq = 1.0 if 1.0 > w else w
+    q_m = p_max * (0.0 if 0.0 > throttle else throttle) / wq
+    q_m = q_m if q_m < q_max else q_max
+    q_p = p_max * (0.0 if 0.0 > w - w0 else w - w0) / s / wq
+    q_idle = rotor[_K_IDLE] * w * w
+    q_p = q_idle if q_idle > q_p else q_p
+    w = w + dt * (q_m - q_p) / rotor[_IXX]
+    return 0.0 if 0.0 > w else w
+
+
+@kernel
+def _rotor_throttle(w, V, rotor):
+    """The throttle whose steady rotor speed is ``w`` (0..1)."""
+    w0, s = _rpm_line(V, rotor)
+    u = (w - w0) / s
+    u = 0.0 if 0.0 > u else u
+    return 1.0 if 1.0 < u else u
+
+
+@kernel
+def _prop_throttle(w, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
+    """The throttle whose shaft power the propeller takes at speed ``w`` [rad/s], true
+    axial airspeed V [m/s] and air density rho [kg/m^3]: ``P = C_P(J) k(rpm) rho n^3
+    D^5`` over ``p_max_w``, n in rev/s, ``J = V / (n D)`` (JSBSim's FGPropeller,
+    "power required", with the propeller file's C_POWER and CP_RPM_FACTOR tables,
+    held at their ends as JSBSim's tables are). The motor gives ``throttle p_max``
+    (FGElectric), so in steady flight this is the throttle the motor delivers."""
+    n = w / (2.0 * math.pi)
+    if n <= 0.0:
+        return 0.0
+    c = _table(V / (n * rotor[_D]), cp_j, cp)
+    k = _table(n * 60.0, cp_rpm, cp_rpm_k)
+    return c * k * rho * n * n * n * rotor[_D5] / rotor[_P_MAX]
+
+
+@kernel
+def _prop_step(w, throttle, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
+    """The rotor's speed ``w`` [rad/s] after ``dt`` seconds at ``throttle``, the
+    plant's own rotor: ``I dw/dt = Q_motor - Q_prop``, the motor's torque
+    ``throttle p_max / w`` capped by the speed controller at ``q_max`` (the FCS's
+    esc-power-limit-norm), the propeller's ``P / w`` (:func:`_prop_throttle`)."""
+    p_max, q_max = rotor[_P_MAX], rotor[_Q_MAX]
+    wq = 1.0 if 1.0 > w else w
+    q_m = p_max * (0.0 if 0.0 > throttle else throttle) / wq
+    q_m = q_max if q_max < q_m else q_m
+    q_p = p_max * _prop_throttle(w, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) / wq
+    w = w + dt * (q_m - q_p) / rotor[_IXX]
+    return 0.0 if 0.0 > w else w
+
+
+@kernel
+def _rotor_advance(w, throttle, V, dt, rotor):
+    """The rotor's speed after ``dt`` seconds at ``throttle`` (:func:`_rotor_step`; not
+    moved where dt <= 0) and the throttle whose steady speed that is
+    (:func:`_rotor_throttle`): (w, throttle)."""
+    if dt > 0.0:
+        w = _rotor_step(w, throttle, V, dt, rotor)
+    return w, _rotor_throttle(w, V, rotor)
+
+
+@kernel
+def _prop_advance(w_model, l_meas, l_model, throttle, w_meas, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k):
+    """One step of the rotor's residual on its measured speed (ThrottleIdentifier.step):
+    the model rotor ``w_model`` advanced ``dt`` seconds on the command ``throttle``
+    (:func:`_prop_step`), and the first-order low-passes over RPM_TAU_S of the
+    propeller's throttle (:func:`_prop_throttle`) at the measured speed (``l_meas``)
+    and at the model's (``l_model``): the three new values."""
+    w_model = _prop_step(w_model, throttle, V, rho, dt, rotor, cp_j, cp, cp_rpm, cp_rpm_k)
+    a = dt / (RPM_TAU_S + dt)
+    l_meas += a * (_prop_throttle(w_meas, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l_meas)
+    l_model += a * (_prop_throttle(w_model, V, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k) - l_model)
+    return w_model, l_meas, l_model
+
+
 class ThrottleIdentifier:
     """Throttle fault detection and identification (module docstring); the same
     interface as :class:`.lateral.LateralIdentifier` with the one axis "throttle"."""
@@ -642,13 +742,12 @@ class ThrottleIdentifier:
         elif m.prop_ixx > 0.0:
             # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
             # whose steady speed the rotor has now, as the thrust it asks for
+            rotor = m._rotor
             if self._lp is None:
-                self._w = m.rotor_speed(thr, V)
+                self._w = _rotor_speed(thr, V, rotor)
+                thr = _rotor_throttle(self._w, V, rotor)
             else:
-                dt = (t_us - self._t_us) * 1e-6
-                if dt > 0.0:
-                    self._w = m.rotor_step(self._w, thr, V, dt)
-            thr = m.rotor_throttle(self._w, V)
+                self._w, thr = _rotor_advance(self._w, thr, V, (t_us - self._t_us) * 1e-6, rotor)
             # the rotor's speed measured: the throttle its propeller takes, against the
             # model rotor's (prop_step) on the command, on the true airspeed and the
             # density of the standard atmosphere at the height flown
@@ -673,10 +772,9 @@ class ThrottleIdentifier:
                 else:
                     dt = (t_us - self._t_us) * 1e-6
                     if dt > 0.0:
-                        self._wr = m.prop_step(self._wr, float(controls[3]), vt, rho, dt)
-                        a = dt / (RPM_TAU_S + dt)
-                        self._lpr[0] += a * (m.prop_throttle(self._rpm, vt, rho) - self._lpr[0])
-                        self._lpr[1] += a * (m.prop_throttle(self._wr, vt, rho) - self._lpr[1])
+                        lpr = self._lpr
+                        self._wr, lpr[0], lpr[1] = _prop_advance(self._wr, lpr[0], lpr[1], float(controls[3]),
+                                                                 self._rpm, vt, rho, dt, rotor, *m._cp_tables)
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
                                      else self._thrust_axis)
@@ -701,7 +799,11 @@ class ThrottleIdentifier:
         if dt <= 0.0:
             return
         a = dt / (BAL_TAU_S + dt)
-        self._lp = lp = [v + a * (xi - v) for v, xi in zip(self._lp, x)]
+        # lp + a (x - lp), each signal (written out: lateral.LateralIdentifier.step)
+        l0, l1, l2, l3, l4, l5, l6, l7 = self._lp
+        x0, x1, x2, x3, x4, x5, x6, x7 = x
+        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
+                         l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7)]
         if t_us < self._next_us:
             return
         self._next_us = t_us + BAL_PERIOD_US
