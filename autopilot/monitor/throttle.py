@@ -99,7 +99,6 @@ the stuck-or-weakened test after it (:meth:`ThrottleIdentifier.identified`).
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -523,29 +522,12 @@ def _isa(alt_m: float) -> tuple[float, float, float, float]:
     return RHO0 * r ** 4.25588, P_STD * r ** 5.25588, math.sqrt(1.4 * 287.05 * t), t
 
 
-def _interp(x: float, xs: tuple, ys: tuple) -> float:
-    """Linear interpolation in a table, held at its ends (as JSBSim's tables)."""
-    if x <= xs[0]:
-        return ys[0]
-    if x >= xs[-1]:
-        return ys[-1]
-    i = bisect_right(xs, x)
-    x0, x1 = xs[i - 1], xs[i]
-    return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - x0) / (x1 - x0)
-
-
-# ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
-# balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor, its fields:
-_P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
-_ROTOR_FIELDS = ("p_max_w", "q_max_nm", "prop_ixx", "k_idle", "rpm a", "rpm b", "rpm c", "rpm d",
-                 "prop_d_m", "prop_d_m ** 5")
-
-
-@kernel
-def _table(x, xs, ys):
-    """Linear interpolation in a table, held at its ends (:func:`_interp` on arrays; the
-    interval found as ``bisect_right`` finds it)."""
-    n = xs.shape[0]
+def _interp(x, xs, ys):
+    """Linear interpolation in a table, held at its ends (as JSBSim's tables); the
+    interval found as ``bisect_right`` finds it. ``xs``, ``ys``: tuples (the piston
+    engine's tables, run by the interpreter) or arrays (:func:`_table`, this function
+    compiled for the electric rotor's kernels): one law, one text."""
+    n = len(xs)
     if x <= xs[0]:
         return ys[0]
     if x >= xs[n - 1]:
@@ -559,6 +541,16 @@ def _table(x, xs, ys):
             lo = mid + 1
     x0, x1 = xs[lo - 1], xs[lo]
     return ys[lo - 1] + (ys[lo] - ys[lo - 1]) * (x - x0) / (x1 - x0)
+
+
+_table = kernel(_interp)      # the same law, compiled (the electric rotor's kernels call it)
+
+
+# ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
+# balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor, its fields:
+_P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
+_ROTOR_FIELDS = ("p_max_w", "q_max_nm", "prop_ixx", "k_idle", "rpm a", "rpm b", "rpm c", "rpm d",
+                 "prop_d_m", "prop_d_m ** 5")
 
 
 @kernel
