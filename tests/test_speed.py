@@ -275,9 +275,27 @@ def _spd(rng, n):
     return A @ A.T + n * np.eye(n)
 
 
+def predict_covariance(P, T, S, Rs, a, q, qs, qs_idx):
+    """ekf.predict_covariance_into into a new array, returned."""
+    from autopilot.nav.ekf import predict_covariance_into
+    out = np.empty(P.shape)
+    predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out)
+    return out
+
+
+def joseph_update(P, H, PHt, S, R, y, floor, ceil):
+    """ekf.joseph_update_into into new arrays: (dx, P', ok), or (zeros, P, False)."""
+    from autopilot.nav.ekf import joseph_update_into
+    n = P.shape[0]
+    dx = np.zeros(n)
+    out = np.empty((n, n))
+    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
+        return dx, P, False
+    return dx, out, True
+
+
 def test_ekf_covariance_prediction_matches_the_equation():
-    """ekf.predict_covariance against P' = F P F^T + diag(q) (+ qs) with F written out."""
-    from autopilot.nav.ekf import predict_covariance
+    """ekf.predict_covariance_into against P' = F P F^T + diag(q) (+ qs) with F written out."""
     rng = np.random.default_rng(11)
     for n in (19, 21):                               # quadrotor, fixed-wing
         P = _spd(rng, n)
@@ -305,9 +323,8 @@ def test_ekf_covariance_prediction_matches_the_equation():
 
 
 def test_ekf_joseph_update_matches_the_equation():
-    """ekf.joseph_update against K = P H^T S^-1, dx = K y, the Joseph form, symmetrised
+    """ekf.joseph_update_into against K = P H^T S^-1, dx = K y, the Joseph form, symmetrised
     and clamped; a non positive definite S is refused with nothing changed."""
-    from autopilot.nav.ekf import joseph_update
     rng = np.random.default_rng(12)
     n, m = 21, 7
     P = _spd(rng, n) * 1e-2

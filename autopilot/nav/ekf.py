@@ -137,14 +137,6 @@ def predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out):
 
 
 @kernel
-def predict_covariance(P, T, S, Rs, a, q, qs, qs_idx):
-    """:func:`predict_covariance_into` into a new array, returned."""
-    out = np.empty(P.shape)
-    predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out)
-    return out
-
-
-@kernel
 def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
     """The measurement update in Joseph form (Simon 2006 eq 5.19; Groves 2013 eq 3.25):
 
@@ -207,18 +199,6 @@ def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
             out[r, c] = 0.5 * (A[r, c] + A[c, r])
         out[r, r] = min(max(out[r, r], floor[r]), ceil[r])
     return True
-
-
-@kernel
-def joseph_update(P, H, PHt, S, R, y, floor, ceil):
-    """:func:`joseph_update_into` into new arrays: returns (dx, P', ok), (zeros, P,
-    False) when S is not positive definite."""
-    n = P.shape[0]
-    dx = np.zeros(n)
-    out = np.empty((n, n))
-    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
-        return dx, P, False
-    return dx, out, True
 
 
 class InsGpsEkf(NavFilterBase):
