@@ -224,9 +224,9 @@ class QuadrotorPlant:
         rotor at the hover thrust, its command held at the hover command."""
         x = self._x
         t = self.af.mass_kg * self.g / 4.0
-        x[_P:_W] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,
-                    math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad))
-        x[_W:_WIND] = (0.0, 0.0, 0.0, 0.0, 0.0, -self.g)
+        x[_P:_WIND] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,                      # p, v
+                       math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad),  # q
+                       0.0, 0.0, 0.0, 0.0, 0.0, -self.g)                          # omega, f_b
         x[_T:_NX] = (t, t, t, t)
         self.on_ground = False
 
