@@ -114,7 +114,7 @@ class DecimatedNav:
     the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
     p, v, q, omega)`` with p, v, q the predicted state as float lists (nav origin NED,
-    q_nb) and omega the bias-corrected rate of this step."""
+    q_nb) and omega the bias-corrected rate of this step (a list or a tuple)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -219,10 +219,10 @@ class DecimatedNav:
             bg = self._bg
             return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
         x = self._x
-        w = list(predict_output(x, fx, fy, fz, wx, wy, wz, dt))
+        w = predict_output(x, fx, fy, fz, wx, wy, wz, dt)
         o = x.tolist()
-        self._p, self._v, self._q = o[0:3], o[3:6], o[6:10]
-        return self.nav, self._p, self._v, self._q, w
+        self._p, self._v, self._q = p, v, q = o[0:3], o[3:6], o[6:10]
+        return self.nav, p, v, q, w
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -476,8 +476,10 @@ class QuadVehicle(VehicleBase):
         if mon is not None:
             self._monitor(mon, frame, omega, t_us)
 
-        fence_step(self, t_us, self.armed and not self.on_ground,
-                   landing=self.mode is _LAND or self.navigator.phase.startswith("land"))
+        g = self.geofence
+        if g.breached or g.params["FENCE_ENABLE"] >= 1:   # (fence_step's own test: off, it does nothing)
+            fence_step(self, t_us, self.armed and not self.on_ground,
+                       landing=self.mode is _LAND or self.navigator.phase.startswith("land"))
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
             motors = self._fly(dt, t_us, q, omega)

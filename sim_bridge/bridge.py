@@ -53,6 +53,7 @@ class SimBridge:
         self.vehicle = vehicle
         self.hil_period_us = int(round(1e6 / hil_rate_hz))
         self.substeps = max(1, int(round(self.hil_period_us * 1e-6 / plant.dt_s)))
+        self._rotors = len(plant.rotor_scale) if hasattr(plant, "rotor_scale") else 0
         if hasattr(plant, "imu_mean_steps"):
             plant.imu_mean_steps = self.substeps   # IMU samples: means over the HIL period
         self.controls: tuple = (0.0, 0.0, 0.0, 0.0)
@@ -122,10 +123,11 @@ class SimBridge:
         if self.link.commands:
             self._handle_commands()
         c = self.controls
-        if self.faults is not None:
-            c = tuple(self.faults.apply_controls(c))
-            if hasattr(self.plant, "rotor_scale"):
-                self.plant.rotor_scale = self.faults.motor_thrust_scales(len(self.plant.rotor_scale))
+        faults = self.faults
+        if faults is not None:
+            c = tuple(faults.apply_controls(c))
+            if self._rotors:
+                self.plant.rotor_scale = faults.motor_thrust_scales(self._rotors)
         if self.vehicle == "plane":
             cmd = PlaneControls(c[0], c[1], c[2], c[3])
             u = c[3]
@@ -137,11 +139,12 @@ class SimBridge:
         dt = self.hil_period_us * 1e-6
         self._bat_u_s += (u if self.link.armed else 0.0) * dt
         self._bat_t_s += dt
-        if self._bat_t_s * 1e6 >= BATTERY_STEP_US - 1 or self.t_us >= self._next_battery_us:
+        t_us = self.state.t_us
+        if self._bat_t_s * 1e6 >= BATTERY_STEP_US - 1 or t_us >= self._next_battery_us:
             self.battery.update(self._bat_u_s / self._bat_t_s, self._bat_t_s)
             self._bat_u_s = self._bat_t_s = 0.0
-        if self.t_us >= self._next_battery_us:
-            self._next_battery_us = self.t_us + self.battery_period_us
+        if t_us >= self._next_battery_us:
+            self._next_battery_us = t_us + self.battery_period_us
             self.link.send_battery(self.battery)
         self.state = self.plant.step(cmd, self.substeps)
         self.steps += 1

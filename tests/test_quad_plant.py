@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from autopilot.geo import quat_integrate, quat_to_dcm, quat_to_euler
-from sim_bridge.plants.quadrotor import F450, QuadrotorPlant, _dcm, _quat_step
+from sim_bridge.plants.quadrotor import F450, QuadrotorPlant, _dcm, _quat_step, air_data, static_thrust
 
 HOME = (-35.363262, 149.165237, 584.0, 0.0)
 
@@ -242,3 +242,54 @@ def test_motor_thrust_fault_scales_the_rotor_thrust_not_its_command():
     assert inj.inject("motor", "ok", 1)
     br.advance(None)
     assert p.rotor_scale == (1.0, 1.0, 1.0, 1.0)
+
+
+def test_static_thrust_kernel_is_the_airframes_thrust_curve():
+    # GIVEN the plant's closed form of T_ss(u) (the kernel flight_step calls)
+    p = plant()
+    for u in (-0.5, 0.0, 0.01, 0.05, 0.2, 0.41, 0.7, 1.0, 1.5):
+        # THEN it is the airframe's steady thrust (motor torque = propeller torque), the
+        # command clipped to 0..1
+        assert static_thrust(u, *p._ts) == pytest.approx(F450.static_thrust(u, p.rho), rel=1e-9, abs=1e-12)
+    assert static_thrust(-0.5, *p._ts) == 0.0
+    assert static_thrust(1.5, *p._ts) == static_thrust(1.0, *p._ts)
+    assert p.static_thrusts((0.2, 0.4, 0.6, 0.8)) == [static_thrust(u, *p._ts) for u in (0.2, 0.4, 0.6, 0.8)]
+
+
+def test_air_data_kernel_against_the_rotation_in_numpy():
+    # GIVEN a state array with some velocity and attitude, and a wind
+    x = np.zeros(23)
+    x[3:6] = (4.0, -1.5, 0.7)
+    q = np.array((0.9, 0.1, -0.2, 0.3))
+    q /= np.linalg.norm(q)
+    x[6:10] = q
+    wind = np.array((1.0, 2.0, -0.3))
+    airspeed, alpha, beta = air_data(x, *wind)
+    # THEN: the air velocity in body axes R^T (v - w), alpha = atan2(w_b, u_b), beta = asin(v_b / V)
+    va = x[3:6] - wind
+    ub, vb, wb = quat_to_dcm(q).T @ va
+    assert airspeed == pytest.approx(np.linalg.norm(va), rel=1e-12)
+    assert alpha == pytest.approx(math.atan2(wb, ub), abs=1e-12)
+    assert beta == pytest.approx(math.asin(vb / np.linalg.norm(va)), abs=1e-12)
+    assert tuple(x[16:19]) == tuple(wind)          # the state's wind, stored
+    # still air and no motion: no angles
+    x[3:6] = 0.0
+    assert air_data(x, 0.0, 0.0, 0.0) == (0.0, 0.0, 0.0)
+
+
+def test_a_state_keeps_its_values_when_the_plant_steps_on():
+    # GIVEN a state taken in flight (the plant's own state array is updated in place)
+    p = plant()
+    p.set_airborne(20.0)
+    u = p.af.hover_command(p.rho, p.g)
+    st = p.step((u + 0.1, u, u - 0.1, u))
+    saved = [a.copy() for a in (st.v_ned, st.q_nb, st.omega_b, st.f_b, st.wind_ned)]
+    for _ in range(50):
+        p.step((u + 0.1, u, u - 0.1, u))
+    # THEN the earlier state's arrays are its own
+    for a, b in zip((st.v_ned, st.q_nb, st.omega_b, st.f_b, st.wind_ned), saved):
+        assert np.array_equal(a, b)
+    # and the state lists read and write the plant's state array
+    assert p.q == p.state().q_nb.tolist() and p.v == p.state().v_ned.tolist()
+    p.v = [1.0, 2.0, 3.0]
+    assert p.state().v_ned.tolist() == [1.0, 2.0, 3.0]

@@ -80,7 +80,7 @@ def sigma(err_m: float, eps: float) -> float:
     return 1.0
 
 
-@dataclass
+@dataclass(slots=True)
 class GuidanceOutput:
     p_des: tuple          # p_id(t), local NED [m]
     v_cmd: tuple          # V_i(t) [m/s]

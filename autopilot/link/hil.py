@@ -220,13 +220,12 @@ class AutopilotHilEnd:
         return acks
 
     def answer(self, outputs: ActuatorOutputs) -> None:
-        c = tuple(outputs.controls)
-        if len(c) < 16:
-            c += _ZERO_CONTROLS[len(c):]
-        mode = MAV.MAV_MODE_FLAG_SAFETY_ARMED if outputs.armed else 0
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us,) + c + (mode, 0))
+        c = outputs.controls
+        mode = _ARMED if outputs.armed else 0
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, *c, *_ZERO_CONTROLS[len(c):], mode, 0))
         self._last_answer = buf
         self.transport.send(buf)
 
 
 _ZERO_CONTROLS = (0.0,) * 16
+_ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED

@@ -129,6 +129,14 @@ AIRFRAMES = {"f450": F450}
 
 
 
+# The plant's state, one array (``QuadrotorPlant._x``) that flight_step updates in place:
+# p (NED from home's ground point), v, q_nb, omega_b, the specific force f_b, the wind
+# of the last state() (steady + gust, NED), the rotor thrusts T.
+_P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
+_NX = 23
+_FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
+
+
 class QuadrotorPlant:
     """The quadrotor behind the ``Plant`` protocol; controls are the four rotor
     commands 0..1 (module docstring for the order)."""
@@ -160,8 +168,6 @@ class QuadrotorPlant:
         self._km = af.k_m
         self._wind = tuple(float(w) for w in wind_ned)
         self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind)
-        self._cmd: tuple | None = None
-        self._t_ss = [0.0, 0.0, 0.0, 0.0]
         # T_ss(u) in closed form (QuadAirframe.rotor_speed): omega = (sqrt(b^2 + k1 u - k0) - b) / 2a
         a = af.c_torque(self.rho)
         kt = 1.0 / af.kv_rad
@@ -172,11 +178,11 @@ class QuadrotorPlant:
         self.touchdown_speed_mps: float | None = None
         # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
         self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
-        # flight_step's constants
+        # flight_step's constants: the step's, then static_thrust's
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
-                                 af.gear_height_m))
-        self._out = np.empty(21)          # what flight_step writes
+                                 af.gear_height_m) + self._ts)
+        self._x = np.zeros(_NX)
         # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
         # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
         # below home's ground point under the vehicle (NED down), updated every step()
@@ -185,17 +191,28 @@ class QuadrotorPlant:
         self.reset()
 
     # ------------------------------------------------------------------- state ---
+    # p, v, q, w, thrust: the state array's parts as float lists (and settable)
+    p = property(lambda self: self._x[_P:_V].tolist(),
+                 lambda self, val: self._x.__setitem__(slice(_P, _V), val))
+    v = property(lambda self: self._x[_V:_Q].tolist(),
+                 lambda self, val: self._x.__setitem__(slice(_V, _Q), val))
+    q = property(lambda self: self._x[_Q:_W].tolist(),
+                 lambda self, val: self._x.__setitem__(slice(_Q, _W), val))
+    w = property(lambda self: self._x[_W:_F].tolist(),
+                 lambda self, val: self._x.__setitem__(slice(_W, _F), val))
+    thrust = property(lambda self: self._x[_T:_NX].tolist(),
+                      lambda self, val: self._x.__setitem__(slice(_T, _NX), val))
+
     def reset(self) -> None:
         """At rest on the ground at home, heading as home's, motors stopped."""
         psi = math.radians(self.home[3])
-        self.p = [0.0, 0.0, -self.af.gear_height_m]      # NED from home's ground point
-        self.v = [0.0, 0.0, 0.0]
-        self.q = [math.cos(0.5 * psi), 0.0, 0.0, math.sin(0.5 * psi)]
-        self.w = [0.0, 0.0, 0.0]
-        self.thrust = [0.0, 0.0, 0.0, 0.0]
+        x = self._x
+        x[:] = 0.0
+        x[_P + 2] = -self.af.gear_height_m         # NED from home's ground point
+        x[_Q:_W] = (math.cos(0.5 * psi), 0.0, 0.0, math.sin(0.5 * psi))
+        x[_F + 2] = -self.g
         self.on_ground = True
         self.crashed = False
-        self._f_b = (0.0, 0.0, -self.g)
         self._gusts.reset()
 
     @property
@@ -205,115 +222,82 @@ class QuadrotorPlant:
     def set_airborne(self, height_m: float, yaw_rad: float = 0.0) -> None:
         """Put the vehicle in hover ``height_m`` above home (tests): level, still, each
         rotor at the hover thrust, its command held at the hover command."""
-        self.p = [0.0, 0.0, -height_m]
-        self.v = [0.0, 0.0, 0.0]
-        self.q = [math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad)]
-        self.w = [0.0, 0.0, 0.0]
+        x = self._x
         t = self.af.mass_kg * self.g / 4.0
-        self.thrust = [t, t, t, t]
+        x[_P:_WIND] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,                      # p, v
+                       math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad),  # q
+                       0.0, 0.0, 0.0, 0.0, 0.0, -self.g)                          # omega, f_b
+        x[_T:_NX] = (t, t, t, t)
         self.on_ground = False
-        self._f_b = (0.0, 0.0, -self.g)
 
     def state(self) -> PlantState:
-        lat, lon, alt = self._frame.to_geodetic_fast(self.p)
+        x = self._x
         gn, ge, gd = self._gusts.gust_ned
         wn, we, wd = self._wind
-        wn, we, wd = wn + gn, we + ge, wd + gd
-        vn, ve, vd = self.v
-        ax, ay, az = vn - wn, ve - we, vd - wd
-        airspeed = math.sqrt(ax * ax + ay * ay + az * az)
-        alpha = beta = 0.0
-        if airspeed > 1e-6:
-            # air velocity in body axes for alpha / beta: R^T (v - w)
-            r = _dcm(*self.q)
-            ub = r[0] * ax + r[3] * ay + r[6] * az
-            vb = r[1] * ax + r[4] * ay + r[7] * az
-            wb = r[2] * ax + r[5] * ay + r[8] * az
-            alpha = math.atan2(wb, ub)
-            s = vb / airspeed                      # max(-1, min(1, s)), spelt out: the
-            s = s if s < 1.0 else 1.0              # builtins' cost (autopilot/control/pid.py)
-            beta = math.asin(s if s > -1.0 else -1.0)
-        arr = np.array((vn, ve, vd, *self.q, *self.w, *self._f_b, wn, we, wd))
-        return PlantState(self._t_us, lat, lon, alt, arr[0:3], arr[3:7], arr[7:10], arr[10:13],
-                          arr[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
+        airspeed, alpha, beta = air_data(x, wn + gn, we + ge, wd + gd)
+        lat, lon, alt = self._frame.to_geodetic_fast(x[_P:_V].tolist())
+        a = x[_V:_T].copy()      # v, q, omega, f_b, wind: the state's arrays, views of one copy
+        return PlantState(self._t_us, lat, lon, alt, a[0:3], a[3:7], a[7:10], a[10:13],
+                          a[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
 
     # ---------------------------------------------------------------- stepping ---
     def static_thrusts(self, controls) -> list[float]:
-        """T_ss of each rotor for a command vector (cached for repeated commands)."""
-        cmd = tuple(controls[:4])
-        if cmd != self._cmd:
-            self._cmd = cmd
-            b2, k1, k0, b, inv2a, ct = self._ts
-            out = []
-            for u in cmd:
-                u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else float(u))
-                d = k1 * u - k0
-                w = (math.sqrt(b2 + d) - b) * inv2a if d > 0.0 else 0.0
-                out.append(ct * w * w)
-            self._t_ss = out
-        return self._t_ss
+        """T_ss of each rotor for a command vector (:func:`static_thrust`)."""
+        return [static_thrust(u, *self._ts) for u in controls[:4]]
 
     def step(self, controls, n_steps: int = 1) -> PlantState:
-        """Hold the rotor commands for ``n_steps`` integration steps."""
-        t_ss = self.static_thrusts(controls)
+        """Hold the rotor commands for ``n_steps`` integration steps (:func:`flight_step`;
+        the ground, resting and touching down, in :meth:`_rest` / :meth:`_touchdown`)."""
+        u1, u2, u3, u4 = controls[:4]
+        k1, k2, k3, k4 = self.rotor_scale
+        x, c = self._x, self._consts
         if self.terrain is not None:
-            lat, lon, _ = self._frame.to_geodetic_fast(self.p)
+            lat, lon, _ = self._frame.to_geodetic_fast(x[_P:_V].tolist())
             h = self.terrain(math.degrees(lat), math.degrees(lon))
             self._ground_d = 0.0 if h is None else self.home[2] - h
-        sc = self.rotor_scale
-        if sc != (1.0, 1.0, 1.0, 1.0):
-            t_ss = [t * k for t, k in zip(t_ss, sc)]
+        gusts = self._gusts
         for _ in range(n_steps):
-            self._integrate(t_ss)
+            wn, we, wd = self._wind
+            if gusts.active:
+                # the Dryden gust at the air-relative speed over the steady wind
+                pd, vn, ve, vd = x[_P + 2:_Q].tolist()
+                an0, ae0, ad0 = vn - wn, ve - we, vd - wd
+                gn, ge, gd = gusts.step(self._ground_d - pd, math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
+                wn, we, wd = wn + gn, we + ge, wd + gd
+            code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd,
+                               self.on_ground, self._ground_d)
+            if code == _ON_GROUND:
+                self._rest(self.dt_s)
+            else:
+                self.on_ground = False
+                if code == _TOUCHDOWN:
+                    self._touchdown(x[_V + 2])
             self._t_us += self._dt_us
         return self.state()
-
-    def _integrate(self, t_ss) -> None:
-        """One integration step (:func:`flight_step`); the ground (resting, touching
-        down) here."""
-        wn, we, wd = self._wind
-        if self._gusts.active:
-            # the Dryden gust at the air-relative speed over the steady wind
-            vn, ve, vd = self.v
-            an0, ae0, ad0 = vn - wn, ve - we, vd - wd
-            gn, ge, gd = self._gusts.step(self._ground_d - self.p[2], math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
-            wn, we, wd = wn + gn, we + ge, wd + gd
-        x = np.array((*self.p, *self.v, *self.q, *self.w, *self.thrust, *t_ss, wn, we, wd,
-                      1.0 if self.on_ground else 0.0, self._ground_d))
-        flight_step(x, self._consts, self._out)
-        o = self._out.tolist()
-        self.thrust = o[13:17]
-        code = o[20]
-        if code == _ON_GROUND:
-            self._rest(self.dt_s)
-            return
-        self.on_ground = False
-        self.p, self.v, self.q, self.w = o[0:3], o[3:6], o[6:10], o[10:13]
-        self._f_b = (o[17], o[18], o[19])
-        if code == _TOUCHDOWN:
-            self._touchdown(o[5])
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
         bounce). The accelerometer sees the impulse (a one-step spike that integrates to
         the lost velocity); the attitude then levels through body rates the gyro sees."""
-        qw, qx, qy, qz = self.q
+        x = self._x
+        v_down = float(v_down)
+        qw, qx, qy, qz = x[_Q:_W].tolist()
         tilt = math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (qx * qx + qy * qy))))
         self.touchdown_speed_mps = v_down
         if v_down > CRASH_SPEED_MPS or tilt > CRASH_TILT_RAD:
             self.crashed = True
         self.on_ground = True
         dt = self.dt_s
-        vn, ve, vd = self.v
+        vn, ve, vd = x[_V:_Q].tolist()
         # specific force over the step: (dv/dt - g_vec), dv = -v
         fn, fe, fd = -vn / dt, -ve / dt, -vd / dt - self.g
         r = _dcm(qw, qx, qy, qz)
-        self._f_b = (r[0] * fn + r[3] * fe + r[6] * fd,
-                     r[1] * fn + r[4] * fe + r[7] * fd,
-                     r[2] * fn + r[5] * fe + r[8] * fd)
-        self.p = [self.p[0], self.p[1], self._ground_d - self.af.gear_height_m]
-        self.v = [0.0, 0.0, 0.0]
-        self.w = [0.0, 0.0, 0.0]
+        x[_F:_WIND] = (r[0] * fn + r[3] * fe + r[6] * fd,
+                       r[1] * fn + r[4] * fe + r[7] * fd,
+                       r[2] * fn + r[5] * fe + r[8] * fd)
+        x[_P + 2] = self._ground_d - self.af.gear_height_m
+        x[_V:_Q] = 0.0
+        x[_W:_F] = 0.0
 
     @staticmethod
     def _level(r) -> float:
@@ -324,24 +308,27 @@ class QuadrotorPlant:
         """On the skids: still on the ground plane; a tilted vehicle levels at
         ``LEVEL_RATE`` through body rates (seen by the gyro); the accelerometer reads
         the reaction of the ground, R^T (0, 0, -g)."""
-        qw, qx, qy, qz = self.q
+        x = self._x
+        qw, qx, qy, qz = x[_Q:_W].tolist()
         r = _dcm(qw, qx, qy, qz)
         roll = math.atan2(r[7], r[8])
         pitch = -math.asin(max(-1.0, min(1.0, r[6])))
         if abs(roll) + abs(pitch) > 1e-6:
             p, q = -LEVEL_RATE * roll, -LEVEL_RATE * pitch
-            self.w = [p, q, 0.0]
-            self.q = list(_quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0))
-            r = _dcm(*self.q)
+            x[_W:_F] = (p, q, 0.0)
+            qn = _quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0)
+            x[_Q:_W] = qn
+            r = _dcm(*qn)
         else:
-            self.w = [0.0, 0.0, 0.0]
-        self.p = [self.p[0], self.p[1], self._ground_d - self.af.gear_height_m]
-        self.v = [0.0, 0.0, 0.0]
+            x[_W:_F] = 0.0
+        x[_P + 2] = self._ground_d - self.af.gear_height_m
+        x[_V:_Q] = 0.0
         g = self.g
-        self._f_b = (-r[6] * g, -r[7] * g, -r[8] * g)
+        x[_F:_WIND] = (-r[6] * g, -r[7] * g, -r[8] * g)
 
 
-def _dcm(w: float, x: float, y: float, z: float) -> tuple:
+@kernel
+def _dcm(w, x, y, z):
     """R(q_nb) row-major (the formula of autopilot.geo.quat_to_dcm, on floats)."""
     ww, xx, yy, zz = w * w, x * x, y * y, z * z
     return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
@@ -349,7 +336,36 @@ def _dcm(w: float, x: float, y: float, z: float) -> tuple:
             2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
 
 
-_FLYING, _ON_GROUND, _TOUCHDOWN = 0.0, 1.0, 2.0
+@kernel
+def static_thrust(u, b2, k1, k0, b, inv2a, ct):
+    """T_ss(u), one rotor's static thrust at command u (clipped to 0..1), in the closed
+    form of QuadAirframe.rotor_speed: omega = (sqrt(b^2 + k1 u - k0) - b) / 2a,
+    T_ss = c_T omega^2 (the constants: QuadrotorPlant._ts)."""
+    u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+    d = k1 * u - k0
+    w = (math.sqrt(b2 + d) - b) * inv2a if d > 0.0 else 0.0
+    return ct * w * w
+
+
+@kernel
+def air_data(x, wn, we, wd):
+    """(airspeed, alpha, beta) of the plant's state array ``x`` in the wind (wn, we, wd)
+    (steady + gust, NED), which is stored in x as the state's wind. Alpha and beta
+    from the air velocity in body axes, R^T (v - w); zero below 1e-6 m/s."""
+    x[16], x[17], x[18] = wn, we, wd
+    ax, ay, az = x[3] - wn, x[4] - we, x[5] - wd
+    airspeed = math.sqrt(ax * ax + ay * ay + az * az)
+    alpha = beta = 0.0
+    if airspeed > 1e-6:
+        r = _dcm(x[6], x[7], x[8], x[9])
+        ub = r[0] * ax + r[3] * ay + r[6] * az
+        vb = r[1] * ax + r[4] * ay + r[7] * az
+        wb = r[2] * ax + r[5] * ay + r[8] * az
+        alpha = math.atan2(wb, ub)
+        s = vb / airspeed
+        s = s if s < 1.0 else 1.0
+        beta = math.asin(s if s > -1.0 else -1.0)
+    return airspeed, alpha, beta
 
 
 @kernel
@@ -372,27 +388,31 @@ def _quat_step(qw, qx, qy, qz, ax, ay, az):
 
 
 @kernel
-def flight_step(x, c, out):
-    """One step dt of eqs 3.23-3.26 (module docstring). ``x``: p (NED), v, q_nb, omega_b,
-    the rotor thrusts T, their static values T_ss, the wind (steady + gust, NED),
-    on-ground flag, the ground's depth below home (NED down); ``c``: dt, the thrust lag 1 - exp(-dt/tau), m, g, c_lin, rho, CdA,
-    l, k_M, Ixx, Iyy, Izz, the gear height. Writes into ``out`` (21 floats) p, v, q,
-    omega, T, the specific force f_b and a code: 0 flew, 1 rests on the ground (only T
-    and the code written), 2 touched down. (Written into the caller's array: a kernel
-    that returns a new one costs about 0.6 us more a call, numba's boxing of it.)"""
+def flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d):
+    """One step dt of eqs 3.23-3.26 (module docstring) on the plant's state array ``x``
+    (``_P`` ... ``_T``: p NED, v, q_nb, omega_b, f_b, wind, the rotor thrusts T),
+    updated in place. The rotor commands u (T_ss(u) scaled by k, the motor faults'
+    share of thrust), the wind (steady + gust, NED), whether the vehicle rests on the
+    ground and the ground's depth below home (NED down); ``c``: dt, the thrust lag
+    1 - exp(-dt/tau), m, g, c_lin, rho, CdA, l, k_M, Ixx, Iyy, Izz, the gear height,
+    then :func:`static_thrust`'s constants. Returns 0 flew, 1 rests on the ground (only
+    T written), 2 touched down."""
     dt, lag, m, g, drag_lin, rho, cda, l, km, ixx, iyy, izz, gear = (
         c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12])
+    b2, tk1, tk0, b, inv2a, ct = c[13], c[14], c[15], c[16], c[17], c[18]
     # each rotor's thrust follows its static value (eq 3.31, discretised exactly)
-    for j in range(4):
-        out[13 + j] = x[13 + j] + (x[17 + j] - x[13 + j]) * lag
-    t1, t2, t3, t4 = out[13], out[14], out[15], out[16]
+    t1 = x[19] + (static_thrust(u1, b2, tk1, tk0, b, inv2a, ct) * k1 - x[19]) * lag
+    t2 = x[20] + (static_thrust(u2, b2, tk1, tk0, b, inv2a, ct) * k2 - x[20]) * lag
+    t3 = x[21] + (static_thrust(u3, b2, tk1, tk0, b, inv2a, ct) * k3 - x[21]) * lag
+    t4 = x[22] + (static_thrust(u4, b2, tk1, tk0, b, inv2a, ct) * k4 - x[22]) * lag
+    x[19], x[20], x[21], x[22] = t1, t2, t3, t4
     total = t1 + t2 + t3 + t4
     qw, qx, qy, qz = x[6], x[7], x[8], x[9]
     ww, xx, yy, zz = qw * qw, qx * qx, qy * qy, qz * qz
     r2, r5, r8 = 2.0 * (qx * qz + qw * qy), 2.0 * (qy * qz - qw * qx), ww - xx - yy + zz
     # air-relative velocity and the body drag (3.25): -D e_V, D / V_a = c_lin + 1/2 rho CdA V_a
     vn, ve, vd = x[3], x[4], x[5]
-    an, ae, ad = vn - x[21], ve - x[22], vd - x[23]
+    an, ae, ad = vn - wn, ve - we, vd - wd
     va = math.sqrt(an * an + ae * ae + ad * ad)
     dk = drag_lin + 0.5 * rho * cda * va
     dn, de, dd = -dk * an, -dk * ae, -dk * ad
@@ -400,10 +420,9 @@ def flight_step(x, c, out):
     fn = -total * r2 + dn
     fe = -total * r5 + de
     fdn = -total * r8 + dd
-    if x[24] != 0.0:
+    if on_ground:
         if not (fdn + m * g < 0.0 and 1.0 - r8 < 0.02):   # thrust exceeds weight: lift off
-            out[20] = 1.0
-            return
+            return 1
     # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
     mx = l * (t2 - t4)
     my = l * (t3 - t1)
@@ -413,20 +432,20 @@ def flight_step(x, c, out):
     qd = (my - (ixx - izz) * p * rr) / iyy
     rd = (mz - (iyy - ixx) * p * q) / izz
     p1, q1, r1 = p + pd * dt, q + qd * dt, rr + rd * dt
-    out[10], out[11], out[12] = p1, q1, r1
+    x[10], x[11], x[12] = p1, q1, r1
     # attitude: q <- q (x) Exp(omega_mid dt), renormalised (1.13-1.14)
-    out[6], out[7], out[8], out[9] = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt,
-                                                  0.5 * (q + q1) * dt, 0.5 * (rr + r1) * dt)
+    x[6], x[7], x[8], x[9] = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt,
+                                        0.5 * (q + q1) * dt, 0.5 * (rr + r1) * dt)
     # translational dynamics (3.23), (3.25)
     a_n, a_e, a_d = fn / m, fe / m, fdn / m + g
     u_n, u_e, u_d = vn + a_n * dt, ve + a_e * dt, vd + a_d * dt
     pdn1 = x[2] + 0.5 * (vd + u_d) * dt
-    out[0], out[1], out[2] = x[0] + 0.5 * (vn + u_n) * dt, x[1] + 0.5 * (ve + u_e) * dt, pdn1
-    out[3], out[4], out[5] = u_n, u_e, u_d
+    x[0], x[1], x[2] = x[0] + 0.5 * (vn + u_n) * dt, x[1] + 0.5 * (ve + u_e) * dt, pdn1
+    x[3], x[4], x[5] = u_n, u_e, u_d
     # specific force (accelerometer truth): non-gravitational force / m, body axes
     r0, r1_, r3 = ww + xx - yy - zz, 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qy + qw * qz)
     r4, r6, r7 = ww - xx + yy - zz, 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx)
-    out[17] = (r0 * dn + r3 * de + r6 * dd) / m
-    out[18] = (r1_ * dn + r4 * de + r7 * dd) / m
-    out[19] = (r2 * dn + r5 * de + r8 * dd - total) / m
-    out[20] = 2.0 if pdn1 > x[25] - gear else 0.0
+    x[13] = (r0 * dn + r3 * de + r6 * dd) / m
+    x[14] = (r1_ * dn + r4 * de + r7 * dd) / m
+    x[15] = (r2 * dn + r5 * de + r8 * dd - total) / m
+    return 2 if pdn1 > ground_d - gear else 0
