@@ -38,6 +38,13 @@ def test_predict_covariance_into_writes_F_P_Ft_plus_Q_into_the_given_array():
         assert predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out) is None
         assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
         assert np.array_equal(P, P0)                  # P itself untouched
+        # the IMU sampling error lands at its indices and nowhere else
+        without = np.empty((n, n))
+        predict_covariance_into(P, T, S, Rs, a, q, np.zeros(0), qs_idx, without)
+        d = out - without
+        assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
+        d.flat[qs_idx] = 0.0
+        assert not d.any()
 
 
 def test_joseph_update_into_writes_dx_and_P_and_nothing_when_S_is_not_definite():
@@ -63,6 +70,7 @@ def test_joseph_update_into_writes_dx_and_P_and_nothing_when_S_is_not_definite()
     assert joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out)
     assert np.abs(dx - K @ y).max() <= 1e-12 * np.abs(K @ y).max()
     assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
+    assert (out == out.T).all() and (out.diagonal() <= ceil).all()
     assert np.array_equal(P, P0)
     bad = S.copy()
     bad[0, 0] = -1.0 - R[0]

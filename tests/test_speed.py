@@ -213,10 +213,13 @@ def test_quadrotor_flight_step_is_the_plants_law():
     af, dt = pl.af, pl.dt_s
     p, v = np.array([3.0, -2.0, -15.0]), np.array([4.0, 1.0, -0.5])
     q = qbatch.from_euler(np.array(0.2), np.array(-0.1), np.array(1.0))
-    w, T, T_ss = np.array([0.3, -0.2, 0.1]), np.array([3.0, 3.5, 3.2, 3.4]), np.array([3.6, 3.1, 3.3, 3.0])
+    w, T = np.array([0.3, -0.2, 0.1]), np.array([3.0, 3.5, 3.2, 3.4])
+    u, k = (0.62, 0.55, 0.58, 0.52), (1.0, 0.7, 1.0, 0.9)      # commands, motor faults' shares
+    T_ss = np.array(pl.static_thrusts(u)) * k
     wind = np.array([2.0, -1.0, 0.3])
-    out = np.full(21, np.nan)
-    flight_step(np.concatenate((p, v, q, w, T, T_ss, wind, [0.0, 0.0])), pl._consts, out)
+    out = np.concatenate((p, v, q, w, np.full(3, np.nan), np.full(3, np.nan), T))
+    code = flight_step(out, pl._consts, *u, *k, *wind, False, 1e3)
+    assert code == 0                                  # flew (far above the ground)
     T1 = T + (T_ss - T) * pl._lag
     R = qbatch.to_dcm(q)
     va = v - wind
@@ -228,13 +231,12 @@ def test_quadrotor_flight_step_is_the_plants_law():
     w1 = w + (M - np.cross(w, I * w)) / I * dt
     v1 = v + F / af.mass_kg * dt
     q1 = qbatch.mul(q, qbatch.from_rotvec(0.5 * (w + w1) * dt))
-    assert np.max(np.abs(out[13:17] - T1)) < 1e-12
+    assert np.max(np.abs(out[19:23] - T1)) < 1e-12
     assert np.max(np.abs(out[10:13] - w1)) < 1e-12
     assert np.max(np.abs(out[3:6] - v1)) < 1e-12
     assert np.max(np.abs(out[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
     assert np.max(np.abs(out[6:10] - q1 / np.linalg.norm(q1))) < 1e-12
-    assert np.max(np.abs(out[17:20] - R.T @ (drag - T1.sum() * R[:, 2]) / af.mass_kg)) < 1e-12
-    assert out[20] == 0.0
+    assert np.max(np.abs(out[13:16] - R.T @ (drag - T1.sum() * R[:, 2]) / af.mass_kg)) < 1e-12
 
 
 def test_settled_heap_freezes_for_the_flight_and_gives_every_object_back():
@@ -273,84 +275,6 @@ def test_settled_heap_freezes_for_the_flight_and_gives_every_object_back():
 def _spd(rng, n):
     A = rng.standard_normal((n, n))
     return A @ A.T + n * np.eye(n)
-
-
-def predict_covariance(P, T, S, Rs, a, q, qs, qs_idx):
-    """ekf.predict_covariance_into into a new array, returned."""
-    from autopilot.nav.ekf import predict_covariance_into
-    out = np.empty(P.shape)
-    predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out)
-    return out
-
-
-def joseph_update(P, H, PHt, S, R, y, floor, ceil):
-    """ekf.joseph_update_into into new arrays: (dx, P', ok), or (zeros, P, False)."""
-    from autopilot.nav.ekf import joseph_update_into
-    n = P.shape[0]
-    dx = np.zeros(n)
-    out = np.empty((n, n))
-    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
-        return dx, P, False
-    return dx, out, True
-
-
-def test_ekf_covariance_prediction_matches_the_equation():
-    """ekf.predict_covariance_into against P' = F P F^T + diag(q) (+ qs) with F written out."""
-    rng = np.random.default_rng(11)
-    for n in (19, 21):                               # quadrotor, fixed-wing
-        P = _spd(rng, n)
-        T, a = 0.04, 0.999
-        S = tuple(rng.standard_normal(3) * 0.4)
-        Rs = tuple(rng.standard_normal(9) * 0.04)
-        q = rng.uniform(0, 1e-4, n)
-        qs = rng.uniform(0, 1e-5, 18)
-        qs_idx = np.array([i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
-                           for j in range(blk.start, blk.stop)])
-        F = np.eye(n)
-        F[POS, VEL] = T * np.eye(3)
-        sx, sy, sz = S
-        F[VEL, ATT] = -np.array([[0.0, -sz, sy], [sz, 0.0, -sx], [-sy, sx, 0.0]])
-        F[VEL, ABIAS] = F[ATT, GBIAS] = -np.reshape(Rs, (3, 3))
-        F[GPSB, GPSB] = a * np.eye(3)
-        want = F @ P @ F.T + np.diag(q)
-        want.flat[qs_idx] += qs
-        got = predict_covariance(P, T, S, Rs, a, q, qs, qs_idx)
-        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
-        d = got - predict_covariance(P, T, S, Rs, a, q, np.zeros(0), qs_idx)
-        assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
-        d.flat[qs_idx] = 0.0
-        assert not d.any()                           # without qs: nothing else changes
-
-
-def test_ekf_joseph_update_matches_the_equation():
-    """ekf.joseph_update_into against K = P H^T S^-1, dx = K y, the Joseph form, symmetrised
-    and clamped; a non positive definite S is refused with nothing changed."""
-    rng = np.random.default_rng(12)
-    n, m = 21, 7
-    P = _spd(rng, n) * 1e-2
-    H = np.zeros((m, n))
-    for k in range(m):                               # a few states per row, as the models
-        H[k, rng.choice(n, 2, replace=False)] = rng.standard_normal(2)
-    R = rng.uniform(0.1, 2.0, m)
-    y = rng.standard_normal(m)
-    floor = np.full(n, 1e-9)
-    ceil = np.full(n, 0.05)                          # some diagonal entries hit the ceiling
-    PHt = P @ H.T
-    S = H @ PHt
-    K = PHt @ np.linalg.inv(S + np.diag(R))
-    A = np.eye(n) - K @ H
-    want = A @ P @ A.T + K @ np.diag(R) @ K.T
-    want = 0.5 * (want + want.T)
-    want[np.diag_indices(n)] = np.clip(want.diagonal(), floor, ceil)
-    dx, got, ok = joseph_update(P, H, PHt, S, R, y, floor, ceil)
-    assert ok
-    assert np.abs(dx - K @ y).max() <= 1e-12 * np.abs(K @ y).max()
-    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
-    assert (got.diagonal() <= ceil).all() and (got == got.T).all()
-    bad = S.copy()
-    bad[0, 0] = -1.0 - R[0]                          # S + R with a negative pivot
-    dx, same, ok = joseph_update(P, H, PHt, bad, R, y, floor, ceil)
-    assert not ok and same is P
 
 
 def test_rotor_effectiveness_update_matches_the_equation():
