@@ -38,6 +38,7 @@ from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
 from .fence.actions import fence_step, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .geo.rotations import quat_dcm, quat_step
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .jit import kernel
@@ -682,34 +683,6 @@ class QuadVehicle(VehicleBase):
 
 
 @kernel
-def _dcm(w, x, y, z):
-    """R(q_nb) row-major (autopilot.geo.quat_to_dcm, on floats)."""
-    ww, xx, yy, zz = w * w, x * x, y * y, z * z
-    return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
-            2.0 * (x * y + w * z), ww - xx + yy - zz, 2.0 * (y * z - w * x),
-            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
-
-
-@kernel
-def _quat_step(qw, qx, qy, qz, ax, ay, az):
-    """q (x) Exp([ax, ay, az]) renormalised (autopilot.geo.quat_integrate, on floats)."""
-    ang = math.sqrt(ax * ax + ay * ay + az * az)
-    if ang > 1e-9:
-        s = math.sin(0.5 * ang) / ang
-        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
-    else:
-        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    rw = qw * dw - qx * dx - qy * dy - qz * dz
-    rx = qw * dx + qx * dw + qy * dz - qz * dy
-    ry = qw * dy - qx * dz + qy * dw + qz * dx
-    rz = qw * dz + qx * dy - qy * dx + qz * dw
-    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-    if rw < 0.0:
-        n = -n
-    return rw * n, rx * n, ry * n, rz * n
-
-
-@kernel
 def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g), its p, v, q updated in place;
@@ -722,7 +695,7 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     fy -= x[11]
     fz -= x[12]
     qw, qx, qy, qz = x[6], x[7], x[8], x[9]
-    r = _dcm(qw, qx, qy, qz)
+    r = quat_dcm(qw, qx, qy, qz)
     an = r[0] * fx + r[1] * fy + r[2] * fz
     ae = r[3] * fx + r[4] * fy + r[5] * fz
     ad = r[6] * fx + r[7] * fy + r[8] * fz + x[16]
@@ -732,5 +705,5 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[1] += 0.5 * (ve + ve1) * dt
     x[2] += 0.5 * (vd + vd1) * dt
     x[3], x[4], x[5] = vn1, ve1, vd1
-    x[6], x[7], x[8], x[9] = _quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
+    x[6], x[7], x[8], x[9] = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     return wx, wy, wz

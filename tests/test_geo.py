@@ -119,3 +119,20 @@ def test_ned_fast_is_to_ned_fast_as_a_tuple():
             t = f.ned_fast(lat, lon, alt)
             assert type(t) is tuple and all(type(x) is float for x in t)
             assert t == tuple(f.to_ned_fast(lat, lon, alt).tolist())
+
+
+def test_the_float_kernels_are_the_numpy_formulas():
+    """rotations.quat_dcm and quat_step (the kernels the plants, the vehicles and the
+    navigation call) against quat_to_dcm and quat_integrate, both branches of Exp."""
+    from autopilot.geo.rotations import quat_dcm, quat_step
+    rng = np.random.default_rng(5)
+    for k in range(300):
+        q = rng.standard_normal(4)
+        q /= np.linalg.norm(q)
+        assert np.allclose(np.reshape(quat_dcm(*q), (3, 3)), quat_to_dcm(q), rtol=0.0, atol=1e-15)
+        a = rng.uniform(-0.5, 0.5, 3) * (1e-11 if k % 5 == 0 else 1.0)   # first-order branch too
+        got = np.array(quat_step(*q, *a))
+        want = quat_integrate(q, a, 1.0)
+        want = want if want[0] >= 0.0 else -want          # the kernel's sign: w >= 0
+        assert got[0] >= 0.0 and abs(np.linalg.norm(got) - 1.0) < 1e-15
+        assert np.abs(got - want).max() < 1e-15

@@ -7,8 +7,9 @@ import math
 import numpy as np
 
 from autopilot.geo import quat_to_dcm
+from autopilot.geo.rotations import quat_dcm as dcm
 from autopilot.nav import qbatch
-from autopilot.nav.strapdown import (GRAVITY_GRADIENT, Nominal, dcm, earth_rate_ned,
+from autopilot.nav.strapdown import (GRAVITY_GRADIENT, Nominal, earth_rate_ned,
                                      inject_attitude, mechanise, propagate, rotate_global)
 
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.geo import quat_integrate, quat_to_dcm, quat_to_euler
-from sim_bridge.plants.quadrotor import F450, QuadrotorPlant, _dcm, _quat_step, air_data, static_thrust
+from autopilot.geo import quat_to_dcm, quat_to_euler
+from sim_bridge.plants.quadrotor import F450, QuadrotorPlant, air_data, static_thrust
 
 HOME = (-35.363262, 149.165237, 584.0, 0.0)
 
@@ -168,18 +168,6 @@ def test_crash_is_flagged_on_a_hard_touchdown():
         if st.on_ground:
             break
     assert p.crashed and p.touchdown_speed_mps > 3.0
-
-
-def test_float_quaternion_and_dcm_agree_with_the_geo_module():
-    rng = np.random.default_rng(3)
-    for _ in range(20):
-        q = rng.standard_normal(4)
-        q /= np.linalg.norm(q)
-        w = rng.standard_normal(3)
-        np.testing.assert_allclose(np.array(_dcm(*q)).reshape(3, 3), quat_to_dcm(q), atol=1e-12)
-        a = np.array(_quat_step(*q, *(w * 0.004)))
-        b = quat_integrate(q if q[0] >= 0 else -q, w, 0.004)
-        np.testing.assert_allclose(a, b, atol=1e-12)
 
 
 def test_state_follows_the_plant_state_contract_across_the_dateline():

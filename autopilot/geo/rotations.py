@@ -9,13 +9,17 @@ eqs 1.6-1.10 (Beard & McLain 2012, ch. 2 and app. B). Quaternion kinematics
 scipy's ``Rotation`` uses scalar-last order; conversion to and from it happens here
 and nowhere else (:func:`to_scipy`, :func:`from_scipy`).
 
-The functions are written on plain floats/NumPy for speed in the per-step loop.
+The functions are written on plain floats/NumPy for speed in the per-step loop; the
+kernels at the end (:func:`quat_dcm`, :func:`quat_step` and their parts) are the same
+formulas on floats, compiled, for the other kernels (the vehicles' and the plants').
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from ..jit import kernel
 
 TWO_PI = 2.0 * math.pi
 
@@ -155,3 +159,46 @@ def to_scipy(q_nb: np.ndarray):
 def from_scipy(rot) -> np.ndarray:
     x, y, z, w = rot.as_quat()
     return quat_normalize(np.array([w, x, y, z]))
+
+
+# --- the same formulas on floats, compiled (called from other kernels) ----------------
+
+@kernel
+def quat_dcm(w, x, y, z):
+    """R(q_nb) of q = (w, x, y, z) as a row-major 9-tuple (:func:`quat_to_dcm`)."""
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    return (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy),
+            2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx),
+            2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz)
+
+
+@kernel
+def exp_rotvec(ax, ay, az):
+    """Exp: a rotation vector to its unit quaternion (:func:`quat_from_rotvec`; below
+    1e-9 rad, the first order)."""
+    ang = math.sqrt(ax * ax + ay * ay + az * az)
+    if ang > 1e-9:
+        s = math.sin(0.5 * ang) / ang
+        return math.cos(0.5 * ang), ax * s, ay * s, az * s
+    return 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
+
+
+@kernel
+def unit_positive(rw, rx, ry, rz):
+    """The quaternion (rw, rx, ry, rz) normalised, with a non-negative scalar part."""
+    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
+    if rw < 0.0:
+        n = -n
+    return rw * n, rx * n, ry * n, rz * n
+
+
+@kernel
+def quat_step(qw, qx, qy, qz, ax, ay, az):
+    """q (x) Exp([ax, ay, az]) renormalised, w >= 0: a body rotation vector (omega dt)
+    applied to q_nb (seed eqs 1.13-1.14; :func:`quat_integrate`)."""
+    dw, dx, dy, dz = exp_rotvec(ax, ay, az)
+    return unit_positive(qw * dw - qx * dx - qy * dy - qz * dz,
+                         qw * dx + qx * dw + qy * dz - qz * dy,
+                         qw * dy - qx * dz + qy * dw + qz * dx,
+                         qw * dz + qx * dy - qy * dx + qz * dw)

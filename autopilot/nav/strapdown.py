@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from autopilot.geo import euler_to_quat, wrap_pi
+from autopilot.geo.rotations import exp_rotvec, quat_dcm, quat_step, unit_positive
 from autopilot.jit import kernel
 
 #: Earth rotation rate (WGS-84) [rad/s].
@@ -51,21 +52,10 @@ def earth_rate_ned(lat_rad: float) -> tuple[float, float, float]:
     return (EARTH_RATE * math.cos(lat_rad), 0.0, -EARTH_RATE * math.sin(lat_rad))
 
 
-@kernel
-def dcm(w, x, y, z):
-    """R(q_nb) of q = (w, x, y, z) as a row-major 9-tuple (the formula of
-    autopilot.geo.quat_to_dcm)."""
-    ww, xx, yy, zz = w * w, x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy),
-            2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx),
-            2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz)
-
-
 def dcm9(q) -> tuple:
-    """R(q_nb) of a 4-sequence q as a row-major 9-tuple (:func:`dcm`)."""
+    """R(q_nb) of a 4-sequence q as a row-major 9-tuple (autopilot.geo.rotations.quat_dcm)."""
     w, x, y, z = q
-    return dcm(float(w), float(x), float(y), float(z))
+    return quat_dcm(float(w), float(x), float(y), float(z))
 
 
 class Nominal:
@@ -124,7 +114,7 @@ def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, b
     cost least as floats): the nominal position, velocity and attitude q_nb, the gyro and
     accelerometer biases, the samples f_m and omega_m, dt, gravity and the Earth rate in
     NED. Returns the 25 floats of p', v', q', R(q') (row-major), f_n and omega."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = dcm(qw, qx, qy, qz)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = quat_dcm(qw, qx, qy, qz)
     # omega = omega_m - b_g - R^T w_ie
     wx = omx - bgx - (r00 * ex + r10 * ey + r20 * ez)
     wy = omy - bgy - (r01 * ex + r11 * ey + r21 * ez)
@@ -145,34 +135,11 @@ def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, b
     uy = vy + (fny - 2.0 * (ez * vx - ex * vz)) * dt
     uz = vz + (fnz + g + GRAVITY_GRADIENT * pz - 2.0 * (ex * vy - ey * vx)) * dt
     # q' = q (x) Exp(omega dt)
-    dw, dx, dy, dz = exp_rotvec(wx * dt, wy * dt, wz * dt)
-    sw, sx, sy, sz = unit_positive(qw * dw - qx * dx - qy * dy - qz * dz,
-                                   qw * dx + qx * dw + qy * dz - qz * dy,
-                                   qw * dy - qx * dz + qy * dw + qz * dx,
-                                   qw * dz + qx * dy - qy * dx + qz * dw)
-    R = dcm(sw, sx, sy, sz)
+    sw, sx, sy, sz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
+    R = quat_dcm(sw, sx, sy, sz)
     return (px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h, ux, uy, uz,
             sw, sx, sy, sz, R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8],
             fnx, fny, fnz, wx, wy, wz)
-
-
-@kernel
-def exp_rotvec(ax, ay, az):
-    """Exp: a rotation vector to its unit quaternion (below 1e-9 rad, the first order)."""
-    ang = math.sqrt(ax * ax + ay * ay + az * az)
-    if ang > 1e-9:
-        s = math.sin(0.5 * ang) / ang
-        return math.cos(0.5 * ang), ax * s, ay * s, az * s
-    return 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-
-
-@kernel
-def unit_positive(rw, rx, ry, rz):
-    """The quaternion (rw, rx, ry, rz) normalised, with a non-negative scalar part."""
-    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-    if rw < 0.0:
-        n = -n
-    return rw * n, rx * n, ry * n, rz * n
 
 
 @kernel
@@ -185,7 +152,7 @@ def rotate_global(q, ax, ay, az):
                        dw * qx + dx * qw + dy * qz - dz * qy,
                        dw * qy - dx * qz + dy * qw + dz * qx,
                        dw * qz + dx * qy - dy * qx + dz * qw)
-    return q1, dcm(q1[0], q1[1], q1[2], q1[3])
+    return q1, quat_dcm(q1[0], q1[1], q1[2], q1[3])
 
 
 def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.geo import LocalFrame, gravity_m_s2
+from autopilot.geo.rotations import quat_dcm, quat_step
 from autopilot.jit import kernel
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import isa
@@ -291,7 +292,7 @@ class QuadrotorPlant:
         vn, ve, vd = x[_V:_Q].tolist()
         # specific force over the step: (dv/dt - g_vec), dv = -v
         fn, fe, fd = -vn / dt, -ve / dt, -vd / dt - self.g
-        r = _dcm(qw, qx, qy, qz)
+        r = quat_dcm(qw, qx, qy, qz)
         x[_F:_WIND] = (r[0] * fn + r[3] * fe + r[6] * fd,
                        r[1] * fn + r[4] * fe + r[7] * fd,
                        r[2] * fn + r[5] * fe + r[8] * fd)
@@ -310,30 +311,21 @@ class QuadrotorPlant:
         the reaction of the ground, R^T (0, 0, -g)."""
         x = self._x
         qw, qx, qy, qz = x[_Q:_W].tolist()
-        r = _dcm(qw, qx, qy, qz)
+        r = quat_dcm(qw, qx, qy, qz)
         roll = math.atan2(r[7], r[8])
         pitch = -math.asin(max(-1.0, min(1.0, r[6])))
         if abs(roll) + abs(pitch) > 1e-6:
             p, q = -LEVEL_RATE * roll, -LEVEL_RATE * pitch
             x[_W:_F] = (p, q, 0.0)
-            qn = _quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0)
+            qn = quat_step(qw, qx, qy, qz, p * dt, q * dt, 0.0)
             x[_Q:_W] = qn
-            r = _dcm(*qn)
+            r = quat_dcm(*qn)
         else:
             x[_W:_F] = 0.0
         x[_P + 2] = self._ground_d - self.af.gear_height_m
         x[_V:_Q] = 0.0
         g = self.g
         x[_F:_WIND] = (-r[6] * g, -r[7] * g, -r[8] * g)
-
-
-@kernel
-def _dcm(w, x, y, z):
-    """R(q_nb) row-major (the formula of autopilot.geo.quat_to_dcm, on floats)."""
-    ww, xx, yy, zz = w * w, x * x, y * y, z * z
-    return (ww + xx - yy - zz, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
-            2.0 * (x * y + w * z), ww - xx + yy - zz, 2.0 * (y * z - w * x),
-            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), ww - xx - yy + zz)
 
 
 @kernel
@@ -357,7 +349,7 @@ def air_data(x, wn, we, wd):
     airspeed = math.sqrt(ax * ax + ay * ay + az * az)
     alpha = beta = 0.0
     if airspeed > 1e-6:
-        r = _dcm(x[6], x[7], x[8], x[9])
+        r = quat_dcm(x[6], x[7], x[8], x[9])
         ub = r[0] * ax + r[3] * ay + r[6] * az
         vb = r[1] * ax + r[4] * ay + r[7] * az
         wb = r[2] * ax + r[5] * ay + r[8] * az
@@ -366,25 +358,6 @@ def air_data(x, wn, we, wd):
         s = s if s < 1.0 else 1.0
         beta = math.asin(s if s > -1.0 else -1.0)
     return airspeed, alpha, beta
-
-
-@kernel
-def _quat_step(qw, qx, qy, qz, ax, ay, az):
-    """q (x) Exp([ax, ay, az]) renormalised, w >= 0 (autopilot.geo.quat_integrate)."""
-    ang = math.sqrt(ax * ax + ay * ay + az * az)
-    if ang > 1e-9:
-        s = math.sin(0.5 * ang) / ang
-        dw, dx, dy, dz = math.cos(0.5 * ang), ax * s, ay * s, az * s
-    else:
-        dw, dx, dy, dz = 1.0, 0.5 * ax, 0.5 * ay, 0.5 * az
-    rw = qw * dw - qx * dx - qy * dy - qz * dz
-    rx = qw * dx + qx * dw + qy * dz - qz * dy
-    ry = qw * dy - qx * dz + qy * dw + qz * dx
-    rz = qw * dz + qx * dy - qy * dx + qz * dw
-    n = 1.0 / math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-    if rw < 0.0:
-        n = -n
-    return rw * n, rx * n, ry * n, rz * n
 
 
 @kernel
@@ -434,7 +407,7 @@ def flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, gro
     p1, q1, r1 = p + pd * dt, q + qd * dt, rr + rd * dt
     x[10], x[11], x[12] = p1, q1, r1
     # attitude: q <- q (x) Exp(omega_mid dt), renormalised (1.13-1.14)
-    x[6], x[7], x[8], x[9] = _quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt,
+    x[6], x[7], x[8], x[9] = quat_step(qw, qx, qy, qz, 0.5 * (p + p1) * dt,
                                         0.5 * (q + q1) * dt, 0.5 * (rr + r1) * dt)
     # translational dynamics (3.23), (3.25)
     a_n, a_e, a_d = fn / m, fe / m, fdn / m + g
