@@ -109,7 +109,7 @@ from autopilot.jit import kernel
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
                        RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
-from .stats import family_alpha
+from .stats import family_alpha, preload
 
 RHO0 = 1.225
 G0 = 9.80665
@@ -692,6 +692,15 @@ class ThrottleIdentifier:
         self.frozen = False
         self.suspended = False
         self._fault_us = None
+        if model.engine is None and model.prop_ixx > 0.0:
+            # the electric rotor's kernels (step) loaded now, not on leaving the ground
+            # (stats.preload): a speed, a command, an airspeed, a density, a step
+            w, u, V, rho, dt, rotor, cp = 500.0, 0.5, 20.0, RHO0, 0.01, model._rotor, model._cp_tables
+            preload(_rotor_speed, u, V, rotor)
+            preload(_rotor_throttle, w, V, rotor)
+            preload(_rotor_advance, w, u, V, dt, rotor)
+            preload(_prop_throttle, w, V, rho, rotor, *cp)
+            preload(_prop_advance, w, u, u, u, w, V, rho, dt, rotor, *cp)
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
