@@ -47,6 +47,20 @@ def kernel(fn):
     return numba.njit(cache=True, fastmath=False, nogil=True)(fn)
 
 
+def preload(kernel_fn, *args) -> None:
+    """Call ``kernel_fn`` once on ``args`` (values of the types its calls in flight pass;
+    copies of anything it writes into) and drop the result, so that numba loads its
+    machine code from the on-disk cache now, at start-up, rather than at that first call
+    in flight. A load takes a few milliseconds, a stalled step: on the default missions
+    the fault monitor's kernels loaded on leaving the ground, when the elevator's test
+    armed and when the balances' fits started, the join planner's at the first planned
+    join (21 s), the quadrotor's attitude loops and mixer at its take-off, all inside
+    ``sitl bench``'s window (9 of the monitor's 24 us a step from 5 to 25 s after
+    arming). Whoever owns a kernel called only in flight calls this when it is built
+    (tests/test_kernel_preload.py checks that none loads after arming)."""
+    kernel_fn(*args)
+
+
 # ------------------------------------------------- shared linear algebra kernels --
 # (numba's own np.linalg binds LAPACK at compile time: about ten seconds of a fresh
 # install's first run for one call of np.linalg.solve; these loops compile in a second)

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
+from ..jit import kernel, preload
 from ..params import Param
 from .mixer import QuadPlusMixer
 
@@ -287,6 +287,9 @@ class AttitudeController:
         for k, loop in enumerate(self.loops):
             loop.state = self.state[k]
         self.error = (0.0, 0.0, 0.0)
+        # the kernel loaded now, not at the take-off (autopilot.jit.preload; on a copy of
+        # the state, which the loops write)
+        preload(attitude_step, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.coef, self.state.copy())
 
     def reset(self) -> None:
         for loop in self.loops:

@@ -58,6 +58,7 @@ import numpy as np
 
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
+from ..jit import preload
 from ..mission.items import (MAV_CMD_CONDITION_DELAY, MAV_CMD_CONDITION_DISTANCE,
                              MAV_CMD_CONDITION_YAW, MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP,
                              MAV_CMD_DO_SET_HOME, MAV_CMD_NAV_DELAY, MAV_CMD_NAV_LOITER_TIME,
@@ -170,6 +171,8 @@ class MissionSequencer:
         # vehicle -> (lat_deg, lon_deg, alt_m MSL) or None (the vehicle's geofence rules)
         self.rally_point = None
         self.load(mission)
+        # the join planner's kernel loaded now, not at the first planned join (autopilot.jit.preload)
+        preload(dubins._path_cost, np.zeros((1, 7)), 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0)
 
     # ------------------------------------------------------------------ set-up ---
     def load(self, mission: Mission) -> None:

@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from autopilot.jit import kernel
+from autopilot.jit import kernel, preload
 
-from .stats import WindowChi2, family_alpha, preload, stage2_update
+from .stats import WindowChi2, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
 BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
@@ -116,7 +116,7 @@ class MomentBalance:
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        preload(rls_update, self.c, self.P, np.zeros(self.N), 1.0, 0.0)   # (stats.preload)
+        preload(rls_update, self.c, self.P, np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
 
     @property
     def ready(self) -> bool:
@@ -270,7 +270,7 @@ class ElevatorIdentifier:
         self.model = model
         self.prior = None if model is None else model.balance(MomentBalance.V_REF)
         self.reset()
-        # (stats.preload: the stage-2 step's kernel loaded now, not when the test arms)
+        # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not when the test arms)
         preload(stage2_update, self.gamma, self.P_gamma, np.array(((0.0, 1.0),)), np.zeros(1),
                 np.ones(1), 0.0)
 

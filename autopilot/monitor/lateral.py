@@ -61,7 +61,8 @@ from numpy.linalg._umath_linalg import solve1 as _solve1
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
                        MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist, rls_update)
-from .stats import WindowChi2, family_alpha, preload
+from ..jit import preload
+from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
 
@@ -361,7 +362,7 @@ class _Axis:
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
         self.ratio = 0.0
         self.residual = 0.0
-        preload(rls_update, self.c, self.P, np.zeros(n_phi), 1.0, 0.0)   # (stats.preload)
+        preload(rls_update, self.c, self.P, np.zeros(n_phi), 1.0, 0.0)   # (autopilot.jit.preload)
 
     def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
         """``learn``: True the offset and the variance are learnt, False the variance only

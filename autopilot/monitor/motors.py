@@ -31,7 +31,8 @@ import numpy as np
 from autopilot.params import Param
 
 from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
-from .stats import WindowChi2, chi2_threshold, family_alpha, preload, stage2_update
+from ..jit import preload
+from .stats import WindowChi2, chi2_threshold, family_alpha, stage2_update
 
 LP_TAU_S = 0.1            # low-pass of every balance signal [s]
 KF_PERIOD_S = 0.1         # stage 2 (Kalman filter) period [s]
@@ -98,7 +99,7 @@ class MotorMonitor:
         self.win = WindowChi2(3, window, self.alpha, family_alpha(p_fa, 3600.0 / TEST_PERIOD_S))
         self.thr_iso = chi2_threshold(self.alpha, 1)
         self.reset()
-        # (stats.preload: the stage-2 step's kernel loaded now, not at the first balance)
+        # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not at the first balance)
         preload(stage2_update, self.gamma, self.P, np.eye(4), np.zeros(4), np.ones(4), 0.0)
 
     def reset(self) -> None:

@@ -178,19 +178,6 @@ class WindowChi2:
         return self.gamma / self.thr_iso if self.n >= self.M else 0.0
 
 
-def preload(kernel_fn, *args) -> None:
-    """Call ``kernel_fn`` once on ``args`` (values of the types its calls in flight pass)
-    and drop the result, so that numba loads its machine code from the on-disk cache now
-    rather than at that first call in flight. A load costs 2-8 ms per kernel: on the
-    default mission the throttle balance's five loaded 6.8 s after start-up (13 ms, on
-    leaving the ground), :func:`stage2_update` at 9.8 s when the elevator's test armed
-    (7 ms), ``rls_update`` at 36.8 s when the balances' fits started (4 ms): each a
-    stall of one 10 ms step, 9 of the 24 us per step the monitor cost from 5 to 25 s
-    after arming (``sitl bench``'s per-block timers). The identifiers call this at
-    construction (start-up). The kernels are pure: the call changes no state."""
-    kernel_fn(*args)
-
-
 @kernel
 def stage2_update(gamma, P, H, e, r, q):
     """Stage 2 of the two-stage filters (the elevator's [k, s], actuator.py; the rotors'

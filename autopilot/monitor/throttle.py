@@ -104,12 +104,12 @@ from functools import cached_property
 
 import numpy as np
 
-from autopilot.jit import kernel
+from autopilot.jit import kernel, preload
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
                        RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
 from .lateral import TEST_DIV, V_REF, _Axis
-from .stats import family_alpha, preload
+from .stats import family_alpha
 
 RHO0 = 1.225
 G0 = 9.80665
@@ -694,7 +694,7 @@ class ThrottleIdentifier:
         self._fault_us = None
         if model.engine is None and model.prop_ixx > 0.0:
             # the electric rotor's kernels (step) loaded now, not on leaving the ground
-            # (stats.preload): a speed, a command, an airspeed, a density, a step
+            # (autopilot.jit.preload): a speed, a command, an airspeed, a density, a step
             w, u, V, rho, dt, rotor, cp = 500.0, 0.5, 20.0, RHO0, 0.01, model._rotor, model._cp_tables
             preload(_rotor_speed, u, V, rotor)
             preload(_rotor_throttle, w, V, rotor)
