@@ -1,4 +1,5 @@
-"""Rotations, WGS-84 / ECEF / NED, units at the boundary (a leaf package)."""
+"""Rotations, WGS-84 / ECEF / NED, units at the boundary (a leaf package: it imports
+nothing else of the project but autopilot.jit, for its rotation kernels)."""
 from .rotations import (  # noqa: F401
     dcm_to_quat, euler_to_quat, from_scipy, quat_conjugate, quat_from_rotvec,
     quat_integrate, quat_multiply, quat_normalize, quat_to_dcm, quat_to_euler,
