@@ -337,8 +337,7 @@ class PlaneVehicle(VehicleBase):
         mon = self.monitor
         if mon is not None:
             mon.update(t_us, self._monitoring())
-            if len(mon.events) > self._fdi_events:
-                self._forward_events(mon)
+            self._forward_events(mon)
             eout = mon.elevator_fault_s is not None and p["EOUT_ENABLE"] > 0
             if eout != ctrl.elevator_out:
                 # the elevator is faulty: height on the throttle (control/fixed_wing.py)
@@ -417,7 +416,7 @@ class PlaneVehicle(VehicleBase):
             controls = self._fly(nav, dt, t_us, vl)
             if self.terminated:
                 controls = (1.0, 1.0, 1.0, 0.0)
-        if self.armed and self._sequencer is not None and self._sequencer.landing is not None:
+        if self.armed and self._sequencer is not None:
             self._land_disarm(t_us)
         self._finish = (t_us, nav, controls, truth, gps is not None)
         return ActuatorOutputs(t_us, controls, self.armed)
@@ -463,7 +462,7 @@ class PlaneVehicle(VehicleBase):
         # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
         # nothing of where the ground is
         h = nav.alt_m - self._launch_alt_m
-        ground = self._ground_m(nav) if self.terrain is not None else None
+        ground = self._ground_m(nav)
         if ground is not None and self._launch_ground_m is not None:
             # over known terrain: the height above the ground under the aircraft (less
             # the launcher's height above it at arming), not above the launch point
@@ -616,8 +615,7 @@ class PlaneVehicle(VehicleBase):
             if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
                 tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
-            if seq.notices or seq.home_request is not None:
-                self._sequencer_requests(t_us, nav)
+            self._sequencer_requests(t_us, nav)
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl

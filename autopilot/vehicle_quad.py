@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
-from .fence.actions import fence_step, home_ll
+from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
 from .geo.rotations import quat_dcm, quat_step
@@ -477,8 +477,7 @@ class QuadVehicle(VehicleBase):
         if mon is not None:
             self._monitor(mon, frame, omega, t_us)
 
-        g = self.geofence
-        if g.breached or g.params["FENCE_ENABLE"] >= 1:   # (fence_step's own test: off, it does nothing)
+        if fence_watching(self.geofence):        # (else no arguments worked out)
             fence_step(self, t_us, self.armed and not self.on_ground,
                        landing=self.mode is _LAND or self.navigator.phase.startswith("land"))
         motors = (0.0, 0.0, 0.0, 0.0)

@@ -388,7 +388,7 @@ class QuadMember:
 
     def truth_form(self, origin: LocalFrame) -> tuple:
         st = self.bridge.state
-        return tuple(origin.to_ned_fast(st.lat_rad, st.lon_rad, st.alt_m).tolist())
+        return origin.ned_fast(st.lat_rad, st.lon_rad, st.alt_m)
 
 
 def run_quad(spec: FormationSpec, seed: int, net, duration_s: float, gcs: bool = False,

@@ -110,7 +110,7 @@ def quat_to_euler(q: np.ndarray) -> tuple[float, float, float]:
     s = s if s < 1.0 else 1.0                      # max(-1.0, min(1.0, s)), without the
     pitch = math.asin(s if s > -1.0 else -1.0)     # builtins' cost (control/pid.py)
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, (yaw + math.pi) % TWO_PI - math.pi     # wrap_pi(yaw), without its call
+    return roll, pitch, wrap_pi(yaw)
 
 
 def quat_from_rotvec(phi: np.ndarray) -> np.ndarray:

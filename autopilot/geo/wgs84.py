@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .rotations import TWO_PI, wrap_pi
+from .rotations import wrap_pi
 
 A_M = 6378137.0                      # semi-major axis [m]
 B_M = 6356752.314245                 # semi-minor axis [m]
@@ -116,10 +116,9 @@ class LocalFrame:
         from the parallel's radius at the point's own latitude, plus the second-order
         bend of the parallel in the tangent plane (e^2 tan(lat0) / 2N). Agrees with the
         exact tangent plane to centimetres at 5 km. Longitude difference is wrapped, so
-        the 180-degree meridian is safe (``wrap_pi``, written out: the call costs more
-        than the sum). A tuple (north, east, down) [m]: for the code
+        the 180-degree meridian is safe. A tuple (north, east, down) [m]: for the code
         that reads it element by element (a numpy element costs more than a float)."""
-        e = ((lon_rad - self.lon0_rad + math.pi) % TWO_PI - math.pi) * self._rn0 * math.cos(lat_rad)
+        e = wrap_pi(lon_rad - self.lon0_rad) * self._rn0 * math.cos(lat_rad)
         return ((lat_rad - self.lat0_rad) * self._rm + e * e * self._bend,
                 e,
                 self.alt0_m - alt_m)

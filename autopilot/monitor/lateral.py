@@ -57,28 +57,14 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numpy.linalg._umath_linalg import solve1 as _solve1
+
+from autopilot.jit import preload
 
 from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
                        MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist, rls_update)
-from ..jit import preload
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
-
-
-def _solve(A: np.ndarray, y: np.ndarray) -> list:
-    """``np.linalg.solve(A, y).tolist()`` for one system: the same LAPACK routine
-    (numpy's ``_umath_linalg.solve1``), the same result, without its Python wrapper (its
-    checks and its floating-point error state cost three times LAPACK's solve of 3
-    unknowns, and the balance solves at 10 Hz). Where that gives a NaN (a singular A,
-    which none of the models' is, or a NaN in y) np.linalg.solve is asked instead, and
-    raises or returns as it always did."""
-    x = _solve1(A, y, signature="dd->d").tolist()
-    for v in x:
-        if v != v:
-            return np.linalg.solve(A, y).tolist()
-    return x
 LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
 LAT_RES_PRIOR_RAD = 0.02       # that deviation before any sample is learnt [rad]
 LAT_RES_PRIOR_N = 50           # the warm-up's mean square, once the offset fit starts, is
@@ -180,7 +166,7 @@ class LateralAero:
             y = np.array((self.mass_kg * a_y / qS,
                           L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
                           (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-            _beta, da, dr = _solve(self._A_simple, y)
+            _beta, da, dr = np.linalg.solve(self._A_simple, y).tolist()
             return da, -dr
         # the rate derivatives at the angle of attack the measured normal force gives
         al = 0.0
@@ -204,7 +190,7 @@ class LateralAero:
         y = np.array((self.mass_kg * a_y / qS - cy_rates,
                       L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
                       (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates))
-        beta, sa, sr = _solve(A, y)
+        beta, sa, sr = np.linalg.solve(A, y).tolist()
         if self.CD_beta:
             # the sideslip's own drag (CD_beta |beta|): its side part -CD_beta |beta| beta,
             # taken at the sideslip first solved, and solved again
@@ -212,7 +198,7 @@ class LateralAero:
             A[0, 0] -= e
             A[1, 0] -= zb * e
             A[2, 0] += xb * e
-            _beta, sa, sr = _solve(A, y)
+            _beta, sa, sr = np.linalg.solve(A, y).tolist()
         # the surfaces' deflections back to the autopilot's rad
         da = sa / (self.da_right if sa >= 0.0 else self.da_left)
         return float(da), float(-sr / self.dr_gain)
@@ -448,8 +434,7 @@ class LateralIdentifier:
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             return
-        w = nav.omega_b                # an array (NavState), a tuple in some tests
-        w0, w1, w2 = w.tolist() if isinstance(w, np.ndarray) else (float(w[0]), float(w[1]), float(w[2]))
+        w0, w1, w2 = np.asarray(nav.omega_b, dtype=float).tolist()
         if self._nav is not None:
             ba = getattr(self._nav, "accel_bias", None)
             if ba is not None:

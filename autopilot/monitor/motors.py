@@ -28,10 +28,10 @@ import math
 
 import numpy as np
 
+from autopilot.jit import preload
 from autopilot.params import Param
 
 from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
-from ..jit import preload
 from .stats import WindowChi2, chi2_threshold, family_alpha, stage2_update
 
 LP_TAU_S = 0.1            # low-pass of every balance signal [s]

@@ -395,7 +395,7 @@ class ThrustModel:
 
     @cached_property
     def _rotor(self) -> np.ndarray:
-        """The electric rotor's numbers as its kernels take them (:data:`_ROTOR_FIELDS`)."""
+        """The electric rotor's numbers as its kernels take them (the indices ``_P_MAX`` ... ``_D5``)."""
         a, b, c, d = self.rpm
         return np.array((self.p_max_w, self.q_max_nm, self.prop_ixx, self.k_idle, a, b, c, d,
                          self.prop_d_m, self.prop_d_m ** 5), dtype=float)
@@ -547,10 +547,9 @@ _table = kernel(_interp)      # the same law, compiled (the electric rotor's ker
 
 
 # ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
-# balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor, its fields:
+# balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor: p_max_w, q_max_nm,
+# prop_ixx, k_idle, the rpm fit's a, b, c, d, prop_d_m and prop_d_m ** 5, at these indices
 _P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
-_ROTOR_FIELDS = ("p_max_w", "q_max_nm", "prop_ixx", "k_idle", "rpm a", "rpm b", "rpm c", "rpm d",
-                 "prop_d_m", "prop_d_m ** 5")
 
 
 @kernel

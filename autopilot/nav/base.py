@@ -448,7 +448,7 @@ class NavFilterBase:
         nom = self.nom
         nom.set_attitude(euler_to_quat(roll, pitch, yaw))
         nom.v = v
-        z = self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist()
+        z = list(self.origin.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m))
         L = self._gps_delay
         nom.p = [z[0] + v[0] * L, z[1] + v[1] * L, z[2] + v[2] * L]
         nom.gb = [0.0, 0.0, 0.0]
@@ -600,7 +600,7 @@ class NavFilterBase:
             gb = nom.gb
             forced = self._pos_src != "gps"
             # gps_pos: h = p(t-L) + b_gps,  H = [I, -L I, 0 ..., I (GPSB), 0]
-            add("gps_pos", self.origin.to_ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m).tolist(),
+            add("gps_pos", list(self.origin.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)),
                 (pd[0] + gb[0], pd[1] + gb[1], pd[2] + gb[2]), (sh * sh, sh * sh, sv * sv),
                 prm["EK_GPS_P_GATE"], (1.0, -L, 1.0) * 3, forced)
             # gps_vel: h = v(t-L),  H = [0, I, [dv_f x], L R, 0 ...]

@@ -381,8 +381,7 @@ def flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, gro
     x[19], x[20], x[21], x[22] = t1, t2, t3, t4
     total = t1 + t2 + t3 + t4
     qw, qx, qy, qz = x[6], x[7], x[8], x[9]
-    ww, xx, yy, zz = qw * qw, qx * qx, qy * qy, qz * qz
-    r2, r5, r8 = 2.0 * (qx * qz + qw * qy), 2.0 * (qy * qz - qw * qx), ww - xx - yy + zz
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = quat_dcm(qw, qx, qy, qz)   # R(q_nb)
     # air-relative velocity and the body drag (3.25): -D e_V, D / V_a = c_lin + 1/2 rho CdA V_a
     vn, ve, vd = x[3], x[4], x[5]
     an, ae, ad = vn - wn, ve - we, vd - wd
@@ -390,11 +389,11 @@ def flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, gro
     dk = drag_lin + 0.5 * rho * cda * va
     dn, de, dd = -dk * an, -dk * ae, -dk * ad
     # thrust -T e_z in NED: third column of R times -total (gravity added below)
-    fn = -total * r2 + dn
-    fe = -total * r5 + de
-    fdn = -total * r8 + dd
+    fn = -total * r02 + dn
+    fe = -total * r12 + de
+    fdn = -total * r22 + dd
     if on_ground:
-        if not (fdn + m * g < 0.0 and 1.0 - r8 < 0.02):   # thrust exceeds weight: lift off
+        if not (fdn + m * g < 0.0 and 1.0 - r22 < 0.02):   # thrust exceeds weight: lift off
             return 1
     # rotational dynamics (3.24), (3.26): I omega' = M - omega x I omega
     mx = l * (t2 - t4)
@@ -416,9 +415,7 @@ def flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, gro
     x[0], x[1], x[2] = x[0] + 0.5 * (vn + u_n) * dt, x[1] + 0.5 * (ve + u_e) * dt, pdn1
     x[3], x[4], x[5] = u_n, u_e, u_d
     # specific force (accelerometer truth): non-gravitational force / m, body axes
-    r0, r1_, r3 = ww + xx - yy - zz, 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qy + qw * qz)
-    r4, r6, r7 = ww - xx + yy - zz, 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx)
-    x[13] = (r0 * dn + r3 * de + r6 * dd) / m
-    x[14] = (r1_ * dn + r4 * de + r7 * dd) / m
-    x[15] = (r2 * dn + r5 * de + r8 * dd - total) / m
+    x[13] = (r00 * dn + r10 * de + r20 * dd) / m
+    x[14] = (r01 * dn + r11 * de + r21 * dd) / m
+    x[15] = (r02 * dn + r12 * de + r22 * dd - total) / m
     return 2 if pdn1 > ground_d - gear else 0

@@ -11,9 +11,7 @@ import numpy as np
 
 from autopilot.frozen import message
 
-PACK3 = struct.Struct("3d").pack
-PACK6 = struct.Struct("6d").pack
-_PACK = {3: PACK3, 6: PACK6}
+_PACK = {3: struct.Struct("3d").pack, 6: struct.Struct("6d").pack}
 
 
 def frozen_floats(*values: float) -> np.ndarray:

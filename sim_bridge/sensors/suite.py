@@ -45,7 +45,7 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import PACK6, GpsReading, SensorReadings, frozen_floats, next_due_us
+from .readings import GpsReading, SensorReadings, frozen_floats, next_due_us
 from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
@@ -194,8 +194,7 @@ class SensorSuite:
         fx, fy, fz = state.f_b.tolist()
         wx, wy, wz = state.omega_b.tolist()
         e = self._imu_err_rows[i]
-        # (frozen_floats written out: its call and look-up saved, once a step)
-        imu = np.frombuffer(PACK6(fx + e[0], fy + e[1], fz + e[2], wx + e[3], wy + e[4], wz + e[5]))
+        imu = frozen_floats(fx + e[0], fy + e[1], fz + e[2], wx + e[3], wy + e[4], wz + e[5])
 
         # Barometer
         nxt = self._next_baro_us
