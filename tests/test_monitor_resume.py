@@ -45,7 +45,7 @@ def test_lateral_balance_resumes_after_a_pause_without_a_false_alarm():
         pd = qSb * (m.Cl_p * k * st["p"] + m.Cl_da * da_true) / m.Jx
         st["p"] += pd * DT_US * 1e-6
         za, zr = m.deflections(V, st["p"], 0.0, 0.0, pd, 0.0, 0.0)
-        nav = SimpleNamespace(airspeed_mps=V, omega_b=(st["p"], 0.0, 0.0))
+        nav = SimpleNamespace(airspeed_mps=V, omega_b=np.array((st["p"], 0.0, 0.0)))
         ident.step(t_us, nav, (za / MAX_DEFLECTION_RAD, 0.0, zr / MAX_DEFLECTION_RAD, 0.4),
                    flying, (0.0, 0.0, -9.80665))
         if t >= 47.0:
@@ -76,7 +76,7 @@ def test_pitch_balance_resumes_after_a_pause_without_a_false_alarm():
         st["q"] += qd * DT_US * 1e-6
         n = 1.0 + V * st["q"] / 9.80665
         d = c[0] + c[1] * (n * r2 - 1.0) + AEROSONDE.dynamic_elevator(st["q"], qd, V)
-        nav = SimpleNamespace(airspeed_mps=V, omega_b=(0.0, st["q"], 0.0), healthy=True)
+        nav = SimpleNamespace(airspeed_mps=V, omega_b=np.array((0.0, st["q"], 0.0)), healthy=True)
         ident.step(t_us, nav, d / MAX_DEFLECTION_RAD, flying, 0.4, n, st["q"])
         if t >= 47.0:
             st["peak"] = max(st["peak"], ident.ratio)

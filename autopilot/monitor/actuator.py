@@ -335,7 +335,7 @@ class ElevatorIdentifier:
             qw, qx, qy, qz = (float(c) for c in nav.q_nb)
             c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
             n = 1.0 / max(c_bank, 0.5)
-        _p, q_b, r_b = np.asarray(nav.omega_b, dtype=float).tolist()   # body rates, bias-corrected
+        _p, q_b, r_b = nav.omega_b.tolist()     # body rates, bias-corrected
         if q is None:
             q = q_b                    # pitch rate
         sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)

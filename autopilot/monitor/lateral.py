@@ -434,7 +434,7 @@ class LateralIdentifier:
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             return
-        w0, w1, w2 = np.asarray(nav.omega_b, dtype=float).tolist()
+        w0, w1, w2 = nav.omega_b.tolist()
         if self._nav is not None:
             ba = getattr(self._nav, "accel_bias", None)
             if ba is not None:
