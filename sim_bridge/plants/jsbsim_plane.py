@@ -59,6 +59,8 @@ import math
 import os
 import warnings
 from dataclasses import dataclass
+from itertools import repeat
+from operator import add, call, truediv
 from pathlib import Path
 
 import jsbsim
@@ -88,6 +90,8 @@ TURBULENCE_W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.
 TURB_BLOCK = 1024                   # gust random numbers drawn per block of steps
 
 _HELD, _FIRING, _FREE = "held", "firing", "free"
+_ZERO6 = (0.0,) * 6
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,12 +114,6 @@ _AIRFRAMES = {
                        ("fcs/left-brake-cmd-norm", "fcs/right-brake-cmd-norm"),
                        (0, 1, 2), False, 6.0),
 }
-
-
-def _wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to (-pi, pi]."""
-    wrapped = math.remainder(angle_rad, 2.0 * math.pi)
-    return math.pi if wrapped == -math.pi else wrapped
 
 
 class JSBSimPlane:
@@ -193,14 +191,15 @@ class JSBSimPlane:
         """The true state now, in SI units (see base.PlantState). ``imu``: the body
         rates and specific force (p, q, r, ax, ay, az in JSBSim's units) to report
         instead of this step's (``step``'s means)."""
+        # the getters called from C (map), no Python frame per read
         if imu is None:
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = [
-                get() for get in self._state_getters]
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
+                call, self._state_getters)
         else:                                     # (the rates and forces not read twice)
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = [
-                get() for get in self._state_getters_no_imu]
+             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
+                call, self._state_getters_no_imu)
             p, q, r, ax, ay, az = imu
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
@@ -216,25 +215,15 @@ class JSBSimPlane:
                       p, q, r,
                       ax * FT_M, ay * FT_M, az * FT_M,
                       wn * FT_M, we * FT_M, wd * FT_M))
-        return PlantState(
-            t_us=self._t_us,
-            lat_rad=lat,
-            lon_rad=_wrap_pi(lon),
-            alt_m=alt,
-            v_ned=a[0:3],
-            q_nb=a[3:7],
-            omega_b=a[7:10],
-            f_b=a[10:13],
-            wind_ned=a[13:16],
-            airspeed_mps=vt * FT_M,
-            alpha_rad=alpha,
-            beta_rad=beta,
-            on_ground=abs(fz_gear) + abs(fx_gear) > 1e-9,
-            rho_kgm3=rho * SLUGFT3_KGM3,
-            pressure_pa=pressure * PSF_PA,
-            temperature_k=temperature * RANKINE_K,
-            rpm=rpm,
-        )
+        lon = math.remainder(lon, _TWO_PI)       # wrapped to (-pi, pi]
+        if lon == -math.pi:
+            lon = math.pi
+        return PlantState(                        # (positional: no keyword dict built)
+            self._t_us, lat, lon, alt,
+            a[0:3], a[3:7], a[7:10], a[10:13], a[13:16],   # v_ned q_nb omega_b f_b wind_ned
+            vt * FT_M, alpha, beta,               # airspeed_mps, alpha_rad, beta_rad
+            abs(fz_gear) + abs(fx_gear) > 1e-9,   # on_ground
+            rho * SLUGFT3_KGM3, pressure * PSF_PA, temperature * RANKINE_K, rpm)
 
     def step(self, controls: PlaneControls, n_steps: int = 1) -> PlantState:
         """Hold ``controls`` for ``n_steps`` JSBSim steps and return the new state."""
@@ -251,16 +240,15 @@ class JSBSimPlane:
         imu = self._imu_getters
         n_mean = self.imu_mean_steps
         n_mean = n_steps if n_steps < n_mean else n_mean    # min() (autopilot/control/pid.py)
-        acc = [0.0] * 6
+        acc = _ZERO6                              # sums of p, q, r, ax, ay, az
         for k in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
             run()
             self._t_us += self._dt_us
             if k >= n_steps - n_mean:
-                for j, get in enumerate(imu):
-                    acc[j] += get()
-        return self.state(imu=[a / n_mean for a in acc] if n_mean > 1 else None)
+                acc = tuple(map(add, acc, map(call, imu)))
+        return self.state(imu=map(truediv, acc, repeat(n_mean)) if n_mean > 1 else None)
 
     def set_wind(self, wind_ned, turbulence: str = "none") -> None:
         """Steady wind, the air's velocity over ground NED [m/s], and turbulence level."""
@@ -477,6 +465,7 @@ class JSBSimPlane:
         self._state_getters = tuple(self._n[name] for name in names)
         self._imu_getters = tuple(self._n[name] for name in imu)
         self._state_getters_no_imu = tuple(self._n[name] for name in names if name not in imu)
+        self._gust_getters = tuple(self._n[name] for name in ("agl", "vn", "ve", "vd"))
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
@@ -487,8 +476,8 @@ class JSBSimPlane:
                           setter("atmosphere/gust-down-fps"))
 
     def _apply_controls(self, controls: PlaneControls) -> None:
-        if controls == self._controls:
-            return
+        # written at every call: in flight the commands change every step (comparing
+        # them first cost more than it saved), and writing a value again changes nothing
         self._controls = controls
         self._set_aileron(controls.aileron)
         self._set_elevator(-controls.elevator)
@@ -581,7 +570,6 @@ class JSBSimPlane:
             fdm["fcs/launcher-latch"] = 1.0
         else:
             fdm["fcs/mixture-cmd-norm"] = 1.0
-        self._controls = None                     # force the write below
         self._apply_controls(PlaneControls())
         fdm.get_propulsion().init_running(-1)
         fdm["position/terrain-elevation-asl-ft"] = deck_m / FT_M
@@ -643,6 +631,7 @@ class _DrydenGusts:
         self.gust_ned = (0.0, 0.0, 0.0)
         self._sigma_w = 0.0
         self._axis_u = (1.0, 0.0)                 # unit north, east of the u axis
+        self._wind = (0.0, 0.0, 0.0)              # the steady wind, NED [m/s]
         self._x = [0.0, 0.0, 0.0]                 # u, v, w gust along the axes [m/s]
         self._noise: list = []
         self._k = 0
@@ -660,9 +649,9 @@ class _DrydenGusts:
             self.gust_ned = (0.0, 0.0, 0.0)
         elif not was_active:
             self._x = [0.0, 0.0, 0.0]
-        horizontal = math.hypot(wind_ned[0], wind_ned[1])
-        self._axis_u = ((wind_ned[0] / horizontal, wind_ned[1] / horizontal)
-                        if horizontal > 0.1 else (1.0, 0.0))
+        self._wind = wn, we, _ = tuple(float(v) for v in wind_ned)    # not numpy scalars
+        horizontal = math.hypot(wn, we)
+        self._axis_u = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
 
     @staticmethod
     def write(fdm, gust_n: float, gust_e: float, gust_d: float) -> None:
@@ -672,13 +661,13 @@ class _DrydenGusts:
 
     def step(self, plant: "JSBSimPlane", n_steps: int = 1) -> None:
         """Advance the gust ``n_steps`` time steps and hand it to JSBSim."""
-        n = plant._n
-        h_m = n["agl"]() * FT_M
+        agl, vn, ve, vd = map(call, plant._gust_getters)
+        h_m = agl * FT_M
         h_m = 3.0 if h_m < 3.0 else (300.0 if h_m > 300.0 else h_m)
-        wind = plant._wind_ned
-        du = n["vn"]() * FT_M - wind[0]
-        dv = n["ve"]() * FT_M - wind[1]
-        dw = n["vd"]() * FT_M - wind[2]
+        wn, we, wd = self._wind
+        du = vn * FT_M - wn
+        dv = ve * FT_M - we
+        dw = vd * FT_M - wd
         speed = math.sqrt(du * du + dv * dv + dw * dw)
         speed = 5.0 if 5.0 > speed else speed
         shape = 0.177 + 0.000823 * (h_m / FT_M)
