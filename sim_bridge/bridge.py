@@ -51,7 +51,9 @@ class SimBridge:
         self.events = sorted(events, key=lambda e: e.at_s)
         self._next_event = 0
         self.vehicle = vehicle
+        self._plane = vehicle == "plane"
         self.hil_period_us = int(round(1e6 / hil_rate_hz))
+        self._hil_period_s = self.hil_period_us * 1e-6
         self.substeps = max(1, int(round(self.hil_period_us * 1e-6 / plant.dt_s)))
         self._rotors = len(plant.rotor_scale) if hasattr(plant, "rotor_scale") else 0
         if hasattr(plant, "imu_mean_steps"):
@@ -110,12 +112,13 @@ class SimBridge:
     def send_current(self) -> None:
         if self._next_event < len(self.events):
             self._apply_due_events()
-        readings = self.sensors.sample(self.state)
+        state = self.state
+        readings = self.sensors.sample(state)
         if self.faults is not None:
             readings = self.faults.apply(readings)
         rf, rs = self.rangefinder, self.rpm
-        self.link.send_step(readings, self.state, rf.sample(self.state) if rf is not None else None,
-                            rs.sample(self.state) if rs is not None else None)
+        self.link.send_step(readings, state, rf.sample(state) if rf is not None else None,
+                            rs.sample(state) if rs is not None else None)
 
     def advance(self, controls: tuple | None) -> None:
         if controls is not None:
@@ -125,18 +128,18 @@ class SimBridge:
         c = self.controls
         faults = self.faults
         if faults is not None:
-            c = tuple(faults.apply_controls(c))
+            c = faults.apply_controls(c)          # (a tuple)
             if self._rotors:
                 self.plant.rotor_scale = faults.motor_thrust_scales(self._rotors)
-        if self.vehicle == "plane":
-            cmd = PlaneControls(c[0], c[1], c[2], c[3])
+        if self._plane:
+            cmd = PlaneControls(*c)
             u = c[3]
         else:
             cmd = c
             u = sum(c[:4]) / 4.0 if len(c) >= 4 else 0.0
         # the battery integrates the mean command over BATTERY_STEP_US (its power is
         # linear in the command and its voltage changes over minutes)
-        dt = self.hil_period_us * 1e-6
+        dt = self._hil_period_s
         self._bat_u_s += (u if self.link.armed else 0.0) * dt
         self._bat_t_s += dt
         t_us = self.state.t_us

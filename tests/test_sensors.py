@@ -424,6 +424,19 @@ def step_all(suite, inj, t0_s, t1_s, make=lambda k, t: state(t), dt=DT):
     return out
 
 
+def test_normals_in_blocks_are_the_scalar_draws_in_order():
+    # GIVEN two generators of one seed
+    # WHEN one is read through readings.normals (blocks of 7) and the other one
+    # standard_normal() at a time
+    # THEN the numbers are the same, across block boundaries, and nothing is drawn
+    # before the first number is asked for
+    from sim_bridge.sensors.readings import normals
+    a, b = np.random.default_rng(11), np.random.default_rng(11)
+    stream = normals(a, block=7)
+    assert a.bit_generator.state == b.bit_generator.state
+    assert [next(stream) for _ in range(30)] == [float(b.standard_normal()) for _ in range(30)]
+
+
 def test_gps_off_stops_fixes_and_ok_brings_them_back():
     suite, inj = faulty()
     # GIVEN fixes flowing for 5 s

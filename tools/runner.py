@@ -225,12 +225,12 @@ class Session:
             ap_end.answer(out)
             if gcs is not None:
                 gcs.after_step(frame, out)
-        controls = self.sim_end.poll_answer(bridge.t_us)
+        controls = self.sim_end.poll_answer(bridge.state.t_us)
         bridge.advance(controls)
         if self.landing_score is not None:
             self.landing_score.update(bridge.state, vehicle, not self.plant.on_launcher)
         if gcs is not None:
-            gcs.step(bridge.t_us)
+            gcs.step(bridge.state.t_us)
 
     def done(self) -> bool:
         if self.cfg.vehicle == "quad":

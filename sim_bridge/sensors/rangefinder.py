@@ -19,7 +19,8 @@ quantised to the centimetre on the wire (DISTANCE_SENSOR carries cm). Every read
 draws exactly one standard normal from the injected generator, in range or not, so
 the noise sequence depends on the seed alone; the generator is the rangefinder's own
 stream (``sim_bridge/world.py``), so fitting one leaves every other sensor's draws,
-and the flight when the autopilot does not use it, unchanged.
+and the flight when the autopilot does not use it, unchanged. (The draws are made in
+blocks, ``readings.normals``: the same numbers in the same order.)
 
 The default sensor is a LIDAR-Lite v3 class lidar (Garmin: 5 cm to 40 m, +-2.5 cm
 accuracy beyond 1 m), read at 20 Hz.
@@ -31,7 +32,7 @@ from dataclasses import dataclass
 
 from autopilot.frozen import message
 
-from .readings import next_due_us, period_us
+from .readings import next_due_us, normals, period_us
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,7 @@ class Rangefinder:
     def __init__(self, params: RangefinderParams, rng, home_alt_m: float, terrain=None):
         self.params = params
         self._rng = rng
+        self._noise = normals(rng)
         self.home_alt_m = float(home_alt_m)
         self.terrain = terrain
         self._period_us = period_us(params.rate_hz)
@@ -91,7 +93,7 @@ class Rangefinder:
             return None
         self._next_us = next_due_us(self._next_us, self._period_us, t_us)
         p = self.params
-        n = float(self._rng.standard_normal())    # one draw per reading, whatever it reads
+        n = next(self._noise)                    # one draw per reading, whatever it reads
         r = self.true_range_m(state)
         if r is not None:
             r = r + p.noise_sigma_m * n

@@ -19,7 +19,8 @@ first step): the true speed times ``1 + noise_frac n`` (n standard normal), roun
 the rpm on the wire. Every reading draws exactly one standard normal from the injected
 generator, the sensor's own stream (``sim_bridge/world.py``), so the noise depends on
 the seed alone and fitting the sensor leaves every other sensor's draws, and the
-flight when the autopilot does not use it, unchanged.
+flight when the autopilot does not use it, unchanged. (The draws are made in blocks,
+``readings.normals``: the same numbers in the same order.)
 
 The default is a BLHeli_32-class ESC's telemetry, read at 20 Hz (its telemetry is
 requested motor by motor, a few tens of frames a second) with 0.5 % of the reading
@@ -32,7 +33,7 @@ from dataclasses import dataclass
 
 from autopilot.frozen import message
 
-from .readings import next_due_us, period_us
+from .readings import next_due_us, normals, period_us
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ class RpmSensor:
     def __init__(self, params: RpmParams, rng):
         self.params = params
         self._rng = rng
+        self._noise = normals(rng)
         self._period_us = period_us(params.rate_hz)
         self._next_us: int | None = None
 
@@ -62,5 +64,5 @@ class RpmSensor:
         if self._next_us is not None and t_us < self._next_us:
             return None
         self._next_us = next_due_us(self._next_us, self._period_us, t_us)
-        n = float(self._rng.standard_normal())     # one draw per reading
+        n = next(self._noise)                     # one draw per reading
         return RpmReading(t_us, max(state.rpm * (1.0 + self.params.noise_frac * n), 0.0))
