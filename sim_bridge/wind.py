@@ -20,6 +20,9 @@ wind floored at 5 m/s (frozen-turbulence hypothesis; a hovering vehicle still se
 air mass drift past at the wind speed, and the floor keeps the correlation time finite
 in calm air). u is along the steady wind (north when there is none), w is down.
 Random numbers come from the injected generator, drawn in blocks.
+
+One step of the law is the kernel :func:`dryden_step`, which both plants' gust classes
+call.
 """
 from __future__ import annotations
 
@@ -27,12 +30,37 @@ import math
 
 import numpy as np
 
+from autopilot.jit import kernel, preload
+
 FT_M = 0.3048
 KT_MPS = 1852.0 / 3600.0
 # turbulence name -> MIL-F-8785C wind speed at 20 ft [kt] (light, moderate, severe)
 TURBULENCE_W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}
 MIN_SPEED_MPS = 5.0
 _BLOCK = 1024
+
+
+@kernel
+def dryden_step(x_u, x_v, x_w, h_agl_m, speed_mps, dt_s, n_steps, sigma_w, nu_u, nu_v, nu_w,
+                axis_n, axis_e):
+    """The gust filters (x_u, x_v, x_w) [m/s] advanced ``n_steps`` steps of ``dt_s``
+    (module docstring: h clipped to 3..300 m, the speed floored at 5 m/s), driven by
+    the standard normals nu; returns the new (x_u, x_v, x_w) and the gust's north and
+    east components (u along the unit (axis_n, axis_e), v 90 deg right of it)."""
+    h_m = 3.0 if h_agl_m < 3.0 else (300.0 if h_agl_m > 300.0 else h_agl_m)
+    speed = speed_mps if speed_mps > MIN_SPEED_MPS else MIN_SPEED_MPS
+    shape = 0.177 + 0.000823 * (h_m / FT_M)
+    length_u = h_m / shape ** 1.2                 # L_u = L_v
+    sigma_u = sigma_w / shape ** 0.4              # sigma_u = sigma_v
+    step_m = speed * dt_s * n_steps
+    # x_k+1 = a x_k + sigma sqrt(1 - a^2) nu, a = exp(-distance / scale length)
+    a = math.exp(-step_m / length_u)
+    x_u = a * x_u + sigma_u * math.sqrt(1.0 - a * a) * nu_u
+    a = math.exp(-2.0 * step_m / length_u)
+    x_v = a * x_v + sigma_u * math.sqrt(1.0 - a * a) * nu_v
+    a = math.exp(-2.0 * step_m / h_m)
+    x_w = a * x_w + sigma_w * math.sqrt(1.0 - a * a) * nu_w
+    return x_u, x_v, x_w, axis_n * x_u - axis_e * x_v, axis_e * x_u + axis_n * x_v
 
 
 class DrydenGusts:
@@ -48,37 +76,28 @@ class DrydenGusts:
         self.active = self._sigma_w > 0.0
         h = math.hypot(wind_ned[0], wind_ned[1])
         self._axis_u = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
-        self._x = [0.0, 0.0, 0.0]
+        self._x = (0.0, 0.0, 0.0)
         self.gust_ned = (0.0, 0.0, 0.0)
         self._noise: list = []
         self._k = 0
+        # the kernel loaded now, not at the take-off (autopilot.jit.preload)
+        preload(dryden_step, 0.0, 0.0, 0.0, 10.0, 5.0, self._dt_s, 1, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
     def reset(self) -> None:
-        self._x = [0.0, 0.0, 0.0]
+        self._x = (0.0, 0.0, 0.0)
         self.gust_ned = (0.0, 0.0, 0.0)
 
     def step(self, h_agl_m: float, speed_mps: float) -> tuple[float, float, float]:
         if not self.active:
             return self.gust_ned
-        h_m = 3.0 if h_agl_m < 3.0 else (300.0 if h_agl_m > 300.0 else h_agl_m)
-        speed = speed_mps if speed_mps > MIN_SPEED_MPS else MIN_SPEED_MPS
-        shape = 0.177 + 0.000823 * (h_m / FT_M)
-        length_u = h_m / shape ** 1.2
-        sigma_w = self._sigma_w
-        sigma_u = sigma_w / shape ** 0.4
         if self._k >= len(self._noise):
             self._noise = self._rng.standard_normal((_BLOCK, 3)).tolist()
             self._k = 0
         nu_u, nu_v, nu_w = self._noise[self._k]
         self._k += 1
-        x = self._x
-        step_m = speed * self._dt_s
-        a = math.exp(-step_m / length_u)
-        x[0] = a * x[0] + sigma_u * math.sqrt(1.0 - a * a) * nu_u
-        a = math.exp(-2.0 * step_m / length_u)
-        x[1] = a * x[1] + sigma_u * math.sqrt(1.0 - a * a) * nu_v
-        a = math.exp(-2.0 * step_m / h_m)
-        x[2] = a * x[2] + sigma_w * math.sqrt(1.0 - a * a) * nu_w
-        cu, su = self._axis_u
-        self.gust_ned = (cu * x[0] - su * x[1], su * x[0] + cu * x[1], x[2])
+        x_u, x_v, x_w, gust_n, gust_e = dryden_step(
+            *self._x, h_agl_m, speed_mps, self._dt_s, 1, self._sigma_w, nu_u, nu_v, nu_w,
+            *self._axis_u)
+        self._x = (x_u, x_v, x_w)
+        self.gust_ned = (gust_n, gust_e, x_w)
         return self.gust_ned

@@ -195,6 +195,33 @@ def test_wind_and_turbulence_reach_the_air_data_reproducibly():
     assert sa[-1].v_ned[1] > 0.1
 
 
+def test_dryden_kernel_is_the_gauss_markov_law_written_out():
+    # GIVEN heights inside and outside the model's band, speeds under and over the floor
+    # WHEN one step of sim_bridge.wind.dryden_step is taken
+    # THEN it is the law of its module docstring computed in Python (to rounding: the
+    # kernel doubles the distance where this halves the scale length)
+    from sim_bridge.wind import FT_M, dryden_step
+    rng = np.random.default_rng(4)
+    for h_agl, speed, n in ((-2.0, 1.0, 1), (1.0, 20.0, 2), (80.0, 22.5, 2), (450.0, 3.0, 1)):
+        x, nu = rng.standard_normal(3).tolist(), rng.standard_normal(3).tolist()
+        axis = (0.6, 0.8)
+        h = min(max(h_agl, 3.0), 300.0)
+        v = max(speed, 5.0)
+        shape = 0.177 + 0.000823 * (h / FT_M)
+        sigma_w = 0.77
+        sigma_u = sigma_w / shape ** 0.4
+        d = v * 0.01 * n
+        lengths = (h / shape ** 1.2, 0.5 * h / shape ** 1.2, 0.5 * h)
+        sigmas = (sigma_u, sigma_u, sigma_w)
+        want = []
+        for xk, nk, length, sigma in zip(x, nu, lengths, sigmas):
+            a = math.exp(-d / length)
+            want.append(a * xk + sigma * math.sqrt(1.0 - a * a) * nk)
+        want += [axis[0] * want[0] - axis[1] * want[1], axis[1] * want[0] + axis[0] * want[1]]
+        got = dryden_step(*x, h_agl, speed, 0.01, n, sigma_w, *nu, *axis)
+        assert got == pytest.approx(tuple(want), rel=1e-13, abs=1e-15)
+
+
 def test_motor_thrust_fault_scales_the_rotor_thrust_not_its_command():
     # GIVEN the quadrotor's fault injector (thrust-scaled motors) and a plant in hover
     from sim_bridge.bridge import SimBridge

@@ -60,13 +60,15 @@ import os
 import warnings
 from dataclasses import dataclass
 from itertools import repeat
-from operator import add, call, truediv
+from operator import add, truediv
 from pathlib import Path
 
 import jsbsim
 import numpy as np
 
+from autopilot.jit import preload
 from sim_bridge.plants.base import PlantState, PlaneControls
+from sim_bridge.wind import dryden_step
 
 AIRCRAFT_DIR = Path(__file__).resolve().parent.parent / "aircraft"
 
@@ -91,6 +93,9 @@ TURB_BLOCK = 1024                   # gust random numbers drawn per block of ste
 
 _HELD, _FIRING, _FREE = "held", "firing", "free"
 _ZERO6 = (0.0,) * 6
+# a property node's value, unbound: map(_read, nodes) reads a tuple of nodes from C, no
+# Python frame or bound method per read
+_read = jsbsim.FGPropertyNode.get_double_value
 _TWO_PI = 2.0 * math.pi
 
 
@@ -191,15 +196,14 @@ class JSBSimPlane:
         """The true state now, in SI units (see base.PlantState). ``imu``: the body
         rates and specific force (p, q, r, ax, ay, az in JSBSim's units) to report
         instead of this step's (``step``'s means)."""
-        # the getters called from C (map), no Python frame per read
         if imu is None:
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
              vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
-                call, self._state_getters)
+                _read, self._state_nodes)
         else:                                     # (the rates and forces not read twice)
             (lat, lon, alt, vn, ve, vd, phi, theta, psi, wn, we, wd,
              vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
-                call, self._state_getters_no_imu)
+                _read, self._state_nodes_no_imu)
             p, q, r, ax, ay, az = imu
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
@@ -237,7 +241,7 @@ class JSBSimPlane:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
             fdm["position/terrain-elevation-asl-ft"] = (self.home[2] if h is None else h) / FT_M
-        imu = self._imu_getters
+        imu = self._imu_nodes
         n_mean = self.imu_mean_steps
         n_mean = n_steps if n_steps < n_mean else n_mean    # min() (autopilot/control/pid.py)
         acc = _ZERO6                              # sums of p, q, r, ax, ay, az
@@ -247,7 +251,7 @@ class JSBSimPlane:
             run()
             self._t_us += self._dt_us
             if k >= n_steps - n_mean:
-                acc = tuple(map(add, acc, map(call, imu)))
+                acc = tuple(map(add, acc, map(_read, imu)))
         return self.state(imu=map(truediv, acc, repeat(n_mean)) if n_mean > 1 else None)
 
     def set_wind(self, wind_ned, turbulence: str = "none") -> None:
@@ -462,10 +466,12 @@ class JSBSimPlane:
                  "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
                  "fz_gear", "rho", "pressure", "temperature", "rpm")
         imu = ("p", "q", "r", "ax", "ay", "az")
-        self._state_getters = tuple(self._n[name] for name in names)
-        self._imu_getters = tuple(self._n[name] for name in imu)
-        self._state_getters_no_imu = tuple(self._n[name] for name in names if name not in imu)
-        self._gust_getters = tuple(self._n[name] for name in ("agl", "vn", "ve", "vd"))
+        # the nodes read together every step (map(_read, ...))
+        node = {name: get.__self__ for name, get in self._n.items()}
+        self._state_nodes = tuple(node[name] for name in names)
+        self._imu_nodes = tuple(node[name] for name in imu)
+        self._state_nodes_no_imu = tuple(node[name] for name in names if name not in imu)
+        self._gust_nodes = tuple(node[name] for name in ("agl", "vn", "ve", "vd"))
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
@@ -621,7 +627,8 @@ class _DrydenGusts:
         sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h_ft)^0.4
     u is along the steady wind (north when there is none), w is down. The rotational
     gust terms of the specification are not modelled. Random numbers come from the
-    plant's injected generator, drawn in blocks for speed.
+    plant's injected generator, drawn in blocks for speed. One step is the kernel
+    ``sim_bridge.wind.dryden_step``, the quadrotor's turbulence's too.
     """
 
     def __init__(self, rng: np.random.Generator, dt_s: float) -> None:
@@ -632,23 +639,25 @@ class _DrydenGusts:
         self._sigma_w = 0.0
         self._axis_u = (1.0, 0.0)                 # unit north, east of the u axis
         self._wind = (0.0, 0.0, 0.0)              # the steady wind, NED [m/s]
-        self._x = [0.0, 0.0, 0.0]                 # u, v, w gust along the axes [m/s]
+        self._x = (0.0, 0.0, 0.0)                 # u, v, w gust along the axes [m/s]
         self._noise: list = []
         self._k = 0
+        # the kernel loaded now, not at the launch (autopilot.jit.preload)
+        preload(dryden_step, 0.0, 0.0, 0.0, 10.0, 5.0, dt_s, 1, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
     def reset(self) -> None:
         """Calm air: the gust filters start again from zero."""
-        self._x = [0.0, 0.0, 0.0]
+        self._x = (0.0, 0.0, 0.0)
         self.gust_ned = (0.0, 0.0, 0.0)
 
     def configure(self, w20_mps: float, wind_ned: np.ndarray) -> None:
         self._sigma_w = 0.1 * w20_mps
         was_active, self.active = self.active, w20_mps > 0.0
         if not self.active:
-            self._x = [0.0, 0.0, 0.0]
+            self._x = (0.0, 0.0, 0.0)
             self.gust_ned = (0.0, 0.0, 0.0)
         elif not was_active:
-            self._x = [0.0, 0.0, 0.0]
+            self._x = (0.0, 0.0, 0.0)
         self._wind = wn, we, _ = tuple(float(v) for v in wind_ned)    # not numpy scalars
         horizontal = math.hypot(wn, we)
         self._axis_u = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
@@ -661,37 +670,22 @@ class _DrydenGusts:
 
     def step(self, plant: "JSBSimPlane", n_steps: int = 1) -> None:
         """Advance the gust ``n_steps`` time steps and hand it to JSBSim."""
-        agl, vn, ve, vd = map(call, plant._gust_getters)
-        h_m = agl * FT_M
-        h_m = 3.0 if h_m < 3.0 else (300.0 if h_m > 300.0 else h_m)
+        agl, vn, ve, vd = map(_read, plant._gust_nodes)
         wn, we, wd = self._wind
         du = vn * FT_M - wn
         dv = ve * FT_M - we
         dw = vd * FT_M - wd
-        speed = math.sqrt(du * du + dv * dv + dw * dw)
-        speed = 5.0 if 5.0 > speed else speed
-        shape = 0.177 + 0.000823 * (h_m / FT_M)
-        length_u = h_m / shape ** 1.2
-        sigma_w = self._sigma_w
-        sigma_u = sigma_w / shape ** 0.4
         if self._k >= len(self._noise):
             self._noise = self._rng.standard_normal((TURB_BLOCK, 3)).tolist()
             self._k = 0
         nu_u, nu_v, nu_w = self._noise[self._k]
         self._k += 1
-        x = self._x
-        step_m = speed * self._dt_s * n_steps
-        a = math.exp(-step_m / length_u)
-        x[0] = a * x[0] + sigma_u * math.sqrt(1.0 - a * a) * nu_u
-        a = math.exp(-2.0 * step_m / length_u)
-        x[1] = a * x[1] + sigma_u * math.sqrt(1.0 - a * a) * nu_v
-        a = math.exp(-2.0 * step_m / h_m)
-        x[2] = a * x[2] + sigma_w * math.sqrt(1.0 - a * a) * nu_w
-        cu, su = self._axis_u
-        gust_n = cu * x[0] - su * x[1]
-        gust_e = su * x[0] + cu * x[1]
-        self.gust_ned = (gust_n, gust_e, x[2])
+        x_u, x_v, x_w, gust_n, gust_e = dryden_step(
+            *self._x, agl * FT_M, math.sqrt(du * du + dv * dv + dw * dw), self._dt_s, n_steps,
+            self._sigma_w, nu_u, nu_v, nu_w, *self._axis_u)
+        self._x = (x_u, x_v, x_w)
+        self.gust_ned = (gust_n, gust_e, x_w)
         set_n, set_e, set_d = plant._set_gust
         set_n(gust_n / FT_M)
         set_e(gust_e / FT_M)
-        set_d(x[2] / FT_M)
+        set_d(x_w / FT_M)
