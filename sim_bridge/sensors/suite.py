@@ -45,7 +45,7 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import PACK3, GpsReading, SensorReadings, frozen_floats, next_due_us
+from .readings import GpsReading, SensorReadings, frozen_floats, next_due_us
 from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
@@ -62,7 +62,6 @@ _GPS_VEL = 13                 # 13, 14, 15
 _GPS_SATS = 16
 _NCOL = _N_IMU + 17
 _BLOCK_ROWS = 512
-_frombuffer = np.frombuffer
 
 # Sentinels: PlantState's default values mean "the plant did not provide this".
 _DEFAULT_PRESSURE_PA = 101325.0
@@ -195,9 +194,7 @@ class SensorSuite:
         fx, fy, fz = state.f_b.tolist()
         wx, wy, wz = state.omega_b.tolist()
         ex, ey, ez, egx, egy, egz = self._imu_err_rows[i]
-        # frozen_floats' two arrays, its body inlined (no Python call on this path)
-        accel = _frombuffer(PACK3(fx + ex, fy + ey, fz + ez))
-        gyro = _frombuffer(PACK3(wx + egx, wy + egy, wz + egz))
+        imu = frozen_floats(fx + ex, fy + ey, fz + ez, wx + egx, wy + egy, wz + egz)
 
         # Barometer
         nxt = self._next_baro_us
@@ -267,7 +264,7 @@ class SensorSuite:
                              self.params.gps_fix_type, sats, t_valid)
 
         return SensorReadings(
-            t_us, accel, gyro, self._mag_b,
+            t_us, imu[:3], imu[3:], self._mag_b,
             self._pressure_pa, self._pressure_alt_m, self._temperature_k,
             self._dp_pa, self._airspeed_mps,
             baro_updated, mag_updated, arsp_updated, gps)
