@@ -358,8 +358,9 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        if getattr(nav, "aligned", False):
-            self.innovation_log.add(nav.innovations)   # for the flight log (every record)
+        innov = nav.innovations                # this step's records (most steps none)
+        if innov and getattr(nav, "aligned", False):
+            self.innovation_log.add(innov)     # for the flight log (every record)
         if not self.enabled:
             return
         if self._aligned_us is None:
@@ -377,7 +378,7 @@ class FaultMonitor:
         aiding = self.aiding
         height = None
         changed = False                   # a window pushed or reset this step
-        for r in nav.innovations:
+        for r in innov:
             ch = aiding.get(r.source)
             if ch is None:
                 continue
