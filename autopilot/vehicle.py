@@ -488,13 +488,11 @@ class PlaneVehicle(VehicleBase):
                 self._crashed(t_us, f"not airborne {p['CRASH_LAUNCH_S']:g} s after launch "
                                     f"(height {h:.1f} m, climbing {self._launch_climb:.1f} m/s)")
             return
-        if self._landing():
-            self._ground_since_us = None
-            return
         vn, ve, vd = v_ned
         on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
         stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
-        if not (on_ground or stopped):
+        if not (on_ground or stopped) or self._landing():
+            # flying, or down where a landing means to be (the landing asked only then)
             self._ground_since_us = None
             return
         if self._ground_since_us is None:
