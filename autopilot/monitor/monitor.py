@@ -358,9 +358,8 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        innov = nav.innovations                # this step's records (most steps none)
-        if innov and getattr(nav, "aligned", False):
-            self.innovation_log.add(innov)     # for the flight log (every record)
+        if getattr(nav, "aligned", False) and nav.innovations:   # (most steps have none)
+            self.innovation_log.add(nav.innovations)   # for the flight log (every record)
         if not self.enabled:
             return
         if self._aligned_us is None:
@@ -378,7 +377,7 @@ class FaultMonitor:
         aiding = self.aiding
         height = None
         changed = False                   # a window pushed or reset this step
-        for r in innov:
+        for r in nav.innovations:
             ch = aiding.get(r.source)
             if ch is None:
                 continue
