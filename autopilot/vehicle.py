@@ -370,9 +370,11 @@ class PlaneVehicle(VehicleBase):
                 ctrl.throttle_out = to
             seq = self._sequencer
             if seq is not None:
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
-                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
-                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py);
+                # none without an aileron's, rudder's or throttle's reaction (so, to: the
+                # controller's now)
+                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad() if so is not None else None
+                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps() if to is not None else None
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full
@@ -416,8 +418,9 @@ class PlaneVehicle(VehicleBase):
             controls = self._fly(nav, dt, t_us, vl)
             if self.terminated:
                 controls = (1.0, 1.0, 1.0, 0.0)
-        if self.armed and self._sequencer is not None:
-            self._land_disarm(t_us)
+        seq = self._sequencer
+        if self.armed and seq is not None and seq.landing is not None:
+            self._land_disarm(t_us, seq.landing)
         self._finish = (t_us, nav, controls, truth, gps is not None)
         return ActuatorOutputs(t_us, controls, self.armed)
 
@@ -462,11 +465,12 @@ class PlaneVehicle(VehicleBase):
         # in flight (DO_SET_HOME 'here' sets home's altitude to the current one) says
         # nothing of where the ground is
         h = nav.alt_m - self._launch_alt_m
-        ground = self._ground_m(nav)
-        if ground is not None and self._launch_ground_m is not None:
-            # over known terrain: the height above the ground under the aircraft (less
-            # the launcher's height above it at arming), not above the launch point
-            h = nav.alt_m - ground - (self._launch_alt_m - self._launch_ground_m)
+        if self._launch_ground_m is not None:
+            ground = self._ground_m(nav)
+            if ground is not None:
+                # over known terrain: the height above the ground under the aircraft (less
+                # the launcher's height above it at arming), not above the launch point
+                h = nav.alt_m - ground - (self._launch_alt_m - self._launch_ground_m)
         moving_air = nav.airspeed_mps >= 0.75 * p["ARSPD_FBW_MIN"]
         if self._launch_us is None:
             if moving_air:
@@ -484,13 +488,11 @@ class PlaneVehicle(VehicleBase):
                 self._crashed(t_us, f"not airborne {p['CRASH_LAUNCH_S']:g} s after launch "
                                     f"(height {h:.1f} m, climbing {self._launch_climb:.1f} m/s)")
             return
-        if self._landing():
-            self._ground_since_us = None
-            return
         vn, ve, vd = v_ned
         on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
         stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
-        if not (on_ground or stopped):
+        if not (on_ground or stopped) or self._landing():
+            # flying, or down where a landing means to be (the landing asked only then)
             self._ground_since_us = None
             return
         if self._ground_since_us is None:
@@ -539,10 +541,14 @@ class PlaneVehicle(VehicleBase):
         """The fault monitor watches the flight: armed, off the ground, and not in a
         landing's flare (idle, high angle of attack, ground effect and then the skids'
         friction: outside the models its statistics test)."""
-        if not self.armed or self.landed:
+        # (``landed`` written out, the landing read once: this is asked twice a step)
+        if not self.armed or self.home_frame is None or self.nav_state is None:
             return False
-        land = self._sequencer.landing if self._sequencer is not None else None
-        return land is None or land.phase in ("approach", "descend")
+        seq = self._sequencer
+        land = seq.landing
+        if land is not None and land.phase not in ("approach", "descend"):
+            return False                         # the flare and after (landed: "ground")
+        return not (self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not seq.launched)
 
     def go_around(self, alt_m: float, t_us: int) -> str | None:
         """MAV_CMD_DO_GO_AROUND: abandon the landing being flown in AUTO (climb to
@@ -569,13 +575,12 @@ class PlaneVehicle(VehicleBase):
             self.mode = PlaneMode.AUTO
         return True
 
-    def _land_disarm(self, t_us: int) -> None:
-        """NAV_LAND: disarm LAND_DISARMDELAY after the landing is complete (stopped on
-        the ground, guidance/landing.py); the mission is then over."""
-        seq = self._sequencer
-        land = seq.landing
-        if land is None or land.landed_us is None:
+    def _land_disarm(self, t_us: int, land) -> None:
+        """NAV_LAND: disarm LAND_DISARMDELAY after the landing ``land`` being flown is
+        complete (stopped on the ground, guidance/landing.py); the mission is then over."""
+        if land.landed_us is None:
             return
+        seq = self._sequencer
         if (t_us - land.landed_us) * 1e-6 >= self.params["LAND_DISARMDELAY"]:
             seq.land_complete = seq.finished = True
             if seq.current < len(seq.items) and seq.current not in seq.reached_seqs:
@@ -596,6 +601,7 @@ class PlaneVehicle(VehicleBase):
         # the position in home's frame and the velocities as tuples / lists: the guidance
         # reads them element by element, and a numpy element costs more than its arithmetic
         pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        wl = nav.wind_ned.tolist()
         yaw = self.euler[2]
         mode = self.mode
         if mode in _HOLD_MODES or (mode == _RTL and self.rtl_hold is not None):
@@ -610,7 +616,6 @@ class PlaneVehicle(VehicleBase):
             # (no landing in the sequencer: no rangefinder landing, no correction)
             landing = seq.landing is not None and self._rf_landing() is not None
             seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0
-            wl = nav.wind_ned.tolist()
             tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
             if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
@@ -619,7 +624,7 @@ class PlaneVehicle(VehicleBase):
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl
-        self._p_home = (nav, pl, vl)             # for the log row of this step
+        self._p_home = (nav, pl, vl, wl)         # for the log row of this step
         v_ne = (vn, ve)
         p_ne = (pn, pe)
         l1 = self.l1
@@ -688,10 +693,11 @@ class PlaneVehicle(VehicleBase):
             return
         ph = self._p_home
         if ph is not None and ph[0] is nav:
-            _, p_est, v = ph                     # computed by _fly this step
+            _, p_est, v, w = ph                  # computed by _fly this step
         else:
             p_est = hf.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
             v = nav.v_ned.tolist()
+            w = nav.wind_ned.tolist()
         er, ep, ey = self.euler
         p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
@@ -701,7 +707,6 @@ class PlaneVehicle(VehicleBase):
         mon = self.monitor
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
-        w = nav.wind_ned.tolist()
         sig, gps_row = self._nav_rows(hf, gps)
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
         alt_dem = c.alt_dem_m

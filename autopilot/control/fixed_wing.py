@@ -274,7 +274,7 @@ class FixedWingController:
         phi_c = roll_lim if roll_lim < phi_c else phi_c
 
         # altitude to climb rate (outer), climb rate to pitch (middle)
-        hdot = -float(nav.v_ned[2])
+        hdot = -nav.v_ned.item(2)
         if self.alt_dem_m is None or throttle_override is not None:
             self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
         sink_max, clmb_max = p["SINK_MAX"], p["CLMB_MAX"]

@@ -358,7 +358,7 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        if getattr(nav, "aligned", False):
+        if getattr(nav, "aligned", False) and nav.innovations:   # (most steps have none)
             self.innovation_log.add(nav.innovations)   # for the flight log (every record)
         if not self.enabled:
             return
