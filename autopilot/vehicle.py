@@ -541,14 +541,10 @@ class PlaneVehicle(VehicleBase):
         """The fault monitor watches the flight: armed, off the ground, and not in a
         landing's flare (idle, high angle of attack, ground effect and then the skids'
         friction: outside the models its statistics test)."""
-        # (``landed`` written out, the landing read once: this is asked twice a step)
-        if not self.armed or self.home_frame is None or self.nav_state is None:
+        if not self.armed or self.landed:
             return False
-        seq = self._sequencer
-        land = seq.landing
-        if land is not None and land.phase not in ("approach", "descend"):
-            return False                         # the flare and after (landed: "ground")
-        return not (self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not seq.launched)
+        land = self._sequencer.landing if self._sequencer is not None else None
+        return land is None or land.phase in ("approach", "descend")
 
     def go_around(self, alt_m: float, t_us: int) -> str | None:
         """MAV_CMD_DO_GO_AROUND: abandon the landing being flown in AUTO (climb to
