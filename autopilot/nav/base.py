@@ -228,7 +228,7 @@ class NavFilterBase:
         self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
         self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
         self._aux = _AuxSums()                # aux samples since their last fusion
-        # history ring of (t, p - c_p, v - c_v, running f_n integral, running sampling
+        # history ring of (t, p, v, c_p, c_v, running f_n integral, running sampling
         # variance) for the GPS latency
         self._hist: list = [None] * _HIST
         self._h_i = 0
@@ -512,10 +512,10 @@ class NavFilterBase:
 
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
-        p, v, cp, cv, sf, qs = self.nom.p, self.nom.v, self._c_p, self._c_v, self._sf, self._qs_sum
-        self._hist[self._h_i] = (t, p[0] - cp[0], p[1] - cp[1], p[2] - cp[2],
-                                 v[0] - cv[0], v[1] - cv[1], v[2] - cv[2], sf[0], sf[1], sf[2],
-                                 qs[0], qs[1], qs[2])
+        # the lists themselves (each is replaced, never written in place): _delayed
+        # subtracts the corrections when a fix asks
+        nom = self.nom
+        self._hist[self._h_i] = (t, nom.p, nom.v, self._c_p, self._c_v, self._sf, self._qs_sum)
         self._h_i = (self._h_i + 1) % _HIST
 
     def _delayed(self, t_valid: int) -> tuple:
@@ -531,11 +531,12 @@ class NavFilterBase:
             if e is None or abs(e[0] - t_valid) > abs(best[0] - t_valid):
                 break
             best, i = e, j
+        _, p, v, cp0, cv0, sf0, qs0 = best
         cp, cv, sf, qs = self._c_p, self._c_v, self._sf, self._qs_sum
-        return ((best[1] + cp[0], best[2] + cp[1], best[3] + cp[2]),
-                (best[4] + cv[0], best[5] + cv[1], best[6] + cv[2]),
-                (sf[0] - best[7], sf[1] - best[8], sf[2] - best[9]),
-                (qs[0] - best[10], qs[1] - best[11], qs[2] - best[12]))
+        return (((p[0] - cp0[0]) + cp[0], (p[1] - cp0[1]) + cp[1], (p[2] - cp0[2]) + cp[2]),
+                ((v[0] - cv0[0]) + cv[0], (v[1] - cv0[1]) + cv[1], (v[2] - cv0[2]) + cv[2]),
+                (sf[0] - sf0[0], sf[1] - sf0[1], sf[2] - sf0[2]),
+                (qs[0] - qs0[0], qs[1] - qs0[1], qs[2] - qs0[2]))
 
     # ----------------------------------------------------------- measurement models --
     def _accumulate_aux(self, frame: SensorFrame) -> bool:
@@ -950,7 +951,7 @@ class NavFilterBase:
         bg = nom.bg
         gx, gy, gz = self._gyro
         # one array for all vectors of the state, handed out as views (one allocation)
-        a = np.array(p + nom.v + nom.q + [gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
+        a = np.array([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
                         a[13:16], self.aligned, self.healthy, self.SOURCE)
 
