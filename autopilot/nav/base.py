@@ -32,6 +32,7 @@ from typing import Mapping
 import numpy as np
 
 from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
+from autopilot.jit import kernel
 from autopilot.messages import NavState, SensorFrame
 
 from . import config
@@ -90,6 +91,45 @@ _BLOCKS = {"pos": POS, "vel": VEL, "att": ATT, "abias": ABIAS, "gbias": GBIAS, "
 # _inject unpacks dx in this order; a layout change must be mirrored there
 assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, BBIAS.start, GPSB.start,
         WIND.start) == (0, 3, 6, 9, 12, 15, 16, 19)
+
+
+_NO_QS = np.zeros(0)
+
+
+@kernel
+def sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
+                        R, thr_f, thr_w, qs, add):
+    """The sampling error of one step's point samples (NavFilterBase._set_sampling_noise):
+
+        e = R (f1 - f0) dt / 2,   c = R (w1 - w0) dt / 2,   q_s = (e e^T, c c^T)
+
+    where |f1 - f0|^2 > thr_f or |w1 - w0|^2 > thr_w: the 18 entries of q_s (row-major)
+    written into ``qs``, or added to it when ``add``; returns (True, e_N^2, e_E^2, e_D^2).
+    Otherwise nothing is written and the first element is False. R: R(q_nb), 9 floats
+    row-major."""
+    df0, df1, df2 = f1x - f0x, f1y - f0y, f1z - f0z
+    dw0, dw1, dw2 = w1x - w0x, w1y - w0y, w1z - w0z
+    if (df0 * df0 + df1 * df1 + df2 * df2 <= thr_f
+            and dw0 * dw0 + dw1 * dw1 + dw2 * dw2 <= thr_w):
+        return False, 0.0, 0.0, 0.0
+    h = 0.5 * dt
+    a0, a1, a2 = h * df0, h * df1, h * df2
+    b0, b1, b2 = h * dw0, h * dw1, h * dw2
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
+    e = (r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
+         r20 * a0 + r21 * a1 + r22 * a2)
+    c = (r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2,
+         r20 * b0 + r21 * b1 + r22 * b2)
+    for i in range(3):
+        for j in range(3):
+            k = 3 * i + j
+            if add:
+                qs[k] += e[i] * e[j]
+                qs[9 + k] += c[i] * c[j]
+            else:
+                qs[k] = e[i] * e[j]
+                qs[9 + k] = c[i] * c[j]
+    return True, e[0] * e[0], e[1] * e[1], e[2] * e[2]
 
 
 class Batch:
@@ -195,7 +235,10 @@ class NavFilterBase:
         self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
         self._gyro_prev: list | None = None   # the one before, floats [rad/s]
         self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
-        self._q_sample: tuple | None = None   # sampling-error covariance of this step (18 entries)
+        # sampling-error covariance since the last covariance prediction (18 entries;
+        # _set_sampling_noise), and whether it holds any
+        self._qs_acc = np.zeros(18)
+        self._qs_has = False
         self._qs_thr = ((2.0 * self.params["EK_ACC_NSE"]) ** 2, (2.0 * self.params["EK_GYR_NSE"]) ** 2)
         n = self.n
         # flat indices of P's velocity and attitude 3x3 blocks (the sampling error's entries)
@@ -672,33 +715,31 @@ class NavFilterBase:
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
     def _set_sampling_noise(self, dt: float, f0, f1, w0, w1) -> None:
-        """This step's sampling-error covariance (``self._q_sample``: the 18 entries of
-        its velocity and attitude 3x3 blocks in NED, or None when negligible). The
-        integrals of point samples err by up to half the change between two samples,
-        along that change: ``e e^T``, e = R (x1 - x0) dt / 2. Added where it exceeds the
-        white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error
-        of ordinary flight, turbulence included): a change of more than 2 EK_ACC_NSE or
-        2 EK_GYR_NSE in one step. Through a catapult stroke's onset and end (75 m/s^2 in
-        one step) it is 0.35 m/s along the stroke, where otherwise the GPS velocity would
-        turn the error into an attitude or bias correction."""
-        df0, df1, df2 = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
-        dw0, dw1, dw2 = w1[0] - w0[0], w1[1] - w0[1], w1[2] - w0[2]
-        if (df0 * df0 + df1 * df1 + df2 * df2 <= self._qs_thr[0]
-                and dw0 * dw0 + dw1 * dw1 + dw2 * dw2 <= self._qs_thr[1]):
-            self._q_sample = None
-            return
-        h = 0.5 * dt
-        a0, a1, a2 = h * df0, h * df1, h * df2
-        b0, b1, b2 = h * dw0, h * dw1, h * dw2
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = self.nom.R
-        e0, e1, e2 = (r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
-                      r20 * a0 + r21 * a1 + r22 * a2)
-        c0, c1, c2 = (r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2,
-                      r20 * b0 + r21 * b1 + r22 * b2)
-        q = self._qs_sum
-        self._qs_sum = [q[0] + e0 * e0, q[1] + e1 * e1, q[2] + e2 * e2]
-        self._q_sample = (e0 * e0, e0 * e1, e0 * e2, e1 * e0, e1 * e1, e1 * e2, e2 * e0, e2 * e1, e2 * e2,
-                          c0 * c0, c0 * c1, c0 * c2, c1 * c0, c1 * c1, c1 * c2, c2 * c0, c2 * c1, c2 * c2)
+        """This step's sampling-error covariance (:func:`sampling_error_into`: the 18
+        entries of its velocity and attitude 3x3 blocks in NED), added to the sum
+        ``self._qs_acc`` the next covariance prediction takes (:meth:`_take_sampling`),
+        where it is not negligible. The integrals of point samples err by up to half the
+        change between two samples, along that change: ``e e^T``, e = R (x1 - x0) dt / 2.
+        Added where it exceeds the white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which
+        covers the sampling error of ordinary flight, turbulence included): a change of
+        more than 2 EK_ACC_NSE or 2 EK_GYR_NSE in one step. Through a catapult stroke's
+        onset and end (75 m/s^2 in one step) it is 0.35 m/s along the stroke, where
+        otherwise the GPS velocity would turn the error into an attitude or bias
+        correction."""
+        added, s0, s1, s2 = sampling_error_into(dt, *f0, *f1, *w0, *w1, self.nom.R, *self._qs_thr,
+                                                self._qs_acc, self._qs_has)
+        if added:
+            q = self._qs_sum
+            self._qs_sum = [q[0] + s0, q[1] + s1, q[2] + s2]
+            self._qs_has = True
+
+    def _take_sampling(self) -> np.ndarray:
+        """The sampling error summed since the last covariance prediction (the entries at
+        ``_qs_idx``; empty: none), for this prediction; the next sum starts afresh."""
+        if self._qs_has:
+            self._qs_has = False
+            return self._qs_acc
+        return _NO_QS
 
     def _true_airspeed(self, air) -> float:
         """True airspeed [m/s] from the pitot's dynamic pressure and the air density of

@@ -79,8 +79,6 @@ from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start)
         == (0, 3, 6, 9, 12, 16))
 
-_NO_QS = np.zeros(0)
-
 
 @kernel
 def _transition_times(X, T, S, Rs, a, Y):
@@ -272,9 +270,6 @@ class InsGpsEkf(NavFilterBase):
         lam = self.q_scale_hook(T) if self.q_scale_hook is not None else None
         return q if lam is None else q * lam
 
-    def _sampling(self, qs) -> np.ndarray:
-        return _NO_QS if qs is None else np.array(qs)
-
     def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
         nom = self.nom
         self._propagate_nominal(dt, f_m, omega_m)
@@ -290,18 +285,19 @@ class InsGpsEkf(NavFilterBase):
         predict_covariance_into(
             self._P, dt, (fx * dt, fy * dt, fz * dt),
             (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt, r5 * dt, r6 * dt, r7 * dt, r8 * dt),
-            self._a_gm, self._noise(self._q, dt), self._sampling(self._q_sample), self._qs_flat, out)
+            self._a_gm, self._noise(self._q, dt), self._take_sampling(), self._qs_flat, out)
         self._next_P(out)
 
     # ------------------------------------------- covariance every cov_div steps --
     def _clear_pending(self) -> None:
-        self._pend: list[tuple] = []               # (dt, f_n, R, sampling error) per step
+        self._pend: list[tuple] = []               # (dt, f_n, R) per step
 
     def _accumulate(self, dt: float) -> None:
         """Keep one step's share of the interval's F and Q (module docstring)."""
         nom = self.nom
         pend = self._pend
-        pend.append((dt, nom.f_n, nom.R, self._q_sample))   # (fresh objects every step)
+        pend.append((dt, nom.f_n, nom.R))   # (fresh objects every step; the sampling
+        #                                     error is summed in _qs_acc meanwhile)
         if len(pend) >= self.cov_div:
             self._sync_covariance()
 
@@ -333,7 +329,7 @@ class InsGpsEkf(NavFilterBase):
         self._pend = []
         # sums over the steps of f_n dt and R dt (written out: a comprehension over the
         # nine entries costs twice as much)
-        dt, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8), qs = pend[0]
+        dt, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8) = pend[0]
         fx, fy, fz = fx * dt, fy * dt, fz * dt
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt,
                                               r5 * dt, r6 * dt, r7 * dt, r8 * dt)
@@ -343,19 +339,17 @@ class InsGpsEkf(NavFilterBase):
         else:
             dts = tuple([e[0] for e in pend])
             T = math.fsum(dts)
-            for dt, f, (k0, k1, k2, k3, k4, k5, k6, k7, k8), qk in pend[1:]:
+            for dt, f, (k0, k1, k2, k3, k4, k5, k6, k7, k8) in pend[1:]:
                 fx, fy, fz = fx + f[0] * dt, fy + f[1] * dt, fz + f[2] * dt
                 r0, r1, r2 = r0 + k0 * dt, r1 + k1 * dt, r2 + k2 * dt
                 r3, r4, r5 = r3 + k3 * dt, r4 + k4 * dt, r5 + k5 * dt
                 r6, r7, r8 = r6 + k6 * dt, r7 + k7 * dt, r8 + k8 * dt
-                if qk is not None:
-                    qs = qk if qs is None else [c + ck for c, ck in zip(qs, qk)]
         q, a = self._interval_noise(dts)
         # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt,
         #                 F[POS, VEL] = T I,  F[GPSB, GPSB] = (product of the decays) I
         out = self._P_spare
         predict_covariance_into(self._P, T, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8),
-                                a, self._noise(q, T), self._sampling(qs), self._qs_flat, out)
+                                a, self._noise(q, T), self._take_sampling(), self._qs_flat, out)
         self._next_P(out)
 
     def _gate_stats(self, batch) -> None:

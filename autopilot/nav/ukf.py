@@ -245,8 +245,6 @@ def ukf_update(sf, Zs, Wm, Wc, z, R, floor, ceil, P):
     return x, out
 
 
-_NO_QS = np.zeros(0)
-
 # the kernels index the error state by number: the layout it was written for
 assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start, WIND.start)
         == (0, 3, 6, 9, 12, 16, 19))
@@ -390,7 +388,7 @@ class InsGpsUkf(NavFilterBase):
         # additive (Lambda) Q: the fading matrix of seed eq 2.40 (base.py hooks) scales it
         q = self._qdiag if lam is None else self._qdiag * np.asarray(lam, dtype=float)
         # the sampling error of the IMU samples (base.py) where it exceeds Q
-        qs = _NO_QS if self._q_sample is None else np.array(self._q_sample)
+        qs = self._take_sampling()
         ukf.predict(dt=dt, c=c, q=q, qs=qs, floor=self._floor, ceil=self._ceil, qs_idx=self._qs_idx_a)
         # fold the mean error into the nominal state (the sigma points are centred on it)
         self._inject(ukf.x)
