@@ -991,8 +991,10 @@ class NavFilterBase:
         # omega_b = gyro - bias estimate (after this step's update)
         bg = nom.bg
         gx, gy, gz = self._gyro
-        # one array for all vectors of the state, handed out as views (one allocation)
-        a = np.array([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
+        # one array for all vectors of the state, handed out as views (one allocation;
+        # fromiter: np.array's shape and type discovery skipped)
+        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0],
+                        float, 16)
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
                         a[13:16], self.aligned, self.healthy, self.SOURCE)
 
