@@ -6,7 +6,7 @@ propagate and update the error covariance (``_predict``, ``_gate_stats``,
 * IMU: point samples; the rotation over a step from the trapezoid of the gyro samples
   at its two ends, the velocity change from the specific force at its end; where a
   sample's change over a step exceeds the process noise (a catapult stroke), the
-  difference is added to P (``_set_sampling_noise``).
+  difference is added to P (``_propagate_nominal``).
 * Aiding: all measurements of one step stacked in one :class:`Batch`, gated one source
   at a time and fused together; barometer, magnetometer and airspeed as means at
   EK_AUX_HZ. Sources: ``gps_pos`` and ``gps_vel`` (delayed-state innovations over
@@ -32,6 +32,7 @@ from typing import Mapping
 import numpy as np
 
 from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
+from autopilot.geo.rotations import quat_dcm
 from autopilot.jit import kernel
 from autopilot.messages import NavState, SensorFrame
 
@@ -40,7 +41,7 @@ from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
 from .strapdown import (Nominal, earth_rate_ned, heading_from_mag, inject_attitude,
-                        level_from_accel, mag_ned, propagate)
+                        level_from_accel, mag_ned, mechanise, set_mechanised)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -99,7 +100,7 @@ _NO_QS = np.zeros(0)
 @kernel
 def sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
                         R, thr_f, thr_w, qs, add):
-    """The sampling error of one step's point samples (NavFilterBase._set_sampling_noise):
+    """The sampling error of one step's point samples (NavFilterBase._propagate_nominal):
 
         e = R (f1 - f0) dt / 2,   c = R (w1 - w0) dt / 2,   q_s = (e e^T, c c^T)
 
@@ -130,6 +131,35 @@ def sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1
                 qs[k] = e[i] * e[j]
                 qs[9 + k] = c[i] * c[j]
     return True, e[0] * e[0], e[1] * e[1], e[2] * e[2]
+
+
+@kernel
+def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+             f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z, dt, g, ex, ey, ez,
+             thr_f, thr_w, acc, summing, sampled):
+    """One IMU step of the nominal state (NavFilterBase._propagate_nominal) in one call:
+
+    * the sampling error of the samples at the step's two ends, at the attitude before
+      the step (:func:`sampling_error_into`), into ``acc[12:30]`` (added when ``sampled``);
+    * the mechanisation (:func:`~.strapdown.mechanise`) with the specific force at the end of the
+      step and the trapezoid of the rates at its two ends;
+    * the sums over the steps since the last covariance prediction of f_n dt and R dt
+      (F's dynamic entries over the interval, ekf.py module docstring), into
+      ``acc[0:3]`` and ``acc[3:12]`` (added when ``summing``).
+
+    Returns mechanise's 25 floats and sampling_error_into's 4 values."""
+    s = sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
+                            quat_dcm(qw, qx, qy, qz), thr_f, thr_w, acc[12:], sampled)
+    o = mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+                  f1x, f1y, f1z, 0.5 * (w0x + w1x), 0.5 * (w0y + w1y), 0.5 * (w0z + w1z),
+                  dt, g, ex, ey, ez)
+    for k in range(3):                     # f_n dt
+        x = o[19 + k] * dt
+        acc[k] = acc[k] + x if summing else x
+    for k in range(9):                     # R dt, R(q') row-major
+        x = o[10 + k] * dt
+        acc[3 + k] = acc[3 + k] + x if summing else x
+    return o, s
 
 
 class Batch:
@@ -235,9 +265,12 @@ class NavFilterBase:
         self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
         self._gyro_prev: list | None = None   # the one before, floats [rad/s]
         self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
-        # sampling-error covariance since the last covariance prediction (18 entries;
-        # _set_sampling_noise), and whether it holds any
-        self._qs_acc = np.zeros(18)
+        # sums since the last covariance prediction (imu_step): f_n dt, R dt, the
+        # sampling error (18 entries); whether the interval has a step, whether a
+        # sampling error was added (_take_interval hands them out)
+        self._acc = np.zeros(30)
+        self._acc_S, self._acc_Rs, self._acc_qs = self._acc[0:3], self._acc[3:12], self._acc[12:30]
+        self._acc_has = False
         self._qs_has = False
         self._qs_thr = ((2.0 * self.params["EK_ACC_NSE"]) ** 2, (2.0 * self.params["EK_GYR_NSE"]) ** 2)
         n = self.n
@@ -383,8 +416,7 @@ class NavFilterBase:
             if dt > 0.0:
                 # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
                 # (strapdown.py); the specific force: the sample at t
-                self._set_sampling_noise(dt, f0, f1, w0, w1)
-                self._predict(dt, f1, [0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])])
+                self._predict(dt, f0, f1, w0, w1)
             self._push_history(t)
 
         aux_due = self._accumulate_aux(frame)
@@ -714,32 +746,15 @@ class NavFilterBase:
         Hb.put(idx, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
-    def _set_sampling_noise(self, dt: float, f0, f1, w0, w1) -> None:
-        """This step's sampling-error covariance (:func:`sampling_error_into`: the 18
-        entries of its velocity and attitude 3x3 blocks in NED), added to the sum
-        ``self._qs_acc`` the next covariance prediction takes (:meth:`_take_sampling`),
-        where it is not negligible. The integrals of point samples err by up to half the
-        change between two samples, along that change: ``e e^T``, e = R (x1 - x0) dt / 2.
-        Added where it exceeds the white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which
-        covers the sampling error of ordinary flight, turbulence included): a change of
-        more than 2 EK_ACC_NSE or 2 EK_GYR_NSE in one step. Through a catapult stroke's
-        onset and end (75 m/s^2 in one step) it is 0.35 m/s along the stroke, where
-        otherwise the GPS velocity would turn the error into an attitude or bias
-        correction."""
-        added, s0, s1, s2 = sampling_error_into(dt, *f0, *f1, *w0, *w1, self.nom.R, *self._qs_thr,
-                                                self._qs_acc, self._qs_has)
-        if added:
-            q = self._qs_sum
-            self._qs_sum = [q[0] + s0, q[1] + s1, q[2] + s2]
-            self._qs_has = True
-
-    def _take_sampling(self) -> np.ndarray:
-        """The sampling error summed since the last covariance prediction (the entries at
-        ``_qs_idx``; empty: none), for this prediction; the next sum starts afresh."""
+    def _take_interval(self) -> tuple:
+        """(sum f_n dt, sum R dt, sampling error) over the steps since the last covariance
+        prediction (imu_step; the sampling error: the entries at ``_qs_idx``, empty when
+        none), for this prediction; the next interval starts afresh."""
+        self._acc_has = False
         if self._qs_has:
             self._qs_has = False
-            return self._qs_acc
-        return _NO_QS
+            return self._acc_S, self._acc_Rs, self._acc_qs
+        return self._acc_S, self._acc_Rs, _NO_QS
 
     def _true_airspeed(self, air) -> float:
         """True airspeed [m/s] from the pitot's dynamic pressure and the air density of
@@ -751,11 +766,29 @@ class NavFilterBase:
         p, temp = self._air
         return math.sqrt(2.0 * air.diff_pressure_pa * _R_AIR * temp / p)
 
-    def _propagate_nominal(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> float:
-        """Strapdown step of the nominal state, and the mean decay of the Gauss-Markov
-        GPS error (b' = a b, a = exp(-dt / tau)). Returns a."""
+    def _propagate_nominal(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> float:
+        """Strapdown step of the nominal state from the IMU samples at the step's two ends
+        (f0, w0 and f1, w1; :func:`imu_step`), and the mean decay of the Gauss-Markov GPS
+        error (b' = a b, a = exp(-dt / tau)). Returns a.
+
+        The sampling error of the samples: the integrals of point samples err by up to
+        half the change between two samples, along that change: ``e e^T``, e = R (x1 -
+        x0) dt / 2. Added to P (:meth:`_take_interval`) where it exceeds the white noise
+        (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error of ordinary
+        flight, turbulence included): a change of more than 2 EK_ACC_NSE or 2 EK_GYR_NSE
+        in one step. Through a catapult stroke's onset and end (75 m/s^2 in one step) it
+        is 0.35 m/s along the stroke, where otherwise the GPS velocity would turn the
+        error into an attitude or bias correction."""
         nom = self.nom
-        propagate(nom, f_m, omega_m, dt, self._g, self._w_ie)
+        o, (sampled, s0, s1, s2) = imu_step(
+            *nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f0, *f1, *w0, *w1, dt, self._g,
+            *self._w_ie, *self._qs_thr, self._acc, self._acc_has, self._qs_has)
+        set_mechanised(nom, o)
+        self._acc_has = True
+        if sampled:
+            q = self._qs_sum
+            self._qs_sum = [q[0] + s0, q[1] + s1, q[2] + s2]
+            self._qs_has = True
         fn, sf = nom.f_n, self._sf
         self._sf = [sf[0] + fn[0] * dt, sf[1] + fn[1] * dt, sf[2] + fn[2] * dt]
         tau = self.params["EK_GPSB_TAU"]
@@ -1012,7 +1045,9 @@ class NavFilterBase:
     def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:  # pragma: no cover
+    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:  # pragma: no cover
+        """Propagate over dt from the IMU samples at the step's two ends
+        (:meth:`_propagate_nominal`), and the covariance."""
         raise NotImplementedError
 
     def _gate_stats(self, batch: Batch) -> None:  # pragma: no cover - overridden
