@@ -1,7 +1,7 @@
 """The EKF's covariance kernels that write into the caller's arrays (autopilot/nav/ekf.py:
 ``predict_covariance_into``, ``joseph_update_into``; autopilot/nav/base.py:
-``sampling_error_into``, ``imu_step``) against the equations written out in numpy, and the filter's two
-covariance arrays used in turn."""
+``sampling_error_into``, ``imu_step``) against the equations written out in numpy, and
+the filter's two covariance arrays used in turn."""
 from __future__ import annotations
 
 import numpy as np

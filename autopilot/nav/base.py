@@ -141,8 +141,8 @@ def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, ba
 
     * the sampling error of the samples at the step's two ends, at the attitude before
       the step (:func:`sampling_error_into`), into ``acc[12:30]`` (added when ``sampled``);
-    * the mechanisation (:func:`~.strapdown.mechanise`) with the specific force at the end of the
-      step and the trapezoid of the rates at its two ends;
+    * the mechanisation (strapdown.py, ``mechanise``) with the specific force at the end
+      of the step and the trapezoid of the rates at its two ends;
     * the sums over the steps since the last covariance prediction of f_n dt and R dt
       (F's dynamic entries over the interval, ekf.py module docstring), into
       ``acc[0:3]`` and ``acc[3:12]`` (added when ``summing``).
@@ -1045,7 +1045,7 @@ class NavFilterBase:
     def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:  # pragma: no cover
+    def _predict(self, dt: float, f0, f1, w0, w1) -> None:  # pragma: no cover - overridden
         """Propagate over dt from the IMU samples at the step's two ends
         (:meth:`_propagate_nominal`), and the covariance."""
         raise NotImplementedError
