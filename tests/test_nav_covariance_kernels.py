@@ -1,11 +1,15 @@
 """The EKF's covariance kernels that write into the caller's arrays (autopilot/nav/ekf.py:
-``predict_covariance_into``, ``joseph_update_into``) against the equations written out in
-numpy, and the filter's two covariance arrays used in turn."""
+``predict_covariance_into``, ``joseph_update_into``; autopilot/nav/base.py:
+``sampling_error_into``, ``imu_step``) against the equations written out in numpy, and
+the filter's two covariance arrays used in turn."""
 from __future__ import annotations
 
 import numpy as np
 
+from autopilot.geo import euler_to_quat
+from autopilot.nav.base import imu_step, sampling_error_into
 from autopilot.nav.ekf import InsGpsEkf, joseph_update_into, predict_covariance_into
+from autopilot.nav.strapdown import dcm9, mechanise
 from autopilot.nav.layout import ABIAS, ATT, GBIAS, GPSB, POS, VEL
 
 
@@ -87,11 +91,74 @@ def test_the_filter_uses_two_covariance_arrays_in_turn():
     f.aligned = True
     P0 = f.P
     P0_values = P0.copy()
-    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
     P1 = f.P
     # THEN a prediction writes a new array, leaving the one handed out before as it was
     assert P1 is not P0 and np.array_equal(P0, P0_values)
-    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0])
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
     # AND the next one reuses the older array (the filter's own memory: copy P to keep it)
     assert f.P is P0 and f.P is not P1
     assert np.all(np.diag(f.P) > np.diag(P1))
+
+
+def test_sampling_error_into_writes_or_adds_e_et_and_c_ct_above_the_thresholds():
+    rng = np.random.default_rng(5)
+    R = dcm9(euler_to_quat(0.3, -0.2, 2.0))
+    Rm = np.array(R).reshape(3, 3)
+    dt = 0.01
+    f0, f1 = rng.standard_normal(3), rng.standard_normal(3) * 5.0
+    w0, w1 = rng.standard_normal(3) * 0.1, rng.standard_normal(3)
+    args = (dt, *f0.tolist(), *f1.tolist(), *w0.tolist(), *w1.tolist(), R)
+    # e = R (f1 - f0) dt / 2, c = R (w1 - w0) dt / 2; q_s = (e e^T, c c^T) row-major
+    e = Rm @ (f1 - f0) * (0.5 * dt)
+    c = Rm @ (w1 - w0) * (0.5 * dt)
+    want = np.concatenate((np.outer(e, e).ravel(), np.outer(c, c).ravel()))
+    qs = np.full(18, np.nan)
+    added, *ee = sampling_error_into(*args, 1e-3, 1e-3, qs, False)
+    assert added
+    np.testing.assert_allclose(qs, want, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(ee, e * e, rtol=1e-12, atol=0.0)
+    # added to what the array holds
+    base = rng.uniform(0.0, 1e-6, 18)
+    qs = base.copy()
+    assert sampling_error_into(*args, 1e-3, 1e-3, qs, True)[0]
+    np.testing.assert_allclose(qs, base + want, rtol=1e-12, atol=0.0)
+    # below both thresholds: nothing written
+    qs = base.copy()
+    thr_f = float((f1 - f0) @ (f1 - f0)) * (1.0 + 1e-9)
+    thr_w = float((w1 - w0) @ (w1 - w0)) * (1.0 + 1e-9)
+    assert not sampling_error_into(*args, thr_f, thr_w, qs, True)[0]
+    assert np.array_equal(qs, base)
+    # above one of them: written
+    assert sampling_error_into(*args, thr_f, 0.5 * thr_w, qs, False)[0]
+    np.testing.assert_allclose(qs, want, rtol=1e-12, atol=0.0)
+
+
+def test_imu_step_is_the_mechanisation_the_sampling_error_and_the_interval_sums():
+    rng = np.random.default_rng(8)
+    q = list(euler_to_quat(0.2, 0.1, -1.0))
+    p, v = rng.standard_normal(3).tolist(), (rng.standard_normal(3) * 20.0).tolist()
+    bg, ba = (rng.standard_normal(3) * 1e-3).tolist(), (rng.standard_normal(3) * 0.05).tolist()
+    f0, f1 = [0.5, 0.1, -9.0], [3.0, -1.0, -12.0]
+    w0, w1 = [0.1, -0.2, 0.05], [0.3, 0.1, -0.2]
+    dt, g, w_ie = 0.01, 9.79, (5e-5, 0.0, -4e-5)
+    thr = (1e-3, 1e-3)
+    acc = np.full(30, np.nan)
+    o, s = imu_step(*p, *v, *q, *bg, *ba, *f0, *f1, *w0, *w1, dt, g, *w_ie, *thr, acc, False, False)
+    # THEN the mechanisation with f1 and the trapezoid of the rates, bit for bit
+    wm = [0.5 * (w0[i] + w1[i]) for i in range(3)]
+    assert o == mechanise(*p, *v, *q, *bg, *ba, *f1, *wm, dt, g, *w_ie)
+    # AND the sampling error at the attitude before the step, bit for bit
+    qs = np.empty(18)
+    assert s == sampling_error_into(dt, *f0, *f1, *w0, *w1, dcm9(q), *thr, qs, False)
+    assert np.array_equal(acc[12:], qs)
+    # AND f_n dt and R(q') dt
+    assert acc[0:3].tolist() == [x * dt for x in o[19:22]]
+    assert acc[3:12].tolist() == [x * dt for x in o[10:19]]
+    # AND the next step adds to the sums
+    before = acc.copy()
+    o2, s2 = imu_step(*o[0:10], *bg, *ba, *f1, *f0, *w1, *w0, dt, g, *w_ie, *thr, acc, True, True)
+    assert acc[0:3].tolist() == [before[k] + o2[19 + k] * dt for k in range(3)]
+    assert acc[3:12].tolist() == [before[3 + k] + o2[10 + k] * dt for k in range(9)]
+    sampling_error_into(dt, *f1, *f0, *w1, *w0, dcm9(o[6:10]), *thr, qs, False)
+    assert acc[12:].tolist() == (before[12:] + qs).tolist()

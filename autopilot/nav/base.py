@@ -6,7 +6,7 @@ propagate and update the error covariance (``_predict``, ``_gate_stats``,
 * IMU: point samples; the rotation over a step from the trapezoid of the gyro samples
   at its two ends, the velocity change from the specific force at its end; where a
   sample's change over a step exceeds the process noise (a catapult stroke), the
-  difference is added to P (``_set_sampling_noise``).
+  difference is added to P (``_propagate_nominal``).
 * Aiding: all measurements of one step stacked in one :class:`Batch`, gated one source
   at a time and fused together; barometer, magnetometer and airspeed as means at
   EK_AUX_HZ. Sources: ``gps_pos`` and ``gps_vel`` (delayed-state innovations over
@@ -32,6 +32,8 @@ from typing import Mapping
 import numpy as np
 
 from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
+from autopilot.geo.rotations import quat_dcm
+from autopilot.jit import kernel
 from autopilot.messages import NavState, SensorFrame
 
 from . import config
@@ -39,7 +41,7 @@ from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
 from .strapdown import (Nominal, earth_rate_ned, heading_from_mag, inject_attitude,
-                        level_from_accel, mag_ned, propagate)
+                        level_from_accel, mag_ned, mechanise, set_mechanised)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -90,6 +92,74 @@ _BLOCKS = {"pos": POS, "vel": VEL, "att": ATT, "abias": ABIAS, "gbias": GBIAS, "
 # _inject unpacks dx in this order; a layout change must be mirrored there
 assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, BBIAS.start, GPSB.start,
         WIND.start) == (0, 3, 6, 9, 12, 15, 16, 19)
+
+
+_NO_QS = np.zeros(0)
+
+
+@kernel
+def sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
+                        R, thr_f, thr_w, qs, add):
+    """The sampling error of one step's point samples (NavFilterBase._propagate_nominal):
+
+        e = R (f1 - f0) dt / 2,   c = R (w1 - w0) dt / 2,   q_s = (e e^T, c c^T)
+
+    where |f1 - f0|^2 > thr_f or |w1 - w0|^2 > thr_w: the 18 entries of q_s (row-major)
+    written into ``qs``, or added to it when ``add``; returns (True, e_N^2, e_E^2, e_D^2).
+    Otherwise nothing is written and the first element is False. R: R(q_nb), 9 floats
+    row-major."""
+    df0, df1, df2 = f1x - f0x, f1y - f0y, f1z - f0z
+    dw0, dw1, dw2 = w1x - w0x, w1y - w0y, w1z - w0z
+    if (df0 * df0 + df1 * df1 + df2 * df2 <= thr_f
+            and dw0 * dw0 + dw1 * dw1 + dw2 * dw2 <= thr_w):
+        return False, 0.0, 0.0, 0.0
+    h = 0.5 * dt
+    a0, a1, a2 = h * df0, h * df1, h * df2
+    b0, b1, b2 = h * dw0, h * dw1, h * dw2
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
+    e = (r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
+         r20 * a0 + r21 * a1 + r22 * a2)
+    c = (r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2,
+         r20 * b0 + r21 * b1 + r22 * b2)
+    for i in range(3):
+        for j in range(3):
+            k = 3 * i + j
+            if add:
+                qs[k] += e[i] * e[j]
+                qs[9 + k] += c[i] * c[j]
+            else:
+                qs[k] = e[i] * e[j]
+                qs[9 + k] = c[i] * c[j]
+    return True, e[0] * e[0], e[1] * e[1], e[2] * e[2]
+
+
+@kernel
+def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+             f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z, dt, g, ex, ey, ez,
+             thr_f, thr_w, acc, summing, sampled):
+    """One IMU step of the nominal state (NavFilterBase._propagate_nominal) in one call:
+
+    * the sampling error of the samples at the step's two ends, at the attitude before
+      the step (:func:`sampling_error_into`), into ``acc[12:30]`` (added when ``sampled``);
+    * the mechanisation (strapdown.py, ``mechanise``) with the specific force at the end
+      of the step and the trapezoid of the rates at its two ends;
+    * the sums over the steps since the last covariance prediction of f_n dt and R dt
+      (F's dynamic entries over the interval, ekf.py module docstring), into
+      ``acc[0:3]`` and ``acc[3:12]`` (added when ``summing``).
+
+    Returns mechanise's 25 floats and sampling_error_into's 4 values."""
+    s = sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
+                            quat_dcm(qw, qx, qy, qz), thr_f, thr_w, acc[12:], sampled)
+    o = mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+                  f1x, f1y, f1z, 0.5 * (w0x + w1x), 0.5 * (w0y + w1y), 0.5 * (w0z + w1z),
+                  dt, g, ex, ey, ez)
+    for k in range(3):                     # f_n dt
+        x = o[19 + k] * dt
+        acc[k] = acc[k] + x if summing else x
+    for k in range(9):                     # R dt, R(q') row-major
+        x = o[10 + k] * dt
+        acc[3 + k] = acc[3 + k] + x if summing else x
+    return o, s
 
 
 class Batch:
@@ -195,7 +265,13 @@ class NavFilterBase:
         self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
         self._gyro_prev: list | None = None   # the one before, floats [rad/s]
         self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
-        self._q_sample: tuple | None = None   # sampling-error covariance of this step (18 entries)
+        # sums since the last covariance prediction (imu_step): f_n dt, R dt, the
+        # sampling error (18 entries); whether the interval has a step, whether a
+        # sampling error was added (_take_interval hands them out)
+        self._acc = np.zeros(30)
+        self._acc_S, self._acc_Rs, self._acc_qs = self._acc[0:3], self._acc[3:12], self._acc[12:30]
+        self._acc_has = False
+        self._qs_has = False
         self._qs_thr = ((2.0 * self.params["EK_ACC_NSE"]) ** 2, (2.0 * self.params["EK_GYR_NSE"]) ** 2)
         n = self.n
         # flat indices of P's velocity and attitude 3x3 blocks (the sampling error's entries)
@@ -228,7 +304,7 @@ class NavFilterBase:
         self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
         self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
         self._aux = _AuxSums()                # aux samples since their last fusion
-        # history ring of (t, p - c_p, v - c_v, running f_n integral, running sampling
+        # history ring of (t, p, v, c_p, c_v, running f_n integral, running sampling
         # variance) for the GPS latency
         self._hist: list = [None] * _HIST
         self._h_i = 0
@@ -340,8 +416,7 @@ class NavFilterBase:
             if dt > 0.0:
                 # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
                 # (strapdown.py); the specific force: the sample at t
-                self._set_sampling_noise(dt, f0, f1, w0, w1)
-                self._predict(dt, f1, [0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])])
+                self._predict(dt, f0, f1, w0, w1)
             self._push_history(t)
 
         aux_due = self._accumulate_aux(frame)
@@ -512,10 +587,10 @@ class NavFilterBase:
 
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
-        p, v, cp, cv, sf, qs = self.nom.p, self.nom.v, self._c_p, self._c_v, self._sf, self._qs_sum
-        self._hist[self._h_i] = (t, p[0] - cp[0], p[1] - cp[1], p[2] - cp[2],
-                                 v[0] - cv[0], v[1] - cv[1], v[2] - cv[2], sf[0], sf[1], sf[2],
-                                 qs[0], qs[1], qs[2])
+        # the lists themselves (each is replaced, never written in place): _delayed
+        # subtracts the corrections when a fix asks
+        nom = self.nom
+        self._hist[self._h_i] = (t, nom.p, nom.v, self._c_p, self._c_v, self._sf, self._qs_sum)
         self._h_i = (self._h_i + 1) % _HIST
 
     def _delayed(self, t_valid: int) -> tuple:
@@ -531,11 +606,12 @@ class NavFilterBase:
             if e is None or abs(e[0] - t_valid) > abs(best[0] - t_valid):
                 break
             best, i = e, j
+        _, p, v, cp0, cv0, sf0, qs0 = best
         cp, cv, sf, qs = self._c_p, self._c_v, self._sf, self._qs_sum
-        return ((best[1] + cp[0], best[2] + cp[1], best[3] + cp[2]),
-                (best[4] + cv[0], best[5] + cv[1], best[6] + cv[2]),
-                (sf[0] - best[7], sf[1] - best[8], sf[2] - best[9]),
-                (qs[0] - best[10], qs[1] - best[11], qs[2] - best[12]))
+        return (((p[0] - cp0[0]) + cp[0], (p[1] - cp0[1]) + cp[1], (p[2] - cp0[2]) + cp[2]),
+                ((v[0] - cv0[0]) + cv[0], (v[1] - cv0[1]) + cv[1], (v[2] - cv0[2]) + cv[2]),
+                (sf[0] - sf0[0], sf[1] - sf0[1], sf[2] - sf0[2]),
+                (qs[0] - qs0[0], qs[1] - qs0[1], qs[2] - qs0[2]))
 
     # ----------------------------------------------------------- measurement models --
     def _accumulate_aux(self, frame: SensorFrame) -> bool:
@@ -670,34 +746,15 @@ class NavFilterBase:
         Hb.put(idx, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
-    def _set_sampling_noise(self, dt: float, f0, f1, w0, w1) -> None:
-        """This step's sampling-error covariance (``self._q_sample``: the 18 entries of
-        its velocity and attitude 3x3 blocks in NED, or None when negligible). The
-        integrals of point samples err by up to half the change between two samples,
-        along that change: ``e e^T``, e = R (x1 - x0) dt / 2. Added where it exceeds the
-        white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error
-        of ordinary flight, turbulence included): a change of more than 2 EK_ACC_NSE or
-        2 EK_GYR_NSE in one step. Through a catapult stroke's onset and end (75 m/s^2 in
-        one step) it is 0.35 m/s along the stroke, where otherwise the GPS velocity would
-        turn the error into an attitude or bias correction."""
-        df0, df1, df2 = f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2]
-        dw0, dw1, dw2 = w1[0] - w0[0], w1[1] - w0[1], w1[2] - w0[2]
-        if (df0 * df0 + df1 * df1 + df2 * df2 <= self._qs_thr[0]
-                and dw0 * dw0 + dw1 * dw1 + dw2 * dw2 <= self._qs_thr[1]):
-            self._q_sample = None
-            return
-        h = 0.5 * dt
-        a0, a1, a2 = h * df0, h * df1, h * df2
-        b0, b1, b2 = h * dw0, h * dw1, h * dw2
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = self.nom.R
-        e0, e1, e2 = (r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
-                      r20 * a0 + r21 * a1 + r22 * a2)
-        c0, c1, c2 = (r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2,
-                      r20 * b0 + r21 * b1 + r22 * b2)
-        q = self._qs_sum
-        self._qs_sum = [q[0] + e0 * e0, q[1] + e1 * e1, q[2] + e2 * e2]
-        self._q_sample = (e0 * e0, e0 * e1, e0 * e2, e1 * e0, e1 * e1, e1 * e2, e2 * e0, e2 * e1, e2 * e2,
-                          c0 * c0, c0 * c1, c0 * c2, c1 * c0, c1 * c1, c1 * c2, c2 * c0, c2 * c1, c2 * c2)
+    def _take_interval(self) -> tuple:
+        """(sum f_n dt, sum R dt, sampling error) over the steps since the last covariance
+        prediction (imu_step; the sampling error: the entries at ``_qs_idx``, empty when
+        none), for this prediction; the next interval starts afresh."""
+        self._acc_has = False
+        if self._qs_has:
+            self._qs_has = False
+            return self._acc_S, self._acc_Rs, self._acc_qs
+        return self._acc_S, self._acc_Rs, _NO_QS
 
     def _true_airspeed(self, air) -> float:
         """True airspeed [m/s] from the pitot's dynamic pressure and the air density of
@@ -709,11 +766,29 @@ class NavFilterBase:
         p, temp = self._air
         return math.sqrt(2.0 * air.diff_pressure_pa * _R_AIR * temp / p)
 
-    def _propagate_nominal(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> float:
-        """Strapdown step of the nominal state, and the mean decay of the Gauss-Markov
-        GPS error (b' = a b, a = exp(-dt / tau)). Returns a."""
+    def _propagate_nominal(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> float:
+        """Strapdown step of the nominal state from the IMU samples at the step's two ends
+        (f0, w0 and f1, w1; :func:`imu_step`), and the mean decay of the Gauss-Markov GPS
+        error (b' = a b, a = exp(-dt / tau)). Returns a.
+
+        The sampling error of the samples: the integrals of point samples err by up to
+        half the change between two samples, along that change: ``e e^T``, e = R (x1 -
+        x0) dt / 2. Added to P (:meth:`_take_interval`) where it exceeds the white noise
+        (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error of ordinary
+        flight, turbulence included): a change of more than 2 EK_ACC_NSE or 2 EK_GYR_NSE
+        in one step. Through a catapult stroke's onset and end (75 m/s^2 in one step) it
+        is 0.35 m/s along the stroke, where otherwise the GPS velocity would turn the
+        error into an attitude or bias correction."""
         nom = self.nom
-        propagate(nom, f_m, omega_m, dt, self._g, self._w_ie)
+        o, (sampled, s0, s1, s2) = imu_step(
+            *nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f0, *f1, *w0, *w1, dt, self._g,
+            *self._w_ie, *self._qs_thr, self._acc, self._acc_has, self._qs_has)
+        set_mechanised(nom, o)
+        self._acc_has = True
+        if sampled:
+            q = self._qs_sum
+            self._qs_sum = [q[0] + s0, q[1] + s1, q[2] + s2]
+            self._qs_has = True
         fn, sf = nom.f_n, self._sf
         self._sf = [sf[0] + fn[0] * dt, sf[1] + fn[1] * dt, sf[2] + fn[2] * dt]
         tau = self.params["EK_GPSB_TAU"]
@@ -949,8 +1024,10 @@ class NavFilterBase:
         # omega_b = gyro - bias estimate (after this step's update)
         bg = nom.bg
         gx, gy, gz = self._gyro
-        # one array for all vectors of the state, handed out as views (one allocation)
-        a = np.array(p + nom.v + nom.q + [gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0])
+        # one array for all vectors of the state, handed out as views (one allocation;
+        # fromiter: np.array's shape and type discovery skipped)
+        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0],
+                        float, 16)
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
                         a[13:16], self.aligned, self.healthy, self.SOURCE)
 
@@ -968,7 +1045,9 @@ class NavFilterBase:
     def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:  # pragma: no cover
+    def _predict(self, dt: float, f0, f1, w0, w1) -> None:  # pragma: no cover - overridden
+        """Propagate over dt from the IMU samples at the step's two ends
+        (:meth:`_propagate_nominal`), and the covariance."""
         raise NotImplementedError
 
     def _gate_stats(self, batch: Batch) -> None:  # pragma: no cover - overridden

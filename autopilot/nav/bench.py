@@ -34,9 +34,9 @@ def bench(cls=InsGpsEkf, aux_hz: float = 50.0, seconds: float = 30.0, repeats: i
         inner = f._predict
         clock = time.perf_counter
 
-        def timed_predict(dt, f_m, omega_m, inner=inner, acc=acc, clock=clock):
+        def timed_predict(dt, f0, f1, w0, w1, inner=inner, acc=acc, clock=clock):
             t0 = clock()
-            inner(dt, f_m, omega_m)
+            inner(dt, f0, f1, w0, w1)
             acc[0] += clock() - t0
 
         f._predict = timed_predict

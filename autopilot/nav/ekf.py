@@ -79,8 +79,6 @@ from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start)
         == (0, 3, 6, 9, 12, 16))
 
-_NO_QS = np.zeros(0)
-
 
 @kernel
 def _transition_times(X, T, S, Rs, a, Y):
@@ -272,38 +270,28 @@ class InsGpsEkf(NavFilterBase):
         lam = self.q_scale_hook(T) if self.q_scale_hook is not None else None
         return q if lam is None else q * lam
 
-    def _sampling(self, qs) -> np.ndarray:
-        return _NO_QS if qs is None else np.array(qs)
-
-    def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
-        nom = self.nom
-        self._propagate_nominal(dt, f_m, omega_m)
+    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:
+        self._propagate_nominal(dt, f0, f1, w0, w1)
         if self.cov_div > 1:
-            self._accumulate(dt)
+            self._pend.append(dt)
+            if len(self._pend) >= self.cov_div:
+                self._sync_covariance()
             return
         if dt != self._q_dt:
             self._process_noise(dt)
-        fx, fy, fz = nom.f_n
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = nom.R
-        # P = F P F^T + Q (+ the sampling error of this step's IMU samples, base.py)
+        # P = F P F^T + Q (+ the sampling error of this step's IMU samples, base.py);
+        # f_n dt and R dt of this step (base.imu_step)
+        S, Rs, qs = self._take_interval()
         out = self._P_spare
-        predict_covariance_into(
-            self._P, dt, (fx * dt, fy * dt, fz * dt),
-            (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt, r5 * dt, r6 * dt, r7 * dt, r8 * dt),
-            self._a_gm, self._noise(self._q, dt), self._sampling(self._q_sample), self._qs_flat, out)
+        predict_covariance_into(self._P, dt, S, Rs, self._a_gm, self._noise(self._q, dt), qs,
+                                self._qs_flat, out)
         self._next_P(out)
 
     # ------------------------------------------- covariance every cov_div steps --
     def _clear_pending(self) -> None:
-        self._pend: list[tuple] = []               # (dt, f_n, R, sampling error) per step
-
-    def _accumulate(self, dt: float) -> None:
-        """Keep one step's share of the interval's F and Q (module docstring)."""
-        nom = self.nom
-        pend = self._pend
-        pend.append((dt, nom.f_n, nom.R, self._q_sample))   # (fresh objects every step)
-        if len(pend) >= self.cov_div:
-            self._sync_covariance()
+        # the steps not yet in P: their dt (their f_n dt, R dt and sampling errors are
+        # summed meanwhile, base.imu_step)
+        self._pend: list[float] = []
 
     def _interval_noise(self, dts: tuple) -> tuple:
         """(diag Q, Gauss-Markov decay) over the steps ``dts``: the per-step noises
@@ -331,31 +319,18 @@ class InsGpsEkf(NavFilterBase):
         if not pend:
             return
         self._pend = []
-        # sums over the steps of f_n dt and R dt (written out: a comprehension over the
-        # nine entries costs twice as much)
-        dt, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8), qs = pend[0]
-        fx, fy, fz = fx * dt, fy * dt, fz * dt
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = (r0 * dt, r1 * dt, r2 * dt, r3 * dt, r4 * dt,
-                                              r5 * dt, r6 * dt, r7 * dt, r8 * dt)
         if len(pend) == 1:
-            dts = (dt,)
-            T = dt
+            dts = (pend[0],)
+            T = pend[0]
         else:
-            dts = tuple([e[0] for e in pend])
+            dts = tuple(pend)
             T = math.fsum(dts)
-            for dt, f, (k0, k1, k2, k3, k4, k5, k6, k7, k8), qk in pend[1:]:
-                fx, fy, fz = fx + f[0] * dt, fy + f[1] * dt, fz + f[2] * dt
-                r0, r1, r2 = r0 + k0 * dt, r1 + k1 * dt, r2 + k2 * dt
-                r3, r4, r5 = r3 + k3 * dt, r4 + k4 * dt, r5 + k5 * dt
-                r6, r7, r8 = r6 + k6 * dt, r7 + k7 * dt, r8 + k8 * dt
-                if qk is not None:
-                    qs = qk if qs is None else [c + ck for c, ck in zip(qs, qk)]
         q, a = self._interval_noise(dts)
         # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt,
         #                 F[POS, VEL] = T I,  F[GPSB, GPSB] = (product of the decays) I
+        S, Rs, qs = self._take_interval()
         out = self._P_spare
-        predict_covariance_into(self._P, T, (fx, fy, fz), (r0, r1, r2, r3, r4, r5, r6, r7, r8),
-                                a, self._noise(q, T), self._sampling(qs), self._qs_flat, out)
+        predict_covariance_into(self._P, T, S, Rs, a, self._noise(q, T), qs, self._qs_flat, out)
         self._next_P(out)
 
     def _gate_stats(self, batch) -> None:

@@ -98,13 +98,20 @@ def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
     """Advance the nominal state by one IMU step (module docstring), in place.
     ``f_m``, ``omega_m``: 3 floats each; ``g`` gravity at the origin [m/s^2];
     ``w_ie``: the Earth rate in NED [rad/s]. The arithmetic: :func:`mechanise`."""
-    o = mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m, *omega_m, dt, g, *w_ie)
-    nom.p = list(o[0:3])
-    nom.v = list(o[3:6])
-    nom.q = list(o[6:10])
+    set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m, *omega_m,
+                                  dt, g, *w_ie))
+
+
+def set_mechanised(nom: Nominal, o: tuple) -> None:
+    """Write :func:`mechanise`'s 25 floats into ``nom``."""
+    (p0, p1, p2, v0, v1, v2, q0, q1, q2, q3, _, _, _, _, _, _, _, _, _,
+     f0, f1, f2, w0, w1, w2) = o                  # (one unpacking: cheaper than slices)
+    nom.p = [p0, p1, p2]
+    nom.v = [v0, v1, v2]
+    nom.q = [q0, q1, q2, q3]
     nom.R = o[10:19]
-    nom.f_n = list(o[19:22])
-    nom.omega_b = list(o[22:25])
+    nom.f_n = [f0, f1, f2]
+    nom.omega_b = [w0, w1, w2]
 
 
 @kernel

@@ -245,8 +245,6 @@ def ukf_update(sf, Zs, Wm, Wc, z, R, floor, ceil, P):
     return x, out
 
 
-_NO_QS = np.zeros(0)
-
 # the kernels index the error state by number: the layout it was written for
 assert ((POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, GPSB.start, WIND.start)
         == (0, 3, 6, 9, 12, 16, 19))
@@ -377,20 +375,23 @@ class InsGpsUkf(NavFilterBase):
         self._q_dt = dt
 
     # ------------------------------------------------------------------- predict --
-    def _predict(self, dt: float, f_m: np.ndarray, omega_m: np.ndarray) -> None:
+    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:
         if dt != self._q_dt:
             self._process_noise(dt)
         nom = self.nom
         c = [*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba]          # the nominal before ...
-        a = self._propagate_nominal(dt, f_m, omega_m)
-        # ... and after, the IMU samples, w_ie, g, the Gauss-Markov decay
-        c = np.array(c + nom.p + nom.v + nom.q + [*f_m, *omega_m, *self._w_ie, self._g, a])
+        a = self._propagate_nominal(dt, f0, f1, w0, w1)
+        # ... and after, the IMU samples as the mechanisation took them (the specific
+        # force at the step's end, the trapezoid of the rates), w_ie, g, the Gauss-Markov decay
+        c = np.array(c + nom.p + nom.v + nom.q
+                     + [*f1, 0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2]),
+                        *self._w_ie, self._g, a])
         ukf = self._ukf
         lam = self.q_scale_hook(dt) if self.q_scale_hook is not None else None
         # additive (Lambda) Q: the fading matrix of seed eq 2.40 (base.py hooks) scales it
         q = self._qdiag if lam is None else self._qdiag * np.asarray(lam, dtype=float)
         # the sampling error of the IMU samples (base.py) where it exceeds Q
-        qs = _NO_QS if self._q_sample is None else np.array(self._q_sample)
+        qs = self._take_interval()[2]
         ukf.predict(dt=dt, c=c, q=q, qs=qs, floor=self._floor, ceil=self._ceil, qs_idx=self._qs_idx_a)
         # fold the mean error into the nominal state (the sigma points are centred on it)
         self._inject(ukf.x)
