@@ -474,7 +474,7 @@ class QuadVehicle(VehicleBase):
 
         # navigation -> motor fault monitor
         mon = self.monitor
-        if mon is not None:
+        if mon is not None and mon.due():
             self._monitor(mon, frame, omega, t_us)
 
         if fence_watching(self.geofence):        # (else no arguments worked out)
@@ -529,8 +529,8 @@ class QuadVehicle(VehicleBase):
         touchdown = self._touchdown_pending
         self._touchdown_pending = False
         seq, hold = 0, False
-        if mode == CopterMode.AUTO and self.sequencer is not None:
-            sq = self.sequencer
+        sq = self._sequencer               # (the property's read: vehicle_base.py)
+        if mode == CopterMode.AUTO and sq is not None:
             seq, hold = sq.advance(t_us, pos, touchdown, yaw)
             if sq.home_request is not None:
                 self._mission_set_home(sq, t_us)
@@ -575,10 +575,9 @@ class QuadVehicle(VehicleBase):
 
     def _monitor(self, mon: MotorMonitor, frame: SensorFrame, omega, t_us: int) -> None:
         """The motor fault monitor on this step's IMU sample (less the filter's bias
-        estimates) and the commands of the last step; its events to the log, its
-        failsafe to the modes."""
-        if not mon.due():
-            return
+        estimates) and the commands of the last step, on the steps it is due
+        (``mon.due()``, asked by the caller); its events to the log, its failsafe to the
+        modes."""
         nav = self.nav
         ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
         f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b.tolist()

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel, preload
+from ..jit import kernel
 
 # channel order of eq 3.30's rotors: (roll sign, pitch sign, yaw sign)
 ROTOR_SIGNS = ((0.0, -1.0, 1.0), (1.0, 0.0, -1.0), (0.0, 1.0, 1.0), (-1.0, 0.0, -1.0))
@@ -65,7 +65,6 @@ class QuadPlusMixer:
         self.collective = 0.0
         self.eff: tuple[float, float, float, float] | None = None   # None: all healthy
         self._limits()
-        preload(mix_rotors, 0.0, 0.0, 0.0, 0.0, self.k)   # loaded now, not at the take-off (autopilot.jit.preload)
 
     def configure(self, t_max_n: float, expo: float, spin_min: float) -> None:
         self.t_max, self.expo, self.spin_min = t_max_n, expo, spin_min
