@@ -53,7 +53,7 @@ class QuadPlusMixer:
     :func:`mix_rotors`; its constants in ``k``, rebuilt when a parameter changes)."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective", "eff", "k")
+                 "thrusts", "collective", "eff", "k", "_full", "_lin")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float):
         self.t_max = t_max_n
@@ -85,6 +85,8 @@ class QuadPlusMixer:
             self._limits()
 
     def _limits(self) -> None:
+        self._full = self.t_max * self.rho_ratio     # thrust_of's factors, as it writes them
+        self._lin = 1.0 - self.expo
         self.t_hi = self.thrust_of(1.0)
         self.t_lo = self.thrust_of(self.spin_min)
         # the kernels' constants (K_* below), each as its formula writes it
@@ -98,7 +100,7 @@ class QuadPlusMixer:
     def thrust_of(self, u: float) -> float:
         """Modelled static thrust of one rotor at command u [N]."""
         e = self.expo
-        return self.t_max * self.rho_ratio * ((1.0 - e) * u + e * u * u)
+        return self._full * (self._lin * u + e * u * u)    # T_max rho/rho0 ((1 - e) u + e u^2)
 
     def command_of(self, thrust_n: float) -> float:
         """Inverse of :meth:`thrust_of`, clipped to [0, 1]."""

@@ -55,8 +55,8 @@ from __future__ import annotations
 
 import bisect
 import math
+from typing import NamedTuple
 
-from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
@@ -95,9 +95,10 @@ COPTER_GUIDANCE_PARAMS = (
 )
 
 
-@message
-class CopterTarget:
-    """What guidance asks of the position and altitude loops (home NED frame)."""
+class CopterTarget(NamedTuple):
+    """What guidance asks of the position and altitude loops (home NED frame). A named
+    tuple, not an ``@message`` record (autopilot/frozen.py): one is built at every step,
+    and a tuple's constructor costs half the record's."""
 
     kind: str                       # "idle" | "takeoff" | "move" | "hold" | "land"
     seq: int                        # mission item being flown (0: none)
@@ -110,6 +111,11 @@ class CopterTarget:
     goal_ne: tuple = (0.0, 0.0)     # the goal / hold / land point (north, east)
     leg_a: tuple = (0.0, 0.0)       # the straight leg being flown (north, east)
 
+
+# the navigation items flown to a goal (and held there) by CopterMissionSequencer._step_nav
+_GOAL_COMMANDS = frozenset((MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
+                            MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY,
+                            MAV_CMD_NAV_SPLINE_WAYPOINT))
 
 # what the position loops are doing in each navigator phase (CopterTarget.kind)
 _PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
@@ -930,9 +936,7 @@ class CopterMissionSequencer:
             if nav.arrived and abs(p_ned[2] - nav.traj.p[2]) <= self.params["WPNAV_TKOFF_TOL"]:
                 return self._next(t_us, p_ned, touchdown, yaw)
             return seq, False
-        if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
-                   MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY,
-                   MAV_CMD_NAV_SPLINE_WAYPOINT):
+        if cmd in _GOAL_COMMANDS:
             if entering:
                 if cmd == MAV_CMD_NAV_DELAY:
                     # hold where the reference can stop, for param1 seconds
