@@ -968,18 +968,17 @@ class CopterMissionSequencer:
                         self._hold_s = 0.0
                     else:
                         self._hold_s = math.inf
-            goal = self._goal
-            radius = self.params["WPNAV_RADIUS"]
-            if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
-                radius = item.param2
-            if self._hold_start_us is None:
-                dist = math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1])
-                arrived = nav.traj.arrived
-                if arrived and nav.traj._v_end > 0.0:
+            if self._hold_start_us is None and nav.traj.arrived:
+                if nav.traj._v_end > 0.0:
                     # a spline flown through: done when the reference passes its end
                     # (ArduCopter counts a waypoint it does not stop at by its target)
                     return self._next(t_us, p_ned, touchdown, yaw)
-                if arrived and dist <= radius and abs(p_ned[2] - goal[2]) <= max(radius, 1.0):
+                goal = self._goal
+                radius = self.params["WPNAV_RADIUS"]
+                if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
+                    radius = item.param2
+                if (math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1]) <= radius
+                        and abs(p_ned[2] - goal[2]) <= max(radius, 1.0)):
                     self._hold_start_us = t_us
                     if self._hold_s > 0.0 and cmd != MAV_CMD_NAV_DELAY:
                         nav.hold(None, scored=True)
