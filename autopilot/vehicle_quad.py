@@ -661,8 +661,9 @@ class QuadVehicle(VehicleBase):
         leg = float(tgt.leg_id) if tgt is not None else 0.0
         u = c.u
         v = self.v_ned
+        # float(mode): the IntEnum's value, without the .value property's two calls
         self.log.append((
-            t_us * 1e-6, float(self.armed), float(self.mode.value), seq, leg, kind, hold,
+            t_us * 1e-6, float(self.armed), float(self.mode), seq, leg, kind, hold,
             float(self.on_ground),
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p[0], p[1], alt0 - p[2], er, ep, ey, v[0], v[1], v[2],
