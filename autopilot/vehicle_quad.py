@@ -529,7 +529,7 @@ class QuadVehicle(VehicleBase):
         touchdown = self._touchdown_pending
         self._touchdown_pending = False
         seq, hold = 0, False
-        sq = self._sequencer               # (the property's read: vehicle_base.py)
+        sq = self._sequencer               # (read without the property: vehicle_base.py)
         if mode == CopterMode.AUTO and sq is not None:
             seq, hold = sq.advance(t_us, pos, touchdown, yaw)
             if sq.home_request is not None:
