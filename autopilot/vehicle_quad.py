@@ -661,16 +661,17 @@ class QuadVehicle(VehicleBase):
         leg = float(tgt.leg_id) if tgt is not None else 0.0
         u = c.u
         v = self.v_ned
+        # one tuple display (not a chain of tuple sums, each a copy of the row so far);
         # float(mode): the IntEnum's value, without the .value property's two calls
         self.log.append((
             t_us * 1e-6, float(self.armed), float(self.mode), seq, leg, kind, hold,
             float(self.on_ground),
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p[0], p[1], alt0 - p[2], er, ep, ey, v[0], v[1], v[2],
-        ) + tgt_row + (
+            *tgt_row,
             c.roll_d, c.pitch_d, c.yaw_d, u[0], u[1], u[2], u[3],
             motors[0], motors[1], motors[2], motors[3],
-        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row + self._fdi_row())
+            *sig, float(nav.aligned), float(nav.healthy), *gps_row, *self._fdi_row()))
 
     def _fdi_row(self) -> tuple:
         mon = self.monitor
