@@ -474,7 +474,7 @@ class QuadVehicle(VehicleBase):
 
         # navigation -> motor fault monitor
         mon = self.monitor
-        if mon is not None:
+        if mon is not None and mon.due():
             self._monitor(mon, frame, omega, t_us)
 
         if fence_watching(self.geofence):        # (else no arguments worked out)
@@ -529,8 +529,8 @@ class QuadVehicle(VehicleBase):
         touchdown = self._touchdown_pending
         self._touchdown_pending = False
         seq, hold = 0, False
-        if mode == CopterMode.AUTO and self.sequencer is not None:
-            sq = self.sequencer
+        sq = self._sequencer               # (read without the property: vehicle_base.py)
+        if mode == CopterMode.AUTO and sq is not None:
             seq, hold = sq.advance(t_us, pos, touchdown, yaw)
             if sq.home_request is not None:
                 self._mission_set_home(sq, t_us)
@@ -575,10 +575,9 @@ class QuadVehicle(VehicleBase):
 
     def _monitor(self, mon: MotorMonitor, frame: SensorFrame, omega, t_us: int) -> None:
         """The motor fault monitor on this step's IMU sample (less the filter's bias
-        estimates) and the commands of the last step; its events to the log, its
-        failsafe to the modes."""
-        if not mon.due():
-            return
+        estimates) and the commands of the last step, on the steps it is due
+        (``mon.due()``, asked by the caller); its events to the log, its failsafe to the
+        modes."""
         nav = self.nav
         ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
         f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b.tolist()
@@ -662,15 +661,17 @@ class QuadVehicle(VehicleBase):
         leg = float(tgt.leg_id) if tgt is not None else 0.0
         u = c.u
         v = self.v_ned
+        # one tuple display (not a chain of tuple sums, each a copy of the row so far);
+        # float(mode): the IntEnum's value, without the .value property's two calls
         self.log.append((
-            t_us * 1e-6, float(self.armed), float(self.mode.value), seq, leg, kind, hold,
+            t_us * 1e-6, float(self.armed), float(self.mode), seq, leg, kind, hold,
             float(self.on_ground),
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p[0], p[1], alt0 - p[2], er, ep, ey, v[0], v[1], v[2],
-        ) + tgt_row + (
+            *tgt_row,
             c.roll_d, c.pitch_d, c.yaw_d, u[0], u[1], u[2], u[3],
             motors[0], motors[1], motors[2], motors[3],
-        ) + sig + (float(nav.aligned), float(nav.healthy)) + gps_row + self._fdi_row())
+            *sig, float(nav.aligned), float(nav.healthy), *gps_row, *self._fdi_row()))
 
     def _fdi_row(self) -> tuple:
         mon = self.monitor

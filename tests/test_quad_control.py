@@ -306,3 +306,27 @@ def test_mixer_with_a_weak_rotor_keeps_every_rotor_within_its_share():
     assert m.saturated[2]                                           # height gave way
     m.set_effectiveness(None)
     assert m.eff is None and m.mix_thrusts(14.0, 0.0, 0.0, 0.0) == (3.5, 3.5, 3.5, 3.5)
+
+
+@pytest.mark.parametrize("eff", [None, (1.0, 0.6, 1.0, 0.8)])
+def test_controller_attitude_is_the_attitude_loops_then_the_mixer(eff):
+    """MultirotorController.attitude (one kernel call, attitude_mix) gives, bit for bit,
+    what AttitudeController.update then QuadPlusMixer.mix give, and leaves the same
+    filter states and mixer record behind (healthy and weak-rotor mixer)."""
+    ctrl = MultirotorController(params(), 0.004)
+    att, mixer = AttitudeController(params(), 0.004), QuadPlusMixer(15.7, 0.78, 0.10)
+    ctrl.mixer.set_effectiveness(eff)
+    mixer.set_effectiveness(eff)
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        q = euler_to_quat(*rng.uniform(-0.4, 0.4, 3)).tolist()
+        w = rng.uniform(-1.0, 1.0, 3).tolist()
+        ref = rng.uniform(-0.4, 0.4, 3).tolist()
+        u_z = float(rng.uniform(0.0, 60.0))
+        got = ctrl.attitude(q, w, *ref, u_z)
+        u = att.update(q, w, *ref)
+        assert got == mixer.mix(u_z, *u)
+        assert ctrl.u == (u_z, *u) and ctrl.att.error == att.error
+        assert np.array_equal(ctrl.att.state, att.state)
+        assert (ctrl.mixer.saturated, ctrl.mixer.collective, ctrl.mixer.thrusts) == (
+            mixer.saturated, mixer.collective, mixer.thrusts)

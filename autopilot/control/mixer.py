@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel, preload
+from ..jit import kernel
 
 # channel order of eq 3.30's rotors: (roll sign, pitch sign, yaw sign)
 ROTOR_SIGNS = ((0.0, -1.0, 1.0), (1.0, 0.0, -1.0), (0.0, 1.0, 1.0), (-1.0, 0.0, -1.0))
@@ -53,7 +53,7 @@ class QuadPlusMixer:
     :func:`mix_rotors`; its constants in ``k``, rebuilt when a parameter changes)."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective", "eff", "k")
+                 "thrusts", "collective", "eff", "k", "_full", "_lin")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float):
         self.t_max = t_max_n
@@ -65,7 +65,6 @@ class QuadPlusMixer:
         self.collective = 0.0
         self.eff: tuple[float, float, float, float] | None = None   # None: all healthy
         self._limits()
-        preload(mix_rotors, 0.0, 0.0, 0.0, 0.0, self.k)   # loaded now, not at the take-off (autopilot.jit.preload)
 
     def configure(self, t_max_n: float, expo: float, spin_min: float) -> None:
         self.t_max, self.expo, self.spin_min = t_max_n, expo, spin_min
@@ -86,6 +85,8 @@ class QuadPlusMixer:
             self._limits()
 
     def _limits(self) -> None:
+        self._full = self.t_max * self.rho_ratio     # thrust_of's factors, as it writes them
+        self._lin = 1.0 - self.expo
         self.t_hi = self.thrust_of(1.0)
         self.t_lo = self.thrust_of(self.spin_min)
         # the kernels' constants (K_* below), each as its formula writes it
@@ -99,7 +100,7 @@ class QuadPlusMixer:
     def thrust_of(self, u: float) -> float:
         """Modelled static thrust of one rotor at command u [N]."""
         e = self.expo
-        return self.t_max * self.rho_ratio * ((1.0 - e) * u + e * u * u)
+        return self._full * (self._lin * u + e * u * u)    # T_max rho/rho0 ((1 - e) u + e u^2)
 
     def command_of(self, thrust_n: float) -> float:
         """Inverse of :meth:`thrust_of`, clipped to [0, 1]."""

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..jit import kernel, preload
 from ..params import Param
-from .mixer import QuadPlusMixer
+from .mixer import QuadPlusMixer, mix_rotors
 
 G = 9.80665
 
@@ -253,6 +253,19 @@ def attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, coef, stat
             pdd_step(coef[2], state[2], ez, wz))
 
 
+@kernel
+def attitude_mix(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z, coef, state, k):
+    """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`, its
+    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error (3),
+    (u_phi, u_theta, u_psi), then mix_rotors' twelve outputs."""
+    ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d,
+                                                      pitch_d, yaw_d, coef, state)
+    t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(u_z, u_phi, u_theta,
+                                                                     u_psi, k)
+    return (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll,
+            s_rp, s_y, s_c)
+
+
 class AttitudeController:
     """Roll, pitch and yaw PDD loops: ``update(q, omega_b, roll_d, pitch_d, yaw_d)``
     -> (u_phi, u_theta, u_psi) [N per rotor]."""
@@ -287,9 +300,6 @@ class AttitudeController:
         for k, loop in enumerate(self.loops):
             loop.state = self.state[k]
         self.error = (0.0, 0.0, 0.0)
-        # the kernel loaded now, not at the take-off (autopilot.jit.preload; on a copy of
-        # the state, which the loops write)
-        preload(attitude_step, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.coef, self.state.copy())
 
     def reset(self) -> None:
         for loop in self.loops:
@@ -406,6 +416,10 @@ class MultirotorController:
         self.roll_d = self.pitch_d = self.yaw_d = 0.0
         self.u = (0.0, 0.0, 0.0, 0.0)       # (u_z, u_phi, u_theta, u_psi) before mixing
         self.motors = (0.0, 0.0, 0.0, 0.0)
+        # the kernel loaded now, not at the take-off (autopilot.jit.preload; on a copy of
+        # the state, which the loops write)
+        preload(attitude_mix, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                self.att.coef, self.att.state.copy(), self.mixer.k)
 
     def configure(self) -> None:
         """Re-derive every gain after a parameter change."""
@@ -425,11 +439,19 @@ class MultirotorController:
 
     def attitude(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float,
                  u_z: float) -> tuple:
-        """Attitude loops and mixer for given reference angles and total thrust."""
+        """Attitude loops and mixer for given reference angles and total thrust: what
+        ``att.update`` and ``mixer.mix`` do, in one kernel call (:func:`attitude_mix`)."""
         self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
-        u_phi, u_theta, u_psi = self.att.update(q, omega_b, roll_d, pitch_d, yaw_d)
+        att, mixer = self.att, self.mixer
+        (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y,
+         s_c) = attitude_mix(q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
+                             roll_d, pitch_d, yaw_d, u_z, att.coef, att.state, mixer.k)
+        att.error = (ex, ey, ez)
         self.u = (u_z, u_phi, u_theta, u_psi)
-        self.motors = self.mixer.mix(u_z, u_phi, u_theta, u_psi)
+        mixer.saturated = (s_rp, s_y, s_c)       # the mixer's record (QuadPlusMixer.mix)
+        mixer.collective = coll
+        mixer.thrusts = (t1, t2, t3, t4)
+        self.motors = (c1, c2, c3, c4)
         return self.motors
 
     def idle(self, spin: float) -> tuple:

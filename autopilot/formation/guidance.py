@@ -129,8 +129,7 @@ class FormationGuidance:
         got = [get(j, t_s) for j in self.follows]
         if None in got:
             return self._p_des, _ZERO, _ZERO, "waiting"
-        v_ff = _mean([g[1] for g in got])
-        a_ff = _mean([g[3] for g in got])
+        v_ff, a_ff = _means(got)
         d = self._d_follows
         if self.role == "first":
             p1 = got[0][0]
@@ -180,15 +179,20 @@ _ZERO = (0.0, 0.0, 0.0)
 _REGULAR = frozenset(("ok", "waiting", "tangent"))     # statuses that are no degenerate event
 
 
-def _mean(vs) -> tuple:
-    """The mean of 3-vectors, each component summed in order from 0.0 (as ``sum`` does)."""
-    x = y = z = 0.0
-    for v in vs:
+def _means(got) -> tuple:
+    """The mean reported velocity and acceleration of the followed vehicles (``got``:
+    ``peers.get``'s answers), each component summed in order from 0.0 (as ``sum`` does)."""
+    x = y = z = ax = ay = az = 0.0
+    for g in got:
+        v, a = g[1], g[3]
         x += v[0]
         y += v[1]
         z += v[2]
-    n = len(vs)
-    return (x / n, y / n, z / n)
+        ax += a[0]
+        ay += a[1]
+        az += a[2]
+    n = len(got)
+    return (x / n, y / n, z / n), (ax / n, ay / n, az / n)
 
 
 class VirtualTarget:

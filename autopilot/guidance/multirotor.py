@@ -55,8 +55,8 @@ from __future__ import annotations
 
 import bisect
 import math
+from typing import NamedTuple
 
-from ..frozen import message
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
@@ -95,9 +95,10 @@ COPTER_GUIDANCE_PARAMS = (
 )
 
 
-@message
-class CopterTarget:
-    """What guidance asks of the position and altitude loops (home NED frame)."""
+class CopterTarget(NamedTuple):
+    """What guidance asks of the position and altitude loops (home NED frame). A named
+    tuple, not an ``@message`` record (autopilot/frozen.py): one is built at every step,
+    and a tuple's constructor costs half the record's."""
 
     kind: str                       # "idle" | "takeoff" | "move" | "hold" | "land"
     seq: int                        # mission item being flown (0: none)
@@ -110,6 +111,11 @@ class CopterTarget:
     goal_ne: tuple = (0.0, 0.0)     # the goal / hold / land point (north, east)
     leg_a: tuple = (0.0, 0.0)       # the straight leg being flown (north, east)
 
+
+# the navigation items flown to a goal (and held there) by CopterMissionSequencer._step_nav
+_GOAL_COMMANDS = frozenset((MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
+                            MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY,
+                            MAV_CMD_NAV_SPLINE_WAYPOINT))
 
 # what the position loops are doing in each navigator phase (CopterTarget.kind)
 _PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
@@ -130,9 +136,9 @@ class Trajectory:
 
     def __init__(self, smooth_rad_s: float = 4.0):
         self.w = smooth_rad_s
-        self.p = [0.0, 0.0, 0.0]      # smoothed reference (output)
-        self.v = [0.0, 0.0, 0.0]
-        self.a = [0.0, 0.0, 0.0]
+        self.p = (0.0, 0.0, 0.0)      # smoothed reference (output; tuples, replaced
+        self.v = (0.0, 0.0, 0.0)      # at every step: the target hands them on)
+        self.a = (0.0, 0.0, 0.0)
         self.raw = [0.0, 0.0, 0.0]    # raw profile position
         self._vraw = [0.0, 0.0, 0.0]
         self.goal = [0.0, 0.0, 0.0]
@@ -164,9 +170,9 @@ class Trajectory:
 
     def reset(self, p) -> None:
         """Stationary at p."""
-        self.p = [float(p[0]), float(p[1]), float(p[2])]
-        self.v = [0.0, 0.0, 0.0]
-        self.a = [0.0, 0.0, 0.0]
+        self.p = (float(p[0]), float(p[1]), float(p[2]))
+        self.v = (0.0, 0.0, 0.0)
+        self.a = (0.0, 0.0, 0.0)
         self.raw = list(self.p)
         self._vraw = [0.0, 0.0, 0.0]
         self.goal = list(self.p)
@@ -247,14 +253,12 @@ class Trajectory:
         u = self._u
         return math.atan2(u[1], u[0]) if math.hypot(u[0], u[1]) > 0.2 else None
 
-    @property
-    def curving(self) -> bool:
-        return self._poly is not None
-
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same
         reference in a frame whose origin moved by -d (home moved)."""
-        for v in (self.p, self.raw, self.goal):
+        p = self.p
+        self.p = (p[0] + d[0], p[1] + d[1], p[2] + d[2])
+        for v in (self.raw, self.goal):
             v[0] += d[0]
             v[1] += d[1]
             v[2] += d[2]
@@ -307,9 +311,9 @@ class Trajectory:
         a1 = w2 * (r[1] - p[1]) - w2x * v[1]
         a2 = w2 * (r[2] - p[2]) - w2x * v[2]
         v0, v1, v2 = v[0] + a0 * dt, v[1] + a1 * dt, v[2] + a2 * dt
-        self.p = [p[0] + v0 * dt, p[1] + v1 * dt, p[2] + v2 * dt]
-        self.v = [v0, v1, v2]
-        self.a = [a0, a1, a2]
+        self.p = (p[0] + v0 * dt, p[1] + v1 * dt, p[2] + v2 * dt)
+        self.v = (v0, v1, v2)
+        self.a = (a0, a1, a2)
 
     def _raw_step(self, dt: float, p_vehicle, leash: float) -> None:
         r = self.raw
@@ -551,7 +555,8 @@ class CopterNavigator:
         if ph == "land_descend":
             low = -traj.p[2] <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
-        dz = self.terrain_offset(p_vehicle[0], p_vehicle[1])
+        # (terrain_offset is 0 off a terrain leg: not called there, every step)
+        dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p_vehicle[0], p_vehicle[1])
         if dz:
             # the vehicle follows the ground: its leash to the straight line's reference
             # is measured without the ground's offset
@@ -563,7 +568,7 @@ class CopterNavigator:
         if self.roi_ne is not None and ph not in ("idle", "landed", "takeoff"):
             dn, de = self.roi_ne[0] - p_vehicle[0], self.roi_ne[1] - p_vehicle[1]
             goal = math.atan2(de, dn) if math.hypot(dn, de) > 1.0 else None
-        elif traj.curving and ph == "goto" and traj.course is not None:
+        elif ph == "goto" and traj._poly is not None and traj.course is not None:   # a curve
             goal = traj.course
         if self.roi_wpnext_deg is not None and self.roi_ne is None and ph == "goto":
             # towards the next waypoint, turned by the offset (a structure scan's camera
@@ -604,11 +609,11 @@ class CopterNavigator:
         tr = self.traj
         kind = _PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
-        p = tuple(tr.p)
-        dz = self.terrain_offset(p[0], p[1])
+        p = tr.p
+        dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p[0], p[1])
         if dz:
             p = (p[0], p[1], p[2] + dz)
-        return CopterTarget(kind, seq, self.leg_id, p, tuple(tr.v), tuple(tr.a),
+        return CopterTarget(kind, seq, self.leg_id, p, tr.v, tr.a,
                             self.yaw_ref, hold, goal, (tr.start[0], tr.start[1]))
 
 
@@ -931,9 +936,7 @@ class CopterMissionSequencer:
             if nav.arrived and abs(p_ned[2] - nav.traj.p[2]) <= self.params["WPNAV_TKOFF_TOL"]:
                 return self._next(t_us, p_ned, touchdown, yaw)
             return seq, False
-        if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LOITER_UNLIM,
-                   MAV_CMD_NAV_LOITER_TURNS, MAV_CMD_NAV_LOITER_TO_ALT, MAV_CMD_NAV_DELAY,
-                   MAV_CMD_NAV_SPLINE_WAYPOINT):
+        if cmd in _GOAL_COMMANDS:
             if entering:
                 if cmd == MAV_CMD_NAV_DELAY:
                     # hold where the reference can stop, for param1 seconds
@@ -965,17 +968,17 @@ class CopterMissionSequencer:
                         self._hold_s = 0.0
                     else:
                         self._hold_s = math.inf
-            goal = self._goal
-            radius = self.params["WPNAV_RADIUS"]
-            if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
-                radius = item.param2
-            if self._hold_start_us is None:
-                dist = math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1])
-                if nav.arrived and nav.traj._v_end > 0.0:
+            if self._hold_start_us is None and nav.traj.arrived:
+                if nav.traj._v_end > 0.0:
                     # a spline flown through: done when the reference passes its end
                     # (ArduCopter counts a waypoint it does not stop at by its target)
                     return self._next(t_us, p_ned, touchdown, yaw)
-                if nav.arrived and dist <= radius and abs(p_ned[2] - goal[2]) <= max(radius, 1.0):
+                goal = self._goal
+                radius = self.params["WPNAV_RADIUS"]
+                if cmd == MAV_CMD_NAV_WAYPOINT and math.isfinite(item.param2) and item.param2 > 0.0:
+                    radius = item.param2
+                if (math.hypot(p_ned[0] - goal[0], p_ned[1] - goal[1]) <= radius
+                        and abs(p_ned[2] - goal[2]) <= max(radius, 1.0)):
                     self._hold_start_us = t_us
                     if self._hold_s > 0.0 and cmd != MAV_CMD_NAV_DELAY:
                         nav.hold(None, scored=True)
