@@ -215,3 +215,20 @@ def test_pairs_are_what_raw_messages_say():
             + seen(c.decode(stream[cut:], HIL_IDS, pairs=True), True)
         assert got == want, cut
         assert c.pending == 0
+
+
+def test_values_in_wire_order_give_the_same_frame():
+    """``encode_values(..., wire=True)`` takes the payload's own field order
+    (``ordered_fieldnames``) and makes the frame the declared order makes."""
+    from autopilot.link.hil import HIL_IDS
+    rng = np.random.default_rng(7)
+    for msg_id in sorted(HIL_IDS):
+        cls = MAV.mavlink_map[msg_id]
+        flat = _flat_values(cls, rng, 0.9)
+        msg = _pymavlink_message(cls, flat)
+        wire = []
+        for name in cls.ordered_fieldnames:
+            v = getattr(msg, name)
+            wire += list(v) if isinstance(v, (list, tuple)) else [v]
+        a, b = Codec(1, 25), Codec(1, 25)
+        assert a.encode_values(msg_id, flat) == b.encode_values(msg_id, tuple(wire), wire=True), cls.msgname

@@ -118,7 +118,8 @@ def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
 
 class RawMessage:
     """A decoded message as a flat tuple of its field values in declared order (arrays
-    flattened in place): the fast form the lockstep HIL link reads."""
+    flattened in place), with its source ids: what ``decode`` gives for ``raw_ids`` (the
+    formation peers read it; the lockstep link asks for bare ``(msg_id, values)`` pairs)."""
 
     __slots__ = ("msg_id", "src_system", "src_component", "values")
 
@@ -183,11 +184,13 @@ class Codec:
         self.mav.seq = (self.mav.seq + 1) % 256
         return buf
 
-    def encode_values(self, msg_id: int, values) -> bytes:
+    def encode_values(self, msg_id: int, values, wire: bool = False) -> bytes:
         """Pack a message from its field values in declared order, arrays flattened
-        (the fast path of the lockstep link: no message object is built)."""
+        (the fast path of the lockstep link: no message object is built); with ``wire``
+        in the payload's own order instead (the fields sorted by type size, as
+        ``ordered_fieldnames``), which spares the reordering."""
         f = _FLAT.get(msg_id) or _flat(msg_id)
-        p = f.pack(*f.to_wire(values)).rstrip(b"\x00") or b"\x00"
+        p = f.pack(*(values if wire else f.to_wire(values))).rstrip(b"\x00") or b"\x00"
         mav = self.mav
         seq = mav.seq
         mav.seq = (seq + 1) % 256

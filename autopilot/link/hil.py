@@ -224,7 +224,9 @@ class AutopilotHilEnd:
     def answer(self, outputs: ActuatorOutputs) -> None:
         c = outputs.controls
         mode = _ARMED if outputs.armed else 0
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, *c, *_ZERO_CONTROLS[len(c):], mode, 0))
+        # in wire order: time_usec, flags, controls[16], mode
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_CONTROLS[len(c):], mode),
+                                       wire=True)
         self._last_answer = buf
         self.transport.send(buf)
 
