@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import time
+from math import ceil, floor
 
 from autopilot.link.codec import MAV, Codec
 from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_DISTANCE,
@@ -31,11 +32,13 @@ G0 = 9.80665
 
 
 MG_PER_MS2 = 1000.0 / G0
+_ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
 
 
 def _clamp_int(v: float, lo: int, hi: int) -> int:
-    """Round half away from zero and saturate to the field's range."""
-    i = int(v + 0.5) if v >= 0.0 else int(v - 0.5)
+    """Round half away from zero and saturate to the field's range (floor / ceil: the
+    truncation of v + 0.5 / v - 0.5 on their sides of zero, a cheaper call than int)."""
+    i = floor(v + 0.5) if v >= 0.0 else ceil(v - 0.5)
     return lo if i < lo else hi if i > hi else i
 
 
@@ -167,17 +170,18 @@ class SimulatorHilEnd:
         found = None
         if not data:
             return found
-        for msg in self.codec.decode(data, HIL_IDS):
-            mid = getattr(msg, "msg_id", None)
+        for msg in self.codec.decode(data, HIL_IDS, pairs=True):
+            if type(msg) is not tuple:      # not a lockstep message: a message object
+                if msg.get_type() == "COMMAND_LONG":
+                    self.commands.append(msg)
+                continue
+            mid, v = msg
             if mid == ID_ACTUATORS:
-                v = msg.values
                 if v[0] == t_us:
                     found = v[1:17]
-                    self.armed = bool(v[17] & MAV.MAV_MODE_FLAG_SAFETY_ARMED)
+                    self.armed = (v[17] & _ARMED) != 0
                 else:
                     self.stale += 1
-            elif mid is None and msg.get_type() == "COMMAND_LONG":
-                self.commands.append(msg)
         return found
 
     def wait_answer(self, t_us: int):

@@ -178,3 +178,57 @@ def test_lockstep_decoder_round_trips_and_refuses_a_corrupted_crc():
         assert ID_SENSOR not in [m.msg_id for m in got] and rx.bad_frames >= 1, k
         if k != 1:                                 # (a wrong length may swallow what follows)
             assert [(m.msg_id, m.values) for m in got] == [(ID_ACTUATORS, act)], k
+
+
+def test_pairs_are_what_raw_messages_say():
+    """``decode(..., pairs=True)``: a ``(msg_id, values)`` pair wherever ``decode`` gives a
+    RawMessage, through the lockstep fast path and the general loop alike (a stream cut
+    at every byte, garbage, a message that is not raw, a MAVLink 1 frame of a raw id)."""
+    from autopilot.link.hil import HIL_IDS, ID_ACTUATORS, ID_SENSOR
+    rng = np.random.default_rng(33)
+    tx = Codec(1, 25)
+    frames = [tx.encode_values(i, _flat_values(MAV.mavlink_map[i], rng, z))
+              for i in sorted(HIL_IDS) for z in (1.0, 0.5)]
+    ref = MAV.MAVLink(None, srcSystem=1, srcComponent=25)
+    v1 = bytes(_pymavlink_message(MAV.mavlink_map[ID_SENSOR], _flat_values(MAV.mavlink_map[ID_SENSOR], rng))
+               .pack(ref, force_mavlink1=True))
+    stream = (b"".join(frames[:4]) + b"\x00\xfdjunk" + tx.encode(tx.mav.heartbeat_encode(1, 3, 0, 0, 0))
+              + frames[4] + v1 + b"".join(frames[5:]))
+
+    def seen(msgs, pairs):
+        out = []
+        for m in msgs:
+            if pairs and type(m) is tuple:
+                out.append(m)
+            elif not pairs and hasattr(m, "values"):
+                out.append((m.msg_id, m.values))
+            else:
+                out.append(m.get_type())
+        return out
+
+    want = seen(Codec(1, 1).decode(stream, HIL_IDS), False)
+    assert len(want) == len(frames) + 2 and "HEARTBEAT" in want
+    assert (ID_SENSOR, _flatten(ref.decode(bytearray(v1)))) in want and ID_ACTUATORS in [w[0] for w in want if type(w) is tuple]
+    for cut in range(0, len(stream) + 1, 7):
+        c = Codec(1, 1)
+        got = seen(c.decode(stream[:cut], HIL_IDS, pairs=True), True) \
+            + seen(c.decode(stream[cut:], HIL_IDS, pairs=True), True)
+        assert got == want, cut
+        assert c.pending == 0
+
+
+def test_values_in_wire_order_give_the_same_frame():
+    """``encode_values(..., wire=True)`` takes the payload's own field order
+    (``ordered_fieldnames``) and makes the frame the declared order makes."""
+    from autopilot.link.hil import HIL_IDS
+    rng = np.random.default_rng(7)
+    for msg_id in sorted(HIL_IDS):
+        cls = MAV.mavlink_map[msg_id]
+        flat = _flat_values(cls, rng, 0.9)
+        msg = _pymavlink_message(cls, flat)
+        wire = []
+        for name in cls.ordered_fieldnames:
+            v = getattr(msg, name)
+            wire += list(v) if isinstance(v, (list, tuple)) else [v]
+        a, b = Codec(1, 25), Codec(1, 25)
+        assert a.encode_values(msg_id, flat) == b.encode_values(msg_id, tuple(wire), wire=True), cls.msgname

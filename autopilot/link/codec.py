@@ -39,6 +39,7 @@ MAV = mavlink2  # the dialect module: message classes and enums
 STX_V2 = 0xFD
 STX_V1 = 0xFE
 _V2_HEADER = struct.Struct("<BBBBBBBHB")
+_V2_BODY_HEAD = struct.Struct("<BxxBBBHB")  # the header after the magic byte, flags 0
 _V1_HEADER = struct.Struct("<BBBBBB")
 _CRC = struct.Struct("<H")
 _MAP = mavlink2.mavlink_map
@@ -65,10 +66,10 @@ class _Flat:
     tuple of its struct (arrays flattened in place), as C-level itemgetters (``tuple``,
     which hands a tuple back as it is, when the two orders agree: HIL_SENSOR,
     HIL_STATE_QUATERNION); and what framing needs (the struct, its size, the CRC extra
-    byte, the id's header bytes)."""
+    byte, the id's header fields)."""
 
     __slots__ = ("cls", "msg_id", "to_declared", "to_wire", "n", "pack", "unpack",
-                 "unpack_from", "size", "extra", "id_bytes")
+                 "unpack_from", "size", "extra", "id_low", "id_high")
 
     def __init__(self, cls):
         plan = _field_plan(cls)
@@ -91,7 +92,7 @@ class _Flat:
         self.size = cls.unpacker.size
         self.extra = bytes((cls.crc_extra,))
         self.msg_id = msg_id = cls.id
-        self.id_bytes = bytes((msg_id & 0xFF, (msg_id >> 8) & 0xFF, msg_id >> 16))
+        self.id_low, self.id_high = msg_id & 0xFFFF, msg_id >> 16
 
 
 _FLAT: dict[int, _Flat] = {}
@@ -117,7 +118,8 @@ def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
 
 class RawMessage:
     """A decoded message as a flat tuple of its field values in declared order (arrays
-    flattened in place): the fast form the lockstep HIL link reads."""
+    flattened in place), with its source ids: what ``decode`` gives for ``raw_ids`` (the
+    formation peers read it; the lockstep link asks for bare ``(msg_id, values)`` pairs)."""
 
     __slots__ = ("msg_id", "src_system", "src_component", "values")
 
@@ -182,23 +184,28 @@ class Codec:
         self.mav.seq = (self.mav.seq + 1) % 256
         return buf
 
-    def encode_values(self, msg_id: int, values) -> bytes:
+    def encode_values(self, msg_id: int, values, wire: bool = False) -> bytes:
         """Pack a message from its field values in declared order, arrays flattened
-        (the fast path of the lockstep link: no message object is built)."""
+        (the fast path of the lockstep link: no message object is built); with ``wire``
+        in the payload's own order instead (the fields sorted by type size, as
+        ``ordered_fieldnames``), which spares the reordering."""
         f = _FLAT.get(msg_id) or _flat(msg_id)
-        p = f.pack(*f.to_wire(values)).rstrip(b"\x00") or b"\x00"
+        p = f.pack(*(values if wire else f.to_wire(values))).rstrip(b"\x00") or b"\x00"
         mav = self.mav
         seq = mav.seq
         mav.seq = (seq + 1) % 256
         # header after the magic byte: len, incompat 0, compat 0, seq, sysid, compid, id
-        body = bytes((len(p), 0, 0, seq, mav.srcSystem, mav.srcComponent)) + f.id_bytes + p
+        body = _V2_BODY_HEAD.pack(len(p), seq, mav.srcSystem, mav.srcComponent, f.id_low, f.id_high) + p
         # (one CRC call over body + extra byte: the same CRC, a call's cost less)
         return b"\xfd" + body + _CRC.pack(_crc16(body + f.extra, 0xFFFF))
 
     # ------------------------------------------------------------------ decode ---
-    def decode(self, data: bytes, raw_ids: frozenset = frozenset(), limit: int | None = None) -> list:
+    def decode(self, data: bytes, raw_ids: frozenset = frozenset(), limit: int | None = None,
+               pairs: bool = False) -> list:
         """Feed received bytes; return the complete, valid messages among them.
-        Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`.
+        Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`, or with
+        ``pairs`` as plain ``(msg_id, values)`` tuples (the lockstep link's form: no
+        object to build, no source ids).
         With ``limit``: stop after that many frames (messages plus rejected frames or
         stretches of garbage) and keep the rest for the next call (``pending``)."""
         buf = self._buf
@@ -219,17 +226,19 @@ class Codec:
             # to back, read without the general loop's cases; anything else (another
             # message, a partial frame, garbage, a signature) goes on below from there
             flats = _RAW.get(raw_ids) or _raw_flats(raw_ids)
-            while n - i >= 12 and data[i] == STX_V2 and not data[i + 2]:
-                plen = data[i + 1]
+            header = _V2_HEADER.unpack_from
+            while n - i >= 12:
+                stx, plen, incompat, _, _, sysid, compid, id_low, id_high = header(data, i)
+                f = flats.get(id_low | (id_high << 16))
                 end = i + 10 + plen
-                f = flats.get(data[i + 7] | (data[i + 8] << 8) | (data[i + 9] << 16))
-                if f is None or end + 2 > n:
+                if stx != STX_V2 or incompat or f is None or end + 2 > n:
                     break
                 if (data[end] | (data[end + 1] << 8)) != crc16(data[i + 1:end] + f.extra, 0xFFFF):
                     break
                 size = f.size
                 t = f.unpack_from(data, i + 10) if plen >= size else f.unpack(data[i + 10:end] + _ZEROS[:size - plen])
-                out.append(RawMessage(f.msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
+                v = f.to_declared(t)
+                out.append((f.msg_id, v) if pairs else RawMessage(f.msg_id, sysid, compid, v))
                 i = end + 2
             if i == n:
                 self.limited = False
@@ -290,7 +299,9 @@ class Codec:
                     t = f.unpack_from(data, j + hlen)
                 else:
                     t = f.unpack(data[j + hlen:end] + _ZEROS[:size - plen])
-                if hlen == 10:
+                if pairs:
+                    out.append((msg_id, f.to_declared(t)))
+                elif hlen == 10:
                     out.append(RawMessage(msg_id, data[j + 5], data[j + 6], f.to_declared(t)))
                 else:
                     out.append(RawMessage(msg_id, data[j + 3], data[j + 4], f.to_declared(t)))

@@ -83,6 +83,7 @@ HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_
 #   ESC_TELEMETRY_1_TO_4: temperature[4], voltage[4], current[4], totalcurrent[4], rpm[4],
 #                count[4]
 ESC_RPM = 16          # ESC 1's rpm in ESC_TELEMETRY_1_TO_4's flat values
+# (the codec hands integer fields as ints and float fields as floats: no conversion)
 
 
 _MG_TO_MS2 = 9.80665e-3
@@ -95,7 +96,7 @@ class TruthSample:
                  "airspeed_mps", "f_b")
 
     def __init__(self, v):
-        self.t_us = int(v[0])
+        self.t_us = v[0]
         # one array, handed out as views (one allocation)
         a = np.array((v[1], v[2], v[3], v[4], v[5], v[6], v[7],
                       v[11] * 0.01, v[12] * 0.01, v[13] * 0.01,
@@ -112,14 +113,14 @@ class TruthSample:
 
 def range_sample_from(v) -> RangeSample:
     """DISTANCE_SENSOR values -> RangeSample in SI (time from ``time_boot_ms``)."""
-    return RangeSample(int(v[0]) * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, int(v[6]), int(v[14]))
+    return RangeSample(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
 
 
 def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
                       esc=None) -> SensorFrame:
     """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
     values) -> SensorFrame in SI."""
-    t_us = int(v[0])
+    t_us = v[0]
     flags = v[14]
     a = np.array(v[1:10])    # accel, gyro, mag: one array, handed out as views
     imu = ImuSample(t_us, a[0:3], a[3:6])
@@ -128,15 +129,16 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
     air = None
     if flags & DIFF_FLAG:
         dp_pa = v[11] * 100.0
-        air = AirspeedSample(t_us, dp_pa, math.sqrt(max(0.0, 2.0 * dp_pa / RHO0)))
+        q = 2.0 * dp_pa / RHO0
+        air = AirspeedSample(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
     rpm = None if esc is None else RpmSample(t_us, float(esc[ESC_RPM]))
     return SensorFrame(t_us, imu, mag, baro, air, gps, rng, rpm)
 
 
 def gps_fix_from(v) -> GpsFix:
-    return GpsFix(int(v[0]), v[2] / RAD_TO_E7, v[3] / RAD_TO_E7, v[4] * 1e-3,
+    return GpsFix(v[0], v[2] / RAD_TO_E7, v[3] / RAD_TO_E7, v[4] * 1e-3,
                   np.array((v[8] * 0.01, v[9] * 0.01, v[10] * 0.01)), v[5] * 0.01, v[6] * 0.01,
-                  int(v[1]), int(v[12]))
+                  v[1], v[12])
 
 
 class AutopilotHilEnd:
@@ -169,11 +171,19 @@ class AutopilotHilEnd:
         data = self.transport.recv(timeout_s)
         if not data:
             return steps
-        for msg in self.codec.decode(data, HIL_IDS):
-            mid = getattr(msg, "msg_id", None)
+        for msg in self.codec.decode(data, HIL_IDS, pairs=True):
+            if type(msg) is not tuple:      # not a lockstep message: a message object
+                kind = msg.get_type()
+                if kind == "BATTERY_STATUS":
+                    self.battery = msg
+                elif kind == "COMMAND_ACK":
+                    self.acks.append(msg)
+                else:
+                    self.other.append(msg)
+                continue
+            mid, v = msg
             if mid == ID_SENSOR:
-                v = msg.values
-                t_us = int(v[0])
+                t_us = v[0]
                 last = self._last_t_us
                 if t_us == last:
                     # the simulator did not get our answer: repeat it, do not re-run
@@ -192,21 +202,13 @@ class AutopilotHilEnd:
                 self._esc = None
                 self._last_t_us = t_us
             elif mid == ID_STATE:
-                self._truth = TruthSample(msg.values)
+                self._truth = TruthSample(v)
             elif mid == ID_GPS:
-                self._gps = gps_fix_from(msg.values)
+                self._gps = gps_fix_from(v)
             elif mid == ID_DISTANCE:
-                self._range = range_sample_from(msg.values)
+                self._range = range_sample_from(v)
             elif mid == ID_ESC:
-                self._esc = msg.values
-            elif mid is None:
-                kind = msg.get_type()
-                if kind == "BATTERY_STATUS":
-                    self.battery = msg
-                elif kind == "COMMAND_ACK":
-                    self.acks.append(msg)
-                else:
-                    self.other.append(msg)
+                self._esc = v
         return steps
 
     def relay_command(self, command: int, params) -> None:
@@ -222,7 +224,9 @@ class AutopilotHilEnd:
     def answer(self, outputs: ActuatorOutputs) -> None:
         c = outputs.controls
         mode = _ARMED if outputs.armed else 0
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, *c, *_ZERO_CONTROLS[len(c):], mode, 0))
+        # in wire order: time_usec, flags, controls[16], mode
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_CONTROLS[len(c):], mode),
+                                       wire=True)
         self._last_answer = buf
         self.transport.send(buf)
 
