@@ -61,6 +61,7 @@ def test_ukf_sigma_propagation_matches_the_equations():
 
 
 def test_message_records_are_frozen_dataclasses_with_the_same_constructor():
+    import copy
     import dataclasses
     import inspect
 
@@ -87,6 +88,10 @@ def test_message_records_are_frozen_dataclasses_with_the_same_constructor():
     n = NavState(1, np.zeros(3), np.zeros(3), np.array([1.0, 0, 0, 0]), np.zeros(3), 0.1, 0.2, 3.0, 4.0)
     assert (n.source, n.aligned, n.wind_ned.tolist()) == ("truth", True, [0.0, 0.0, 0.0])
     assert dataclasses.replace(n, alt_m=5.0).alt_m == 5.0
+    assert type(r) is Rec and type(copy.copy(n)) is NavState and copy.copy(n) == n
+    with pytest.raises(TypeError):
+        class Sub(Rec):                                   # the mutable twin's layout is Rec's
+            pass
     with pytest.raises(TypeError):
         @message
         class Bad:
