@@ -370,11 +370,9 @@ class PlaneVehicle(VehicleBase):
                 ctrl.throttle_out = to
             seq = self._sequencer
             if seq is not None:
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py);
-                # none without an aileron's, rudder's or throttle's reaction (so, to: the
-                # controller's now)
-                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad() if so is not None else None
-                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps() if to is not None else None
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
+                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
+                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full

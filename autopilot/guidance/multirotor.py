@@ -253,6 +253,10 @@ class Trajectory:
         u = self._u
         return math.atan2(u[1], u[0]) if math.hypot(u[0], u[1]) > 0.2 else None
 
+    @property
+    def curving(self) -> bool:
+        return self._poly is not None
+
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same
         reference in a frame whose origin moved by -d (home moved)."""
@@ -555,7 +559,6 @@ class CopterNavigator:
         if ph == "land_descend":
             low = -traj.p[2] <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
-        # (terrain_offset is 0 off a terrain leg: not called there, every step)
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p_vehicle[0], p_vehicle[1])
         if dz:
             # the vehicle follows the ground: its leash to the straight line's reference
@@ -568,7 +571,7 @@ class CopterNavigator:
         if self.roi_ne is not None and ph not in ("idle", "landed", "takeoff"):
             dn, de = self.roi_ne[0] - p_vehicle[0], self.roi_ne[1] - p_vehicle[1]
             goal = math.atan2(de, dn) if math.hypot(dn, de) > 1.0 else None
-        elif ph == "goto" and traj._poly is not None and traj.course is not None:   # a curve
+        elif ph == "goto" and traj.curving and traj.course is not None:
             goal = traj.course
         if self.roi_wpnext_deg is not None and self.roi_ne is None and ph == "goto":
             # towards the next waypoint, turned by the offset (a structure scan's camera
@@ -592,11 +595,12 @@ class CopterNavigator:
         return self.traj.arrived
 
     def terrain_offset(self, n: float, e: float) -> float:
-        """On a terrain-frame leg (``terrain_leg``), the depth to add at (n, e) to the
-        straight line's: the ground's rise or fall there against the straight line
-        between the ground at the leg's ends, so the reference keeps its height above
-        the ground; 0 elsewhere or without data."""
-        if self.terrain_leg is None or self.phase not in ("goto", "hold"):
+        """On a terrain-frame leg (``terrain_leg``, not None: the callers ask, as this is
+        asked every step), the depth to add at (n, e) to the straight line's: the
+        ground's rise or fall there against the straight line between the ground at the
+        leg's ends, so the reference keeps its height above the ground; 0 outside the
+        goto and hold phases or without data."""
+        if self.phase not in ("goto", "hold"):
             return 0.0
         ground_d, a, b, d_a, d_b = self.terrain_leg
         ln = math.hypot(b[0] - a[0], b[1] - a[1])
@@ -677,6 +681,10 @@ class CopterMissionSequencer:
     @property
     def total_items(self) -> int:
         return max(len(self.items) - 1, 0)
+
+    @property
+    def curving(self) -> bool:
+        return self._poly is not None
 
     def shift(self, d) -> None:
         """Home moved: the goal being flown moves by ``d`` (NED) in the new frame."""
