@@ -1,11 +1,8 @@
-"""Turbulence for plants that integrate their own equations of motion (the quadrotor).
-
-:class:`DrydenGusts` is the MIL-F-8785C low-altitude Dryden model of
-``sim_bridge.plants.jsbsim_plane._DrydenGusts`` (the same specification, intensities
-and exact Gauss-Markov discretisation), without the JSBSim coupling: the plant passes
-its height above the terrain and its speed relative to the steady wind, and adds the
-returned gust (NED, m/s) to the steady wind itself. The fixed-wing keeps its own class,
-which writes straight into JSBSim's gust properties.
+"""Turbulence for both plants: :class:`DrydenGusts`, MIL-F-8785C low-altitude Dryden
+turbulence. The plant passes its height above the terrain and its speed relative to the
+steady wind; the quadrotor adds the returned gust (NED, m/s) to the steady wind itself,
+the fixed-wing writes it into JSBSim's gust input (``sim_bridge/plants/jsbsim_plane.py``,
+which says why JSBSim's own turbulence is not used).
 
 Scale lengths and intensities (h = height above the terrain, clipped to 3..300 m, the
 band of the low-altitude model; W20 = wind speed at 6 m):
@@ -18,11 +15,11 @@ the air mass (MIL-STD-1797A form: the lateral and vertical components with half 
 scale length), exact at any step. The distance uses the speed relative to the steady
 wind floored at 5 m/s (frozen-turbulence hypothesis; a hovering vehicle still sees the
 air mass drift past at the wind speed, and the floor keeps the correlation time finite
-in calm air). u is along the steady wind (north when there is none), w is down.
+in calm air). u is along the steady wind (north when there is none), w is down. The
+rotational gust terms of the specification are not modelled.
 Random numbers come from the injected generator, drawn in blocks.
 
-One step of the law is the kernel :func:`dryden_step`, which both plants' gust classes
-call.
+One step of the law is the kernel :func:`dryden_step`.
 """
 from __future__ import annotations
 
@@ -64,7 +61,9 @@ def dryden_step(x_u, x_v, x_w, h_agl_m, speed_mps, dt_s, n_steps, sigma_w, nu_u,
 
 
 class DrydenGusts:
-    """``step(h_agl_m, speed_mps) -> (gust_n, gust_e, gust_d)`` once per plant step."""
+    """``step(h_agl_m, speed_mps, n_steps) -> (gust_n, gust_e, gust_d)`` once per plant
+    step (``n_steps`` time steps of ``dt_s``, one draw of the noise). ``configure``
+    changes the intensity and the steady wind on the way."""
 
     def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
                  wind_ned=(0.0, 0.0, 0.0)):
@@ -76,7 +75,7 @@ class DrydenGusts:
         self.active = self._sigma_w > 0.0
         h = math.hypot(wind_ned[0], wind_ned[1])
         self._axis_u = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
-        self._x = (0.0, 0.0, 0.0)
+        self._x = (0.0, 0.0, 0.0)                 # u, v, w gust along the axes [m/s]
         self.gust_ned = (0.0, 0.0, 0.0)
         self._noise: list = []
         self._k = 0
@@ -84,10 +83,25 @@ class DrydenGusts:
         preload(dryden_step, 0.0, 0.0, 0.0, 10.0, 5.0, self._dt_s, 1, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
     def reset(self) -> None:
+        """Calm air: the gust filters start again from zero."""
         self._x = (0.0, 0.0, 0.0)
         self.gust_ned = (0.0, 0.0, 0.0)
 
-    def step(self, h_agl_m: float, speed_mps: float) -> tuple[float, float, float]:
+    def configure(self, w20_mps: float, wind_ned) -> None:
+        """The wind speed at 20 ft ``w20_mps`` (0: no turbulence) and the steady wind
+        (NED, m/s: the u axis); the filters start from zero when turbulence starts or
+        stops."""
+        self._sigma_w = 0.1 * w20_mps
+        was_active, self.active = self.active, w20_mps > 0.0
+        if not self.active:
+            self.reset()
+        elif not was_active:
+            self._x = (0.0, 0.0, 0.0)
+        wn, we = float(wind_ned[0]), float(wind_ned[1])
+        horizontal = math.hypot(wn, we)
+        self._axis_u = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
+
+    def step(self, h_agl_m: float, speed_mps: float, n_steps: int = 1) -> tuple[float, float, float]:
         if not self.active:
             return self.gust_ned
         if self._k >= len(self._noise):
@@ -96,7 +110,7 @@ class DrydenGusts:
         nu_u, nu_v, nu_w = self._noise[self._k]
         self._k += 1
         x_u, x_v, x_w, gust_n, gust_e = dryden_step(
-            *self._x, h_agl_m, speed_mps, self._dt_s, 1, self._sigma_w, nu_u, nu_v, nu_w,
+            *self._x, h_agl_m, speed_mps, self._dt_s, n_steps, self._sigma_w, nu_u, nu_v, nu_w,
             *self._axis_u)
         self._x = (x_u, x_v, x_w)
         self.gust_ned = (gust_n, gust_e, x_w)

@@ -10,7 +10,7 @@ from autopilot.geo import quat_to_dcm
 from autopilot.geo.rotations import quat_dcm as dcm
 from autopilot.nav import qbatch
 from autopilot.nav.strapdown import (GRAVITY_GRADIENT, Nominal, earth_rate_ned,
-                                     inject_attitude, mechanise, propagate, rotate_global)
+                                     inject_attitude, mechanise, rotate_global, set_mechanised)
 
 
 def _mechanise_numpy(p, v, q, bg, ba, f_m, omega_m, dt, g, w_ie):
@@ -52,14 +52,15 @@ def test_mechanise_matches_the_equations():
         assert np.allclose(o[22:25], omega, rtol=0.0, atol=1e-15)
 
 
-def test_propagate_writes_the_kernel_result_into_the_nominal_state():
+def test_set_mechanised_writes_the_kernel_result_into_the_nominal_state():
     rng = np.random.default_rng(5)
     p, v, q, bg, ba, f_m, omega_m = _random_state(rng)
     nom = Nominal()
     nom.p, nom.v, nom.bg, nom.ba = p.tolist(), v.tolist(), bg.tolist(), ba.tolist()
     nom.set_attitude(q)
     w_ie = earth_rate_ned(0.6)
-    propagate(nom, f_m.tolist(), omega_m.tolist(), 0.01, 9.8, w_ie)
+    set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m.tolist(),
+                                  *omega_m.tolist(), 0.01, 9.8, *w_ie))
     p1, v1, q1, f_n, omega = _mechanise_numpy(p, v, q, bg, ba, f_m, omega_m, 0.01, 9.8, np.array(w_ie))
     assert all(isinstance(x, list) for x in (nom.p, nom.v, nom.q, nom.f_n, nom.omega_b))
     assert np.allclose(nom.p, p1, atol=1e-9) and np.allclose(nom.v, v1, atol=1e-11)

@@ -92,7 +92,7 @@ class QuadPlusMixer:
         # the kernels' constants (K_* below), each as its formula writes it
         e = self.expo
         eff = self.eff
-        self.k = np.array((self.t_lo, self.t_hi, self.t_max * self.rho_ratio,
+        self.k = np.array((self.t_lo, self.t_hi, self._full,
                            1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
                            0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
 

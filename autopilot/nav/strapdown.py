@@ -93,17 +93,10 @@ class Nominal:
         return n
 
 
-def propagate(nom: Nominal, f_m, omega_m, dt: float, g: float,
-              w_ie: tuple = (0.0, 0.0, 0.0)) -> None:
-    """Advance the nominal state by one IMU step (module docstring), in place.
-    ``f_m``, ``omega_m``: 3 floats each; ``g`` gravity at the origin [m/s^2];
-    ``w_ie``: the Earth rate in NED [rad/s]. The arithmetic: :func:`mechanise`."""
-    set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m, *omega_m,
-                                  dt, g, *w_ie))
-
-
 def set_mechanised(nom: Nominal, o: tuple) -> None:
-    """Write :func:`mechanise`'s 25 floats into ``nom``."""
+    """Write :func:`mechanise`'s 25 floats into ``nom``: one IMU step of the nominal
+    state is ``set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba,
+    *f_m, *omega_m, dt, g, *w_ie))`` (the filters take it through ``base.imu_step``)."""
     (p0, p1, p2, v0, v1, v2, q0, q1, q2, q3, _, _, _, _, _, _, _, _, _,
      f0, f1, f2, w0, w1, w2) = o                  # (one unpacking: cheaper than slices)
     nom.p = [p0, p1, p2]

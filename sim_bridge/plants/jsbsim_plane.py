@@ -45,9 +45,13 @@ Table E.2 makes the Aerosonde's rudder a stronger roll than yaw effector
 
 Wind: ``wind_ned`` is the velocity of the air over ground (wind from the west is
 +east). Turbulence is MIL-F-8785C Dryden turbulence at the specification's 20 ft wind
-speeds (light 15 kt, moderate 30 kt, severe 45 kt), computed here (``_DrydenGusts``)
-from the injected ``numpy.random.Generator`` and fed to JSBSim's gust input; JSBSim's
-own implementation diverges when the gust dominates the airspeed (see the class).
+speeds (light 15 kt, moderate 30 kt, severe 45 kt), computed by
+``sim_bridge.wind.DrydenGusts`` from the injected ``numpy.random.Generator`` and fed to
+JSBSim's gust input. JSBSim's own MIL-F-8785C turbulence (``atmosphere/turb-type`` 3/4)
+is not used: its filters take the airspeed *including* the turbulence, and when the
+gust dominates the airspeed (a slow, tumbling or crashed aircraft) that feedback
+diverges; gusts of over 100 m/s were measured after a spin into the ground in severe
+turbulence. The gust model takes the airspeed relative to the steady wind instead.
 
 JSBSim's own trim cannot trim the Aerosonde (its one-control-per-axis iteration does
 not converge with Table E.2's strong aileron-yaw and rudder-roll coupling), so
@@ -66,9 +70,8 @@ from pathlib import Path
 import jsbsim
 import numpy as np
 
-from autopilot.jit import preload
 from sim_bridge.plants.base import PlantState, PlaneControls
-from sim_bridge.wind import dryden_step
+from sim_bridge.wind import TURBULENCE_W20_KT, DrydenGusts
 
 AIRCRAFT_DIR = Path(__file__).resolve().parent.parent / "aircraft"
 
@@ -86,10 +89,6 @@ RAIL_LENGTH_M = 3.0                 # catapult stroke [m]
 CATAPULT_FORCE_N = 1000.0           # catapult push along body x [N]
 AUTO_LAUNCH_THROTTLE = 0.5          # throttle command that arms the launch
 SPIN_UP_S = 1.0                     # propeller spin-up before an automatic release [s]
-
-# turbulence name -> MIL-F-8785C wind speed at 20 ft [kt] (light, moderate, severe)
-TURBULENCE_W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}
-TURB_BLOCK = 1024                   # gust random numbers drawn per block of steps
 
 _HELD, _FIRING, _FREE = "held", "firing", "free"
 _ZERO6 = (0.0,) * 6
@@ -161,7 +160,8 @@ class JSBSimPlane:
 
         self._wind_ned = np.zeros(3)
         self._turbulence = "none"
-        self._gusts = _DrydenGusts(rng, self.dt_s)
+        self._gusts = DrydenGusts(rng, self.dt_s)
+        self._gust_wind = (0.0, 0.0, 0.0)         # the gusts' steady wind, NED floats [m/s]
         self._phase = _HELD
         self._armed_us: int | None = None
         self._rail_start_ecef_ft = (0.0, 0.0, 0.0)
@@ -235,8 +235,14 @@ class JSBSimPlane:
         run = self._fdm.run
         # the gust advances once per call, over the n steps (its correlation lengths are
         # tens to hundreds of metres: 0.25 m of flight per JSBSim step changes nothing)
-        if self._gusts.active and not (self._phase == _HELD and self._af.catapult):
-            self._gusts.step(self, n_steps)
+        gusts = self._gusts
+        if gusts.active and not (self._phase == _HELD and self._af.catapult):
+            # over the height above the terrain, at the speed through the steady wind
+            agl_ft, vn_fps, ve_fps, vd_fps = map(_read, self._gust_nodes)
+            wn, we, wd = self._gust_wind
+            du, dv, dw = vn_fps * FT_M - wn, ve_fps * FT_M - we, vd_fps * FT_M - wd
+            self._write_gust(*gusts.step(agl_ft * FT_M, math.sqrt(du * du + dv * dv + dw * dw),
+                                         n_steps))
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
@@ -298,7 +304,7 @@ class JSBSimPlane:
                      "fcs/yaw-trim-cmd-norm"):
             fdm[name] = 0.0
         self._gusts.reset()                       # trim in still air
-        self._gusts.write(fdm, 0.0, 0.0, 0.0)
+        self._write_gust(0.0, 0.0, 0.0)
         fdm.get_propulsion().init_running(-1)
 
         def residual(x: np.ndarray) -> np.ndarray:
@@ -520,9 +526,16 @@ class JSBSimPlane:
         fdm["atmosphere/wind-north-fps"] = wind[0] / FT_M
         fdm["atmosphere/wind-east-fps"] = wind[1] / FT_M
         fdm["atmosphere/wind-down-fps"] = wind[2] / FT_M
-        self._gusts.configure(TURBULENCE_W20_KT[self._turbulence] * KT_MPS,
-                              self._wind_ned)
-        self._gusts.write(fdm, *self._gusts.gust_ned)
+        self._gusts.configure(TURBULENCE_W20_KT[self._turbulence] * KT_MPS, self._wind_ned)
+        self._gust_wind = tuple(float(v) for v in self._wind_ned)    # (not numpy scalars)
+        self._write_gust(*self._gusts.gust_ned)
+
+    def _write_gust(self, gust_n: float, gust_e: float, gust_d: float) -> None:
+        """The gust (NED, m/s) into JSBSim's gust input."""
+        set_n, set_e, set_d = self._set_gust
+        set_n(gust_n / FT_M)
+        set_e(gust_e / FT_M)
+        set_d(gust_d / FT_M)
 
     def _rest_pose(self) -> tuple[float, float]:
         """Pitch [rad] and CG height above the ground [m] resting on the bogeys.
@@ -607,85 +620,3 @@ class JSBSimPlane:
             fdm["fcs/catapult-force-lbs"] = 0.0
             fdm["position/terrain-elevation-asl-ft"] = self.home[2] / FT_M
             self._phase = _FREE
-
-
-class _DrydenGusts:
-    """MIL-F-8785C low-altitude Dryden turbulence, written into JSBSim's gust input.
-
-    JSBSim's own MIL-F-8785C turbulence (``atmosphere/turb-type`` 3/4) is not used: its
-    filters take the airspeed *including* the turbulence, and when the gust dominates
-    the airspeed (a slow, tumbling or crashed aircraft) that feedback diverges; gusts
-    of over 100 m/s were measured after a spin into the ground in severe turbulence.
-    Here the airspeed relative to the steady wind is used, floored at 5 m/s, and each
-    component is an exact first-order Gauss-Markov process (MIL-STD-1797A form: the
-    lateral and vertical components with half the scale length), so the variance is
-    right at any step and the filters are stable for every airspeed and height.
-
-    Scale lengths and intensities (h = height above the terrain, clipped to 3..300 m,
-    the band of the low-altitude model; W20 = wind speed at 6 m):
-        L_w = h,  L_u = L_v = h / (0.177 + 0.000823 h_ft)^1.2
-        sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h_ft)^0.4
-    u is along the steady wind (north when there is none), w is down. The rotational
-    gust terms of the specification are not modelled. Random numbers come from the
-    plant's injected generator, drawn in blocks for speed. One step is the kernel
-    ``sim_bridge.wind.dryden_step``, the quadrotor's turbulence's too.
-    """
-
-    def __init__(self, rng: np.random.Generator, dt_s: float) -> None:
-        self._rng = rng
-        self._dt_s = dt_s
-        self.active = False
-        self.gust_ned = (0.0, 0.0, 0.0)
-        self._sigma_w = 0.0
-        self._axis_u = (1.0, 0.0)                 # unit north, east of the u axis
-        self._wind = (0.0, 0.0, 0.0)              # the steady wind, NED [m/s]
-        self._x = (0.0, 0.0, 0.0)                 # u, v, w gust along the axes [m/s]
-        self._noise: list = []
-        self._k = 0
-        # the kernel loaded now, not at the launch (autopilot.jit.preload)
-        preload(dryden_step, 0.0, 0.0, 0.0, 10.0, 5.0, dt_s, 1, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
-
-    def reset(self) -> None:
-        """Calm air: the gust filters start again from zero."""
-        self._x = (0.0, 0.0, 0.0)
-        self.gust_ned = (0.0, 0.0, 0.0)
-
-    def configure(self, w20_mps: float, wind_ned: np.ndarray) -> None:
-        self._sigma_w = 0.1 * w20_mps
-        was_active, self.active = self.active, w20_mps > 0.0
-        if not self.active:
-            self._x = (0.0, 0.0, 0.0)
-            self.gust_ned = (0.0, 0.0, 0.0)
-        elif not was_active:
-            self._x = (0.0, 0.0, 0.0)
-        self._wind = wn, we, _ = tuple(float(v) for v in wind_ned)    # not numpy scalars
-        horizontal = math.hypot(wn, we)
-        self._axis_u = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
-
-    @staticmethod
-    def write(fdm, gust_n: float, gust_e: float, gust_d: float) -> None:
-        fdm["atmosphere/gust-north-fps"] = gust_n / FT_M
-        fdm["atmosphere/gust-east-fps"] = gust_e / FT_M
-        fdm["atmosphere/gust-down-fps"] = gust_d / FT_M
-
-    def step(self, plant: "JSBSimPlane", n_steps: int = 1) -> None:
-        """Advance the gust ``n_steps`` time steps and hand it to JSBSim."""
-        agl, vn, ve, vd = map(_read, plant._gust_nodes)
-        wn, we, wd = self._wind
-        du = vn * FT_M - wn
-        dv = ve * FT_M - we
-        dw = vd * FT_M - wd
-        if self._k >= len(self._noise):
-            self._noise = self._rng.standard_normal((TURB_BLOCK, 3)).tolist()
-            self._k = 0
-        nu_u, nu_v, nu_w = self._noise[self._k]
-        self._k += 1
-        x_u, x_v, x_w, gust_n, gust_e = dryden_step(
-            *self._x, agl * FT_M, math.sqrt(du * du + dv * dv + dw * dw), self._dt_s, n_steps,
-            self._sigma_w, nu_u, nu_v, nu_w, *self._axis_u)
-        self._x = (x_u, x_v, x_w)
-        self.gust_ned = (gust_n, gust_e, x_w)
-        set_n, set_e, set_d = plant._set_gust
-        set_n(gust_n / FT_M)
-        set_e(gust_e / FT_M)
-        set_d(x_w / FT_M)
