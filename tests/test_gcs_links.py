@@ -257,3 +257,35 @@ def test_sitl_params_save_and_load_the_store(tmp_path):
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "NAVL1_PERIOD" in r.stderr
     assert "NAVL1_PERIOD     21\n" in store.read_text()
+
+
+def test_a_burst_of_connections_is_served_and_refused_in_arrival_order():
+    """More clients than the limit connecting at once, before the service polls: every
+    handshake completes at once (none waits on a retransmit, which takes a second or
+    more), the first MAX_TCP_CLIENTS are served and the rest closed, in arrival order."""
+    from autopilot.gcs.links import MAX_TCP_CLIENTS, GcsLinks
+    links = GcsLinks(["tcpin:127.0.0.1:0"])
+    extra = 5
+    try:
+        host, port = links.tcp_ports()[0]
+        t0 = time.monotonic()
+        socks = [socket.create_connection((host, port), timeout=0.9)
+                 for _ in range(MAX_TCP_CLIENTS + extra)]
+        connect_s = time.monotonic() - t0
+        for _ in range(50):
+            links.poll(0.01)
+            if len(links._tcp) + links.refused_connections == MAX_TCP_CLIENTS + extra:
+                break
+        assert connect_s < 0.5
+        assert len(links._tcp) == MAX_TCP_CLIENTS and links.refused_connections == extra
+        closed = []
+        for s in socks:
+            s.settimeout(0.2)
+            try:
+                closed.append(s.recv(1) == b"")       # the service's close: end of stream
+            except (TimeoutError, socket.timeout):
+                closed.append(False)                   # open, nothing sent yet
+            s.close()
+        assert closed == [False] * MAX_TCP_CLIENTS + [True] * extra
+    finally:
+        links.close()

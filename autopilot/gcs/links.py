@@ -38,6 +38,7 @@ TELEMETRY_BACKLOG = 64 * 1024
 MAX_BACKLOG = 4 * 1024 * 1024
 READ_SIZE = 16 * 1024               # bytes read from one TCP client per poll
 MAX_TCP_CLIENTS = 16
+LISTEN_BACKLOG = 4 * MAX_TCP_CLIENTS   # connections queued in the kernel before accept
 DEFAULT_URLS = ("tcpin:127.0.0.1:5760", "udpout:127.0.0.1:14550")
 _KINDS = ("tcpin", "udpout", "udpin", "udp")
 
@@ -122,7 +123,12 @@ class GcsLinks:
             s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             s.bind((host, port))
-            s.listen(8)
+            # a burst of connections (a ground station reopening its links, a swarm of
+            # clients) waits in the kernel's queue until the next poll takes it, in
+            # arrival order; a queue shorter than MAX_TCP_CLIENTS dropped the rest's
+            # handshakes into retransmits a second or more away, so clients were served or
+            # refused in whatever order the retransmits landed
+            s.listen(LISTEN_BACKLOG)
             s.setblocking(False)
             self.listeners.append(s)
             return
