@@ -156,14 +156,16 @@ def test_a_flooding_client_slows_neither_the_flight_loop_nor_another_client(tmp_
         acks, last_s = burst_answered(sitl.port, 3000)
         # at most 16 TCP clients: with the listener, 15 more are served, the next closed
         time.sleep(0.5)                          # (the burst's connection closed and reaped)
+        # (all kept open until each is judged: one closed early would free a place)
         extra = [socket.create_connection(("127.0.0.1", sitl.port)) for _ in range(16)]
         served = []
-        for k, sock in enumerate(extra):
+        for sock in extra:
             sock.settimeout(3.0)
             try:
                 served.append(len(sock.recv(4096)) > 0)      # a heartbeat, or closed (b"")
             except OSError:
                 served.append(False)
+        for sock in extra:
             sock.close()
     finally:
         stop.set()
