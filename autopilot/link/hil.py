@@ -71,7 +71,7 @@ HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_
 # The lockstep messages travel through the codec's flat fast path: field values, arrays
 # flattened, in the message definition's declared order when sent (Codec.encode_values)
 # and in the payload's own order when received (Codec.decode's pairs: no reordering).
-# The two orders agree but for three messages:
+# The two orders agree for the first three of these and differ for the last three:
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
 #                abs_pressure, diff_pressure, pressure_alt, temperature, fields_updated, id
 #   HIL_STATE_QUATERNION: time_usec, q[4], rollspeed, pitchspeed, yawspeed, lat, lon,
