@@ -176,10 +176,10 @@ class SimulatorHilEnd:
                     self.commands.append(msg)
                 continue
             mid, v = msg
-            if mid == ID_ACTUATORS:
+            if mid == ID_ACTUATORS:         # (wire order: time_usec, flags, controls[16], mode)
                 if v[0] == t_us:
-                    found = v[1:17]
-                    self.armed = (v[17] & _ARMED) != 0
+                    found = v[2:18]
+                    self.armed = (v[18] & _ARMED) != 0
                 else:
                     self.stale += 1
         return found

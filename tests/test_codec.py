@@ -182,8 +182,10 @@ def test_lockstep_decoder_round_trips_and_refuses_a_corrupted_crc():
 
 def test_pairs_are_what_raw_messages_say():
     """``decode(..., pairs=True)``: a ``(msg_id, values)`` pair wherever ``decode`` gives a
-    RawMessage, through the lockstep fast path and the general loop alike (a stream cut
-    at every byte, garbage, a message that is not raw, a MAVLink 1 frame of a raw id)."""
+    RawMessage, its values in the payload's own order (what ``encode_values(...,
+    wire=True)`` takes), through the lockstep fast path and the general loop alike (a
+    stream cut at every byte, garbage, a message that is not raw, a MAVLink 1 frame of a
+    raw id)."""
     from autopilot.link.hil import HIL_IDS, ID_ACTUATORS, ID_SENSOR
     rng = np.random.default_rng(33)
     tx = Codec(1, 25)
@@ -201,7 +203,11 @@ def test_pairs_are_what_raw_messages_say():
             if pairs and type(m) is tuple:
                 out.append(m)
             elif not pairs and hasattr(m, "values"):
-                out.append((m.msg_id, m.values))
+                # the payload's order: the wire-order frame of these values is this frame
+                wire = _wire_order(MAV.mavlink_map[m.msg_id], m.values)
+                assert Codec(1, 25).encode_values(m.msg_id, wire, wire=True) == \
+                    Codec(1, 25).encode_values(m.msg_id, m.values)
+                out.append((m.msg_id, wire))
             else:
                 out.append(m.get_type())
         return out
@@ -217,6 +223,16 @@ def test_pairs_are_what_raw_messages_say():
         assert c.pending == 0
 
 
+def _wire_order(cls, flat) -> tuple:
+    """Declared-order flat values -> the payload's order (``ordered_fieldnames``)."""
+    msg = _pymavlink_message(cls, flat)
+    wire = []
+    for name in cls.ordered_fieldnames:
+        v = getattr(msg, name)
+        wire += list(v) if isinstance(v, (list, tuple)) else [v]
+    return tuple(wire)
+
+
 def test_values_in_wire_order_give_the_same_frame():
     """``encode_values(..., wire=True)`` takes the payload's own field order
     (``ordered_fieldnames``) and makes the frame the declared order makes."""
@@ -225,10 +241,6 @@ def test_values_in_wire_order_give_the_same_frame():
     for msg_id in sorted(HIL_IDS):
         cls = MAV.mavlink_map[msg_id]
         flat = _flat_values(cls, rng, 0.9)
-        msg = _pymavlink_message(cls, flat)
-        wire = []
-        for name in cls.ordered_fieldnames:
-            v = getattr(msg, name)
-            wire += list(v) if isinstance(v, (list, tuple)) else [v]
         a, b = Codec(1, 25), Codec(1, 25)
-        assert a.encode_values(msg_id, flat) == b.encode_values(msg_id, tuple(wire), wire=True), cls.msgname
+        assert a.encode_values(msg_id, flat) == b.encode_values(msg_id, _wire_order(cls, flat), wire=True), \
+            cls.msgname

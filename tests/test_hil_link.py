@@ -66,10 +66,15 @@ def test_memory_pipe_round_trip_carries_si_values():
     assert frame.airspeed.diff_pressure_pa == pytest.approx(245.0, abs=1e-3)
     assert frame.gps is not None and frame.gps.fix_type == 3
     assert frame.gps.lat_rad == pytest.approx(-0.6, abs=2e-9)
+    # every HIL_GPS field read where its wire order puts it (1e7 deg, mm, cm, cm/s)
+    assert frame.gps.lon_rad == pytest.approx(2.6, abs=2e-9) and frame.gps.alt_m == pytest.approx(100.0, abs=1e-3)
+    assert np.allclose(frame.gps.v_ned, [20, 0, 0], atol=0.005) and frame.gps.satellites == 12
+    assert (frame.gps.eph_m, frame.gps.epv_m) == pytest.approx((1.2, 2.0), abs=0.005)
     assert np.allclose(truth.v_ned, [20, 0, 0])
     ap.answer(ActuatorOutputs(frame.t_us, (0.1, -0.2, 0.3, 0.7), True))
     controls = bridge.link.poll_answer(0)
     assert controls is not None and np.allclose(controls[:4], (0.1, -0.2, 0.3, 0.7), atol=1e-7)
+    assert len(controls) == 16 and not any(controls[4:]) and bridge.link.armed
     bridge.advance(controls)
     assert bridge.t_us == 10_000 and bridge.substeps == 2
     assert np.allclose(tuple(plant.applied[-1].__dict__.values()) if hasattr(plant.applied[-1], "__dict__")

@@ -40,11 +40,13 @@ STX_V2 = 0xFD
 STX_V1 = 0xFE
 _V2_HEADER = struct.Struct("<BBBBBBBHB")
 _V2_BODY_HEAD = struct.Struct("<BxxBBBHB")  # the header after the magic byte, flags 0
+# the lockstep decoder's look at a header: magic, length with the incompatibility flags
+# above it, and the 3-byte message id read with the payload's first byte above it
+_V2_FAST_HEAD = struct.Struct("<BH4xI")
 _V1_HEADER = struct.Struct("<BBBBBB")
 _CRC = struct.Struct("<H")
 _MAP = mavlink2.mavlink_map
 _EXTRA = {msg_id: bytes((cls.crc_extra,)) for msg_id, cls in _MAP.items()}  # CRC extra byte
-_ZEROS = bytes(256)   # the truncated tail of a MAVLink 2 payload (at most 255 bytes)
 
 
 def _field_plan(cls):
@@ -65,11 +67,11 @@ class _Flat:
     """For one message class: the declared-order flat field list <-> the wire-order
     tuple of its struct (arrays flattened in place), as C-level itemgetters (``tuple``,
     which hands a tuple back as it is, when the two orders agree: HIL_SENSOR,
-    HIL_STATE_QUATERNION); and what framing needs (the struct, its size, the CRC extra
-    byte, the id's header fields)."""
+    HIL_STATE_QUATERNION); and what framing needs (the struct, the zeros its truncated
+    payloads lost, the CRC extra byte, the id's header fields)."""
 
-    __slots__ = ("cls", "msg_id", "to_declared", "to_wire", "n", "pack", "unpack",
-                 "unpack_from", "size", "extra", "id_low", "id_high")
+    __slots__ = ("cls", "msg_id", "to_declared", "to_wire", "n", "pack", "unpack_from",
+                 "extra", "zeros", "id_low", "id_high")
 
     def __init__(self, cls):
         plan = _field_plan(cls)
@@ -87,10 +89,9 @@ class _Flat:
             self.to_wire = itemgetter(*inverse)
         self.n = len(flat)
         self.pack = cls.unpacker.pack
-        self.unpack = cls.unpacker.unpack
         self.unpack_from = cls.unpacker.unpack_from
-        self.size = cls.unpacker.size
         self.extra = bytes((cls.crc_extra,))
+        self.zeros = bytes(cls.unpacker.size)     # pads a truncated payload back to its size
         self.msg_id = msg_id = cls.id
         self.id_low, self.id_high = msg_id & 0xFFFF, msg_id >> 16
 
@@ -119,7 +120,8 @@ def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
 class RawMessage:
     """A decoded message as a flat tuple of its field values in declared order (arrays
     flattened in place), with its source ids: what ``decode`` gives for ``raw_ids`` (the
-    formation peers read it; the lockstep link asks for bare ``(msg_id, values)`` pairs)."""
+    formation peers read it; the lockstep link asks for bare ``(msg_id, values)`` pairs, in
+    the payload's own order)."""
 
     __slots__ = ("msg_id", "src_system", "src_component", "values")
 
@@ -204,8 +206,9 @@ class Codec:
                pairs: bool = False) -> list:
         """Feed received bytes; return the complete, valid messages among them.
         Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`, or with
-        ``pairs`` as plain ``(msg_id, values)`` tuples (the lockstep link's form: no
-        object to build, no source ids).
+        ``pairs`` as plain ``(msg_id, values)`` tuples whose values are in the payload's
+        own order, as ``encode_values(..., wire=True)`` takes them (the lockstep link's
+        form: no object to build, no source ids, no reordering).
         With ``limit``: stop after that many frames (messages plus rejected frames or
         stretches of garbage) and keep the rest for the next call (``pending``)."""
         buf = self._buf
@@ -226,19 +229,20 @@ class Codec:
             # to back, read without the general loop's cases; anything else (another
             # message, a partial frame, garbage, a signature) goes on below from there
             flats = _RAW.get(raw_ids) or _raw_flats(raw_ids)
-            header = _V2_HEADER.unpack_from
+            head = _V2_FAST_HEAD.unpack_from
             while n - i >= 12:
-                stx, plen, incompat, _, _, sysid, compid, id_low, id_high = header(data, i)
-                f = flats.get(id_low | (id_high << 16))
+                stx, plen, word = head(data, i)
+                f = flats.get(word & 0xFFFFFF)
                 end = i + 10 + plen
-                if stx != STX_V2 or incompat or f is None or end + 2 > n:
+                if stx != STX_V2 or plen > 255 or f is None or end + 2 > n:   # (> 255: incompat flags)
                     break
-                if (data[end] | (data[end + 1] << 8)) != crc16(data[i + 1:end] + f.extra, 0xFFFF):
+                body = data[i + 1:end]
+                if (data[end] | (data[end + 1] << 8)) != crc16(body + f.extra, 0xFFFF):
                     break
-                size = f.size
-                t = f.unpack_from(data, i + 10) if plen >= size else f.unpack(data[i + 10:end] + _ZEROS[:size - plen])
-                v = f.to_declared(t)
-                out.append((f.msg_id, v) if pairs else RawMessage(f.msg_id, sysid, compid, v))
+                # the payload, its truncated zeros restored (unpack_from reads what it needs)
+                t = f.unpack_from(body + f.zeros, 9)
+                out.append((f.msg_id, t) if pairs else
+                           RawMessage(f.msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
                 i = end + 2
             if i == n:
                 self.limited = False
@@ -294,13 +298,9 @@ class Codec:
                 continue
             if msg_id in raw_ids and not incompat:
                 f = _FLAT.get(msg_id) or _flat(msg_id)
-                size = f.size
-                if plen >= size:
-                    t = f.unpack_from(data, j + hlen)
-                else:
-                    t = f.unpack(data[j + hlen:end] + _ZEROS[:size - plen])
+                t = f.unpack_from(data[j + hlen:end] + f.zeros)
                 if pairs:
-                    out.append((msg_id, f.to_declared(t)))
+                    out.append((msg_id, t))
                 elif hlen == 10:
                     out.append(RawMessage(msg_id, data[j + 5], data[j + 6], f.to_declared(t)))
                 else:

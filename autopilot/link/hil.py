@@ -68,21 +68,28 @@ ID_ACTUATORS = MAV.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS
 ID_DISTANCE = MAV.MAVLINK_MSG_ID_DISTANCE_SENSOR
 ID_ESC = MAV.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4
 HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_ESC})
-# The lockstep messages travel through the codec's flat fast path: field values in the
-# message definition's declared order, arrays flattened (see Codec.encode_values).
+# The lockstep messages travel through the codec's flat fast path: field values, arrays
+# flattened, in the message definition's declared order when sent (Codec.encode_values)
+# and in the payload's own order when received (Codec.decode's pairs: no reordering).
+# The two orders agree for the first three of these and differ for the last three:
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
 #                abs_pressure, diff_pressure, pressure_alt, temperature, fields_updated, id
-#   HIL_GPS:     time_usec, fix_type, lat, lon, alt, eph, epv, vel, vn, ve, vd, cog,
-#                satellites_visible, id, yaw
 #   HIL_STATE_QUATERNION: time_usec, q[4], rollspeed, pitchspeed, yawspeed, lat, lon,
 #                alt, vx, vy, vz, ind_airspeed, true_airspeed, xacc, yacc, zacc
-#   HIL_ACTUATOR_CONTROLS: time_usec, controls[16], mode, flags
 #   DISTANCE_SENSOR: time_boot_ms, min_distance, max_distance, current_distance, type, id,
 #                orientation, covariance, horizontal_fov, vertical_fov, quaternion[4],
 #                signal_quality
-#   ESC_TELEMETRY_1_TO_4: temperature[4], voltage[4], current[4], totalcurrent[4], rpm[4],
-#                count[4]
-ESC_RPM = 16          # ESC 1's rpm in ESC_TELEMETRY_1_TO_4's flat values
+#   HIL_GPS      declared: time_usec, fix_type, lat, lon, alt, eph, epv, vel, vn, ve, vd,
+#                cog, satellites_visible, id, yaw
+#                wire: time_usec, lat, lon, alt, eph, epv, vel, vn, ve, vd, cog, fix_type,
+#                satellites_visible, id, yaw
+#   HIL_ACTUATOR_CONTROLS declared: time_usec, controls[16], mode, flags
+#                wire: time_usec, flags, controls[16], mode
+#   ESC_TELEMETRY_1_TO_4 declared: temperature[4], voltage[4], current[4], totalcurrent[4],
+#                rpm[4], count[4]
+#                wire: voltage[4], current[4], totalcurrent[4], rpm[4], count[4],
+#                temperature[4]
+ESC_RPM = 12          # ESC 1's rpm in ESC_TELEMETRY_1_TO_4's wire-order values
 # (the codec hands integer fields as ints and float fields as floats: no conversion)
 
 
@@ -136,9 +143,10 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
 
 
 def gps_fix_from(v) -> GpsFix:
-    return GpsFix(v[0], v[2] / RAD_TO_E7, v[3] / RAD_TO_E7, v[4] * 1e-3,
-                  np.array((v[8] * 0.01, v[9] * 0.01, v[10] * 0.01)), v[5] * 0.01, v[6] * 0.01,
-                  v[1], v[12])
+    """HIL_GPS values (wire order) -> GpsFix in SI."""
+    return GpsFix(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
+                  np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
+                  v[11], v[12])
 
 
 class AutopilotHilEnd:
