@@ -83,7 +83,10 @@ LOG_COLUMNS = (
     "fdi_motor_det", "fdi_motor_iso", "fdi_gamma_1", "fdi_gamma_2", "fdi_gamma_3",
     "fdi_gamma_4", "fdi_motor_lam",
 )
-_LAND = CopterMode.LAND
+# the modes the loop tests at every step, read once here (an enum class's attribute
+# costs several times a module global's)
+_LAND, _AUTO, _STABILIZE = CopterMode.LAND, CopterMode.AUTO, CopterMode.STABILIZE
+_PILOT_MODES = (CopterMode.STABILIZE, CopterMode.ALT_HOLD)
 KIND_CODES = {"ground": 0, "takeoff": 1, "move": 2, "hold": 3, "land": 4, "idle": 5, "manual": 6}
 
 
@@ -114,8 +117,8 @@ class DecimatedNav:
     (module docstring). Magnetometer and barometer samples are averaged and handed to
     the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
-    p, v, q, omega)`` with p, v, q the predicted state as float lists (nav origin NED,
-    q_nb) and omega the bias-corrected rate of this step (a list or a tuple)."""
+    p, v, q, omega)`` with p, v, q the predicted state as floats (lists or tuples; nav
+    origin NED, q_nb) and omega the bias-corrected rate of this step (likewise)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -219,11 +222,9 @@ class DecimatedNav:
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
             return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
-        x = self._x
-        w = predict_output(x, fx, fy, fz, wx, wy, wz, dt)
-        o = x.tolist()
+        o = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
         self._p, self._v, self._q = p, v, q = o[0:3], o[3:6], o[6:10]
-        return self.nav, p, v, q, w
+        return self.nav, p, v, q, o[10:13]
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -500,14 +501,14 @@ class QuadVehicle(VehicleBase):
         h = -pos[2]
         if self.on_ground:
             self._yaw_hold = yaw
-        if mode in (CopterMode.STABILIZE, CopterMode.ALT_HOLD):
+        if mode in _PILOT_MODES:
             self.target = None
             pl = self.pilot
             lim = math.radians(p["ANGLE_MAX_DEG"])
             r_d = max(-lim, min(lim, pl.roll_rad))
             p_d = max(-lim, min(lim, pl.pitch_rad))
             self._yaw_hold = wrap_pi(self._yaw_hold + pl.yaw_rate_rps * dt)
-            if mode == CopterMode.STABILIZE:
+            if mode == _STABILIZE:
                 thr = pl.throttle if pl.throttle is not None else p["PILOT_THR_HOV"]
                 if self.on_ground and thr <= p["QD_SPIN_ARM"] + 0.02:
                     return ctrl.idle(p["QD_SPIN_ARM"])
@@ -530,7 +531,7 @@ class QuadVehicle(VehicleBase):
         self._touchdown_pending = False
         seq, hold = 0, False
         sq = self._sequencer               # (read without the property: vehicle_base.py)
-        if mode == CopterMode.AUTO and sq is not None:
+        if mode == _AUTO and sq is not None:
             seq, hold = sq.advance(t_us, pos, touchdown, yaw)
             if sq.home_request is not None:
                 self._mission_set_home(sq, t_us)
@@ -687,7 +688,8 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g), its p, v, q updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
-    omega the bias-corrected specific force and rate. Returns omega."""
+    omega the bias-corrected specific force and rate. Returns the new p, v, q and omega
+    (13 floats: the caller's values without reading them back out of ``x``)."""
     wx -= x[13]
     wy -= x[14]
     wz -= x[15]
@@ -705,5 +707,6 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[1] += 0.5 * (ve + ve1) * dt
     x[2] += 0.5 * (vd + vd1) * dt
     x[3], x[4], x[5] = vn1, ve1, vd1
-    x[6], x[7], x[8], x[9] = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
-    return wx, wy, wz
+    qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
+    x[6], x[7], x[8], x[9] = qw, qx, qy, qz
+    return x[0], x[1], x[2], vn1, ve1, vd1, qw, qx, qy, qz, wx, wy, wz

@@ -281,10 +281,11 @@ def test_output_predictor_kernel_is_the_strapdown_step():
     ba, bg, g = np.array([0.02, -0.01, 0.05]), np.array([0.001, -0.002, 0.003]), 9.79
     f, w, dt = np.array([0.4, -0.3, -9.9]), np.array([0.3, -0.2, 0.1]), 0.004
     x = np.concatenate((p, v, q, ba, bg, [g]))
-    omega = predict_output(x, *f, *w, dt)
+    out = predict_output(x, *f, *w, dt)
     a = quat_to_dcm(q) @ (f - ba) + np.array([0.0, 0.0, g])
     v1 = v + a * dt
-    assert np.max(np.abs(np.array(omega) - (w - bg))) < 1e-15
+    assert out[:10] == tuple(x[:10].tolist())                        # the new p, v, q as x holds them
+    assert np.max(np.abs(np.array(out[10:]) - (w - bg))) < 1e-15
     assert np.max(np.abs(x[3:6] - v1)) < 1e-12
     assert np.max(np.abs(x[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
     assert np.max(np.abs(x[6:10] - quat_integrate(q, w - bg, dt))) < 1e-12
@@ -330,3 +331,20 @@ def test_controller_attitude_is_the_attitude_loops_then_the_mixer(eff):
         assert np.array_equal(ctrl.att.state, att.state)
         assert (ctrl.mixer.saturated, ctrl.mixer.collective, ctrl.mixer.thrusts) == (
             mixer.saturated, mixer.collective, mixer.thrusts)
+
+
+def test_mixer_density_update_is_the_full_rebuild():
+    """A density change rewrites the limits in place (QuadPlusMixer._density): the
+    kernels' constants equal those of a mixer built at that density, bit for bit, and
+    the array is the same object (the attitude kernel's argument)."""
+    m = QuadPlusMixer(15.7, 0.78, 0.10)
+    k = m.k
+    m.set_density_ratio(0.93)
+    ref = QuadPlusMixer(15.7, 0.78, 0.10)
+    ref.rho_ratio = 0.93
+    ref._limits()
+    assert m.k is k and m.k.tolist() == ref.k.tolist()
+    assert (m.t_lo, m.t_hi) == (ref.t_lo, ref.t_hi) and m.k[0] > 0.0
+    m.set_effectiveness((1.0, 0.5, 1.0, 1.0))
+    m.set_density_ratio(1.1)
+    assert m.k[-3] == 0.5 and m.k[1] == m.thrust_of(1.0)

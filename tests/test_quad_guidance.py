@@ -168,3 +168,14 @@ def test_hold_brakes_to_a_stop_ahead_of_a_moving_reference():
         nav.update(DT, nav.traj.p, 0.0)
     # stops within the braking distance v^2 / 2a = 5 m of where it was, not at the goal
     assert nav.traj.arrived and x0 < nav.traj.p[0] <= x0 + 5.0 + 0.05
+
+
+def test_new_target_is_the_named_tuple():
+    """``new_target`` (tuple's constructor on CopterTarget) builds the same target as the
+    named tuple's own constructor: its type, its fields by name, equal."""
+    from autopilot.guidance.multirotor import CopterTarget, new_target
+    fields = ("move", 3, 7, (1.0, 2.0, -10.0), (0.5, 0.0, 0.0), (0.0, 0.1, 0.0), 0.25, True,
+              (4.0, 5.0), (1.0, 2.0))
+    t = new_target(fields)
+    assert type(t) is CopterTarget and t == CopterTarget(*fields)
+    assert (t.kind, t.seq, t.leg_id, t.yaw_rad, t.hold, t.leg_a) == ("move", 3, 7, 0.25, True, (1.0, 2.0))

@@ -82,19 +82,29 @@ class QuadPlusMixer:
         r = min(max(rho_ratio, 0.5), 1.3)
         if r != self.rho_ratio:
             self.rho_ratio = r
-            self._limits()
+            self._density()
 
     def _limits(self) -> None:
-        self._full = self.t_max * self.rho_ratio     # thrust_of's factors, as it writes them
-        self._lin = 1.0 - self.expo
-        self.t_hi = self.thrust_of(1.0)
-        self.t_lo = self.thrust_of(self.spin_min)
-        # the kernels' constants (K_* below), each as its formula writes it
+        # the kernels' constants (K_* below), each as its formula writes it; the thrust
+        # limits and T_max rho/rho0 from _density
         e = self.expo
         eff = self.eff
-        self.k = np.array((self.t_lo, self.t_hi, self._full,
+        self._lin = 1.0 - e                          # thrust_of's factor, as it writes it
+        self.k = np.array((0.0, 0.0, 0.0,
                            1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
                            0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
+        self._density()
+
+    def _density(self) -> None:
+        """The constants that follow the air density (each barometer sample changes it
+        a little): written into ``k`` in place, not a new array."""
+        self._full = self.t_max * self.rho_ratio     # thrust_of's factor, as it writes it
+        self.t_hi = self.thrust_of(1.0)
+        self.t_lo = self.thrust_of(self.spin_min)
+        k = self.k
+        k[K_LO] = self.t_lo
+        k[K_HI] = self.t_hi
+        k[K_FULL] = self._full
 
     # -------------------------------------------------------------- thrust curve --
     def thrust_of(self, u: float) -> float:

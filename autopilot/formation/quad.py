@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 
 from ..geo import LocalFrame
-from ..guidance.multirotor import CopterTarget
+from ..guidance.multirotor import new_target
 from ..modes.copter import CopterMode
 from ..vehicle_quad import QuadVehicle
 from .guidance import FormationGuidance, VirtualTarget
@@ -129,7 +129,7 @@ class FormationQuad(QuadVehicle):
         h = self.home_in_form
         tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
         ne = (tp[0], tp[1])
-        self.target = CopterTarget("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne)
+        self.target = new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
         r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
                                    ta[0], ta[1], yaw, dt, False)
         u_z = self._altitude(-tp[2], -tv[2], -ta[2], -pos[2], v, roll, pitch, dt)

@@ -54,6 +54,7 @@ ends without landing returns to launch and lands (as the fixed-wing returns home
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from typing import NamedTuple
 
@@ -110,6 +111,12 @@ class CopterTarget(NamedTuple):
     hold: bool = False              # a timed hold / loiter is running (scored)
     goal_ne: tuple = (0.0, 0.0)     # the goal / hold / land point (north, east)
     leg_a: tuple = (0.0, 0.0)       # the straight leg being flown (north, east)
+
+
+#: ``new_target((kind, seq, ..., leg_a))``: a CopterTarget of all its fields in order, by
+#: tuple's own constructor (the named tuple's generated ``__new__`` is a Python-level call
+#: of ten arguments: about half again the cost of the target built every step)
+new_target = functools.partial(tuple.__new__, CopterTarget)
 
 
 # the navigation items flown to a goal (and held there) by CopterMissionSequencer._step_nav
@@ -617,8 +624,8 @@ class CopterNavigator:
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p[0], p[1])
         if dz:
             p = (p[0], p[1], p[2] + dz)
-        return CopterTarget(kind, seq, self.leg_id, p, tr.v, tr.a,
-                            self.yaw_ref, hold, goal, (tr.start[0], tr.start[1]))
+        return new_target((kind, seq, self.leg_id, p, tr.v, tr.a,
+                           self.yaw_ref, hold, goal, (tr.start[0], tr.start[1])))
 
 
 class CopterMissionSequencer:

@@ -33,6 +33,7 @@ the ground contact: docs/simulator.md, "The quadrotor plant".
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,6 +137,10 @@ AIRFRAMES = {"f450": F450}
 _P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
 _NX = 23
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
+# v, q, omega_b, f_b, wind of a state array: five views cut in one call (each view cut
+# by a subscript of its own costs a slice object and an interpreter step more)
+_ARRAYS = operator.itemgetter(slice(_V, _Q), slice(_Q, _W), slice(_W, _F), slice(_F, _WIND),
+                              slice(_WIND, _T))
 
 
 class QuadrotorPlant:
@@ -237,9 +242,9 @@ class QuadrotorPlant:
         wn, we, wd = self._wind
         airspeed, alpha, beta = air_data(x, wn + gn, we + ge, wd + gd)
         lat, lon, alt = self._frame.to_geodetic_fast(x[_P:_V].tolist())
-        a = x[_V:_T].copy()      # v, q, omega, f_b, wind: the state's arrays, views of one copy
-        return PlantState(self._t_us, lat, lon, alt, a[0:3], a[3:7], a[7:10], a[10:13],
-                          a[13:16], airspeed, alpha, beta, self.on_ground, self.rho)
+        v, q, w, f, wind = _ARRAYS(x.copy())     # the state's arrays, views of one copy
+        return PlantState(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
+                          self.on_ground, self.rho)
 
     # ---------------------------------------------------------------- stepping ---
     def static_thrusts(self, controls) -> list[float]:
