@@ -621,9 +621,7 @@ class PlaneVehicle(VehicleBase):
         self._p_home = (nav, pl, vl, wl)         # for the log row of this step
         v_ne = (vn, ve)
         p_ne = (pn, pe)
-        l1 = self.l1
-        if l1.period_s != p["NAVL1_PERIOD"] or l1.damping != p["NAVL1_DAMPING"]:
-            l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
+        l1 = self.l1          # (its design follows NAVL1_*: _param_changed)
         pitch_min = pitch_max = climb = None
         throttle = rudder = None
         land = tgt.land
