@@ -621,9 +621,7 @@ class PlaneVehicle(VehicleBase):
         self._p_home = (nav, pl, vl, wl)         # for the log row of this step
         v_ne = (vn, ve)
         p_ne = (pn, pe)
-        l1 = self.l1
-        if l1.period_s != p["NAVL1_PERIOD"] or l1.damping != p["NAVL1_DAMPING"]:
-            l1.set_design(p["NAVL1_PERIOD"], p["NAVL1_DAMPING"])
+        l1 = self.l1          # (its design follows NAVL1_*: _param_changed)
         pitch_min = pitch_max = climb = None
         throttle = rudder = None
         land = tgt.land
@@ -705,19 +703,19 @@ class PlaneVehicle(VehicleBase):
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
         alt_dem = c.alt_dem_m
         h_rf = rf.height_m
-        # one tuple built from its parts at once (``*``: no intermediate tuples)
+        # one tuple built from its parts at once (``*``: no intermediate tuples); the
+        # flags, mode and counts as they are (the log converts its rows once, at the end)
         self.log.append((
-            t_us * 1e-6, float(self.armed), float(self.mode), float(tgt.seq), float(tgt.leg_id),
-            float(KIND_CODES[tgt.kind]),
+            t_us * 1e-6, self.armed, self.mode, tgt.seq, tgt.leg_id, KIND_CODES[tgt.kind],
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
             alt_dem if alt_dem is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
             a[0], a[1], b[0], b[1], cc[0], cc[1],
-            tgt.radius_m, float(tgt.direction), self.xtrack_m,
+            tgt.radius_m, tgt.direction, self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],
             h_rf if h_rf is not None else -1.0,
             seq.land_h_corr_m if seq is not None else 0.0,
             self.rpm,
-            *sig, float(nav.aligned), float(nav.healthy), *gps_row,
+            *sig, nav.aligned, nav.healthy, *gps_row,
             *(mon.log_row() if mon is not None else _FDI_IDLE)))

@@ -135,7 +135,8 @@ class FixedWingController:
         self.configure()
 
     def configure_gains(self) -> None:
-        """Re-read the gains after a parameter change (integrators kept)."""
+        """Re-read the gains and the parameters the loops read every step, after a
+        parameter change (integrators kept)."""
         p = self.params
         for pid, (kp, ki, kd) in ((self.roll_pid, ("RLL_KP", "RLL_KI", "RLL_KD")),
                                   (self.pitch_pid, ("PTCH_KP", "PTCH_KI", "PTCH_KD")),
@@ -148,6 +149,16 @@ class FixedWingController:
         self.eout_pid.kp, self.eout_pid.ki, self.eout_pid.out_max = p["EOUT_THR_KP"], p["EOUT_THR_KI"], p["THR_MAX"]
         self.climb_pid.out_min = math.radians(p["PTCH_LIM_MIN_DEG"])
         self.climb_pid.out_max = math.radians(p["PTCH_LIM_MAX_DEG"])
+        # the parameters every step reads, read here (a change reaches them as it does
+        # the gains): a parameter's lookup cost as much as the arithmetic it feeds
+        self._sink_max, self._clmb_max = p["SINK_MAX"], p["CLMB_MAX"]
+        self._dem_up, self._dem_down = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
+        self._alt_kp, self._spd_prio, self._spd_prio_db = p["ALT_KP"], p["SPD_PRIO"], p["SPD_PRIO_DB"]
+        self._trim_arspd, self._turn_ff = p["TRIM_ARSPD"], p["PTCH_TURN_FF"]
+        self._alpha_trim_rad = math.radians(p["PTCH_TRIM_DEG"])
+        self._thr_trim, self._thr_clmb_ff = p["THR_TRIM"], p["THR_CLMB_FF"]
+        self._elev_trim, self._yaw_kd = p["ELEV_TRIM"], p["YAW_KD"]
+        self._roll_lim_rad = math.radians(p["ROLL_LIMIT_DEG"])
 
     def configure(self) -> None:
         p = self.params
@@ -170,6 +181,7 @@ class FixedWingController:
         self.eout_full_throttle = False          # the model has no level trim for it
         self.surface_out: dict | None = None     # a stuck aileron or rudder (monitor's surface_out)
         self.throttle_out: dict | None = None    # a stuck throttle (monitor's throttle_out)
+        self.configure_gains()
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -200,7 +212,7 @@ class FixedWingController:
         travel left after countering it (monitor.py, _lateral_reaction), not under
         EOUT_BANK_MIN_DEG either. With an aileron or rudder out the mission's turns are
         planned at it (guidance/mission.py, ``bank_limit_rad``)."""
-        roll_lim = math.radians(self.params["ROLL_LIMIT_DEG"])
+        roll_lim = self._roll_lim_rad
         if self.elevator_out and self.eout_bank_max_rad is not None:
             roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
         so = self.surface_out
@@ -220,7 +232,7 @@ class FixedWingController:
         if self.surface_out is None:
             return None
         lim = self.roll_limit_rad()
-        return lim if lim < math.radians(self.params["ROLL_LIMIT_DEG"]) else None
+        return lim if lim < self._roll_lim_rad else None
 
     def reaction_airspeed_mps(self) -> float | None:
         """The airspeed a fault's reaction flies instead of the commanded one [m/s], None
@@ -277,8 +289,8 @@ class FixedWingController:
         hdot = -nav.v_ned.item(2)
         if self.alt_dem_m is None or throttle_override is not None:
             self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
-        sink_max, clmb_max = p["SINK_MAX"], p["CLMB_MAX"]
-        up, down = p["DEM_CLMB_FRAC"] * clmb_max, p["DEM_CLMB_FRAC"] * sink_max
+        sink_max, clmb_max = self._sink_max, self._clmb_max
+        up, down = self._dem_up, self._dem_down
         if self.elevator_out:
             up, down = min(up, p["EOUT_DEM_RATE"]), min(down, p["EOUT_DEM_RATE"])
         if dt > 0:
@@ -292,14 +304,14 @@ class FixedWingController:
             hdot_dem, alt_err = 0.0, alt_cmd_m - nav.alt_m
         else:
             alt_err = self.alt_dem_m - nav.alt_m
-        hdot_c = hdot_dem + p["ALT_KP"] * alt_err
+        hdot_c = hdot_dem + self._alt_kp * alt_err
         hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
         hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
         if climb_override is not None:
             self.alt_dem_m = nav.alt_m
             hdot_c = min(max(climb_override, -p["SINK_MAX"]), p["CLMB_MAX"])
         dv = airspeed_cmd_mps - v_air
-        db = p["SPD_PRIO_DB"]
+        db = self._spd_prio_db
         eout = self.elevator_out and throttle_override is None
         if eout:
             # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
@@ -337,15 +349,15 @@ class FixedWingController:
                 v_t = max(tout["v_glide"], p["ARSPD_FBW_MIN"])
                 hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), p["CLMB_MAX"])
         elif abs(dv) > db and climb_override is None:
-            hdot_c -= spd_weight * p["SPD_PRIO"] * (dv - math.copysign(db, dv))
+            hdot_c -= spd_weight * self._spd_prio * (dv - math.copysign(db, dv))
             hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
             hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
-        trim_arspd = p["TRIM_ARSPD"]
+        trim_arspd = self._trim_arspd
         q_ratio = (trim_arspd / v_air) ** 2
         scale = 0.5 if 0.5 > q_ratio else q_ratio
         scale = 2.0 if 2.0 < scale else scale
         cos_roll = math.cos(roll)
-        turn_ff = p["PTCH_TURN_FF"] * (1.0 / (0.5 if 0.5 > cos_roll else cos_roll) - 1.0)
+        turn_ff = self._turn_ff * (1.0 / (0.5 if 0.5 > cos_roll else cos_roll) - 1.0)
         sin_gamma = hdot_c / v_air
         sin_gamma = -0.5 if -0.5 > sin_gamma else sin_gamma
         gamma_c = math.asin(0.5 if 0.5 < sin_gamma else sin_gamma)
@@ -353,7 +365,7 @@ class FixedWingController:
         # raise the nose further as the aircraft slows (positive feedback towards stall)
         v_c = 5.0 if 5.0 > airspeed_cmd_mps else airspeed_cmd_mps
         alpha_ratio = (trim_arspd / v_c) ** 2
-        alpha_ff = math.radians(p["PTCH_TRIM_DEG"]) * (2.0 if 2.0 < alpha_ratio else alpha_ratio)
+        alpha_ff = self._alpha_trim_rad * (2.0 if 2.0 < alpha_ratio else alpha_ratio)
         climb_pid = self.climb_pid
         kp = climb_pid.kp
         if climb_kp is not None:
@@ -384,17 +396,17 @@ class FixedWingController:
                 thr = p["THR_MAX"]     # no level trim: the least height loss
         else:
             thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
-                                        feedforward=p["THR_TRIM"] + p["THR_CLMB_FF"] * hdot_c)
+                                        feedforward=self._thr_trim + self._thr_clmb_ff * hdot_c)
 
         # inner loops
         da = self.roll_pid.update(phi_c, roll, dt, rate=omega[0], scale=scale)
         if rudder_override is not None:
             self.roll_pid.integ = 0.0
-        de_ff = p["ELEV_TRIM"] * (2.0 if 2.0 < q_ratio else q_ratio)
+        de_ff = self._elev_trim * (2.0 if 2.0 < q_ratio else q_ratio)
         de = self.pitch_pid.update(theta_c, pitch, dt, rate=omega[1], feedforward=de_ff,
                                    scale=scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
-        dr = p["YAW_KD"] * (r_c - omega[2])
+        dr = self._yaw_kd * (r_c - omega[2])
         dr = -1.0 if -1.0 > dr else dr
         dr = 1.0 if 1.0 < dr else dr
         if rudder_override is not None:

@@ -117,7 +117,9 @@ class NavTarget(NamedTuple):
     """What guidance asks of the control loops, one a step. An immutable record as a
     NamedTuple rather than ``@message`` (autopilot/frozen.py): a tuple is built in one
     call, where a frozen dataclass stores each of these 15 fields through its slot's
-    descriptor (about 0.2 us a field); changed copies by ``_replace``."""
+    descriptor (about 0.2 us a field); changed copies by ``_replace``. The targets
+    built every step pass their fields by position (``NO_NE`` for a point they do not
+    use): keywords cost the call a dict, 40 % more than the record itself."""
     kind: str                    # "idle" | "takeoff" | "line" | "loiter" | "direct"
     seq: int                     # mission item being flown
     leg_id: int                  # increments at every new leg/loiter (for scoring)
@@ -133,6 +135,9 @@ class NavTarget(NamedTuple):
     land: str = ""               # NAV_LAND phase: "approach" | "flare" | "rollout" | "ground" (landing.py)
     climb_mps: float | None = None   # flare: the climb-rate demand (negative: sink)
     spd_weight: float = 1.0      # the speed priority's weight (the landing approach: TECS_LAND_SPDWGT)
+
+
+NO_NE = NavTarget._field_defaults["a_ne"]   # a point a target does not use (the default)
 
 
 def _path_end(path):
@@ -763,7 +768,7 @@ class MissionSequencer:
                     self._next_segment()
                     continue
                 return NavTarget("loiter", seq, self.leg_id, alt, self.airspeed_mps,
-                                 c_ne=centre, radius_m=r, direction=direction)
+                                 NO_NE, NO_NE, centre, r, direction)
             _, a, b = seg
             ln = math.hypot(b[0] - a[0], b[1] - a[1])
             along = ((p_ne[0] - a[0]) * (b[0] - a[0]) + (p_ne[1] - a[1]) * (b[1] - a[1])) / ln
@@ -771,7 +776,7 @@ class MissionSequencer:
             if along >= ln - 0.5:
                 self._next_segment()
                 continue
-            return NavTarget("direct", seq, self.leg_id, alt, self.airspeed_mps, a_ne=a, b_ne=b)
+            return NavTarget("direct", seq, self.leg_id, alt, self.airspeed_mps, a, b)
         return None
 
     def _roll_lead_rad(self, r: float, direction: int) -> float:
@@ -1468,7 +1473,7 @@ class MissionSequencer:
                 self._skip_join = True
                 self._carry_path = skip   # onto C->D: kept when C counts at once
             return None
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
+        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
 
     def _refit_fillet(self, key, a_ne, b_ne, accept: float, p_ne) -> None:
         """The arc planned when the leg began, checked again while the vehicle is still
@@ -1595,7 +1600,7 @@ class MissionSequencer:
                         self._skip_join = True
                     return None
         return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
-                         c_ne=c_ne, radius_m=radius, direction=direction)
+                         NO_NE, NO_NE, c_ne, radius, direction)
 
     def _plan_loiter_exit(self, c_ne, radius: float, direction: int, bearing: float):
         """Where a finished loiter is left, as (loiter angle to leave at, arc): the
@@ -1662,7 +1667,7 @@ class MissionSequencer:
             / max(length, 1e-3)
         if along >= length - reach:
             return None
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=c_ne)
+        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, c_ne)
 
     def _land(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         """NAV_LAND (autopilot/guidance/landing.py): join the approach leg from the
@@ -1876,7 +1881,7 @@ class MissionSequencer:
             self.finished = True
             return self._rtl_loiter(t_us, p_ne, alt_b)
         alt, _ = self._slope_alt(t_us, item.seq, a_ne, b_ne, along, length, radius, alt_b)
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne=a_ne, b_ne=b_ne)
+        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
 
     def _rtl_loiter(self, t_us, p_ne, alt_m) -> NavTarget:
         c_ne, dest_alt = self.rtl_destination(t_us, p_ne)
@@ -1894,4 +1899,4 @@ class MissionSequencer:
             self._on_circle_since_us = None
         alt = dest_alt if dest_alt is not None else self.rtl_alt_m() if self._prev_alt is not None else alt_m
         return NavTarget("loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
-                         c_ne=c_ne, radius_m=radius, direction=1)
+                         NO_NE, NO_NE, c_ne, radius, 1)

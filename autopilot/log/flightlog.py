@@ -1,9 +1,11 @@
 """Columnar flight log: one row per loop step, saved as a NumPy ``.npz``.
 
-Columns are declared once (name, unit/frame) and each step appends a tuple of floats in
-that order; ``save`` writes one float64 array per column plus a ``columns`` index, so
+Columns are declared once (name, unit/frame) and each step appends a tuple of numbers in
+that order (floats, and ints or bools where a column holds a count, a code or a flag);
+``save`` writes one float64 array per column plus a ``columns`` index, so
 ``np.load(path)["truth_n_m"]`` reads a column back. Appending tuples to a list is the
-cheapest thing Python can do per step; conversion happens once, at the end.
+cheapest thing Python can do per step; conversion happens once, at the end (a
+``float()`` per flag and count in the row cost more than the rest of its building).
 """
 from __future__ import annotations
 

@@ -11,14 +11,21 @@ import numpy as np
 
 from autopilot.frozen import message
 
-_PACK = {3: struct.Struct("3d").pack, 6: struct.Struct("6d").pack}
+_FROMBUFFER = np.frombuffer
+_PACK3, _PACK6 = struct.Struct("3d").pack, struct.Struct("6d").pack
 
 
-def frozen_floats(*values: float) -> np.ndarray:
-    """A read-only float64 array of ``values`` (3 or 6): a view of their packed bytes,
-    the same numbers as ``np.array(values)`` with its writeable flag cleared, at less
-    than half the cost (about 0.3 against 0.7 us, once a step for the IMU)."""
-    return np.frombuffer(_PACK[len(values)](*values))
+def frozen3(x: float, y: float, z: float) -> np.ndarray:
+    """A read-only float64 array (x, y, z): a view of their packed bytes, the same
+    numbers as ``np.array((x, y, z))`` with its writeable flag cleared, at less than
+    half the cost. One function per length, with named arguments: a ``*values``
+    signature cost a fifth of the whole (the argument tuple, its length's lookup)."""
+    return _FROMBUFFER(_PACK3(x, y, z))
+
+
+def frozen6(a: float, b: float, c: float, d: float, e: float, f: float) -> np.ndarray:
+    """``frozen3`` of six values."""
+    return _FROMBUFFER(_PACK6(a, b, c, d, e, f))
 
 
 def normals(rng: np.random.Generator, block: int = 256):

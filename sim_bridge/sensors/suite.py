@@ -45,7 +45,7 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import GpsReading, SensorReadings, frozen_floats, next_due_us
+from .readings import GpsReading, SensorReadings, frozen3, frozen6, next_due_us
 from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
@@ -194,7 +194,7 @@ class SensorSuite:
         fx, fy, fz = state.f_b.tolist()
         wx, wy, wz = state.omega_b.tolist()
         ex, ey, ez, egx, egy, egz = self._imu_err_rows[i]
-        imu = frozen_floats(fx + ex, fy + ey, fz + ez, wx + egx, wy + egy, wz + egz)
+        imu = frozen6(fx + ex, fy + ey, fz + ez, wx + egx, wy + egy, wz + egz)
 
         # Barometer
         nxt = self._next_baro_us
@@ -228,7 +228,7 @@ class SensorSuite:
             hx, hy, hz = self._hard_iron
             s = self.params.mag_noise_sigma_gauss
             # m_b = R(q_nb)^T B_ned (columns of R as rows)
-            self._mag_b = frozen_floats(
+            self._mag_b = frozen3(
                 (w * w + x * x - y * y - z * z) * bn + 2.0 * (x * y + w * z) * be
                 + 2.0 * (x * z - w * y) * bd + hx + s * n[_MAG_W],
                 2.0 * (x * y - w * z) * bn + (w * w - x * x + y * y - z * z) * be
@@ -286,7 +286,7 @@ class SensorSuite:
         alt_fix = alt - ed
         vn, ve, vd = state.v_ned.tolist()
         sh, _, sv = self._gps_vel
-        v_ned = frozen_floats(vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
+        v_ned = frozen3(vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
                               vd + sv * n[_GPS_VEL + 2])
         # satellites: a +-1 step with probability p per epoch, reflected at the bounds
         zs = n[_GPS_SATS]
