@@ -253,6 +253,8 @@ class NavFilterBase:
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal()
+        self._wind_of: list | None = None     # the nom.wind list _wind_ned was made from
+        self._wind_ned: np.ndarray | None = None
         self.aligned = False
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
@@ -1016,6 +1018,11 @@ class NavFilterBase:
         else:
             lat, lon, alt = 0.0, 0.0, -p[2]
         w = nom.wind
+        if w is not self._wind_of:
+            # the wind changes in a fusion only (its list is replaced, never written):
+            # one array per estimate, handed to every output until the next
+            self._wind_of = w
+            self._wind_ned = np.array((w[0], w[1], 0.0))
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
@@ -1024,12 +1031,11 @@ class NavFilterBase:
         # omega_b = gyro - bias estimate (after this step's update)
         bg = nom.bg
         gx, gy, gz = self._gyro
-        # one array for all vectors of the state, handed out as views (one allocation;
-        # fromiter: np.array's shape and type discovery skipped)
-        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0],
-                        float, 16)
+        # one array for the vectors that change every step, handed out as views (one
+        # allocation; fromiter: np.array's shape and type discovery skipped)
+        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2]], float, 13)
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                        a[13:16], self.aligned, self.healthy, self.SOURCE)
+                        self._wind_ned, self.aligned, self.healthy, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:
