@@ -312,6 +312,10 @@ class NavFilterBase:
         self._h_i = 0
         self._c_p = [0.0, 0.0, 0.0]   # corrections applied since start (added back on lookup)
         self._c_v = [0.0, 0.0, 0.0]
+        # P's version: every change of P counts it up (the filters' _set_P, predictions
+        # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
+        self._P_ver = 0
+        self._sane_ver, self._sane_hmax, self._sane = -1, None, False
         self._reset_covariance_model()
 
     # ----------------------------------------------------------- public helpers --
@@ -993,11 +997,17 @@ class NavFilterBase:
     def _update_health(self, t: int) -> None:
         ok = False
         if self.aligned and self._pos_src == "gps":
-            item = self.P.item                 # (4 entries: not the whole diagonal)
-            d = self._health_idx
-            pn, pe = item(d[0]), item(d[1])
-            ok = (math.isfinite(pn + pe + item(d[2]) + item(d[3]))
-                  and pn + pe <= self.params["EK_HPOS_MAX"] ** 2)
+            hmax = self.params["EK_HPOS_MAX"]
+            if self._sane_ver != self._P_ver or self._sane_hmax != hmax:
+                # P's part, read again only when P has changed (the fixed-wing's P
+                # changes every cov_div-th step and in fusions)
+                item = self.P.item             # (4 entries: not the whole diagonal)
+                d = self._health_idx
+                pn, pe = item(d[0]), item(d[1])
+                self._sane = (math.isfinite(pn + pe + item(d[2]) + item(d[3]))
+                              and pn + pe <= hmax ** 2)
+                self._sane_ver, self._sane_hmax = self._P_ver, hmax
+            ok = self._sane
         if ok and self._rej_since:
             tout = self.params["EK_REJ_TOUT"] * 1e6
             for since in self._rej_since.values():
