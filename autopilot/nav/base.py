@@ -253,6 +253,8 @@ class NavFilterBase:
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal()
+        self._wind_of: list | None = None     # the nom.wind list _wind_ned was made from
+        self._wind_ned: np.ndarray | None = None
         self.aligned = False
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
@@ -310,6 +312,10 @@ class NavFilterBase:
         self._h_i = 0
         self._c_p = [0.0, 0.0, 0.0]   # corrections applied since start (added back on lookup)
         self._c_v = [0.0, 0.0, 0.0]
+        # P's version: every change of P counts it up (the filters' _set_P, predictions
+        # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
+        self._P_ver = 0
+        self._sane_ver, self._sane_hmax, self._sane = -1, None, False
         self._reset_covariance_model()
 
     # ----------------------------------------------------------- public helpers --
@@ -991,11 +997,17 @@ class NavFilterBase:
     def _update_health(self, t: int) -> None:
         ok = False
         if self.aligned and self._pos_src == "gps":
-            item = self.P.item                 # (4 entries: not the whole diagonal)
-            d = self._health_idx
-            pn, pe = item(d[0]), item(d[1])
-            ok = (math.isfinite(pn + pe + item(d[2]) + item(d[3]))
-                  and pn + pe <= self.params["EK_HPOS_MAX"] ** 2)
+            hmax = self.params["EK_HPOS_MAX"]
+            if self._sane_ver != self._P_ver or self._sane_hmax != hmax:
+                # P's part, read again only when P has changed (the fixed-wing's P
+                # changes every cov_div-th step and in fusions)
+                item = self.P.item             # (4 entries: not the whole diagonal)
+                d = self._health_idx
+                pn, pe = item(d[0]), item(d[1])
+                self._sane = (math.isfinite(pn + pe + item(d[2]) + item(d[3]))
+                              and pn + pe <= hmax ** 2)
+                self._sane_ver, self._sane_hmax = self._P_ver, hmax
+            ok = self._sane
         if ok and self._rej_since:
             tout = self.params["EK_REJ_TOUT"] * 1e6
             for since in self._rej_since.values():
@@ -1016,6 +1028,11 @@ class NavFilterBase:
         else:
             lat, lon, alt = 0.0, 0.0, -p[2]
         w = nom.wind
+        if w is not self._wind_of:
+            # the wind changes in a fusion only (its list is replaced, never written):
+            # one array per estimate, handed to every output until the next
+            self._wind_of = w
+            self._wind_ned = np.array((w[0], w[1], 0.0))
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
@@ -1024,12 +1041,11 @@ class NavFilterBase:
         # omega_b = gyro - bias estimate (after this step's update)
         bg = nom.bg
         gx, gy, gz = self._gyro
-        # one array for all vectors of the state, handed out as views (one allocation;
-        # fromiter: np.array's shape and type discovery skipped)
-        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2], w[0], w[1], 0.0],
-                        float, 16)
+        # one array for the vectors that change every step, handed out as views (one
+        # allocation; fromiter: np.array's shape and type discovery skipped)
+        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2]], float, 13)
         return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                        a[13:16], self.aligned, self.healthy, self.SOURCE)
+                        self._wind_ned, self.aligned, self.healthy, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:

@@ -218,7 +218,7 @@ class InsGpsEkf(NavFilterBase):
     def _reset_covariance_model(self) -> None:
         self._clear_pending()
         n = self.n
-        self._P = np.eye(n)
+        self._set_P(np.eye(n))
         # the kernels write the next P here; the P they read becomes the next spare
         # (two arrays in turn: no allocation per prediction or update)
         self._P_spare = np.empty((n, n))
@@ -237,14 +237,16 @@ class InsGpsEkf(NavFilterBase):
 
     def _set_P(self, P: np.ndarray) -> None:
         self._P = P
+        self._P_ver += 1
 
     def _next_P(self, out: np.ndarray) -> None:
         """``out`` (the spare, now written) becomes P; the old P the spare."""
         self._P_spare = self._P
         self._P = out
+        self._P_ver += 1
 
     def _init_covariance(self, sd: np.ndarray) -> None:
-        self._P = np.diag(np.asarray(sd, dtype=float) ** 2)
+        self._set_P(np.diag(np.asarray(sd, dtype=float) ** 2))
 
     def _process_noise(self, dt: float) -> None:
         """diag Q and the Gauss-Markov decay for a step of dt."""

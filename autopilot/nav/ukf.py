@@ -337,8 +337,8 @@ class InsGpsUkf(NavFilterBase):
                               sqrt_method=_robust_sqrt)
         ukf = _ErrorStateUKF(n, points, dim_z=1, dt=0.01, hx=None, fx=None)
         ukf.x = np.zeros(n)
-        ukf.P = np.eye(n)
         self._ukf = ukf
+        self._set_P(np.eye(n))
         self._Wm = np.asarray(points.Wm)
         self._Wc = np.asarray(points.Wc)
         self._q_dt = -1.0
@@ -353,10 +353,11 @@ class InsGpsUkf(NavFilterBase):
 
     def _set_P(self, P: np.ndarray) -> None:
         self._ukf.P = P
+        self._P_ver += 1
 
     def _init_covariance(self, sd: np.ndarray) -> None:
         self._ukf.x = np.zeros(self.n)
-        self._ukf.P = np.diag(np.asarray(sd, dtype=float) ** 2)
+        self._set_P(np.diag(np.asarray(sd, dtype=float) ** 2))
 
     def _process_noise(self, dt: float) -> None:
         prm = self.params
@@ -393,6 +394,7 @@ class InsGpsUkf(NavFilterBase):
         # the sampling error of the IMU samples (base.py) where it exceeds Q
         qs = self._take_interval()[2]
         ukf.predict(dt=dt, c=c, q=q, qs=qs, floor=self._floor, ceil=self._ceil, qs_idx=self._qs_idx_a)
+        self._P_ver += 1
         # fold the mean error into the nominal state (the sigma points are centred on it)
         self._inject(ukf.x)
         ukf.x = self._zero
@@ -441,4 +443,5 @@ class InsGpsUkf(NavFilterBase):
                                   self._floor, self._ceil, ukf.P)
         except np.linalg.LinAlgError:
             return
+        self._P_ver += 1
         self._inject(x)
