@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .fence.actions import home_ll
 from .fence.geofence import FENCE_PARAMS, rally_params
 from .geo import LocalFrame, quat_to_euler
@@ -70,7 +72,8 @@ class TruthNav:
         if self.origin is None:
             self.origin = LocalFrame(truth.lat_rad, truth.lon_rad, truth.alt_m)
         p = self.origin.to_ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        return NavState(frame.t_us, p, truth.v_ned, truth.q_nb, truth.omega_b,
+        return NavState(frame.t_us, p, np.array(truth.v_ned), np.array(truth.q_nb),
+                        np.array(truth.omega_b),
                         truth.lat_rad, truth.lon_rad, truth.alt_m, truth.airspeed_mps,
                         source="truth")
 
@@ -247,8 +250,8 @@ class VehicleBase:
         if truth is None:
             return _NAN3, math.nan, math.nan, math.nan, _NAN3, math.nan, math.nan
         p_tru = hf.ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        tr, tp, ty = quat_to_euler(truth.q_nb.tolist())
-        return p_tru, tr, tp, ty, truth.v_ned.tolist(), truth.alt_m, truth.airspeed_mps
+        tr, tp, ty = quat_to_euler(truth.q_nb)
+        return p_tru, tr, tp, ty, truth.v_ned, truth.alt_m, truth.airspeed_mps
 
     def _nav_rows(self, hf: LocalFrame, gps) -> tuple:
         """The filter's nine 1-sigma errors (NaN on truth navigation) and this step's

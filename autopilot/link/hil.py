@@ -97,25 +97,23 @@ _MG_TO_MS2 = 9.80665e-3
 
 
 class TruthSample:
-    """Truth from HIL_STATE_QUATERNION, in SI (for logging and scoring only)."""
+    """Truth from HIL_STATE_QUATERNION, in SI (for logging and scoring only). The
+    vectors are tuples of floats: the flight log reads them element by element, and
+    ``--nav truth`` makes its own arrays of them (autopilot/vehicle_base.py)."""
 
     __slots__ = ("t_us", "q_nb", "omega_b", "lat_rad", "lon_rad", "alt_m", "v_ned",
                  "airspeed_mps", "f_b")
 
     def __init__(self, v):
         self.t_us = v[0]
-        # one array, handed out as views (one allocation)
-        a = np.array((v[1], v[2], v[3], v[4], v[5], v[6], v[7],
-                      v[11] * 0.01, v[12] * 0.01, v[13] * 0.01,
-                      v[16] * _MG_TO_MS2, v[17] * _MG_TO_MS2, v[18] * _MG_TO_MS2))
-        self.q_nb = a[0:4]
-        self.omega_b = a[4:7]
+        self.q_nb = v[1:5]
+        self.omega_b = v[5:8]
         self.lat_rad = v[8] / RAD_TO_E7
         self.lon_rad = v[9] / RAD_TO_E7
         self.alt_m = v[10] * 1e-3
-        self.v_ned = a[7:10]
+        self.v_ned = (v[11] * 0.01, v[12] * 0.01, v[13] * 0.01)
         self.airspeed_mps = v[15] * 0.01
-        self.f_b = a[10:13]
+        self.f_b = (v[16] * _MG_TO_MS2, v[17] * _MG_TO_MS2, v[18] * _MG_TO_MS2)
 
 
 def range_sample_from(v) -> RangeSample:
