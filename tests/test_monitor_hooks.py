@@ -93,3 +93,21 @@ def test_monitor_adapter_attaches_through_the_hook(sim):
         f.update(frame)
     assert "gps_pos" in a.okf_sd and a.last["gps_pos"].shape == (3,)
     assert np.all(a.last["gps_pos"] >= 1.0)
+
+
+def test_the_window_variance_is_numpys_over_the_ring_bit_for_bit():
+    """RAdapter keeps its window as rows of floats: the factors are numpy's sample variance
+    of the last M innovations as an (M, s) ring array of them gives it (its first rows while
+    the window fills), bit for bit."""
+    rng = np.random.default_rng(3)
+    a = RAdapter(R_MULTIPLE, window=10)
+    a.active.add("gps_pos")
+    buf = np.zeros((10, 3))
+    for k in range(37):
+        y = rng.standard_normal(3) * 2.0
+        hph, r = rng.uniform(0.1, 1.0, 3), rng.uniform(0.1, 1.0, 3)
+        s = a.scale("gps_pos", y, hph, r)
+        buf[k % 10] = y
+        n = k + 1
+        e2 = y * y if n < 3 else (buf if n >= 10 else buf[:n]).var(axis=0, ddof=1)
+        assert np.array_equal(s, np.maximum(1.0, (e2 - hph) / r)) and s.max() > 1.0

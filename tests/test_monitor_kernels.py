@@ -99,6 +99,12 @@ def test_the_electric_rotor_kernels_are_the_laws_bit_for_bit():
         # the residual's step on the measured speed w: the model rotor w2 on the command
         w2, l0, l1 = float(rng.uniform(0.0, 1500.0)), float(rng.uniform()), float(rng.uniform())
         got = throttle._prop_advance(w2, l0, l1, thr, w, V, rho, dt, M._rotor, *tabs)
+        # the two in one call (the thrust's rotor at the airspeed, the residual's at the true axial one)
+        vt = V * float(rng.uniform(0.9, 1.1))
+        both = throttle._rotors_advance(w, thr, V, dt, w2, l0, l1, w, vt, rho, M._rotor, *tabs)
+        apart = (throttle._rotor_advance(w, thr, V, dt, M._rotor)
+                 + throttle._prop_advance(w2, l0, l1, thr, w, vt, rho, dt, M._rotor, *tabs))
+        assert all(_same(a, b) for a, b in zip(both, apart)) and len(both) == 5
         a = dt / (0.25 + dt)
         w2 = prop_step(w2, thr, V, rho, dt)
         assert _same(got[0], w2)
@@ -153,8 +159,8 @@ def test_dot_is_the_matmul_of_the_balances_bit_for_bit():
 
 
 def test_the_least_squares_kernel_is_numpys_update_bit_for_bit():
-    """actuator.rls_update against the update as it was written in numpy: g = P phi /
-    (1 + phi^T P phi), c + g (y - phi^T c), P - outer(g, P phi)."""
+    """actuator.rls_update (in place) against the update as it was written in numpy:
+    g = P phi / (1 + phi^T P phi), c + g (y - phi^T c), P - outer(g, P phi)."""
     from autopilot.monitor.actuator import rls_update
     rng = np.random.default_rng(4)
     for _ in range(20000):
@@ -166,5 +172,5 @@ def test_the_least_squares_kernel_is_numpys_update_bit_for_bit():
         g = Pp / (1.0 + ph @ Pp)
         c_ref = c + g * (y - ph @ c)
         P_ref = P - np.outer(g, Pp)
-        c_new, P_new = rls_update(c, P, Pp, float(1.0 + ph.dot(Pp)), float(y - ph.dot(c)))
-        assert np.array_equal(c_new, c_ref) and np.array_equal(P_new, P_ref)
+        rls_update(c, P, Pp, float(1.0 + ph.dot(Pp)), float(y - ph.dot(c)))   # (in place)
+        assert np.array_equal(c, c_ref) and np.array_equal(P, P_ref)

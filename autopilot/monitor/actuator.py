@@ -67,21 +67,17 @@ RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
 
 @kernel
 def rls_update(c, P, Pp, s, e):
-    """One step of recursive least squares, the products with the regressor phi given
-    (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose sums this
-    does not redo) and the prediction error ``e = y - phi^T c``: the gain
-    ``g = Pp / s``, then ``c + g e`` and ``P - g Pp^T`` (new arrays)."""
+    """One step of recursive least squares, in place, the products with the regressor
+    phi given (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose
+    sums this does not redo) and the prediction error ``e = y - phi^T c``: with the gain
+    ``g = Pp / s``, ``c += g e`` and ``P -= g Pp^T`` (``Pp`` not a view of ``P``; in
+    place: new arrays returned cost more than the update, at 10 Hz per balance)."""
     n = c.shape[0]
-    g = np.empty(n)
-    c_new = np.empty(n)
-    P_new = np.empty((n, n))
     for i in range(n):
-        g[i] = Pp[i] / s
-        c_new[i] = c[i] + g[i] * e
-    for i in range(n):
+        g = Pp[i] / s
+        c[i] += g * e
         for j in range(n):
-            P_new[i, j] = P[i, j] - g[i] * Pp[j]
-    return c_new, P_new
+            P[i, j] -= g * Pp[j]
 
 
 class MomentBalance:
@@ -116,7 +112,7 @@ class MomentBalance:
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        preload(rls_update, self.c, self.P, np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
 
     @property
     def ready(self) -> bool:
@@ -170,8 +166,7 @@ class MomentBalance:
                 # (.dot: the BLAS call of @, without the matmul ufunc's set-up, which cost
                 # twice the product at these sizes; the same routine, the same result)
                 Pp = self.P.dot(ph)
-                self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
-                                            float(dd - ph.dot(self.c)))
+                rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)), float(dd - ph.dot(self.c)))
                 self.n += 1
         if self.ready:
             z = float(phi.dot(self.c)) + z_dyn
@@ -323,10 +318,11 @@ class ElevatorIdentifier:
         self._fault_us = t_us - 1_000_000
 
     def step(self, t_us: int, nav, elevator_cmd: float, flying: bool, throttle: float = 0.0,
-             n_meas: float | None = None, q: float | None = None) -> None:
+             n_meas: float | None = None, q: float | None = None) -> bool:
+        """True where ``ratio`` was renewed (its window test ran: 2 Hz)."""
         V = nav.airspeed_mps
         if not flying or V < 10.0:
-            return
+            return False
         d = elevator_cmd * MAX_DEFLECTION_RAD
         if n_meas is not None:
             n = n_meas                # the accelerometer's normal load factor
@@ -340,7 +336,7 @@ class ElevatorIdentifier:
             q = q_b                    # pitch rate
         sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)
         if sample is None:
-            return
+            return False
         z, dcmd = sample
         # ---- stage 1: residual of the no-fault hypothesis, delta_act = delta_cmd -------
         r = z - dcmd
@@ -358,12 +354,13 @@ class ElevatorIdentifier:
                 a = max(1.0 / self._n_var, BAL_PERIOD_US * 1e-6 / RES_TAU_S)
                 self.r_var = ro * ro if self.r_var is None else self.r_var + a * (ro * ro - self.r_var)
         if self._n_var < RES_WARMUP_N:
-            return
+            return False
         self.ready = True
         R = max(self.r_var, RES_FLOOR_RAD * RES_FLOOR_RAD)
         # detection: window chi-square of the normalised residual  (2.12-2.15)
         self._k += 1
-        if self._k >= TEST_DIV:
+        renewed = self._k >= TEST_DIV
+        if renewed:
             self._k = 0
             self.win.push([r / math.sqrt(R)])
             self.ratio = self.win.ratio_det
@@ -385,6 +382,7 @@ class ElevatorIdentifier:
         # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
         self.gamma, self.P_gamma = stage2_update(self.gamma, Pg, H.reshape(1, 2), np.array((e,)),
                                                  np.array((R,)), self.q_gamma * lam)
+        return renewed
 
     def identified(self, stuck_below: float = 0.25, stuck: bool = False) -> dict:
         """The fault parameters as the summary reports them: from the moment balance

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 from autopilot.jit import preload
 
@@ -166,7 +167,10 @@ class LateralAero:
             y = np.array((self.mass_kg * a_y / qS,
                           L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
                           (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-            _beta, da, dr = np.linalg.solve(self._A_simple, y).tolist()
+            # (np.linalg.solve's own LAPACK gufunc, dgesv: the same numbers without the
+            # wrapper's checks and error state, three times the solve's cost; the matrix
+            # is the model's constant, not singular)
+            _beta, da, dr = _umath_linalg.solve1(self._A_simple, y, signature="dd->d").tolist()
             return da, -dr
         # the rate derivatives at the angle of attack the measured normal force gives
         al = 0.0
@@ -211,9 +215,9 @@ class LateralAero:
                          (self.Cl_b, self.Cl_da, self.Cl_dr),
                          (self.Cn_b, self.Cn_da, self.Cn_dr)))
 
-    @property
+    @cached_property
     def _simple(self) -> bool:
-        """The Aerosonde's model: no term beyond the book's."""
+        """The Aerosonde's model: no term beyond the book's (read at every sample: once)."""
         return self.arp_z_m == 0.0 and self.CY_p == 0.0 and self.CY_r == 0.0 and self.Cl_r_a == 0.0
 
     def _about_cg(self, al: float) -> tuple[float, float, float, float, float]:
@@ -348,7 +352,7 @@ class _Axis:
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
         self.ratio = 0.0
         self.residual = 0.0
-        preload(rls_update, self.c, self.P, np.zeros(n_phi), 1.0, 0.0)   # (autopilot.jit.preload)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(n_phi), 1.0, 0.0)   # (autopilot.jit.preload)
 
     def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
         """``learn``: True the offset and the variance are learnt, False the variance only
@@ -374,8 +378,9 @@ class _Axis:
                         self.n_var = 0
                 if learn:
                     Pp = self.P.dot(ph)
-                    self.c, self.P = rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
-                                                float(rw - ph.dot(self.c)))
+                    # the prediction error: with refit the residual the fit leaves, just taken
+                    rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
+                               ro if self.refit else float(rw - ph.dot(self.c)))
                 self.n_var += 1
                 # the running mean of r^2 with the prior as prior_n samples, then
                 # exponentially weighted over RES_TAU_S
@@ -429,11 +434,12 @@ class LateralIdentifier:
                 ax.queue.clear()
         self.suspended = on
 
-    def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> None:
+    def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:
+        """True where the axes' ``ratio`` were renewed (their window tests ran: 2 Hz)."""
         V = nav.airspeed_mps
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
-            return
+            return False
         w0, w1, w2 = nav.omega_b.tolist()
         if self._nav is not None:
             ba = getattr(self._nav, "accel_bias", None)
@@ -451,11 +457,11 @@ class LateralIdentifier:
             self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
-            return
+            return False
         dt = (t_us - self._t_us) * 1e-6
         self._t_us = t_us
         if dt <= 0.0:
-            return
+            return False
         a = dt / (BAL_TAU_S + dt)
         # lp + a (x - lp), each signal (written out: a comprehension over the ten costs
         # twice as much, and this runs at 50 Hz)
@@ -465,10 +471,10 @@ class LateralIdentifier:
                          l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7),
                          l8 + a * (x8 - l8), l9 + a * (x9 - l9)]
         if t_us < self._next_us:
-            return
+            return False
         self._next_us = t_us + BAL_PERIOD_US
         if t_us - self._start_us < RESTART_HOLD_S * 1e6:
-            return            # the low-passes' start (actuator.RESTART_HOLD_S)
+            return False      # the low-passes' start (actuator.RESTART_HOLD_S)
         # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
         pd = (x[0] - lp[0]) / BAL_TAU_S
         rd = (x[2] - lp[2]) / BAL_TAU_S
@@ -486,6 +492,7 @@ class LateralIdentifier:
                  else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
         self.axes["aileron"].step(t_us, phi, za, lp[5], learn, k_test)
         self.axes["rudder"].step(t_us, phi, zr, lp[6], learn, k_test)
+        return k_test
 
     def worst(self) -> tuple[str, float]:
         """The axis whose statistic is the largest, and that ratio."""

@@ -305,6 +305,8 @@ class FaultMonitor:
         self._el_trim_said = 0        # the reaction said: 0 not yet, 1 a trim, 2 none
         self._el_notrim_n = 0
         self._el_k = 0                        # vehicle steps seen by observe_controls
+        self._act_stale = True                # the balances' peaks and decision not yet
+                                              # taken on their latest statistics
         # decision state
         self.enabled = bool(p["FDI_ENABLE"])
         self.detected = False
@@ -457,18 +459,23 @@ class FaultMonitor:
             el.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
         learning = flying and bool(nav_state.healthy)
+        # (each step says whether it renewed its statistics: _act_stale)
         if len(controls) >= 4:
             for ident in self._act_idents:
                 if ident.suspended != sensor_fault:
                     ident.suspend(sensor_fault)
-                ident.step(t_us, nav_state, controls, learning, f)
-        el.step(t_us, nav_state, float(controls[1]), learning,
-                float(controls[3]) if len(controls) > 3 else 0.0,
-                None if f is None else -float(f[2]) / G0)
+                if ident.step(t_us, nav_state, controls, learning, f):
+                    self._act_stale = True
+        if el.step(t_us, nav_state, float(controls[1]), learning,
+                   float(controls[3]) if len(controls) > 3 else 0.0,
+                   None if f is None else -float(f[2]) / G0):
+            self._act_stale = True
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
         t_s = t_us * 1e-6
         if not self.detected:
+            if not self._act_stale:
+                return
             act_thr = self.p["FDI_ACT_THR"]
             peaks = self.peaks
             r_el = el.ratio / act_thr
@@ -482,6 +489,9 @@ class FaultMonitor:
                         peaks[name] = r
                     if r > r_best:
                         best, r_best = name, r
+            # the balances' statistics are renewed at 2 Hz, this runs at 50: with none over
+            # its threshold the peaks and the decision stand until one is renewed
+            self._act_stale = r_best > 1.0 or r_el > 1.0
             # the navigation quiet (asked only when a balance is over its threshold)
             quiet = ((r_best > 1.0 or r_el > 1.0) and all(ch.ratio < 1.0 for ch in self._aiding_list)
                      and max(self.bias_ratio) < 1.0 and max(self.accel_ratio) < 1.0)

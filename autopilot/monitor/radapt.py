@@ -80,14 +80,16 @@ class RAdapter:
         self.okf_sd: dict[str, np.ndarray] = {}
         self.attached = False
         self._watch = frozenset(watch) if self.window > 1 else frozenset()
-        self._ring: dict[str, list] = {}      # source -> [array (M, s), next index, count]
+        # source -> [M rows (lists of s floats), next index, count]: kept at every fusion and
+        # read only while adapting, so its rows are the cheaper lists, made an array then
+        self._ring: dict[str, list] = {}
 
     def _remember(self, source: str, y: np.ndarray) -> None:
         ring = self._ring.get(source)
-        if ring is None or ring[0].shape[1] != len(y):
-            ring = self._ring[source] = [np.zeros((self.window, len(y))), 0, 0]
-        buf, i, n = ring
-        buf[i] = y
+        if ring is None or len(ring[0][0]) != len(y):
+            ring = self._ring[source] = [[[0.0] * len(y)] * self.window, 0, 0]
+        rows, i, n = ring
+        rows[i] = y.tolist()
         ring[1] = (i + 1) % self.window
         ring[2] = n + 1
 
@@ -96,7 +98,7 @@ class RAdapter:
         ring = self._ring.get(source)
         if ring is None or ring[2] < 3:
             return y * y
-        buf = ring[0] if ring[2] >= self.window else ring[0][: ring[2]]
+        buf = np.array(ring[0] if ring[2] >= self.window else ring[0][: ring[2]])
         return buf.var(axis=0, ddof=1)
 
     def scale(self, source: str, y: np.ndarray, hph: np.ndarray, r: np.ndarray):

@@ -657,6 +657,19 @@ def _prop_advance(w_model, l_meas, l_model, throttle, w_meas, V, rho, dt, rotor,
     return w_model, l_meas, l_model
 
 
+@kernel
+def _rotors_advance(w, throttle, V, dt, w_model, l_meas, l_model, w_meas, vt, rho, rotor, cp_j, cp, cp_rpm,
+                    cp_rpm_k):
+    """:func:`_rotor_advance` (the thrust's rotor, airspeed V) and :func:`_prop_advance`
+    (the rotor residual's, true axial airspeed vt) on the same command and step, in one
+    call (ThrottleIdentifier.step: a kernel's call costs more than their work):
+    (w, throttle, w_model, l_meas, l_model)."""
+    w, thr = _rotor_advance(w, throttle, V, dt, rotor)
+    w_model, l_meas, l_model = _prop_advance(w_model, l_meas, l_model, throttle, w_meas, vt, rho, dt, rotor,
+                                             cp_j, cp, cp_rpm, cp_rpm_k)
+    return w, thr, w_model, l_meas, l_model
+
+
 class ThrottleIdentifier:
     """Throttle fault detection and identification (module docstring); the same
     interface as :class:`.lateral.LateralIdentifier` with the one axis "throttle"."""
@@ -700,6 +713,7 @@ class ThrottleIdentifier:
             preload(_rotor_advance, w, u, V, dt, rotor)
             preload(_prop_throttle, w, V, rho, rotor, *cp)
             preload(_prop_advance, w, u, u, u, w, V, rho, dt, rotor, *cp)
+            preload(_rotors_advance, w, u, V, dt, w, u, u, w, V, rho, rotor, *cp)
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
@@ -728,26 +742,22 @@ class ThrottleIdentifier:
         """The rotor's residual is the one tested (a speed measured recently)."""
         return self.axes["throttle"] is self._rotor_axis
 
-    def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> None:
+    def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:
+        """True where ``axes["throttle"].ratio`` may have changed: its window test ran
+        (2 Hz) or the residual tested changed (the rotor's, the thrust balance's)."""
         V = nav.airspeed_mps
         if not flying or V < 10.0 or f_b is None:
             self._lp = None
             self._lpr = None
-            return
+            return False
+        tested = self.axes["throttle"]
         fz, fy = float(f_b[2]), float(f_b[1])
         thr = float(controls[3])
         m = self.model
         if m.engine is not None:
             thr = self._piston(t_us, nav, controls, fz)
         elif m.prop_ixx > 0.0:
-            # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
-            # whose steady speed the rotor has now, as the thrust it asks for
             rotor = m._rotor
-            if self._lp is None:
-                self._w = _rotor_speed(thr, V, rotor)
-                thr = _rotor_throttle(self._w, V, rotor)
-            else:
-                self._w, thr = _rotor_advance(self._w, thr, V, (t_us - self._t_us) * 1e-6, rotor)
             # the rotor's speed measured: the throttle its propeller takes, against the
             # model rotor's (prop_step) on the command, on the true airspeed and the
             # density of the standard atmosphere at the height flown
@@ -764,17 +774,25 @@ class ThrottleIdentifier:
                 alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
                 alpha = -0.3 if -0.3 > alpha else alpha
                 vt = V * math.sqrt(RHO0 / rho) * math.cos(0.3 if 0.3 < alpha else alpha)
-                if self._lpr is None or self._lp is None:
-                    self._wr = self._rpm          # the model rotor starts where it is measured
-                    z0 = m.prop_throttle(self._rpm, vt, rho)
-                    self._lpr = [z0, z0]
-                    self._rpm_start_us = t_us
+            # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
+            # whose steady speed the rotor has now, as the thrust it asks for
+            if self._lp is None:
+                self._w = _rotor_speed(thr, V, rotor)
+                thr = _rotor_throttle(self._w, V, rotor)
+            else:
+                dt = (t_us - self._t_us) * 1e-6
+                if self._lpr is not None and dt > 0.0:
+                    # and the model rotor on the same command (_rotors_advance)
+                    lpr = self._lpr
+                    self._w, thr, self._wr, lpr[0], lpr[1] = _rotors_advance(
+                        self._w, thr, V, dt, self._wr, lpr[0], lpr[1], self._rpm, vt, rho, rotor, *m._cp_tables)
                 else:
-                    dt = (t_us - self._t_us) * 1e-6
-                    if dt > 0.0:
-                        lpr = self._lpr
-                        self._wr, lpr[0], lpr[1] = _prop_advance(self._wr, lpr[0], lpr[1], float(controls[3]),
-                                                                 self._rpm, vt, rho, dt, rotor, *m._cp_tables)
+                    self._w, thr = _rotor_advance(self._w, thr, V, dt, rotor)
+            if rpm_on and (self._lpr is None or self._lp is None):
+                self._wr = self._rpm          # the model rotor starts where it is measured
+                z0 = m.prop_throttle(self._rpm, vt, rho)
+                self._lpr = [z0, z0]
+                self._rpm_start_us = t_us
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
                                      else self._thrust_axis)
@@ -785,6 +803,7 @@ class ThrottleIdentifier:
             if dt > 0.0:
                 self._thr_lag += dt / (self.model.tau_s + dt) * (thr - self._thr_lag)
             thr = self._thr_lag
+        switched = self.axes["throttle"] is not tested
         x = [float(f_b[0]), fz, float(controls[1]) * MAX_DEFLECTION_RAD, V,
              thr, fy, fz * fz, fy * fy]
         if self._lp is None:
@@ -793,11 +812,11 @@ class ThrottleIdentifier:
             self._start_us = t_us
             if self._t0_us is None:
                 self._t0_us = t_us
-            return
+            return switched
         dt = (t_us - self._t_us) * 1e-6
         self._t_us = t_us
         if dt <= 0.0:
-            return
+            return switched
         a = dt / (BAL_TAU_S + dt)
         # lp + a (x - lp), each signal (written out: lateral.LateralIdentifier.step)
         l0, l1, l2, l3, l4, l5, l6, l7 = self._lp
@@ -805,10 +824,10 @@ class ThrottleIdentifier:
         self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
                          l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7)]
         if t_us < self._next_us:
-            return
+            return switched
         self._next_us = t_us + BAL_PERIOD_US
         if t_us - self._start_us < RESTART_HOLD_S * 1e6:
-            return            # the low-passes' start (actuator.RESTART_HOLD_S)
+            return switched   # the low-passes' start (actuator.RESTART_HOLD_S)
         # the forces' variances about their low-passed values, over the same filter
         var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
         var_fy = max(lp[7] - lp[5] * lp[5], 0.0)
@@ -829,6 +848,7 @@ class ThrottleIdentifier:
             # (a piston's: no offset learnt, the variance only; module docstring)
             self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1],
                                   learn and m.engine is None if learn is not None else None, k_test)
+        return k_test or switched
 
     def _piston(self, t_us: int, nav, controls: tuple, fz: float) -> float:
         """A piston engine's step (module docstring): the rotor's residual from the
