@@ -57,7 +57,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 
 from autopilot.jit import preload
 
@@ -167,10 +166,7 @@ class LateralAero:
             y = np.array((self.mass_kg * a_y / qS,
                           L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
                           (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-            # (np.linalg.solve's own LAPACK gufunc, dgesv: the same numbers without the
-            # wrapper's checks and error state, three times the solve's cost; the matrix
-            # is the model's constant, not singular)
-            _beta, da, dr = _umath_linalg.solve1(self._A_simple, y, signature="dd->d").tolist()
+            _beta, da, dr = np.linalg.solve(self._A_simple, y).tolist()
             return da, -dr
         # the rate derivatives at the angle of attack the measured normal force gives
         al = 0.0
