@@ -27,7 +27,9 @@ class LandingScore:
         self._h_td = 0.0
         self.bounce_m = 0.0
 
-    def update(self, state, vehicle, off_launcher: bool) -> None:
+    def update(self, state, vehicle, plant) -> None:
+        """After each plant step: ``state`` the plant's new state, ``plant`` the plant
+        (asked whether it is still on its launcher only at a ground contact)."""
         seq = vehicle.sequencer
         land = seq.landing if seq is not None else None
         if land is None or vehicle.home_frame is None:
@@ -35,7 +37,7 @@ class LandingScore:
         self.flown = True
         h = state.alt_m - self.terrain_alt_m
         if self.touchdown is None:
-            if state.on_ground and off_launcher:
+            if state.on_ground and not plant.on_launcher:
                 p = vehicle.home_frame.to_ned_fast(state.lat_rad, state.lon_rad, state.alt_m)
                 p_ne = (float(p[0]), float(p[1]))
                 self.touchdown = {

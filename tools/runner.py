@@ -228,7 +228,7 @@ class Session:
         controls = self.sim_end.poll_answer(bridge.state.t_us)
         bridge.advance(controls)
         if self.landing_score is not None:
-            self.landing_score.update(bridge.state, vehicle, not self.plant.on_launcher)
+            self.landing_score.update(bridge.state, vehicle, self.plant)
         if gcs is not None:
             gcs.step(bridge.state.t_us)
 
