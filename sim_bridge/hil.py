@@ -131,10 +131,10 @@ class SimulatorHilEnd:
 
     def _truth_message(self, truth) -> bytes:
         """HIL_STATE_QUATERNION of a PlantState."""
-        qw, qx, qy, qz = truth.q_nb.tolist()
-        vn, ve, vd = truth.v_ned.tolist()
-        fx, fy, fz = truth.f_b.tolist()
-        wx, wy, wz = truth.omega_b.tolist()
+        qw, qx, qy, qz = truth.q_nb
+        vn, ve, vd = truth.v_ned
+        fx, fy, fz = truth.f_b
+        wx, wy, wz = truth.omega_b
         tas = truth.airspeed_mps
         ias = tas * math.sqrt(truth.rho_kgm3 / 1.225)
         return self.codec.encode_values(ID_STATE, (

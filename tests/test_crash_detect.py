@@ -189,7 +189,7 @@ def test_the_imu_at_rest_on_the_ground_at_full_throttle_reads_gravity_only(tmp_p
     f, w = [], []
     for _ in range(200):                                          # 2 s
         st = s.plant.step(s.plant._controls, s.bridge.substeps)
-        r = np.array(quat_to_dcm(st.q_nb.tolist())).reshape(3, 3)
+        r = np.array(quat_to_dcm(st.q_nb)).reshape(3, 3)
         g = gravity_m_s2(st.lat_rad, st.alt_m)
         f.append(st.f_b - r.T @ np.array([0.0, 0.0, -g]))
         w.append(st.omega_b)

@@ -318,9 +318,11 @@ def test_steady_wind_is_the_air_velocity_and_trim_is_relative_to_the_air():
     s = plant.state()
     np.testing.assert_allclose(s.wind_ned, [0.0, 5.0, 0.0], atol=1e-9)
     assert s.airspeed_mps == pytest.approx(22.0, abs=1e-3)
+    # the vectors: tuples of floats (base.PlantState)
+    assert all(type(c) is float for c in s.v_ned + s.q_nb + s.omega_b + s.f_b + s.wind_ned)
     # heading east with the wind behind: ground speed = airspeed + wind
     assert s.v_ned[1] == pytest.approx(27.0, abs=0.05)
-    assert np.linalg.norm(s.v_ned - s.wind_ned) == pytest.approx(s.airspeed_mps, abs=1e-3)
+    assert np.linalg.norm(np.subtract(s.v_ned, s.wind_ned)) == pytest.approx(s.airspeed_mps, abs=1e-3)
     plant.set_wind((-3.0, 0.0, 0.0), "none")
     s = plant.step(PlaneControls(), 1)
     np.testing.assert_allclose(s.wind_ned, [-3.0, 0.0, 0.0], atol=1e-9)

@@ -9,24 +9,25 @@ from __future__ import annotations
 
 from typing import Protocol
 
-import numpy as np
-
 from autopilot.frozen import message
 
 
 @message
 class PlantState:
-    """True state of the vehicle at one instant (the plant's output)."""
+    """True state of the vehicle at one instant (the plant's output). The vectors are
+    tuples of floats: their readers (the sensors, the HIL link's truth) take them
+    element by element, and an array with its views cost more to build than they
+    did with it."""
 
     t_us: int               # simulation time [us]
     lat_rad: float          # geodetic latitude [rad]
     lon_rad: float          # longitude, wrapped to (-pi, pi] [rad]
     alt_m: float            # height above the WGS-84 ellipsoid / MSL (same here) [m]
-    v_ned: np.ndarray       # velocity over ground, NED [m/s], shape (3,)
-    q_nb: np.ndarray        # attitude, body->NED, [w, x, y, z]
-    omega_b: np.ndarray     # inertial angular rate in body axes (gyro truth) [rad/s]
-    f_b: np.ndarray         # specific force in body axes (accelerometer truth) [m/s^2]
-    wind_ned: np.ndarray    # air velocity over ground at the vehicle, NED [m/s]
+    v_ned: tuple            # velocity over ground, NED [m/s], 3 floats
+    q_nb: tuple             # attitude, body->NED, [w, x, y, z]
+    omega_b: tuple          # inertial angular rate in body axes (gyro truth) [rad/s]
+    f_b: tuple              # specific force in body axes (accelerometer truth) [m/s^2]
+    wind_ned: tuple         # air velocity over ground at the vehicle, NED [m/s]
     airspeed_mps: float     # true airspeed [m/s]
     alpha_rad: float        # angle of attack [rad]
     beta_rad: float         # sideslip [rad]

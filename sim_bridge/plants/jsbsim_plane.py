@@ -208,23 +208,18 @@ class JSBSimPlane:
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
-        # one array for the vectors, handed out as views (one allocation): v_ned, q_nb
-        # (Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first),
-        # omega_b, f_b, wind_ned
-        a = np.array((vn * FT_M, ve * FT_M, vd * FT_M,
-                      cr * cp * cy + sr * sp * sy,
-                      sr * cp * cy - cr * sp * sy,
-                      cr * sp * cy + sr * cp * sy,
-                      cr * cp * sy - sr * sp * cy,
-                      p, q, r,
-                      ax * FT_M, ay * FT_M, az * FT_M,
-                      wn * FT_M, we * FT_M, wd * FT_M))
+        # q_nb: Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
+        q_nb = (cr * cp * cy + sr * sp * sy,
+                sr * cp * cy - cr * sp * sy,
+                cr * sp * cy + sr * cp * sy,
+                cr * cp * sy - sr * sp * cy)
         lon = math.remainder(lon, _TWO_PI)       # wrapped to (-pi, pi]
         if lon == -math.pi:
             lon = math.pi
         return PlantState(                        # (positional: no keyword dict built)
             self._t_us, lat, lon, alt,
-            a[0:3], a[3:7], a[7:10], a[10:13], a[13:16],   # v_ned q_nb omega_b f_b wind_ned
+            (vn * FT_M, ve * FT_M, vd * FT_M), q_nb, (p, q, r),        # v_ned q_nb omega_b
+            (ax * FT_M, ay * FT_M, az * FT_M), (wn * FT_M, we * FT_M, wd * FT_M),   # f_b wind_ned
             vt * FT_M, alpha, beta,               # airspeed_mps, alpha_rad, beta_rad
             abs(fz_gear) + abs(fx_gear) > 1e-9,   # on_ground
             rho * SLUGFT3_KGM3, pressure * PSF_PA, temperature * RANKINE_K, rpm)

@@ -137,9 +137,9 @@ AIRFRAMES = {"f450": F450}
 _P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
 _NX = 23
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
-# v, q, omega_b, f_b, wind of a state array: five views cut in one call (each view cut
+# v, q, omega_b, f_b, wind of a state as a tuple: five tuples cut in one call (each cut
 # by a subscript of its own costs a slice object and an interpreter step more)
-_ARRAYS = operator.itemgetter(slice(_V, _Q), slice(_Q, _W), slice(_W, _F), slice(_F, _WIND),
+_VECTORS = operator.itemgetter(slice(_V, _Q), slice(_Q, _W), slice(_W, _F), slice(_F, _WIND),
                               slice(_WIND, _T))
 
 
@@ -242,7 +242,7 @@ class QuadrotorPlant:
         wn, we, wd = self._wind
         airspeed, alpha, beta = air_data(x, wn + gn, we + ge, wd + gd)
         lat, lon, alt = self._frame.to_geodetic_fast(x[_P:_V].tolist())
-        v, q, w, f, wind = _ARRAYS(x.copy())     # the state's arrays, views of one copy
+        v, q, w, f, wind = _VECTORS(tuple(x.tolist()))
         return PlantState(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
                           self.on_ground, self.rho)
 

@@ -78,7 +78,7 @@ class Rangefinder:
     def true_range_m(self, state) -> float | None:
         """The noiseless reading at ``state`` (None: out of range, no return)."""
         p = self.params
-        w, x, y, z = state.q_nb.tolist()
+        w, x, y, z = state.q_nb
         c = 1.0 - 2.0 * (x * x + y * y)
         if c < self._cos_max or c <= 0.0:
             return None

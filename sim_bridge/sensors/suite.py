@@ -191,8 +191,8 @@ class SensorSuite:
         t_us = state.t_us
 
         # IMU (truth + this row's white noise and bias)
-        fx, fy, fz = state.f_b.tolist()
-        wx, wy, wz = state.omega_b.tolist()
+        fx, fy, fz = state.f_b
+        wx, wy, wz = state.omega_b
         ex, ey, ez, egx, egy, egz = self._imu_err_rows[i]
         imu = frozen6(fx + ex, fy + ey, fz + ez, wx + egx, wy + egy, wz + egz)
 
@@ -224,7 +224,7 @@ class SensorSuite:
             if self._b_ned is None:
                 self.set_home(state.lat_rad, state.lon_rad, state.alt_m)
             bn, be, bd = self._b_ned
-            w, x, y, z = state.q_nb.tolist()
+            w, x, y, z = state.q_nb
             hx, hy, hz = self._hard_iron
             s = self.params.mag_noise_sigma_gauss
             # m_b = R(q_nb)^T B_ned (columns of R as rows)
@@ -284,7 +284,7 @@ class SensorSuite:
         lon_fix = state.lon_rad + ee / ((prime_vertical_radius(lat) + alt) * math.cos(lat))
         lon_fix = (lon_fix + math.pi) % (2.0 * math.pi) - math.pi
         alt_fix = alt - ed
-        vn, ve, vd = state.v_ned.tolist()
+        vn, ve, vd = state.v_ned
         sh, _, sv = self._gps_vel
         v_ned = frozen3(vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
                               vd + sv * n[_GPS_VEL + 2])
