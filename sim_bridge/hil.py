@@ -90,7 +90,7 @@ class SimulatorHilEnd:
         out = []
         gps = readings.gps
         if gps is not None:
-            vn, ve, vd = gps.v_ned.tolist()
+            vn, ve, vd = gps.v_ned
             vel = math.hypot(vn, ve)
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
             out.append(enc(ID_GPS, (
@@ -119,9 +119,9 @@ class SimulatorHilEnd:
             flags |= BARO_FLAGS
         if readings.airspeed_updated:
             flags |= DIFF_FLAG
-        ax, ay, az = readings.accel_b.tolist()
-        gx, gy, gz = readings.gyro_b.tolist()
-        mx, my, mz = readings.mag_b_gauss.tolist()
+        ax, ay, az = readings.accel_b
+        gx, gy, gz = readings.gyro_b
+        mx, my, mz = readings.mag_b_gauss
         self._sensor_buf = enc(ID_SENSOR, (
             readings.t_us, ax, ay, az, gx, gy, gz, mx, my, mz,
             readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,

@@ -1,5 +1,5 @@
-"""The plane glue's per-step shortcuts (stop 34) against what they replace: the sensors'
-read-only arrays, the log rows' unconverted flags and counts, and the parameters the
+"""The plane glue's per-step shortcuts (stop 34) against what they replace: the log
+rows' unconverted flags and counts, and the parameters the
 controller and the L1 design read once per change instead of every step."""
 import math
 
@@ -12,17 +12,6 @@ from autopilot.messages import NavState
 from autopilot.modes.plane import PlaneMode
 from autopilot.params import ParamStore
 from autopilot.vehicle import PlaneVehicle, plane_param_declarations
-from sim_bridge.sensors.readings import frozen3, frozen6
-
-
-def test_frozen_arrays_are_the_numbers_read_only():
-    v = (0.1, -2.5e-7, 3.0e12, math.pi, -0.0, 1.0 / 3.0)
-    a6, a3 = frozen6(*v), frozen3(*v[:3])
-    assert a6.dtype == np.float64 and a6.shape == (6,) and a3.shape == (3,)
-    assert a6.tobytes() == np.array(v).tobytes() and a3.tobytes() == np.array(v[:3]).tobytes()
-    for a in (a6, a3, a6[:3], a6[3:]):
-        with pytest.raises(ValueError):
-            a[0] = 1.0
 
 
 def test_log_rows_convert_flags_codes_and_counts_exactly():

@@ -34,11 +34,12 @@ QUIET = SensorParams(  # every noise source off: the output is the truth
 
 def state(t_us=0, lat=HOME[0], lon=HOME[1], alt=HOME[2], v_ned=(0.0, 0.0, 0.0),
           q_nb=None, omega_b=(0.0, 0.0, 0.0), f_b=(0.0, 0.0, -G), airspeed=0.0, **kw):
+    vec = lambda x: tuple(float(c) for c in x)        # (base.PlantState: tuples of floats)
     return PlantState(
-        t_us=t_us, lat_rad=lat, lon_rad=lon, alt_m=alt, v_ned=np.array(v_ned, float),
-        q_nb=np.array([1.0, 0.0, 0.0, 0.0]) if q_nb is None else q_nb,
-        omega_b=np.array(omega_b, float), f_b=np.array(f_b, float),
-        wind_ned=np.zeros(3), airspeed_mps=airspeed, alpha_rad=0.0, beta_rad=0.0,
+        t_us=t_us, lat_rad=lat, lon_rad=lon, alt_m=alt, v_ned=vec(v_ned),
+        q_nb=(1.0, 0.0, 0.0, 0.0) if q_nb is None else vec(q_nb),
+        omega_b=vec(omega_b), f_b=vec(f_b),
+        wind_ned=(0.0, 0.0, 0.0), airspeed_mps=airspeed, alpha_rad=0.0, beta_rad=0.0,
         on_ground=False, **kw)
 
 
@@ -58,6 +59,19 @@ def moving_truth(v_ned=(20.0, 5.0, -1.0)):
 
 
 # --- IMU -----------------------------------------------------------------------------
+
+def test_the_readings_vectors_are_tuples_of_floats():
+    # (readings.py: what the HIL link reads element by element)
+    suite = SensorSuite(SensorParams(), np.random.default_rng(3), DT)
+    _, _, make = moving_truth()
+    r = run(suite, 150, make)
+    gps = [x.gps for x in r if x.gps is not None]
+    assert gps and any(x.mag_updated for x in r)
+    for x in r:
+        for v in (x.accel_b, x.gyro_b, x.mag_b_gauss):
+            assert type(v) is tuple and len(v) == 3 and all(type(c) is float for c in v)
+    assert all(type(g.v_ned) is tuple and all(type(c) is float for c in g.v_ned) for g in gps)
+
 
 def test_imu_white_noise_std_matches_noise_density_over_sqrt_dt():
     # GIVEN an IMU with only white noise, at rest, sampled at 100 Hz
@@ -101,8 +115,8 @@ def test_imu_turn_on_bias_is_constant_per_run_with_the_configured_spread():
     for seed in range(300):
         suite = SensorSuite(p, np.random.default_rng(seed), DT)
         r = run(suite, 3)
-        first.append(np.concatenate((r[0].gyro_b, r[0].accel_b - [0.0, 0.0, -G])))
-        drift.append(np.abs(r[2].gyro_b - r[0].gyro_b).max())
+        first.append(np.concatenate((r[0].gyro_b, np.subtract(r[0].accel_b, [0.0, 0.0, -G]))))
+        drift.append(np.abs(np.subtract(r[2].gyro_b, r[0].gyro_b)).max())
     first = np.array(first)
     # THEN the spread over runs is the configured sigma within 10 % (900 draws each)
     assert abs(first[:, :3].std() / 2e-3 - 1.0) < 0.1
@@ -565,8 +579,8 @@ def test_imu_off_reads_zero():
     step_all(suite, inj, 0.0, 0.5)
     inj.inject("accel", "off")
     r = step_all(suite, inj, 0.5, 1.0)
-    assert all(not x.accel_b.any() for x in r)
-    assert all(x.gyro_b.any() for x in r)
+    assert all(x.accel_b == (0.0, 0.0, 0.0) for x in r)
+    assert all(any(x.gyro_b) for x in r)
 
 
 def test_delayed_baro_lags_by_delay():

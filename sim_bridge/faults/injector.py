@@ -66,13 +66,12 @@ _GROUP_FIELDS = {
 }
 _GROUP_FLAG = {"accel": None, "gyro": None, "mag": "mag_updated",
                "baro": "baro_updated", "airspeed": "airspeed_updated"}
-_ZERO3 = np.zeros(3)
-_ZERO3.flags.writeable = False
+_ZERO3 = (0.0, 0.0, 0.0)
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a
+def _frozen(a: np.ndarray) -> tuple:
+    """A vector worked out as an array, as the readings hold it (readings.py)."""
+    return tuple(a.tolist())
 
 
 @dataclass

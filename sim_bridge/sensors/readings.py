@@ -1,32 +1,16 @@
 """The sensor records that leave the sensor models (and the fault injector).
 
-Immutable: the arrays inside are made read-only by the producer.
+Immutable: the vectors inside are tuples of floats (their one reader, the HIL link,
+takes them element by element; an array with its views cost more to build than the
+link did with it).
 """
 from __future__ import annotations
 
 import math
-import struct
 
 import numpy as np
 
 from autopilot.frozen import message
-
-_FROMBUFFER = np.frombuffer
-_PACK3, _PACK6 = struct.Struct("3d").pack, struct.Struct("6d").pack
-
-
-def frozen3(x: float, y: float, z: float) -> np.ndarray:
-    """A read-only float64 array (x, y, z): a view of their packed bytes, the same
-    numbers as ``np.array((x, y, z))`` with its writeable flag cleared, at less than
-    half the cost. One function per length, with named arguments: a ``*values``
-    signature cost a fifth of the whole (the argument tuple, its length's lookup)."""
-    return _FROMBUFFER(_PACK3(x, y, z))
-
-
-def frozen6(a: float, b: float, c: float, d: float, e: float, f: float) -> np.ndarray:
-    """``frozen3`` of six values."""
-    return _FROMBUFFER(_PACK6(a, b, c, d, e, f))
-
 
 def normals(rng: np.random.Generator, block: int = 256):
     """The standard normals of ``rng`` one at a time (``next()``), drawn ``block`` at a
@@ -60,7 +44,7 @@ class GpsReading:
     lat_rad: float          # geodetic latitude [rad]
     lon_rad: float          # longitude [rad]
     alt_m: float            # altitude MSL [m]
-    v_ned: np.ndarray       # velocity over ground, NED [m/s], shape (3,)
+    v_ned: tuple            # velocity over ground, NED [m/s], 3 floats
     eph_m: float            # 1-sigma horizontal position accuracy (radial, sqrt(sN^2+sE^2)) [m]
     epv_m: float            # 1-sigma vertical position accuracy [m]
     fix_type: int           # GPS_FIX_TYPE: 3 = 3D fix
@@ -87,9 +71,9 @@ class SensorReadings:
     """
 
     t_us: int                  # simulation time of the step [us]
-    accel_b: np.ndarray        # specific force, body FRD [m/s^2], shape (3,)
-    gyro_b: np.ndarray         # angular rate, body FRD [rad/s], shape (3,)
-    mag_b_gauss: np.ndarray    # magnetic field, body FRD [gauss], shape (3,)
+    accel_b: tuple             # specific force, body FRD [m/s^2], 3 floats
+    gyro_b: tuple              # angular rate, body FRD [rad/s], 3 floats
+    mag_b_gauss: tuple         # magnetic field, body FRD [gauss], 3 floats
     pressure_pa: float         # static pressure [Pa]
     pressure_alt_m: float      # ISA pressure altitude of pressure_pa [m]
     temperature_k: float       # barometer temperature [K]

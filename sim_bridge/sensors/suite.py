@@ -45,7 +45,7 @@ from autopilot.geo import meridian_radius, prime_vertical_radius
 from . import isa
 from autopilot.geo.magfield import igrf_field_ned_gauss
 from .params import SensorParams
-from .readings import GpsReading, SensorReadings, frozen3, frozen6, next_due_us
+from .readings import GpsReading, SensorReadings, next_due_us
 from .readings import period_us as _period_us
 
 # Column layout of one step's row of standard normals.
@@ -122,8 +122,7 @@ class SensorSuite:
         # Mag
         self._b_ned: tuple[float, float, float] | None = None
         self._hard_iron = tuple(float(v) for v in p.mag_hard_iron_gauss)
-        self._mag_b = np.zeros(3)
-        self._mag_b.flags.writeable = False
+        self._mag_b = (0.0, 0.0, 0.0)
 
         # Airspeed
         self._dp_pa = 0.0
@@ -194,7 +193,8 @@ class SensorSuite:
         fx, fy, fz = state.f_b
         wx, wy, wz = state.omega_b
         ex, ey, ez, egx, egy, egz = self._imu_err_rows[i]
-        imu = frozen6(fx + ex, fy + ey, fz + ez, wx + egx, wy + egy, wz + egz)
+        accel = (fx + ex, fy + ey, fz + ez)
+        gyro = (wx + egx, wy + egy, wz + egz)
 
         # Barometer
         nxt = self._next_baro_us
@@ -228,7 +228,7 @@ class SensorSuite:
             hx, hy, hz = self._hard_iron
             s = self.params.mag_noise_sigma_gauss
             # m_b = R(q_nb)^T B_ned (columns of R as rows)
-            self._mag_b = frozen3(
+            self._mag_b = (
                 (w * w + x * x - y * y - z * z) * bn + 2.0 * (x * y + w * z) * be
                 + 2.0 * (x * z - w * y) * bd + hx + s * n[_MAG_W],
                 2.0 * (x * y - w * z) * bn + (w * w - x * x + y * y - z * z) * be
@@ -264,7 +264,7 @@ class SensorSuite:
                              self.params.gps_fix_type, sats, t_valid)
 
         return SensorReadings(
-            t_us, imu[:3], imu[3:], self._mag_b,
+            t_us, accel, gyro, self._mag_b,
             self._pressure_pa, self._pressure_alt_m, self._temperature_k,
             self._dp_pa, self._airspeed_mps,
             baro_updated, mag_updated, arsp_updated, gps)
@@ -286,8 +286,7 @@ class SensorSuite:
         alt_fix = alt - ed
         vn, ve, vd = state.v_ned
         sh, _, sv = self._gps_vel
-        v_ned = frozen3(vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1],
-                              vd + sv * n[_GPS_VEL + 2])
+        v_ned = (vn + sh * n[_GPS_VEL], ve + sh * n[_GPS_VEL + 1], vd + sv * n[_GPS_VEL + 2])
         # satellites: a +-1 step with probability p per epoch, reflected at the bounds
         zs = n[_GPS_SATS]
         if abs(zs) > self._sats_z:
