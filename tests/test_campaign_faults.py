@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 CAMPAIGN = """[campaign]
 name = "faults"
-trials = 6
+trials = 8
 seed = 11
 duration_s = 15
 keep_worst = 0
@@ -37,6 +37,10 @@ wind_from_deg = { uniform = [0.0, 360.0] }
 [criteria]
 navigation = "nav_pos_h_err_max_m < 2.0"
 """
+
+
+N = 8      # the campaign's trials: after kill -9 at most 4 are stored, so a Ctrl-C after
+           # one more leaves at least 3 to fly
 
 
 def rows_of(folder: Path) -> list[dict]:
@@ -130,9 +134,9 @@ def reference(tmp_path_factory, client):
     path = d / "faults.toml"
     path.write_text(CAMPAIGN)
     res = run_campaign(load_campaign(path), d / "out", progress=False, client=client)
-    assert res["ran"] == 6
+    assert res["ran"] == N
     rows = rows_of(d / "out")
-    assert [r["error"] for r in rows] == [""] * 6
+    assert [r["error"] for r in rows] == [""] * N
     return path, figures(rows)
 
 
@@ -152,11 +156,11 @@ def test_driver_killed_with_kill_9_or_ctrl_c_then_rerun_completes_each_trial_onc
         drv.wait(timeout=10)
     finally:
         _end(drv)
-    assert 2 <= done < 6
+    assert 2 <= done < N - 2
     stored_after_kill = rows_of(out)
     assert 2 <= len(stored_after_kill) < 5
     # WHEN the same command (on its own local cluster) is interrupted by Ctrl-C, which
-    # reaches its worker processes too
+    # reaches its worker processes too (they leave it to the driver)
     local = cmd[:-2] + ["--workers", "2"]
     # (in a session of its own, with SIGINT's default action: a shell starts background
     # jobs with SIGINT ignored, and the test may be one)
@@ -175,27 +179,91 @@ def test_driver_killed_with_kill_9_or_ctrl_c_then_rerun_completes_each_trial_onc
     finally:
         _end(drv, group=True)
     assert "interrupted;" in rest and "the same command resumes" in rest
+    assert "Traceback" not in rest and "KeyboardInterrupt" not in rest, rest
     stored_after_ctrl_c = rows_of(out)
-    assert len(stored_after_kill) < len(stored_after_ctrl_c) < 6
+    assert len(stored_after_kill) < len(stored_after_ctrl_c) < N
     # no flight cut short by the interruption was stored
     assert all(r["error"] == "" and abs(r["sim_s"] - 15.0) < 0.02 for r in stored_after_ctrl_c)
     # THEN the same command again runs the missing trials only and completes
     r = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     rows = rows_of(out)
-    assert sorted(x["trial"] for x in rows) == list(range(6))           # each stored once
+    assert sorted(x["trial"] for x in rows) == list(range(N))           # each stored once
     from tools.campaign.store import Store
     s = Store(out, read_only=True)
     try:
         last_run = s.runs()[-1]
     finally:
         s.close()
-    assert last_run["trials"] == 6 - len(stored_after_ctrl_c)
+    assert last_run["trials"] == N - len(stored_after_ctrl_c)
     # the rows stored before are untouched, and all figures are the uninterrupted
     # campaign's
     assert figures(rows) == ref
     before = {x["trial"]: x["finished"] for x in stored_after_ctrl_c}
     assert {x["trial"]: x["finished"] for x in rows if x["trial"] in before} == before
+
+
+def test_ctrl_c_after_the_last_trial_ends_the_driver_with_130_and_every_trial_stored(tmp_path):
+    # GIVEN a campaign of two short trials on the driver's own local cluster
+    path = tmp_path / "two.toml"
+    path.write_text(CAMPAIGN.replace("trials = 8", "trials = 2").replace("duration_s = 15", "duration_s = 5"))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "tools.sitl", "campaign", "run", str(path), "--out", str(out),
+           "--workers", "2"]
+    drv = subprocess.Popen(cmd, cwd=REPO, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                           start_new_session=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    err = _Lines(drv)
+    try:
+        # WHEN Ctrl-C comes as the last trial is stored: the driver is storing its run's
+        # record or closing its cluster
+        err.until(lambda line: " done " in line and _done(line) == 2, 120, "both trials stored")
+        os.killpg(drv.pid, signal.SIGINT)
+        # THEN it ends with status 130 (a Ctrl-C in the closing was left to Python's exit
+        # handlers, which waited for the cluster without a bound) and no traceback
+        assert drv.wait(timeout=60) == 130, err.text()
+        err.until(lambda line: "interrupted;" in line, 10, "the interruption's message")
+        text = err.text()
+    finally:
+        _end(drv, group=True)
+    assert "2 trials stored" in text and "Traceback" not in text, text
+    rows = rows_of(out)
+    assert sorted(r["trial"] for r in rows) == [0, 1] and [r["error"] for r in rows] == ["", ""]
+
+
+def test_a_ctrl_c_is_held_while_the_driver_stores_and_a_second_one_while_closing_ends_it():
+    from tools.campaign.execute import DriverInterrupt
+    # GIVEN the driver's Ctrl-C handling, not waiting for a result
+    with DriverInterrupt() as ctrl_c:
+        # WHEN SIGINT comes: nothing is raised there (a store's insert goes on) ...
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        assert ctrl_c.requested
+        # ... and the next wait raises it
+        with pytest.raises(KeyboardInterrupt):
+            ctrl_c.raise_if_requested()
+        # WHEN it waits: SIGINT raises at once
+        ctrl_c.requested = False
+        ctrl_c.waiting = True
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        assert ctrl_c.requested and not ctrl_c.waiting
+    # THEN Python's handler is back
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # AND a second Ctrl-C while closing ends the process with status 130
+    code = ("import os, signal, time\n"
+            "from tools.campaign.execute import DriverInterrupt\n"
+            "with DriverInterrupt() as c:\n"
+            "    c.closing = True\n"
+            "    os.kill(os.getpid(), signal.SIGINT); time.sleep(0.05)\n"
+            "    print('noted', c.requested, flush=True)\n"
+            "    os.kill(os.getpid(), signal.SIGINT); time.sleep(5)\n"
+            "print('not ended')\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60,
+                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert (r.returncode, r.stdout) == (130, "noted True\n"), r
+    assert "interrupted again" in r.stderr
 
 
 def test_worker_killed_mid_trial_campaign_completes(reference, client, tmp_path):
@@ -229,10 +297,10 @@ def test_worker_killed_mid_trial_campaign_completes(reference, client, tmp_path)
     # THEN every trial is stored once, none of them as an error, with the figures of
     # the undisturbed campaign; none was stored by the killed worker after its death
     rows = rows_of(tmp_path / "out")
-    assert sorted(r["trial"] for r in rows) == list(range(6))
-    assert [r["error"] for r in rows] == [""] * 6
+    assert sorted(r["trial"] for r in rows) == list(range(N))
+    assert [r["error"] for r in rows] == [""] * N
     assert figures(rows) == ref
-    assert result["res"]["ran"] == 6
+    assert result["res"]["ran"] == N
 
 
 def _free_port() -> int:

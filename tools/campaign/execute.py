@@ -24,6 +24,7 @@ import sys
 import tempfile
 import time
 import traceback
+import warnings
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -48,9 +49,55 @@ class TrialTimeout(RuntimeError):
 
 
 class TrialInterrupted(RuntimeError):
-    """The worker was interrupted (Ctrl-C reaches the worker processes of a local
-    cluster too): the flight is incomplete, so the trial is not stored and a rerun flies
-    it again."""
+    """The flight stopped on Ctrl-C before its end (``Session.run`` stops quietly): it
+    is incomplete, so the trial is not stored and a rerun flies it again."""
+
+
+class DriverInterrupt:
+    """Ctrl-C for the campaign driver (``with DriverInterrupt() as ctrl_c``).
+
+    SIGINT raises ``KeyboardInterrupt`` only while the driver waits for a trial's result
+    (``waiting``). Anywhere else it is held and raised at the next wait
+    (``raise_if_requested``): a ``KeyboardInterrupt`` landing in a store's insert comes out
+    of DuckDB as ``RuntimeError: Query interrupted``, an error with a traceback, and one
+    landing in the closing of the local cluster left it to Python's exit handlers, which
+    wait for the cluster without a bound. Once the driver is closing (``closing``), a
+    Ctrl-C is only noted, and a second one ends the process at once (its worker
+    processes end with it). Installed only in the main thread and where SIGINT has
+    Python's default handler (a shell's background job keeps ignoring it)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self.waiting = False
+        self.closing = False
+        self._previous = None
+
+    def _handler(self, signum, frame) -> None:
+        if self.closing and self.requested:
+            os.write(2, b"sitl campaign: interrupted again; stopping now\n")
+            os._exit(130)
+        self.requested = True
+        if self.waiting:
+            self.waiting = False
+            raise KeyboardInterrupt
+
+    def raise_if_requested(self) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+
+    def __enter__(self) -> "DriverInterrupt":
+        import signal
+        import threading
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            import signal
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 # --- the package's version -------------------------------------------------------------
@@ -344,31 +391,33 @@ def run_campaign(c: Campaign, out: Path | None = None, workers: int | None = Non
     file only, if given); returns the figures of this run."""
     folder = Path(out) if out is not None else default_out(c)
     n_total = c.trials if trials is None else min(trials, c.trials)
-    store = Store(folder)
-    try:
-        store.bind(c.text, c.path, c.trials)
-        done = store.stored()
-        todo = [i for i in range(n_total) if i not in done]
-        already = sum(1 for i in done if i < n_total)
-        if not todo:
-            print(f"sitl campaign: {folder}: all {n_total} trials stored", file=stream)
-            return {"ran": 0, "stored": store.count(), "folder": folder}
-        keeper = _Keeper(key_figures(c), c.keep_worst, folder, [])
-        for r in store.rows():
-            flat = {}
-            if r.get("summary_json"):
-                from .criteria import flatten
-                import json
-                flat = flatten(json.loads(r["summary_json"]))
-            keeper.add({"trial": r["trial"], "error": r["error"], "passed": r["passed"], "flat": flat})
-        return _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler, progress,
-                      client, stream)
-    finally:
-        store.close()
+    with DriverInterrupt() as ctrl_c:
+        store = Store(folder)
+        try:
+            store.bind(c.text, c.path, c.trials)
+            done = store.stored()
+            todo = [i for i in range(n_total) if i not in done]
+            already = sum(1 for i in done if i < n_total)
+            if not todo:
+                print(f"sitl campaign: {folder}: all {n_total} trials stored", file=stream)
+                return {"ran": 0, "stored": store.count(), "folder": folder}
+            keeper = _Keeper(key_figures(c), c.keep_worst, folder, [])
+            for r in store.rows():
+                flat = {}
+                if r.get("summary_json"):
+                    from .criteria import flatten
+                    import json
+                    flat = flatten(json.loads(r["summary_json"]))
+                keeper.add({"trial": r["trial"], "error": r["error"], "passed": r["passed"], "flat": flat})
+            return _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler, progress,
+                          client, stream, ctrl_c)
+        finally:
+            ctrl_c.closing = True
+            store.close()
 
 
 def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler, progress,
-           client, stream) -> dict:
+           client, stream, ctrl_c: DriverInterrupt) -> dict:
     from distributed import Client, LocalCluster, as_completed
     from distributed.client import FutureCancelledError
     try:
@@ -387,8 +436,16 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 raise CampaignRunError(f"--scheduler {scheduler}: cannot connect ({e})") from None
         else:
             n = workers or os.cpu_count() or 1
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+            # The workers leave Ctrl-C to the driver (worker_setup.py). Dask's own logs are
+            # kept to its critical ones: a trial's error is stored with its row, and a worker
+            # closed while it flies a trial logs a failed heartbeat as an error
+            # (without a dashboard, Dask's scheduler still serves HTTP, on 8787 if free, and
+            # warned that the port was taken when another cluster had it)
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message="Port .* is already in use")
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=logging.CRITICAL,
+                                       preload=["tools.campaign.worker_setup"])
             client = Client(cluster)
     try:
         info = client.run(worker_info)
@@ -449,11 +506,28 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 if bar is not None:
                     bar.add(row)
 
+        def interrupted() -> None:
+            if bar is not None:
+                bar.end()
+            left = n_total - sum(1 for i in store.stored() if i < n_total)
+            print(f"sitl campaign: interrupted; {store.count()} trials stored in {folder}"
+                  + (f"; the same command resumes the {left} missing" if left else ""), file=stream)
+
         try:
+            ctrl_c.raise_if_requested()           # a Ctrl-C while the cluster started
             for _ in range(window):
                 if not submit_next():
                     break
-            for f in ac:
+            results = iter(ac)
+            while True:
+                ctrl_c.raise_if_requested()       # one held while a row was stored
+                ctrl_c.waiting = True
+                try:
+                    f = next(results)
+                except StopIteration:
+                    break
+                finally:
+                    ctrl_c.waiting = False
                 t = futures.pop(f)
                 try:
                     row = f.result()
@@ -469,12 +543,10 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 _store(row)
                 submit_next()
         except KeyboardInterrupt:
+            ctrl_c.requested = ctrl_c.closing = True
             for f in list(futures):
                 f.cancel()
-            if bar is not None:
-                bar.end()
-            print(f"sitl campaign: interrupted; {store.count()} trials stored in {folder}; the same "
-                  f"command resumes", file=stream)
+            interrupted()
             raise
         wall = time.perf_counter() - t0
         if bar is not None:
@@ -484,12 +556,12 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                       trial_cpu_s=trial_cpu,
                       sim_s=sim_s, scheduler=scheduler or "LocalCluster", version=version)
         overhead = 1.0 - trial_wall / (wall * threads) if wall > 0 and threads else None
-        return {"ran": ran, "stored": store.count(), "folder": folder, "wall_s": wall,
-                "setup_s": t_setup, "trial_wall_s": trial_wall, "trial_cpu_s": trial_cpu, "sim_s": sim_s,
-                "threads": threads,
-                "workers": len(info), "sim_per_wall": sim_s / wall if wall > 0 else None,
-                "overhead": overhead}
+        result = {"ran": ran, "stored": store.count(), "folder": folder, "wall_s": wall,
+                  "setup_s": t_setup, "trial_wall_s": trial_wall, "trial_cpu_s": trial_cpu,
+                  "sim_s": sim_s, "threads": threads, "workers": len(info),
+                  "sim_per_wall": sim_s / wall if wall > 0 else None, "overhead": overhead}
     finally:
+        ctrl_c.closing = True     # from here a Ctrl-C is noted; a second one ends the process
         # bounded: after a Ctrl-C the workers may already be gone, and the driver must
         # still end (the same command resumes what is missing)
         try:
@@ -499,3 +571,7 @@ def _drive(c, folder, store, todo, n_total, already, keeper, workers, scheduler,
                 cluster.close(timeout=30)
         except Exception as e:                # noqa: BLE001 - closing only; the trials are stored
             print(f"sitl campaign: closing the cluster: {type(e).__name__}: {e}", file=stream)
+    if ctrl_c.requested:          # a Ctrl-C after the last trial, while closing
+        print(f"sitl campaign: interrupted; {store.count()} trials stored in {folder}", file=stream)
+        raise KeyboardInterrupt
+    return result
