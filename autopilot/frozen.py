@@ -7,13 +7,15 @@ about 0.2 us a field; the loop builds a dozen such records per step (PlantState,
 SensorReadings, SensorFrame, NavState, ...). A plain slot store (``self.x = x``) is
 several times cheaper, but the interpreter's fast path for it needs the class's own
 ``__setattr__``, which a frozen class replaces by one that raises. So each record class
-has a mutable twin: a sibling class with the same slots and nothing else. ``__init__``
-turns the new object into the twin (one ``object.__setattr__`` of ``__class__``), stores
-the fields with plain slot stores and turns it back: the same object, the same
-immutability (``__setattr__`` still raises ``FrozenInstanceError``), the same signature
-(names, order, defaults, default factories); for a record of 8 fields, about a third
-cheaper than through the slots' descriptors, and the more fields the more. A record
-class cannot be subclassed (the twin's layout is its own).
+has a mutable twin: a sibling class with the same slots and nothing else. The record's
+``__new__`` (a factory: the class has no ``__init__`` of its own) makes a twin, stores
+the fields with plain slot stores and turns it into the record (one ``__class__``
+assignment): the same immutability (``__setattr__`` still raises
+``FrozenInstanceError``), the same signature (names, order, defaults, default
+factories); for a record of 8 fields, about 40 % cheaper than through the slots'
+descriptors, and a fifth cheaper than an ``__init__`` that turns the new record into its
+twin and back. ``copy`` and ``pickle`` rebuild a record through its constructor
+(``__reduce__``). A record class cannot be subclassed (the twin's layout is its own).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from dataclasses import MISSING
 
 
 def message(cls=None, /):
-    """Class decorator: ``@dataclass(frozen=True, slots=True)`` with the fast ``__init__``
+    """Class decorator: ``@dataclass(frozen=True, slots=True)`` with the fast constructor
     (module docstring). Records with ``__post_init__``, ``InitVar`` or ``init=False``
     fields are refused (the fast constructor does not run them)."""
     if cls is None:
@@ -33,7 +35,7 @@ def message(cls=None, /):
     fs = dataclasses.fields(cls)
     if any(not f.init for f in fs):
         raise TypeError(f"{cls.__name__}: @message needs every field in __init__")
-    ns: dict = {"_FACTORY": object(), "_CLS": cls, "_as_object": object.__setattr__,
+    ns: dict = {"_FACTORY": object(), "_CLS": cls,
                 "_MUT": type(f"{cls.__name__}_mutable", cls.__bases__,
                              {"__slots__": cls.__slots__, "__module__": cls.__module__})}
     params, factories, stores = [], [], []
@@ -50,16 +52,20 @@ def message(cls=None, /):
             params.append(name)
         stores.append(f"    self.{name} = {name}\n")
     # the default factories run first: nothing can raise while the object is the twin
-    src = (f"def __init__(self, {', '.join(params)}):\n"
+    src = (f"def __new__(cls, {', '.join(params)}):\n"
            + "".join(factories)
-           + "    _as_object(self, '__class__', _MUT)\n"
+           + "    self = _MUT()\n"
            + "".join(stores)
-           + "    self.__class__ = _CLS\n")
+           + "    self.__class__ = _CLS\n"
+           + "    return self\n"
+           + "def __reduce__(self):\n"
+           + f"    return _CLS, ({''.join(f'self.{f.name}, ' for f in fs)})\n")
     exec(src, ns)
-    init = ns["__init__"]
-    init.__qualname__ = f"{cls.__qualname__}.__init__"
-    init.__doc__ = cls.__init__.__doc__
-    cls.__init__ = init
+    for name in ("__new__", "__reduce__"):
+        ns[name].__qualname__ = f"{cls.__qualname__}.{name}"
+    cls.__new__ = staticmethod(ns["__new__"])
+    cls.__reduce__ = ns["__reduce__"]
+    del cls.__init__        # object's, which lets the arguments through to __new__
     cls.__init_subclass__ = classmethod(_no_subclass)
     return cls
 
