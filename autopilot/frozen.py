@@ -12,9 +12,8 @@ has a mutable twin: a sibling class with the same slots and nothing else. The re
 the fields with plain slot stores and turns it into the record (one ``__class__``
 assignment): the same immutability (``__setattr__`` still raises
 ``FrozenInstanceError``), the same signature (names, order, defaults, default
-factories); for a record of 8 fields, about 40 % cheaper than through the slots'
-descriptors, and a fifth cheaper than an ``__init__`` that turns the new record into its
-twin and back. ``copy`` and ``pickle`` rebuild a record through its constructor
+factories); for a record of 8 fields, 3.9 k instructions against the 5.0 k of an
+``__init__`` that turned the new record into its twin and back. ``copy`` and ``pickle`` rebuild a record through its constructor
 (``__reduce__``). A record class cannot be subclassed (the twin's layout is its own).
 
 ``Record.make(...)`` is the same constructor (the same generated body) as a plain
