@@ -118,7 +118,7 @@ class TruthSample:
 
 def range_sample_from(v) -> RangeSample:
     """DISTANCE_SENSOR values -> RangeSample in SI (time from ``time_boot_ms``)."""
-    return RangeSample(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
+    return RangeSample.make(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
 
 
 def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
@@ -127,22 +127,22 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
     values) -> SensorFrame in SI."""
     t_us = v[0]
     flags = v[14]
-    a = np.array(v[1:10])    # accel, gyro, mag: one array, handed out as views
-    imu = ImuSample(t_us, a[0:3], a[3:6])
-    mag = MagSample(t_us, a[6:9]) if flags & MAG_FLAGS else None
-    baro = BaroSample(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
+    a = np.fromiter(v[1:10], float, 9)    # accel, gyro, mag: one array, handed out as views
+    imu = ImuSample.make(t_us, a[0:3], a[3:6])
+    mag = MagSample.make(t_us, a[6:9]) if flags & MAG_FLAGS else None
+    baro = BaroSample.make(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
         dp_pa = v[11] * 100.0
         q = 2.0 * dp_pa / RHO0
-        air = AirspeedSample(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
-    rpm = None if esc is None else RpmSample(t_us, float(esc[ESC_RPM]))
-    return SensorFrame(t_us, imu, mag, baro, air, gps, rng, rpm)
+        air = AirspeedSample.make(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
+    rpm = None if esc is None else RpmSample.make(t_us, float(esc[ESC_RPM]))
+    return SensorFrame.make(t_us, imu, mag, baro, air, gps, rng, rpm)
 
 
 def gps_fix_from(v) -> GpsFix:
     """HIL_GPS values (wire order) -> GpsFix in SI."""
-    return GpsFix(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
+    return GpsFix.make(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
                   np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
                   v[11], v[12])
 
@@ -231,11 +231,11 @@ class AutopilotHilEnd:
         c = outputs.controls
         mode = _ARMED if outputs.armed else 0
         # in wire order: time_usec, flags, controls[16], mode
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_CONTROLS[len(c):], mode),
+        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_PADS[len(c)], mode),
                                        wire=True)
         self._last_answer = buf
         self.transport.send(buf)
 
 
-_ZERO_CONTROLS = (0.0,) * 16
+_ZERO_PADS = tuple((0.0,) * (16 - k) for k in range(17))   # the 16 - k zero controls after k given
 _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
