@@ -23,6 +23,7 @@ import math
 import time
 from math import ceil, floor
 
+from autopilot.jit import kernel
 from autopilot.link.codec import MAV, Codec
 from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_DISTANCE,
                                 ID_ESC, ID_GPS, ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
@@ -35,23 +36,45 @@ MG_PER_MS2 = 1000.0 / G0
 _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
 
 
-def _clamp_int(v: float, lo: int, hi: int) -> int:
-    """Round half away from zero and saturate to the field's range (floor / ceil: the
-    truncation of v + 0.5 / v - 0.5 on their sides of zero, a cheaper call than int)."""
-    i = floor(v + 0.5) if v >= 0.0 else ceil(v - 0.5)
-    return lo if i < lo else hi if i > hi else i
+@kernel
+def round_sat(v, lo, hi):
+    """``v`` rounded half away from zero and saturated to the field's range [lo, hi]
+    (integers, given as floats). Saturated first: for integer bounds the same result,
+    and no float beyond the field's integers (an infinity) is ever converted."""
+    v = lo if v < lo else (hi if v > hi else v)
+    return floor(v + 0.5) if v >= 0.0 else ceil(v - 0.5)
+
+
+# one value at a time, interpreted: a kernel call costs more than the work
+_round_sat = round_sat.py_func
+
+
+@kernel
+def truth_ints(lat_rad, lon_rad, alt_m, vn, ve, vd, airspeed_mps, rho_kgm3, fx, fy, fz):
+    """HIL_STATE_QUATERNION's integer fields of a PlantState, in the message's order:
+    lat, lon [degE7], alt [mm], vx, vy, vz [cm/s], ind_airspeed (from the true airspeed
+    and the density), true_airspeed [cm/s], xacc, yacc, zacc [mG]."""
+    ias = airspeed_mps * math.sqrt(rho_kgm3 / 1.225)
+    return (round_sat(lat_rad * RAD_TO_E7, -900000000.0, 900000000.0),
+            round_sat(lon_rad * RAD_TO_E7, -1800000000.0, 1800000000.0),
+            round_sat(alt_m * 1000.0, -2147483648.0, 2147483647.0),
+            round_sat(vn * 100.0, -32767.0, 32767.0), round_sat(ve * 100.0, -32767.0, 32767.0),
+            round_sat(vd * 100.0, -32767.0, 32767.0),
+            round_sat(ias * 100.0, 0.0, 65535.0), round_sat(airspeed_mps * 100.0, 0.0, 65535.0),
+            round_sat(fx * MG_PER_MS2, -32767.0, 32767.0), round_sat(fy * MG_PER_MS2, -32767.0, 32767.0),
+            round_sat(fz * MG_PER_MS2, -32767.0, 32767.0))
 
 
 def distance_sensor_values(reading) -> tuple:
     """DISTANCE_SENSOR's flat values (autopilot/link/hil.py: the field order and the
     out-of-range convention) of a ``sim_bridge.sensors.rangefinder.RangeReading``."""
-    lo = _clamp_int(reading.min_m * 100.0, 0, 65534)
-    hi = _clamp_int(reading.max_m * 100.0, 0, 65534)
+    lo = _round_sat(reading.min_m * 100.0, 0.0, 65534.0)
+    hi = _round_sat(reading.max_m * 100.0, 0.0, 65534.0)
     if reading.distance_m is None:
         cur, quality = hi + 1, 1                    # no return: over range, invalid signal
     else:
-        cur, quality = _clamp_int(reading.distance_m * 100.0, 0, hi), 100
-    var = _clamp_int((reading.noise_sigma_m * 100.0) ** 2, 0, 254)
+        cur, quality = _round_sat(reading.distance_m * 100.0, 0.0, hi), 100
+    var = _round_sat((reading.noise_sigma_m * 100.0) ** 2, 0.0, 254.0)
     return (reading.t_us // 1000, lo, hi, cur, MAV.MAV_DISTANCE_SENSOR_LASER, 0,
             MAV.MAV_SENSOR_ROTATION_PITCH_270, var, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, quality)
 
@@ -60,7 +83,7 @@ def esc_telemetry_values(reading, count: int) -> tuple:
     """ESC_TELEMETRY_1_TO_4's flat values (autopilot/link/hil.py: the field order) of a
     ``sim_bridge.sensors.rpm.RpmReading``: ESC 1's rpm (rounded, saturated to the
     field's uint16) and its rolling frame ``count``; the rest 0 (not measured)."""
-    return ((0,) * 16 + (_clamp_int(reading.rpm, 0, 65535), 0, 0, 0)
+    return ((0,) * 16 + (_round_sat(reading.rpm, 0.0, 65535.0), 0, 0, 0)
             + (count & 0xFFFF, 0, 0, 0))
 
 
@@ -95,14 +118,14 @@ class SimulatorHilEnd:
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
             out.append(enc(ID_GPS, (
                 gps.t_us, int(gps.fix_type),
-                _clamp_int(gps.lat_rad * RAD_TO_E7, -900000000, 900000000),
-                _clamp_int(gps.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
-                _clamp_int(gps.alt_m * 1000.0, -2**31, 2**31 - 1),
-                _clamp_int(gps.eph_m * 100.0, 0, 65534), _clamp_int(gps.epv_m * 100.0, 0, 65534),
-                _clamp_int(vel * 100.0, 0, 65534),
-                _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
-                _clamp_int(vd * 100.0, -32767, 32767),
-                _clamp_int(cog_cdeg, 0, 35999), int(gps.satellites), 0, 0)))
+                _round_sat(gps.lat_rad * RAD_TO_E7, -900000000.0, 900000000.0),
+                _round_sat(gps.lon_rad * RAD_TO_E7, -1800000000.0, 1800000000.0),
+                _round_sat(gps.alt_m * 1000.0, -2147483648.0, 2147483647.0),
+                _round_sat(gps.eph_m * 100.0, 0.0, 65534.0), _round_sat(gps.epv_m * 100.0, 0.0, 65534.0),
+                _round_sat(vel * 100.0, 0.0, 65534.0),
+                _round_sat(vn * 100.0, -32767.0, 32767.0), _round_sat(ve * 100.0, -32767.0, 32767.0),
+                _round_sat(vd * 100.0, -32767.0, 32767.0),
+                _round_sat(cog_cdeg, 0.0, 35999.0), int(gps.satellites), 0, 0)))
         self._steps_sent = k = self._steps_sent + 1
         div = self.truth_div
         if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
@@ -132,21 +155,12 @@ class SimulatorHilEnd:
     def _truth_message(self, truth) -> bytes:
         """HIL_STATE_QUATERNION of a PlantState."""
         qw, qx, qy, qz = truth.q_nb
+        wx, wy, wz = truth.omega_b
         vn, ve, vd = truth.v_ned
         fx, fy, fz = truth.f_b
-        wx, wy, wz = truth.omega_b
-        tas = truth.airspeed_mps
-        ias = tas * math.sqrt(truth.rho_kgm3 / 1.225)
-        return self.codec.encode_values(ID_STATE, (
-            truth.t_us, qw, qx, qy, qz, wx, wy, wz,
-            _clamp_int(truth.lat_rad * RAD_TO_E7, -900000000, 900000000),
-            _clamp_int(truth.lon_rad * RAD_TO_E7, -1800000000, 1800000000),
-            _clamp_int(truth.alt_m * 1000.0, -2**31, 2**31 - 1),
-            _clamp_int(vn * 100.0, -32767, 32767), _clamp_int(ve * 100.0, -32767, 32767),
-            _clamp_int(vd * 100.0, -32767, 32767),
-            _clamp_int(ias * 100.0, 0, 65535), _clamp_int(tas * 100.0, 0, 65535),
-            _clamp_int(fx * MG_PER_MS2, -32767, 32767), _clamp_int(fy * MG_PER_MS2, -32767, 32767),
-            _clamp_int(fz * MG_PER_MS2, -32767, 32767)))
+        return self.codec.encode_values(ID_STATE, (truth.t_us, qw, qx, qy, qz, wx, wy, wz) + truth_ints(
+            truth.lat_rad, truth.lon_rad, truth.alt_m, vn, ve, vd, truth.airspeed_mps,
+            truth.rho_kgm3, fx, fy, fz))
 
     def send_battery(self, battery) -> None:
         """BATTERY_STATUS of the simulated pack (``sim_bridge.battery.Battery``)."""

@@ -109,9 +109,12 @@ class DrydenGusts:
             self._k = 0
         nu_u, nu_v, nu_w = self._noise[self._k]
         self._k += 1
+        x_u, x_v, x_w = self._x
+        axis_n, axis_e = self._axis_u
+        # (arguments named one by one: a starred call builds its argument tuple first)
         x_u, x_v, x_w, gust_n, gust_e = dryden_step(
-            *self._x, h_agl_m, speed_mps, self._dt_s, n_steps, self._sigma_w, nu_u, nu_v, nu_w,
-            *self._axis_u)
+            x_u, x_v, x_w, h_agl_m, speed_mps, self._dt_s, n_steps, self._sigma_w, nu_u, nu_v,
+            nu_w, axis_n, axis_e)
         self._x = (x_u, x_v, x_w)
         self.gust_ned = (gust_n, gust_e, x_w)
         return self.gust_ned

@@ -236,8 +236,8 @@ class JSBSimPlane:
             agl_ft, vn_fps, ve_fps, vd_fps = map(_read, self._gust_nodes)
             wn, we, wd = self._gust_wind
             du, dv, dw = vn_fps * FT_M - wn, ve_fps * FT_M - we, vd_fps * FT_M - wd
-            self._write_gust(*gusts.step(agl_ft * FT_M, math.sqrt(du * du + dv * dv + dw * dw),
-                                         n_steps))
+            self._write_gust(gusts.step(agl_ft * FT_M, math.sqrt(du * du + dv * dv + dw * dw),
+                                        n_steps))
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
@@ -299,7 +299,7 @@ class JSBSimPlane:
                      "fcs/yaw-trim-cmd-norm"):
             fdm[name] = 0.0
         self._gusts.reset()                       # trim in still air
-        self._write_gust(0.0, 0.0, 0.0)
+        self._write_gust((0.0, 0.0, 0.0))
         fdm.get_propulsion().init_running(-1)
 
         def residual(x: np.ndarray) -> np.ndarray:
@@ -523,10 +523,11 @@ class JSBSimPlane:
         fdm["atmosphere/wind-down-fps"] = wind[2] / FT_M
         self._gusts.configure(TURBULENCE_W20_KT[self._turbulence] * KT_MPS, self._wind_ned)
         self._gust_wind = tuple(float(v) for v in self._wind_ned)    # (not numpy scalars)
-        self._write_gust(*self._gusts.gust_ned)
+        self._write_gust(self._gusts.gust_ned)
 
-    def _write_gust(self, gust_n: float, gust_e: float, gust_d: float) -> None:
+    def _write_gust(self, gust_ned: tuple) -> None:
         """The gust (NED, m/s) into JSBSim's gust input."""
+        gust_n, gust_e, gust_d = gust_ned
         set_n, set_e, set_d = self._set_gust
         set_n(gust_n / FT_M)
         set_e(gust_e / FT_M)

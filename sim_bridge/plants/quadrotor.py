@@ -241,8 +241,9 @@ class QuadrotorPlant:
         gn, ge, gd = self._gusts.gust_ned
         wn, we, wd = self._wind
         airspeed, alpha, beta = air_data(x, wn + gn, we + ge, wd + gd)
-        lat, lon, alt = self._frame.to_geodetic_fast(x[_P:_V].tolist())
-        v, q, w, f, wind = _VECTORS(tuple(x.tolist()))
+        xs = x.tolist()                          # (after air_data: it writes the wind)
+        lat, lon, alt = self._frame.to_geodetic_fast(xs[_P:_V])
+        v, q, w, f, wind = _VECTORS(tuple(xs))
         return PlantState(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
                           self.on_ground, self.rho)
 
