@@ -21,12 +21,13 @@ import numpy as np
 
 from ..jit import kernel
 
+PI = math.pi            # (a module constant: one load where math.pi takes two)
 TWO_PI = 2.0 * math.pi
 
 
 def wrap_pi(angle_rad: float) -> float:
     """Wrap an angle to [-pi, pi)."""
-    return (angle_rad + math.pi) % TWO_PI - math.pi
+    return (angle_rad + PI) % TWO_PI - PI
 
 
 def wrap_2pi(angle_rad: float) -> float:
