@@ -370,8 +370,9 @@ class FixedWingController:
         kp = climb_pid.kp
         if climb_kp is not None:
             climb_pid.kp = climb_kp
-        theta_c = climb_pid.update(hdot_c, hdot, dt, rate=0.0,
-                                   feedforward=alpha_ff + gamma_c + turn_ff)
+        # (the loops' Pid.update arguments by position: setpoint, measurement, dt, rate,
+        # feed-forward, scale; rate 0.0: no derivative term)
+        theta_c = climb_pid.update(hdot_c, hdot, dt, 0.0, alpha_ff + gamma_c + turn_ff)
         climb_pid.kp = kp
         if pitch_max_rad is not None:
             theta_c = pitch_max_rad if pitch_max_rad < theta_c else theta_c     # min()
@@ -390,21 +391,20 @@ class FixedWingController:
             self._eout_v_mean += (v_air - self._eout_v_mean) * min(dt / p["EOUT_SPD_TAU"], 1.0)
             if self.eout_trim_mps is not None:
                 self._eout_v_mean = self.eout_trim_mps
-            thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, rate=0.0,
-                                       feedforward=p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
+            thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, 0.0,
+                                       p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
             if self.eout_full_throttle and nav.alt_m < self.alt_dem_m:
                 thr = p["THR_MAX"]     # no level trim: the least height loss
         else:
-            thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, rate=0.0,
-                                        feedforward=self._thr_trim + self._thr_clmb_ff * hdot_c)
+            thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, 0.0,
+                                        self._thr_trim + self._thr_clmb_ff * hdot_c)
 
         # inner loops
-        da = self.roll_pid.update(phi_c, roll, dt, rate=omega[0], scale=scale)
+        da = self.roll_pid.update(phi_c, roll, dt, omega[0], 0.0, scale)
         if rudder_override is not None:
             self.roll_pid.integ = 0.0
         de_ff = self._elev_trim * (2.0 if 2.0 < q_ratio else q_ratio)
-        de = self.pitch_pid.update(theta_c, pitch, dt, rate=omega[1], feedforward=de_ff,
-                                   scale=scale)
+        de = self.pitch_pid.update(theta_c, pitch, dt, omega[1], de_ff, scale)
         r_c = G * math.tan(roll) * math.cos(pitch) / v_air
         dr = self._yaw_kd * (r_c - omega[2])
         dr = -1.0 if -1.0 > dr else dr

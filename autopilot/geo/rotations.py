@@ -21,12 +21,13 @@ import numpy as np
 
 from ..jit import kernel
 
+PI = math.pi            # (a module constant: one load where math.pi takes two)
 TWO_PI = 2.0 * math.pi
 
 
 def wrap_pi(angle_rad: float) -> float:
     """Wrap an angle to [-pi, pi)."""
-    return (angle_rad + math.pi) % TWO_PI - math.pi
+    return (angle_rad + PI) % TWO_PI - PI
 
 
 def wrap_2pi(angle_rad: float) -> float:
@@ -103,14 +104,9 @@ def euler_to_quat(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarr
 
 
 def quat_to_euler(q: np.ndarray) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) [rad] of q_nb; yaw in [-pi, pi)."""
+    """(roll, pitch, yaw) [rad] of q_nb; yaw in [-pi, pi) (:func:`euler_321`)."""
     w, x, y, z = q
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    s = 2.0 * (w * y - z * x)
-    s = s if s < 1.0 else 1.0                      # max(-1.0, min(1.0, s)), without the
-    pitch = math.asin(s if s > -1.0 else -1.0)     # builtins' cost (control/pid.py)
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, wrap_pi(yaw)
+    return euler_321(w, x, y, z)
 
 
 def quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
@@ -163,6 +159,16 @@ def from_scipy(rot) -> np.ndarray:
 
 # --- the same formulas on floats, compiled (called from other kernels) ----------------
 
+@kernel
+def euler_321(w, x, y, z):
+    """(roll, pitch, yaw) of q = (w, x, y, z) (:func:`quat_to_euler`; the vehicles call it
+    every step, where the Python arithmetic cost more than this call)."""
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    s = 2.0 * (w * y - z * x)
+    s = s if s < 1.0 else 1.0                      # max(-1.0, min(1.0, s))
+    pitch = math.asin(s if s > -1.0 else -1.0)
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, (yaw + PI) % TWO_PI - PI   # wrap_pi
 @kernel
 def quat_dcm(w, x, y, z):
     """R(q_nb) of q = (w, x, y, z) as a row-major 9-tuple (:func:`quat_to_dcm`)."""
