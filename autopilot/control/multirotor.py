@@ -378,10 +378,12 @@ class ReferenceAngleGenerator:
     def update(self, e_n: float, e_e: float, ev_n: float, ev_e: float, a_n: float, a_e: float,
                yaw: float, dt: float, hold_integrator: bool = False) -> tuple[float, float]:
         c, s = math.cos(yaw), math.sin(yaw)
-        ex, ey = c * e_n + s * e_e, -s * e_n + c * e_e
-        vx, vy = c * ev_n + s * ev_e, -s * ev_n + c * ev_e
-        ax, ay = c * a_n + s * a_e, -s * a_n + c * a_e
-        ix, iy = c * self.i_n + s * self.i_e, -s * self.i_n + c * self.i_e
+        # into the heading frame (c e_e - s e_n: -s e_n + c e_e to the bit, one negation less)
+        ex, ey = c * e_n + s * e_e, c * e_e - s * e_n
+        vx, vy = c * ev_n + s * ev_e, c * ev_e - s * ev_n
+        ax, ay = c * a_n + s * a_e, c * a_e - s * a_n
+        i_n, i_e = self.i_n, self.i_e
+        ix, iy = c * i_n + s * i_e, c * i_e - s * i_n
         kpp, kip, kdp = self.pitch
         kpr, kir, kdr = self.roll
         theta = -(kpp * ex + kip * ix + kdp * vx) - ax / G
@@ -392,13 +394,15 @@ class ReferenceAngleGenerator:
             k = self.angle_max / tilt
             phi, theta = phi * k, theta * k
         if not hold_integrator and not saturated:
-            self.i_n += e_n * dt
-            self.i_e += e_e * dt
+            i_n += e_n * dt
+            i_e += e_e * dt
             lim_n = self.i_lim
-            m = math.hypot(self.i_n, self.i_e)
+            m = math.hypot(i_n, i_e)
             if m > lim_n:
-                self.i_n *= lim_n / m
-                self.i_e *= lim_n / m
+                k = lim_n / m
+                i_n *= k
+                i_e *= k
+            self.i_n, self.i_e = i_n, i_e
         return phi, theta
 
 
