@@ -256,14 +256,16 @@ def attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, coef, stat
 @kernel
 def attitude_mix(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z, coef, state, k):
     """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`, its
-    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error (3),
-    (u_phi, u_theta, u_psi), then mix_rotors' twelve outputs."""
+    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error,
+    (u_phi, u_theta, u_psi), the rotor thrusts and commands, the collective and the
+    saturation flags (mix_rotors' outputs), each vector a tuple (the records the caller
+    keeps, built here rather than from one long tuple)."""
     ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d,
                                                       pitch_d, yaw_d, coef, state)
     t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(u_z, u_phi, u_theta,
                                                                      u_psi, k)
-    return (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll,
-            s_rp, s_y, s_c)
+    return ((ex, ey, ez), (u_phi, u_theta, u_psi), (t1, t2, t3, t4), (c1, c2, c3, c4), coll,
+            (s_rp, s_y, s_c))
 
 
 class AttitudeController:
@@ -447,16 +449,15 @@ class MultirotorController:
         ``att.update`` and ``mixer.mix`` do, in one kernel call (:func:`attitude_mix`)."""
         self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
         att, mixer = self.att, self.mixer
-        (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y,
-         s_c) = attitude_mix(q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
-                             roll_d, pitch_d, yaw_d, u_z, att.coef, att.state, mixer.k)
-        att.error = (ex, ey, ez)
+        att.error, (u_phi, u_theta, u_psi), thrusts, motors, coll, saturated = attitude_mix(
+            q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
+            u_z, att.coef, att.state, mixer.k)
         self.u = (u_z, u_phi, u_theta, u_psi)
-        mixer.saturated = (s_rp, s_y, s_c)       # the mixer's record (QuadPlusMixer.mix)
+        mixer.saturated = saturated              # the mixer's record (QuadPlusMixer.mix)
         mixer.collective = coll
-        mixer.thrusts = (t1, t2, t3, t4)
-        self.motors = (c1, c2, c3, c4)
-        return self.motors
+        mixer.thrusts = thrusts
+        self.motors = motors
+        return motors
 
     def idle(self, spin: float) -> tuple:
         """Armed on the ground: every motor at ``spin``, loops held at rest."""
