@@ -222,9 +222,9 @@ class DecimatedNav:
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
             return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
-        o = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
-        self._p, self._v, self._q = p, v, q = o[0:3], o[3:6], o[6:10]
-        return self.nav, p, v, q, o[10:13]
+        p, v, q, w = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
+        self._p, self._v, self._q = p, v, q
+        return self.nav, p, v, q, w
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -652,35 +652,30 @@ class QuadVehicle(VehicleBase):
             tgt_row = (p[0], p[1], alt0 - p[2], 0.0, 0.0, 0.0, p[0], p[1], p[0], p[1])
             hold = 0.0
         else:
-            kind = 0.0 if self.on_ground and tgt.kind != "takeoff" else float(KIND_CODES[tgt.kind])
+            kind = 0 if self.on_ground and tgt.kind != "takeoff" else KIND_CODES[tgt.kind]
             tp_ = tgt.p_ned
-            tgt_row = (tp_[0], tp_[1], alt0 - tp_[2], tgt.v_ned[0], tgt.v_ned[1], tgt.v_ned[2],
-                       tgt.goal_ne[0], tgt.goal_ne[1], tgt.leg_a[0], tgt.leg_a[1])
-            hold = float(tgt.hold)
+            tgt_row = (tp_[0], tp_[1], alt0 - tp_[2], *tgt.v_ned, *tgt.goal_ne, *tgt.leg_a)
+            hold = tgt.hold
         sig, gps_row = self._nav_rows(hf, gps)
-        seq = float(tgt.seq) if tgt is not None else 0.0
-        leg = float(tgt.leg_id) if tgt is not None else 0.0
-        u = c.u
-        v = self.v_ned
-        # one tuple display (not a chain of tuple sums, each a copy of the row so far);
-        # float(mode): the IntEnum's value, without the .value property's two calls
+        seq = tgt.seq if tgt is not None else 0
+        leg = tgt.leg_id if tgt is not None else 0
+        # one tuple display (not a chain of tuple sums, each a copy of the row so far;
+        # whole vectors starred, not element by element); flags, codes and the mode as
+        # they are: the log makes floats of its rows once, when it is saved
+        # (FlightLog.arrays), as the fixed-wing's log does
         self.log.append((
-            t_us * 1e-6, float(self.armed), float(self.mode), seq, leg, kind, hold,
-            float(self.on_ground),
-            p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
-            p[0], p[1], alt0 - p[2], er, ep, ey, v[0], v[1], v[2],
+            t_us * 1e-6, self.armed, self.mode, seq, leg, kind, hold, self.on_ground,
+            p_tru[0], p_tru[1], t_alt, tr, tp, ty, *tv, t_as,
+            p[0], p[1], alt0 - p[2], er, ep, ey, *self.v_ned,
             *tgt_row,
-            c.roll_d, c.pitch_d, c.yaw_d, u[0], u[1], u[2], u[3],
-            motors[0], motors[1], motors[2], motors[3],
-            *sig, float(nav.aligned), float(nav.healthy), *gps_row, *self._fdi_row()))
+            c.roll_d, c.pitch_d, c.yaw_d, *c.u, *motors,
+            *sig, nav.aligned, nav.healthy, *gps_row, *self._fdi_row()))
 
     def _fdi_row(self) -> tuple:
         mon = self.monitor
         if mon is None:
             return (0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0)
-        g = mon.gamma
-        return (mon.ratio, mon.iso_ratio, float(g[0]), float(g[1]), float(g[2]), float(g[3]),
-                mon.lam)
+        return (mon.ratio, mon.iso_ratio, *mon.gamma.tolist(), mon.lam)
 
 
 @kernel
@@ -689,7 +684,8 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     accelerometer bias, gyro bias, g), its p, v, q updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
     omega the bias-corrected specific force and rate. Returns the new p, v, q and omega
-    (13 floats: the caller's values without reading them back out of ``x``)."""
+    as four tuples of floats (the caller's values without reading them back out of ``x``
+    or slicing one long tuple)."""
     wx -= x[13]
     wy -= x[14]
     wz -= x[15]
@@ -709,4 +705,4 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[3], x[4], x[5] = vn1, ve1, vd1
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
-    return x[0], x[1], x[2], vn1, ve1, vd1, qw, qx, qy, qz, wx, wy, wz
+    return (x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz)

@@ -79,7 +79,8 @@ class QuadPlusMixer:
         self._limits()
 
     def set_density_ratio(self, rho_ratio: float) -> None:
-        r = min(max(rho_ratio, 0.5), 1.3)
+        # min(max(rho_ratio, 0.5), 1.3), spelt out (the builtins' cost: control/pid.py)
+        r = 0.5 if rho_ratio < 0.5 else 1.3 if rho_ratio > 1.3 else rho_ratio
         if r != self.rho_ratio:
             self.rho_ratio = r
             self._density()

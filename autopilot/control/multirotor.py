@@ -256,14 +256,16 @@ def attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, coef, stat
 @kernel
 def attitude_mix(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z, coef, state, k):
     """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`, its
-    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error (3),
-    (u_phi, u_theta, u_psi), then mix_rotors' twelve outputs."""
+    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error,
+    (u_phi, u_theta, u_psi), the rotor thrusts and commands, the collective and the
+    saturation flags (mix_rotors' outputs), each vector a tuple (the records the caller
+    keeps, built here rather than from one long tuple)."""
     ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d,
                                                       pitch_d, yaw_d, coef, state)
     t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(u_z, u_phi, u_theta,
                                                                      u_psi, k)
-    return (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll,
-            s_rp, s_y, s_c)
+    return ((ex, ey, ez), (u_phi, u_theta, u_psi), (t1, t2, t3, t4), (c1, c2, c3, c4), coll,
+            (s_rp, s_y, s_c))
 
 
 class AttitudeController:
@@ -378,10 +380,12 @@ class ReferenceAngleGenerator:
     def update(self, e_n: float, e_e: float, ev_n: float, ev_e: float, a_n: float, a_e: float,
                yaw: float, dt: float, hold_integrator: bool = False) -> tuple[float, float]:
         c, s = math.cos(yaw), math.sin(yaw)
-        ex, ey = c * e_n + s * e_e, -s * e_n + c * e_e
-        vx, vy = c * ev_n + s * ev_e, -s * ev_n + c * ev_e
-        ax, ay = c * a_n + s * a_e, -s * a_n + c * a_e
-        ix, iy = c * self.i_n + s * self.i_e, -s * self.i_n + c * self.i_e
+        # into the heading frame (c e_e - s e_n: -s e_n + c e_e to the bit, one negation less)
+        ex, ey = c * e_n + s * e_e, c * e_e - s * e_n
+        vx, vy = c * ev_n + s * ev_e, c * ev_e - s * ev_n
+        ax, ay = c * a_n + s * a_e, c * a_e - s * a_n
+        i_n, i_e = self.i_n, self.i_e
+        ix, iy = c * i_n + s * i_e, c * i_e - s * i_n
         kpp, kip, kdp = self.pitch
         kpr, kir, kdr = self.roll
         theta = -(kpp * ex + kip * ix + kdp * vx) - ax / G
@@ -392,13 +396,15 @@ class ReferenceAngleGenerator:
             k = self.angle_max / tilt
             phi, theta = phi * k, theta * k
         if not hold_integrator and not saturated:
-            self.i_n += e_n * dt
-            self.i_e += e_e * dt
+            i_n += e_n * dt
+            i_e += e_e * dt
             lim_n = self.i_lim
-            m = math.hypot(self.i_n, self.i_e)
+            m = math.hypot(i_n, i_e)
             if m > lim_n:
-                self.i_n *= lim_n / m
-                self.i_e *= lim_n / m
+                k = lim_n / m
+                i_n *= k
+                i_e *= k
+            self.i_n, self.i_e = i_n, i_e
         return phi, theta
 
 
@@ -443,16 +449,15 @@ class MultirotorController:
         ``att.update`` and ``mixer.mix`` do, in one kernel call (:func:`attitude_mix`)."""
         self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
         att, mixer = self.att, self.mixer
-        (ex, ey, ez, u_phi, u_theta, u_psi, t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y,
-         s_c) = attitude_mix(q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
-                             roll_d, pitch_d, yaw_d, u_z, att.coef, att.state, mixer.k)
-        att.error = (ex, ey, ez)
+        att.error, (u_phi, u_theta, u_psi), thrusts, motors, coll, saturated = attitude_mix(
+            q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
+            u_z, att.coef, att.state, mixer.k)
         self.u = (u_z, u_phi, u_theta, u_psi)
-        mixer.saturated = (s_rp, s_y, s_c)       # the mixer's record (QuadPlusMixer.mix)
+        mixer.saturated = saturated              # the mixer's record (QuadPlusMixer.mix)
         mixer.collective = coll
-        mixer.thrusts = (t1, t2, t3, t4)
-        self.motors = (c1, c2, c3, c4)
-        return self.motors
+        mixer.thrusts = thrusts
+        self.motors = motors
+        return motors
 
     def idle(self, spin: float) -> tuple:
         """Armed on the ground: every motor at ``spin``, loops held at rest."""

@@ -159,6 +159,7 @@ class Trajectory:
         self.descending = False       # open-ended descent (landing)
         self._vdesc = 0.0
         self._poly = None             # a curve (spline): sampled points, NED
+        self.curving = False          # flying one (_poly not None; read at every step)
         self._cum = None              # ... and the distance along it at each
         self._v_end = 0.0             # speed kept at the end of a curve (flown through)
 
@@ -187,6 +188,7 @@ class Trajectory:
         self._len = self._s = self._vs = 0.0
         self.descending = False
         self._poly = self._cum = None
+        self.curving = False
         self._v_end = 0.0
 
     def line_to(self, goal, v_h: float, v_up: float, v_dn: float, a_h: float, a_z: float) -> None:
@@ -198,6 +200,7 @@ class Trajectory:
         self.goal = [float(goal[0]), float(goal[1]), float(goal[2])]
         self.descending = False
         self._poly = self._cum = None
+        self.curving = False
         self._v_end = 0.0
         if length < 1e-6:
             self._len = self._s = self._vs = 0.0
@@ -242,6 +245,7 @@ class Trajectory:
                     r_min = min(r_min, 0.5 * (l1 + l2) / turn)
         self._vmax = min(self._vmax, math.sqrt(a_h * r_min))
         self._poly, self._cum, self._len = pts, cum, cum[-1]
+        self.curving = True
         self._v_end = min(max(v_end, 0.0), self._vmax)
         u = self._seg_dir(0)
         vr = self._vraw
@@ -259,10 +263,6 @@ class Trajectory:
         on a vertical move."""
         u = self._u
         return math.atan2(u[1], u[0]) if math.hypot(u[0], u[1]) > 0.2 else None
-
-    @property
-    def curving(self) -> bool:
-        return self._poly is not None
 
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same

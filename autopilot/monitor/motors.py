@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from autopilot.jit import preload
+from autopilot.jit import kernel, preload
 from autopilot.params import Param
 
 from .monitor import SEV_CRITICAL, SEV_NOTICE, SEV_WARNING, Episode
@@ -43,6 +43,7 @@ Q_RATE = 0.005            # gamma random walk [1/sqrt(s)]
 IDENT_MIN_S = 1.0         # identification reported this long after isolation [s]
 MODEL_REL = 0.15          # relative error of the modelled moments (thrust curve slope)
 MIN_THRUST_SHARE = 0.8    # balance used while the modelled thrust is this share of the weight
+_ONES4 = np.ones(4)       # (read only: np.ones is a Python function of numpy's)
 
 MOTOR_PARAMS = (
     Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True),
@@ -101,9 +102,11 @@ class MotorMonitor:
         self.reset()
         # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not at the first balance)
         preload(stage2_update, self.gamma, self.P, np.eye(4), np.zeros(4), np.ones(4), 0.0)
+        preload(balance_residuals, np.ones(4), np.ones(4), np.ones(4), 1.0, np.ones(4), True,
+                True, 0.5)
 
     def reset(self) -> None:
-        self.T = [0.0, 0.0, 0.0, 0.0]              # modelled rotor thrusts (lagged) [N]
+        self.T = (0.0, 0.0, 0.0, 0.0)              # modelled rotor thrusts (lagged) [N]
         self._lp = None                            # low-passed T1..T4, f_z, p, q, r, qr, pr, pq
         self._k = 0
         self._kt = 0
@@ -146,25 +149,31 @@ class MotorMonitor:
     def update(self, t_us: int, flying: bool, motors, f_b, omega_b, thrust_of) -> None:
         if not self.enabled:
             return
-        T = self.T
+        T0, T1, T2, T3 = self.T
         a = self._lag
-        T[0] += (thrust_of(motors[0]) - T[0]) * a
-        T[1] += (thrust_of(motors[1]) - T[1]) * a
-        T[2] += (thrust_of(motors[2]) - T[2]) * a
-        T[3] += (thrust_of(motors[3]) - T[3]) * a
+        t1 = T0 + (thrust_of(motors[0]) - T0) * a
+        t2 = T1 + (thrust_of(motors[1]) - T1) * a
+        t3 = T2 + (thrust_of(motors[2]) - T2) * a
+        t4 = T3 + (thrust_of(motors[3]) - T3) * a
+        self.T = (t1, t2, t3, t4)
         if not flying:
             self._lp = None
             self.flight_s = 0.0
             return
         p, q, r = omega_b
-        x = (T[0], T[1], T[2], T[3], f_b[2], p, q, r, q * r, p * r, p * q)
-        lp = self._lp
-        if lp is None:
-            self._lp = list(x)
+        fz = f_b[2]
+        qr, pr, pq = q * r, p * r, p * q
+        if self._lp is None:
+            self._lp = [t1, t2, t3, t4, fz, p, q, r, qr, pr, pq]
             return
+        # the low-pass of every balance signal, written out (a loop over the eleven
+        # costs half the monitor's step again)
+        l0, l1, l2, l3, l4, l5, l6, l7, l8, l9, l10 = self._lp
         b = self._b
-        for i in range(11):
-            lp[i] += (x[i] - lp[i]) * b
+        self._lp = [l0 + (t1 - l0) * b, l1 + (t2 - l1) * b, l2 + (t3 - l2) * b,
+                    l3 + (t4 - l3) * b, l4 + (fz - l4) * b, l5 + (p - l5) * b,
+                    l6 + (q - l6) * b, l7 + (r - l7) * b, l8 + (qr - l8) * b,
+                    l9 + (pr - l9) * b, l10 + (pq - l10) * b]
         self.flight_s += self.dt
         self._k += 1
         if self._k < self._kf_n:
@@ -180,7 +189,8 @@ class MotorMonitor:
             return
         inv = 1.0 / LP_TAU_S
         pd, qd, rd = (omega[0] - pf) * inv, (omega[1] - qf) * inv, (omega[2] - rf) * inv
-        y = np.array((-self.m * fz,
+        thrust = -self.m * fz
+        y = np.array((thrust,
                       (self.ixx * pd + (self.izz - self.iyy) * qr) / self.l,
                       (self.iyy * qd + (self.ixx - self.izz) * pr) / self.l,
                       (self.izz * rd + (self.iyy - self.ixx) * pq) / self.km))
@@ -192,26 +202,17 @@ class MotorMonitor:
         kf = KF_PERIOD_S
         if healthy:
             w = 1.0 - math.exp(-kf / SCALE_TAU_S) if self._c_ok else 1.0
-            self.c += (y[0] / tsum - self.c) * w
+            self.c += (thrust / tsum - self.c) * w     # (a float: not y[0], numpy's scalar)
             self._c_ok = True
-        m1 = self.c * (H @ np.ones(4))          # the no-fault model's forces and moments
-        r1 = y - m1
+        # the no-fault residual and its variances; stage 2's innovation (the matrix
+        # products numpy's, as the filter's own)
+        r1, sd, r, e = balance_residuals(y, H @ _ONES4, H @ self.gamma, self.c, self.var,
+                                         healthy, self._var_n == 0,
+                                         1.0 - math.exp(-kf / VAR_TAU_S))
         if healthy:
-            w = 1.0 - math.exp(-kf / VAR_TAU_S)
-            if self._var_n == 0:
-                self.var = r1 * r1 + 1e-6
-            else:
-                self.var += (r1 * r1 - self.var) * w
             self._var_n += 1
-        rel = MODEL_REL * m1
-        rel[0] = 0.0                             # the thrust row: its learnt variance only
-        var = np.maximum(self.var, 1e-6) + rel * rel
-        sd = np.sqrt(var)
-        # stage 2: Kalman filter over gamma, measurement y / c = H gamma
-        z = y / self.c
-        r = var / (self.c * self.c)               # R = diag(r)
+        # stage 2: Kalman filter over gamma, measurement y / c = H gamma, R = diag(r)
         q = Q_RATE * Q_RATE * kf                  # Q = q I
-        e = z - H @ self.gamma
         lam = 1.0
         if self.detected and self._e_ring:
             # fading factor (2.35-2.39) from the window of innovations, on innovations
@@ -243,11 +244,16 @@ class MotorMonitor:
     def _decide(self, t_s: float) -> None:
         # each rotor against the mean of the other three (the common-mode model error,
         # which moves them all, cancels), in its own standard deviations
-        g = self.gamma
-        others = (float(g.sum()) - g) / 3.0
-        dev = (g - others) ** 2 / (np.maximum(np.diag(self.P), 1e-12) * (4.0 / 3.0)) / self.thr_iso
-        j = int(np.argmax(dev))
-        self.iso_ratio = float(dev[j])
+        # (g - others)^2 / (max(P_ii, 1e-12) 4/3) / thr on floats: four numbers each, where
+        # numpy's operations cost more than their arithmetic (max() spelt out, NaN kept)
+        g = self.gamma.tolist()
+        total = float(self.gamma.sum())
+        others = [(total - gi) / 3.0 for gi in g]
+        thr = self.thr_iso
+        dev = [(gi - oi) * (gi - oi) / ((pii if not pii < 1e-12 else 1e-12) * (4.0 / 3.0)) / thr
+               for gi, oi, pii in zip(g, others, self.P.diagonal().tolist())]
+        j = dev.index(max(dev))
+        self.iso_ratio = dev[j]
         if not self.detected:
             if self.ratio > 1.0:
                 self.detected = True
@@ -295,3 +301,28 @@ class MotorMonitor:
                 self.accommodation = None
         else:
             self._quiet_s = None
+
+
+@kernel
+def balance_residuals(y, hsum, hg, c, var, learn, first, w):
+    """Stage 1's no-fault residual and stage 2's innovation (:meth:`MotorMonitor._stage`)
+    from the balance ``y``, ``hsum`` = H 1 and ``hg`` = H gamma:
+
+        m1 = c H 1,   r1 = y - m1
+        var <- var + (r1 r1 - var) w        (healthy: ``learn``; the first r1 r1 + 1e-6)
+        R = diag(max(var, 1e-6) + (MODEL_REL m1)^2) / c^2   (the thrust row: var only)
+        e = y / c - H gamma
+
+    ``var`` is updated in place. Returns r1, the residual's standard deviations
+    sqrt(c^2 R), R's diagonal and e (numpy's arrays operations, element by element)."""
+    m1 = c * hsum
+    r1 = y - m1
+    if learn:
+        if first:
+            var[:] = r1 * r1 + 1e-6
+        else:
+            var += (r1 * r1 - var) * w
+    rel = MODEL_REL * m1
+    rel[0] = 0.0
+    v = np.maximum(var, 1e-6) + rel * rel
+    return r1, np.sqrt(v), v / (c * c), y / c - hg
