@@ -276,7 +276,7 @@ class FixedWingController:
         # (every min(max(x, lo), hi) of the steps flown in every step is spelt out, as in
         # control/pid.py: the builtins cost more than the rest of the line)
         p = self.params
-        roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb)
+        roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb.tolist())
         omega = nav.omega_b.tolist()
         v_air = nav.airspeed_mps
         v_air = 5.0 if 5.0 > v_air else v_air                        # max(V, 5)

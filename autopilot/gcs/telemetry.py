@@ -248,7 +248,7 @@ class Telemetry:
         nav = self.vehicle.nav_state
         if nav is None:
             return None
-        r, p, y = quat_to_euler(nav.q_nb)
+        r, p, y = quat_to_euler(nav.q_nb.tolist())
         w = nav.omega_b
         return MAV.MAVLink_attitude_message(t_us // 1000 & 0xFFFFFFFF, r, p, y,
                                             float(w[0]), float(w[1]), float(w[2]))
@@ -260,7 +260,7 @@ class Telemetry:
         h = self.home()
         rel = nav.alt_m - h.alt0_m if h is not None else 0.0
         vn, ve, vd = (float(x) for x in nav.v_ned)
-        yaw = quat_to_euler(nav.q_nb)[2]
+        yaw = quat_to_euler(nav.q_nb.tolist())[2]
         return MAV.MAVLink_global_position_int_message(
             t_us // 1000 & 0xFFFFFFFF, _i(math.degrees(nav.lat_rad) * _E7, -900000000, 900000000),
             _i(math.degrees(nav.lon_rad) * _E7, -1800000000, 1800000000),
@@ -291,7 +291,7 @@ class Telemetry:
             thr = c[3] if len(c) > 3 else 0.0
         else:
             thr = sum(c[:4]) / 4.0 if len(c) >= 4 else 0.0
-        yaw = quat_to_euler(nav.q_nb)[2]
+        yaw = quat_to_euler(nav.q_nb.tolist())[2]
         return MAV.MAVLink_vfr_hud_message(float(nav.airspeed_mps), math.hypot(vn, ve),
                                            _i(math.degrees(yaw) % 360.0, 0, 359),
                                            _i(thr * 100, 0, 100), float(nav.alt_m), -vd)
@@ -338,7 +338,7 @@ class Telemetry:
         nav = v.nav_state
         if nav is None:
             return None
-        r, p, y = quat_to_euler(nav.q_nb)
+        r, p, y = quat_to_euler(nav.q_nb.tolist())
         wp_dist = 0.0
         xtrack = 0.0
         bearing = math.degrees(y)

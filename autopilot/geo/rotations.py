@@ -104,7 +104,9 @@ def euler_to_quat(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarr
 
 
 def quat_to_euler(q: np.ndarray) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) [rad] of q_nb; yaw in [-pi, pi) (:func:`euler_321`)."""
+    """(roll, pitch, yaw) [rad] of q_nb; yaw in [-pi, pi) (:func:`euler_321`). Cheapest
+    on a list or tuple of floats (``q.tolist()``): the kernel's call unboxes numpy's
+    scalars slowly."""
     w, x, y, z = q
     return euler_321(w, x, y, z)
 
