@@ -420,7 +420,7 @@ class PlaneVehicle(VehicleBase):
         if self.armed and seq is not None and seq.landing is not None:
             self._land_disarm(t_us, seq.landing)
         self._finish = (t_us, nav, controls, truth, gps is not None)
-        return ActuatorOutputs(t_us, controls, self.armed)
+        return ActuatorOutputs.make(t_us, controls, self.armed)
 
     _finish = None      # (t_us, nav, controls, truth, gps) of a step not yet finished
 

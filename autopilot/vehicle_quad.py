@@ -157,7 +157,7 @@ class DecimatedNav:
         if self._nm:
             n = 1.0 / self._nm
             m = self._m
-            mag = MagSample(t, np.array((m[0] * n, m[1] * n, m[2] * n)))
+            mag = MagSample.make(t, np.array((m[0] * n, m[1] * n, m[2] * n)))
             m[0] = m[1] = m[2] = 0.0
             self._nm = 0
         if self._nb:
@@ -201,9 +201,9 @@ class DecimatedNav:
                 imu_f = imu
             else:
                 n = 1.0 / self._k
-                imu_f = ImuSample(t, np.array((f[0] * n, f[1] * n, f[2] * n)),
-                                  np.array((w[0] * n, w[1] * n, w[2] * n)))
-            fr = SensorFrame(t, imu_f, mag, baro, self._air, self._gps)
+                imu_f = ImuSample.make(t, np.array((f[0] * n, f[1] * n, f[2] * n)),
+                                       np.array((w[0] * n, w[1] * n, w[2] * n)))
+            fr = SensorFrame.make(t, imu_f, mag, baro, self._air, self._gps)
             self._k = 0
             f[0] = f[1] = f[2] = w[0] = w[1] = w[2] = 0.0
             self._gps = self._air = None
@@ -489,7 +489,7 @@ class QuadVehicle(VehicleBase):
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
         if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
             self._log(t_us, nav, truth, motors)
-        return ActuatorOutputs(t_us, motors, self.armed)
+        return ActuatorOutputs.make(t_us, motors, self.armed)
 
     def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
         p = self.params

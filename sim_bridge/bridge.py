@@ -132,7 +132,7 @@ class SimBridge:
             if self._rotors:
                 self.plant.rotor_scale = faults.motor_thrust_scales(self._rotors)
         if self._plane:
-            cmd = PlaneControls(*c)
+            cmd = PlaneControls.make(*c)
             u = c[3]
         else:
             cmd = c

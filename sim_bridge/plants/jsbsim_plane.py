@@ -216,7 +216,7 @@ class JSBSimPlane:
         lon = math.remainder(lon, _TWO_PI)       # wrapped to (-pi, pi]
         if lon == -math.pi:
             lon = math.pi
-        return PlantState(                        # (positional: no keyword dict built)
+        return PlantState.make(                   # (positional: no keyword dict built)
             self._t_us, lat, lon, alt,
             (vn * FT_M, ve * FT_M, vd * FT_M), q_nb, (p, q, r),        # v_ned q_nb omega_b
             (ax * FT_M, ay * FT_M, az * FT_M), (wn * FT_M, we * FT_M, wd * FT_M),   # f_b wind_ned

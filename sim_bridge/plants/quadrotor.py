@@ -244,7 +244,7 @@ class QuadrotorPlant:
         xs = x.tolist()                          # (after air_data: it writes the wind)
         lat, lon, alt = self._frame.to_geodetic_fast(xs[_P:_V])
         v, q, w, f, wind = _VECTORS(tuple(xs))
-        return PlantState(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
+        return PlantState.make(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
                           self.on_ground, self.rho)
 
     # ---------------------------------------------------------------- stepping ---

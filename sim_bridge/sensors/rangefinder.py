@@ -99,4 +99,4 @@ class Rangefinder:
             r = r + p.noise_sigma_m * n
             if not p.min_m <= r <= p.max_m:
                 r = None
-        return RangeReading(t_us, r, p.min_m, p.max_m, p.noise_sigma_m)
+        return RangeReading.make(t_us, r, p.min_m, p.max_m, p.noise_sigma_m)

@@ -65,4 +65,4 @@ class RpmSensor:
             return None
         self._next_us = next_due_us(self._next_us, self._period_us, t_us)
         n = next(self._noise)                     # one draw per reading
-        return RpmReading(t_us, max(state.rpm * (1.0 + self.params.noise_frac * n), 0.0))
+        return RpmReading.make(t_us, max(state.rpm * (1.0 + self.params.noise_frac * n), 0.0))

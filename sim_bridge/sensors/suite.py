@@ -260,10 +260,10 @@ class SensorSuite:
         q = self._gps_queue
         if q and q[0][0] <= t_us:
             _, t_valid, lat, lon, alt, v_ned, sats = q.popleft()
-            gps = GpsReading(t_us, lat, lon, alt, v_ned, self.eph_m, self.epv_m,
+            gps = GpsReading.make(t_us, lat, lon, alt, v_ned, self.eph_m, self.epv_m,
                              self.params.gps_fix_type, sats, t_valid)
 
-        return SensorReadings(
+        return SensorReadings.make(
             t_us, accel, gyro, self._mag_b,
             self._pressure_pa, self._pressure_alt_m, self._temperature_k,
             self._dp_pa, self._airspeed_mps,
