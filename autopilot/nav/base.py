@@ -168,12 +168,13 @@ class Batch:
     ``R`` (variances), ``g2`` (gate^2) and ``H`` (rows of a preallocated buffer)."""
 
     __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
-                 "y", "Sd", "ratio", "g2_list", "y0")
+                 "y", "Sd", "g2_list", "z_tuple", "y0")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
         self.g2_list = g2
+        self.z_tuple = tuple(z)          # (the records' observations are sliced from it)
         # y0 = z - h0 (the EKF's innovation); one allocation, handed out as views
         a = np.array(z + h0 + R + g2 + [zi - hi for zi, hi in zip(z, h0)])
         self.z = a[:m]
@@ -184,7 +185,6 @@ class Batch:
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
-        self.ratio = None     # y^2 / (gate^2 Sd)
 
 
 class _AuxSums:
@@ -211,7 +211,7 @@ class NavFilterBase:
 
     * ``r_scale_hook(source, y, hph_diag, r_diag) -> factors | None``: called once per
       source and update, after ``y = z - h(x)`` and ``diag(H P H^T)`` are known and
-      before the gate, with that source's rows. Returned factors (one per row, >= 1)
+      before the gate, with that source's rows (tuples of floats). Returned factors (one per row, >= 1)
       multiply those rows of R, and so of diag(S): the gate, the gain, the Joseph update
       and the record's innovation variance all use the scaled R (seed eqs 2.25-2.34).
     * ``q_scale_hook(dt) -> factors | None``: called once per prediction; returned
@@ -817,13 +817,14 @@ class NavFilterBase:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
         self._sync_covariance()
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        # the records' vectors: tuples of floats, sliced from the batch's (records.py)
+        y = tuple(batch.y.tolist())
         adapted = ()
         if self.r_scale_hook is not None:
-            adapted = self._scale_r(batch, self.r_scale_hook)
-        y, Sd = batch.y, batch.Sd
-        # test ratio = y^2 / (gate^2 S)   (on floats: one array instead of three)
-        rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
-        ratio = batch.ratio = np.array(rl)
+            adapted = self._scale_r(batch, self.r_scale_hook, y)
+        Sd = tuple(batch.Sd.tolist())
+        # test ratio = y^2 / (gate^2 S)
+        ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2_list, Sd)])
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
         arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
@@ -832,7 +833,7 @@ class NavFilterBase:
         rows = None
         for k, name in enumerate(src):
             a, m = start[k], size[k]
-            rej = max(rl[a:a + m]) > 1.0
+            rej = max(ratio[a:a + m]) > 1.0
             rejected.append(rej)
             if rej:
                 since = self._rej_since.setdefault(name, t)
@@ -857,7 +858,7 @@ class NavFilterBase:
             self._fuse_rows(batch, rows)
         for k in resets:
             self._reset_to(src[k], batch, start[k])
-        z = batch.z
+        z = batch.z_tuple
         rec = self.innovations
         for k, name in enumerate(src):
             a = start[k]
@@ -866,21 +867,20 @@ class NavFilterBase:
                                         rejected[k], forced[k] or not rejected[k]))
 
     @staticmethod
-    def _scale_r(batch: Batch, hook) -> list[str]:
+    def _scale_r(batch: Batch, hook, y: tuple) -> list[str]:
         """R adaptation hook (class docstring): S_ii = (H P H^T)_ii + s_i R_ii for the
         rows whose factors the hook returns (factors all 1 change nothing); the batch's
-        R and Sd are copied first (never written in place). Returns the sources the hook
-        returned factors for (the ones being adapted)."""
-        R, Sd, y = batch.R, batch.Sd, batch.y
+        R and Sd are copied first (never written in place). ``y``: batch.y as a tuple.
+        Returns the sources the hook returned factors for (the ones being adapted)."""
+        R, Sd = batch.R, batch.Sd
         copied = False
         adapted = []
         hph_all = Sd - R                              # diag(H P H^T)
-        r_all = R.copy()                              # the hook's copy of R
+        hph_t, r_t = tuple(hph_all.tolist()), tuple(R.tolist())   # the hook's
         for k, name in enumerate(batch.src):
             a = batch.start[k]
             b = a + batch.size[k]
-            hph = hph_all[a:b]
-            s = hook(name, y[a:b], hph, r_all[a:b])
+            s = hook(name, y[a:b], hph_t[a:b], r_t[a:b])
             if s is None:
                 continue
             adapted.append(name)
@@ -894,7 +894,7 @@ class NavFilterBase:
                 Sd = batch.Sd = Sd.copy()
             rs = r * s
             R[a:b] = rs
-            Sd[a:b] = hph + rs
+            Sd[a:b] = hph_all[a:b] + rs
         return adapted
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:
