@@ -316,6 +316,7 @@ class NavFilterBase:
         # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
         self._P_ver = 0
         self._sane_ver, self._sane_hmax, self._sane = -1, None, False
+        self._sig9_ver, self._sig9 = -1, ()          # output_sigmas9 of P's version _sig9_ver
         self._reset_covariance_model()
 
     # ----------------------------------------------------------- public helpers --
@@ -335,12 +336,19 @@ class NavFilterBase:
         """1-sigma of the output's position, velocity and attitude errors (the first nine
         error states). Under the barometric height reference the output's height is
         ``p_D - b_baro`` on the datum ``b_baro0``: its variance is that of ``p_D - b_baro``
-        plus the datum's, the offset's variance when it was initialised."""
-        P = self.P
-        d = P.diagonal()[:9].tolist()
-        if self._hgt_baro and self._baro_ok:
-            d[2] = P[_IP + 2, _IP + 2] + P[_IBB, _IBB] - 2.0 * P[_IP + 2, _IBB] + self._bb0_var
-        return tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN stays NaN
+        plus the datum's, the offset's variance when it was initialised.
+
+        Worked out again only when P has changed (its version, as the health's test; the
+        flight log asks at 50 Hz, the fixed-wing's P changes every cov_div-th step)."""
+        if self._sig9_ver != self._P_ver:
+            P = self.P
+            d = P.diagonal()[:9].tolist()
+            if self._hgt_baro and self._baro_ok:
+                item = P.item
+                d[2] = item(_IP + 2, _IP + 2) + item(_IBB, _IBB) - 2.0 * item(_IP + 2, _IBB) + self._bb0_var
+            self._sig9 = tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN: 0
+            self._sig9_ver = self._P_ver
+        return self._sig9
 
     @property
     def specific_force_b(self) -> tuple | None:
