@@ -165,23 +165,23 @@ def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, ba
 class Batch:
     """The measurements of one step: per source a name and its rows; stacked ``z``
     (observation, angles unwrapped to within pi of the prediction), ``h0 = h(x)``,
-    ``R`` (variances), ``g2`` (gate^2) and ``H`` (rows of a preallocated buffer)."""
+    ``R`` (variances), ``g2`` (gate^2, a list: the gate reads it as floats) and ``H``
+    (rows of a preallocated buffer)."""
 
     __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
-                 "y", "Sd", "g2_list", "z_tuple", "y0")
+                 "y", "Sd", "z_tuple", "y0")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
-        self.g2_list = g2
+        self.g2 = g2
         self.z_tuple = tuple(z)          # (the records' observations are sliced from it)
         # y0 = z - h0 (the EKF's innovation); one allocation, handed out as views
-        a = np.array(z + h0 + R + g2 + [zi - hi for zi, hi in zip(z, h0)])
+        a = np.array(z + h0 + R + [zi - hi for zi, hi in zip(z, h0)])
         self.z = a[:m]
         self.h0 = a[m:2 * m]
         self.R = a[2 * m:3 * m]
-        self.g2 = a[3 * m:4 * m]
-        self.y0 = a[4 * m:]
+        self.y0 = a[3 * m:]
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
@@ -832,7 +832,7 @@ class NavFilterBase:
             adapted = self._scale_r(batch, self.r_scale_hook, y)
         Sd = tuple(batch.Sd.tolist())
         # test ratio = y^2 / (gate^2 S)
-        ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2_list, Sd)])
+        ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2, Sd)])
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
         arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
