@@ -404,7 +404,7 @@ def test_interface_and_record_contract(cls):
             assert isinstance(r, InnovationRecord) and r.source in SOURCES and r.t_us == frame.t_us
             # the vectors as tuples of floats, one per component
             vecs = (r.observation, r.innovation, r.innovation_variance, r.test_ratio)
-            assert all(type(v) is tuple and all(type(c) is float for c in v) for v in vecs)
+            assert all(type(v) is tuple and all(isinstance(c, float) for c in v) for v in vecs)
             m = len(r.innovation)
             assert len(r.observation) == len(r.innovation_variance) == len(r.test_ratio) == m
             y, var, ratio = (np.array(v) for v in vecs[1:])
