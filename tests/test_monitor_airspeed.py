@@ -38,8 +38,8 @@ def _fly(height_m: float, gust_rms: float, rng, **params) -> FaultMonitor:
         t_us = 40_000 * k
         g = a * g + gust_rms * np.sqrt(1 - a * a) * rng.standard_normal()
         e = g + 0.3 * rng.standard_normal()
-        nav.innovations = [InnovationRecord(t_us, "airspeed", np.array((25.0,)), np.array((e,)),
-                                            np.array((SD_S ** 2,)), np.array((0.0,)), False, True)]
+        nav.innovations = [InnovationRecord(t_us, "airspeed", (25.0,), (float(e),), (SD_S ** 2,), (0.0,),
+                                            False, True)]
         mon.update(t_us, True)
     return mon
 

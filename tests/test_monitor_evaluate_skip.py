@@ -23,9 +23,9 @@ class _EveryStep(FaultMonitor):
 
 
 def _record(t_us: int, source: str, y, sd2) -> InnovationRecord:
-    y = np.atleast_1d(np.asarray(y, dtype=float))
-    return InnovationRecord(t_us, source, np.zeros(len(y)), y, np.full(len(y), sd2),
-                            np.zeros(len(y)), False, True)
+    y = tuple(np.atleast_1d(np.asarray(y, dtype=float)).tolist())
+    m = len(y)
+    return InnovationRecord(t_us, source, (0.0,) * m, y, (float(sd2),) * m, (0.0,) * m, False, True)
 
 
 def _stream(seconds: float = 90.0):

@@ -31,15 +31,16 @@ def _actuator_episode(noisy_vel_from_s: float | None = None, minutes: float = 20
     mon.isolated = name
     mon.episodes.append(Episode(0.0, name, name, 0.0, kind="actuator", isolated_all=[name]))
     rng = np.random.default_rng(seed)
-    one = np.ones(3)
+    one, zero = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
     for k in range(int(5 * 60 * minutes)):
         t_us = 200_000 * k
         sd = 7.0 if noisy_vel_from_s is not None and t_us * 1e-6 >= noisy_vel_from_s else 1.0
         if accel_z_step_s is not None and t_us * 1e-6 >= accel_z_step_s:
             nav.accel_bias = np.array((0.0, 0.0, 0.05))
         nav.innovations = [
-            InnovationRecord(t_us, "gps_pos", np.zeros(3), rng.standard_normal(3), one, np.zeros(3), False, True),
-            InnovationRecord(t_us, "gps_vel", np.zeros(3), sd * rng.standard_normal(3), one, np.zeros(3), False, True)]
+            InnovationRecord(t_us, "gps_pos", zero, tuple(rng.standard_normal(3).tolist()), one, zero, False, True),
+            InnovationRecord(t_us, "gps_vel", zero, tuple((sd * rng.standard_normal(3)).tolist()), one, zero,
+                             False, True)]
         mon.update(t_us, True)
     return mon
 

@@ -42,8 +42,8 @@ def _fly(lat_deg: float, lon_deg: float, minutes: float, rng, fault_s: float | N
         t_us = 40_000 * k
         scale = noise_scale if fault_s is not None and t_us * 1e-6 >= fault_s else 1.0
         e = scale * sd * rng.standard_normal()
-        nav.innovations = [InnovationRecord(t_us, "mag", np.array((0.0,)), np.array((e,)), np.array((S,)),
-                                            np.array((e * e / (9.0 * S),)), False, True)]
+        nav.innovations = [InnovationRecord(t_us, "mag", (0.0,), (float(e),), (S,), (float(e * e / (9.0 * S)),),
+                                            False, True)]
         mon.update(t_us, True)
     return mon
 

@@ -68,7 +68,9 @@ def test_innovation_log_columns_and_picture(tmp_path):
         y = np.array([0.3, -0.2, 3.0 if k == 10 else 0.1])
         S = np.array([0.25, 0.25, 0.04])
         tr = y * y / (25.0 * S)
-        log.add([InnovationRecord(k * 200_000, "gps_pos", y, y, S, tr, bool(tr.max() > 1.0), True)])
+        yt = tuple(y.tolist())
+        log.add([InnovationRecord(k * 200_000, "gps_pos", yt, yt, tuple(S.tolist()), tuple(tr.tolist()),
+                                  bool(tr.max() > 1.0), True)])
     a = log.arrays()
     # THEN one row per component, the gate recovered from the test ratio, rejected marked
     assert len(a["innov_t_s"]) == 150

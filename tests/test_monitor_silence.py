@@ -34,8 +34,8 @@ def _fly(fused, heard=None) -> FaultMonitor:
         if heard is not None and k % 2 == 0 and heard(t_us * 1e-6):
             nav.heard_us["mag"] = t_us
         if k % 4 == 0 and fused(t_us * 1e-6):
-            nav.innovations = [InnovationRecord(t_us, "mag", np.array((0.0,)), np.array((0.01 * rng.standard_normal(),)),
-                                                np.array((1e-4,)), np.array((0.0,)), False, True)]
+            nav.innovations = [InnovationRecord(t_us, "mag", (0.0,), (0.01 * float(rng.standard_normal()),),
+                                                (1e-4,), (0.0,), False, True)]
         mon.update(t_us, True)
     return mon
 

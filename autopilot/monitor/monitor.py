@@ -403,11 +403,10 @@ class FaultMonitor:
                         ch.rdet = ch.riso = 0.0
                         changed = True
                     continue
-            sd = okf.get(r.source)
-            if sd is None:
-                sd = r.innovation_variance
-            y = r.innovation.tolist()
-            sl = sd.tolist()
+            sl = okf.get(r.source)
+            if sl is None:
+                sl = r.innovation_variance
+            y = r.innovation
             if min(sl) <= 0.0:
                 continue                      # not a covariance: no statistic
             g = ch.gain

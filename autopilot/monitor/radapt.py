@@ -48,8 +48,8 @@ The navigation filter hook
 --------------------------
 The factors are applied inside the filter's update, after ``e`` and ``H P H^T`` are
 known and before the gate, through ``NavFilterBase.r_scale_hook`` (autopilot/nav/base.py):
-``hook(source, y, hph_diag, r_diag)`` returns the factors of that source's rows or None
-(the optimal filter, bit for bit). :func:`attach` installs :meth:`RAdapter.scale` there.
+``hook(source, y, hph_diag, r_diag)`` (tuples of floats) returns the factors of that
+source's rows or None (the optimal filter, bit for bit). :func:`attach` installs :meth:`RAdapter.scale` there.
 """
 from __future__ import annotations
 
@@ -66,7 +66,8 @@ class RAdapter:
     seed; M > 1: the sample variance over the last M, module docstring).
     ``active``: the set of source names being adapted (the fault monitor fills it).
     ``last``: source -> the factors of the latest step (for the log); ``okf_sd``:
-    source -> diag(H P H^T + R) with the unscaled R, so the monitor keeps testing the
+    source -> diag(H P H^T + R) with the unscaled R (a tuple of floats, as the innovation
+    records' vectors, autopilot/nav/records.py), so the monitor keeps testing the
     optimal filter's statistic while the adapted filter runs (otherwise the adaptation
     would hide the fault from the test that switches it off).
     """
@@ -77,19 +78,19 @@ class RAdapter:
         self.window = max(1, int(window))
         self.active: set[str] = set()
         self.last: dict[str, np.ndarray] = {}
-        self.okf_sd: dict[str, np.ndarray] = {}
+        self.okf_sd: dict[str, tuple] = {}
         self.attached = False
         self._watch = frozenset(watch) if self.window > 1 else frozenset()
-        # source -> [M rows (lists of s floats), next index, count]: kept at every fusion and
-        # read only while adapting, so its rows are the cheaper lists, made an array then
+        # source -> [M rows (tuples of s floats), next index, count]: kept at every fusion and
+        # read only while adapting, so its rows are the cheaper tuples, made an array then
         self._ring: dict[str, list] = {}
 
-    def _remember(self, source: str, y: np.ndarray) -> None:
+    def _remember(self, source: str, y) -> None:
         ring = self._ring.get(source)
         if ring is None or len(ring[0][0]) != len(y):
             ring = self._ring[source] = [[[0.0] * len(y)] * self.window, 0, 0]
         rows, i, n = ring
-        rows[i] = y.tolist()
+        rows[i] = tuple(y)
         ring[1] = (i + 1) % self.window
         ring[2] = n + 1
 
@@ -101,12 +102,14 @@ class RAdapter:
         buf = np.array(ring[0] if ring[2] >= self.window else ring[0][: ring[2]])
         return buf.var(axis=0, ddof=1)
 
-    def scale(self, source: str, y: np.ndarray, hph: np.ndarray, r: np.ndarray):
-        """Factors for one source's rows, or None (optimal filter)."""
+    def scale(self, source: str, y, hph, r):
+        """Factors for one source's rows (y, hph, r: sequences of floats, the filter's
+        tuples), or None (optimal filter)."""
         if source in self._watch:
             self._remember(source, y)
         if self.mode == R_OFF or source not in self.active:
             return None
+        y, hph, r = np.asarray(y, dtype=float), np.asarray(hph, dtype=float), np.asarray(r, dtype=float)
         e2 = self._second_moment(source, y) if self.window > 1 else y * y
         if self.mode == R_SINGLE:
             # S = (tr(C) - tr(H P H^T)) / tr(R),  max(1, S);  C = e e^T or the window's (2.29)
@@ -129,7 +132,7 @@ def attach(nav, adapter: RAdapter) -> bool:
             last.pop(source, None)
         else:
             last[source] = out
-            okf_sd[source] = hph + r          # diag(S) of the optimal filter
+            okf_sd[source] = tuple([h + q for h, q in zip(hph, r)])   # diag(S) of the optimal filter
         return out
 
     nav.r_scale_hook = hook

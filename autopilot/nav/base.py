@@ -165,26 +165,26 @@ def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, ba
 class Batch:
     """The measurements of one step: per source a name and its rows; stacked ``z``
     (observation, angles unwrapped to within pi of the prediction), ``h0 = h(x)``,
-    ``R`` (variances), ``g2`` (gate^2) and ``H`` (rows of a preallocated buffer)."""
+    ``R`` (variances), ``g2`` (gate^2, a list: the gate reads it as floats) and ``H``
+    (rows of a preallocated buffer)."""
 
     __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
-                 "y", "Sd", "ratio", "g2_list", "y0")
+                 "y", "Sd", "z_tuple", "y0")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
-        self.g2_list = g2
+        self.g2 = g2
+        self.z_tuple = tuple(z)          # (the records' observations are sliced from it)
         # y0 = z - h0 (the EKF's innovation); one allocation, handed out as views
-        a = np.array(z + h0 + R + g2 + [zi - hi for zi, hi in zip(z, h0)])
+        a = np.array(z + h0 + R + [zi - hi for zi, hi in zip(z, h0)])
         self.z = a[:m]
         self.h0 = a[m:2 * m]
         self.R = a[2 * m:3 * m]
-        self.g2 = a[3 * m:4 * m]
-        self.y0 = a[4 * m:]
+        self.y0 = a[3 * m:]
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
-        self.ratio = None     # y^2 / (gate^2 Sd)
 
 
 class _AuxSums:
@@ -211,7 +211,7 @@ class NavFilterBase:
 
     * ``r_scale_hook(source, y, hph_diag, r_diag) -> factors | None``: called once per
       source and update, after ``y = z - h(x)`` and ``diag(H P H^T)`` are known and
-      before the gate, with that source's rows. Returned factors (one per row, >= 1)
+      before the gate, with that source's rows (tuples of floats). Returned factors (one per row, >= 1)
       multiply those rows of R, and so of diag(S): the gate, the gain, the Joseph update
       and the record's innovation variance all use the scaled R (seed eqs 2.25-2.34).
     * ``q_scale_hook(dt) -> factors | None``: called once per prediction; returned
@@ -316,6 +316,7 @@ class NavFilterBase:
         # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
         self._P_ver = 0
         self._sane_ver, self._sane_hmax, self._sane = -1, None, False
+        self._sig9_ver, self._sig9 = -1, ()          # output_sigmas9 of P's version _sig9_ver
         self._reset_covariance_model()
 
     # ----------------------------------------------------------- public helpers --
@@ -335,12 +336,19 @@ class NavFilterBase:
         """1-sigma of the output's position, velocity and attitude errors (the first nine
         error states). Under the barometric height reference the output's height is
         ``p_D - b_baro`` on the datum ``b_baro0``: its variance is that of ``p_D - b_baro``
-        plus the datum's, the offset's variance when it was initialised."""
-        P = self.P
-        d = P.diagonal()[:9].tolist()
-        if self._hgt_baro and self._baro_ok:
-            d[2] = P[_IP + 2, _IP + 2] + P[_IBB, _IBB] - 2.0 * P[_IP + 2, _IBB] + self._bb0_var
-        return tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN stays NaN
+        plus the datum's, the offset's variance when it was initialised.
+
+        Worked out again only when P has changed (its version, as the health's test; the
+        flight log asks at 50 Hz, the fixed-wing's P changes every cov_div-th step)."""
+        if self._sig9_ver != self._P_ver:
+            P = self.P
+            d = P.diagonal()[:9].tolist()
+            if self._hgt_baro and self._baro_ok:
+                item = P.item
+                d[2] = item(_IP + 2, _IP + 2) + item(_IBB, _IBB) - 2.0 * item(_IP + 2, _IBB) + self._bb0_var
+            self._sig9 = tuple([math.sqrt(x) if x > 0.0 else 0.0 for x in d])  # NaN: 0
+            self._sig9_ver = self._P_ver
+        return self._sig9
 
     @property
     def specific_force_b(self) -> tuple | None:
@@ -817,13 +825,14 @@ class NavFilterBase:
         """Gate each source, fuse the accepted rows, apply resets, write the records."""
         self._sync_covariance()
         self._gate_stats(batch)                       # sets batch.y, batch.Sd
+        # the records' vectors: tuples of floats, sliced from the batch's (records.py)
+        y = tuple(batch.y.tolist())
         adapted = ()
         if self.r_scale_hook is not None:
-            adapted = self._scale_r(batch, self.r_scale_hook)
-        y, Sd = batch.y, batch.Sd
-        # test ratio = y^2 / (gate^2 S)   (on floats: one array instead of three)
-        rl = [yi * yi / (gi * si) for yi, gi, si in zip(y.tolist(), batch.g2_list, Sd.tolist())]
-        ratio = batch.ratio = np.array(rl)
+            adapted = self._scale_r(batch, self.r_scale_hook, y)
+        Sd = tuple(batch.Sd.tolist())
+        # test ratio = y^2 / (gate^2 S)
+        ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2, Sd)])
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
         arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
@@ -832,7 +841,7 @@ class NavFilterBase:
         rows = None
         for k, name in enumerate(src):
             a, m = start[k], size[k]
-            rej = max(rl[a:a + m]) > 1.0
+            rej = max(ratio[a:a + m]) > 1.0
             rejected.append(rej)
             if rej:
                 since = self._rej_since.setdefault(name, t)
@@ -857,7 +866,7 @@ class NavFilterBase:
             self._fuse_rows(batch, rows)
         for k in resets:
             self._reset_to(src[k], batch, start[k])
-        z = batch.z
+        z = batch.z_tuple
         rec = self.innovations
         for k, name in enumerate(src):
             a = start[k]
@@ -866,21 +875,20 @@ class NavFilterBase:
                                         rejected[k], forced[k] or not rejected[k]))
 
     @staticmethod
-    def _scale_r(batch: Batch, hook) -> list[str]:
+    def _scale_r(batch: Batch, hook, y: tuple) -> list[str]:
         """R adaptation hook (class docstring): S_ii = (H P H^T)_ii + s_i R_ii for the
         rows whose factors the hook returns (factors all 1 change nothing); the batch's
-        R and Sd are copied first (never written in place). Returns the sources the hook
-        returned factors for (the ones being adapted)."""
-        R, Sd, y = batch.R, batch.Sd, batch.y
+        R and Sd are copied first (never written in place). ``y``: batch.y as a tuple.
+        Returns the sources the hook returned factors for (the ones being adapted)."""
+        R, Sd = batch.R, batch.Sd
         copied = False
         adapted = []
         hph_all = Sd - R                              # diag(H P H^T)
-        r_all = R.copy()                              # the hook's copy of R
+        hph_t, r_t = tuple(hph_all.tolist()), tuple(R.tolist())   # the hook's
         for k, name in enumerate(batch.src):
             a = batch.start[k]
             b = a + batch.size[k]
-            hph = hph_all[a:b]
-            s = hook(name, y[a:b], hph, r_all[a:b])
+            s = hook(name, y[a:b], hph_t[a:b], r_t[a:b])
             if s is None:
                 continue
             adapted.append(name)
@@ -894,7 +902,7 @@ class NavFilterBase:
                 Sd = batch.Sd = Sd.copy()
             rs = r * s
             R[a:b] = rs
-            Sd[a:b] = hph + rs
+            Sd[a:b] = hph_all[a:b] + rs
         return adapted
 
     def _reset_to(self, source: str, batch: Batch, a: int) -> None:

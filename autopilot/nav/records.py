@@ -4,7 +4,8 @@ One record per fused (or gated-out) measurement, the same shape for every source
 PX4's ``EstimatorAidSource`` messages: what was observed, the innovation ``y = z - h(x)``,
 its variance ``S`` (diagonal of ``H P H^T + R``), the test ratio against the gate and
 whether the measurement was rejected and whether it changed the state. The fault
-monitor and the ground-station streams read these.
+monitor and the ground-station streams read these, element by element: the vectors are
+tuples of floats (about one record a step; four array views cost more than the record).
 
 Sources: ``gps_pos`` (NED position, m), ``gps_vel`` (NED velocity, m/s), ``baro``
 (altitude, m, up positive), ``mag`` (heading, rad), ``airspeed`` (true airspeed, m/s),
@@ -24,10 +25,10 @@ SOURCES = ("gps_pos", "gps_vel", "baro", "mag", "airspeed", "sideslip", "fake_po
 class InnovationRecord:
     t_us: int                          # filter time of the update [us]
     source: str                        # one of SOURCES
-    observation: np.ndarray            # z, in the source's unit (see module docstring)
-    innovation: np.ndarray             # y = z - h(x) [same unit]
-    innovation_variance: np.ndarray    # diag(S) = diag(H P H^T + R) [unit^2]
-    test_ratio: np.ndarray             # y^2 / (gate^2 * S) per component; > 1 fails
+    observation: tuple[float, ...]          # z, in the source's unit (see module docstring)
+    innovation: tuple[float, ...]           # y = z - h(x) [same unit]
+    innovation_variance: tuple[float, ...]  # diag(S) = diag(H P H^T + R) [unit^2]
+    test_ratio: tuple[float, ...]           # y^2 / (gate^2 * S) per component; > 1 fails
     rejected: bool                     # the gate test failed (any component > 1)
     fused: bool                        # the measurement changed the state (fusion or reset)
 
@@ -52,8 +53,7 @@ class InnovationLog:
             src = float(index.get(r.source, -1))
             rej = 1.0 if r.rejected else 0.0
             t = r.t_us * 1e-6
-            for k, (y, s, tr) in enumerate(zip(r.innovation.tolist(), r.innovation_variance.tolist(),
-                                                r.test_ratio.tolist())):
+            for k, (y, s, tr) in enumerate(zip(r.innovation, r.innovation_variance, r.test_ratio)):
                 sd = s ** 0.5 if s > 0.0 else 0.0
                 gate = abs(y) / (sd * tr ** 0.5) if sd > 0.0 and tr > 0.0 else float("nan")
                 rows.append((t, src, float(k), y, sd, gate, rej))
