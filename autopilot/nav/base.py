@@ -871,8 +871,8 @@ class NavFilterBase:
         for k, name in enumerate(src):
             a = start[k]
             e = a + size[k]
-            rec.append(InnovationRecord(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
-                                        rejected[k], forced[k] or not rejected[k]))
+            rec.append(InnovationRecord.make(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
+                                             rejected[k], forced[k] or not rejected[k]))
 
     @staticmethod
     def _scale_r(batch: Batch, hook, y: tuple) -> list[str]:
@@ -1052,8 +1052,8 @@ class NavFilterBase:
         # one array for the vectors that change every step, handed out as views (one
         # allocation; fromiter: np.array's shape and type discovery skipped)
         a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2]], float, 13)
-        return NavState(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                        self._wind_ned, self.aligned, self.healthy, self.SOURCE)
+        return NavState.make(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
+                             self._wind_ned, self.aligned, self.healthy, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:
