@@ -24,14 +24,14 @@ def _zeros3() -> np.ndarray:
 @message
 class ImuSample:
     t_us: int
-    f_b: np.ndarray         # specific force, body FRD [m/s^2]
-    omega_b: np.ndarray     # angular rate, body FRD [rad/s]
+    f_b: tuple              # specific force, body FRD [m/s^2]: 3 floats
+    omega_b: tuple          # angular rate, body FRD [rad/s]: 3 floats
 
 
 @message
 class MagSample:
     t_us: int
-    m_b: np.ndarray         # magnetic field, body FRD [gauss]
+    m_b: tuple              # magnetic field, body FRD [gauss]: 3 floats
 
 
 @message

@@ -140,7 +140,7 @@ class DecimatedNav:
         self._bg = (0.0, 0.0, 0.0)
         self._g = G
         self._last_t: int | None = None
-        self.f_raw = [0.0, 0.0, 0.0]    # this step's specific-force sample as floats
+        self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
 
     @property
     def P(self):
@@ -157,7 +157,7 @@ class DecimatedNav:
         if self._nm:
             n = 1.0 / self._nm
             m = self._m
-            mag = MagSample.make(t, np.array((m[0] * n, m[1] * n, m[2] * n)))
+            mag = MagSample.make(t, (m[0] * n, m[1] * n, m[2] * n))
             m[0] = m[1] = m[2] = 0.0
             self._nm = 0
         if self._nb:
@@ -172,13 +172,13 @@ class DecimatedNav:
 
     def update(self, frame: SensorFrame):
         imu = frame.imu
-        fx, fy, fz = self.f_raw = imu.f_b.tolist()
-        wx, wy, wz = imu.omega_b.tolist()
+        fx, fy, fz = self.f_raw = imu.f_b
+        wx, wy, wz = imu.omega_b
         t = frame.t_us
         dt = 0.0 if self._last_t is None else (t - self._last_t) * 1e-6
         self._last_t = t
         if frame.mag is not None:
-            mx, my, mz = frame.mag.m_b.tolist()
+            mx, my, mz = frame.mag.m_b
             m = self._m
             m[0] += mx; m[1] += my; m[2] += mz
             self._nm += 1
@@ -201,8 +201,7 @@ class DecimatedNav:
                 imu_f = imu
             else:
                 n = 1.0 / self._k
-                imu_f = ImuSample.make(t, np.array((f[0] * n, f[1] * n, f[2] * n)),
-                                       np.array((w[0] * n, w[1] * n, w[2] * n)))
+                imu_f = ImuSample.make(t, (f[0] * n, f[1] * n, f[2] * n), (w[0] * n, w[1] * n, w[2] * n))
             fr = SensorFrame.make(t, imu_f, mag, baro, self._air, self._gps)
             self._k = 0
             f[0] = f[1] = f[2] = w[0] = w[1] = w[2] = 0.0
@@ -581,7 +580,7 @@ class QuadVehicle(VehicleBase):
         modes."""
         nav = self.nav
         ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
-        f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b.tolist()
+        f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b
         # free flight only: not on the ground nor within FDI_MOT_HAGL of home's height
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground

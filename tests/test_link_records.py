@@ -52,12 +52,13 @@ def test_records_copy_and_pickle_through_their_constructor():
 
 
 def _class_call_frame(v, gps=None, rng=None, esc=None):
-    """sensor_frame_from spelt with class calls and separate arrays (the reference)."""
+    """sensor_frame_from spelt with class calls (the reference): the vectors are tuples of
+    floats."""
     t_us, flags = v[0], v[14]
     q = 2.0 * (v[11] * 100.0) / RHO0
     return SensorFrame(
-        t_us, ImuSample(t_us, np.array(v[1:4]), np.array(v[4:7])),
-        MagSample(t_us, np.array(v[7:10])) if flags & MAG_FLAGS else None,
+        t_us, ImuSample(t_us, tuple(v[1:4]), tuple(v[4:7])),
+        MagSample(t_us, tuple(v[7:10])) if flags & MAG_FLAGS else None,
         BaroSample(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None,
         AirspeedSample(t_us, v[11] * 100.0, math.sqrt(max(q, 0.0))) if flags & DIFF_FLAG else None,
         gps, rng, None if esc is None else RpmSample(t_us, float(esc[ESC_RPM])))
@@ -74,6 +75,8 @@ def _same(a, b):
             _same(x, y)
         elif isinstance(x, np.ndarray):
             assert x.dtype == y.dtype == np.float64 and x.tobytes() == y.tobytes(), f.name
+        elif isinstance(x, tuple):
+            assert type(y) is tuple and all(type(e) is float for e in x) and x == y, f.name
         else:
             assert type(x) is type(y) and x == y, f.name
 

@@ -127,9 +127,8 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
     values) -> SensorFrame in SI."""
     t_us = v[0]
     flags = v[14]
-    a = np.fromiter(v[1:10], float, 9)    # accel, gyro, mag: one array, handed out as views
-    imu = ImuSample.make(t_us, a[0:3], a[3:6])
-    mag = MagSample.make(t_us, a[6:9]) if flags & MAG_FLAGS else None
+    imu = ImuSample.make(t_us, v[1:4], v[4:7])      # (the readers take the vectors' floats)
+    mag = MagSample.make(t_us, v[7:10]) if flags & MAG_FLAGS else None
     baro = BaroSample.make(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:

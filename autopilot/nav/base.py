@@ -264,9 +264,9 @@ class NavFilterBase:
         # FDI_TOUT test reads this)
         self.heard_us: dict[str, int] = {}
         self._t_us: int | None = None
-        self._gyro = [0.0, 0.0, 0.0]          # last raw gyro sample, floats [rad/s]
-        self._gyro_prev: list | None = None   # the one before, floats [rad/s]
-        self._accel_prev: list | None = None  # the last specific-force sample [m/s^2]
+        self._gyro = (0.0, 0.0, 0.0)          # last raw gyro sample, floats [rad/s]
+        self._gyro_prev: tuple | None = None  # the one before, floats [rad/s]
+        self._accel_prev: tuple | None = None  # the last specific-force sample [m/s^2]
         # sums since the last covariance prediction (imu_step): f_n dt, R dt, the
         # sampling error (18 entries); whether the interval has a step, whether a
         # sampling error was added (_take_interval hands them out)
@@ -412,10 +412,10 @@ class NavFilterBase:
         if gps is not None and self.origin is None:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
 
-        w1 = self._gyro = imu.omega_b.tolist()
+        w1 = self._gyro = imu.omega_b
         w0 = self._gyro_prev if self._gyro_prev is not None else w1
         self._gyro_prev = w1
-        f1 = imu.f_b.tolist()
+        f1 = imu.f_b
         f0 = self._accel_prev if self._accel_prev is not None else f1
         self._accel_prev = f1
         if not self.aligned:
@@ -462,7 +462,7 @@ class NavFilterBase:
 
     def _align_step(self, frame: SensorFrame, gps) -> None:
         imu = frame.imu
-        f, w = imu.f_b, imu.omega_b
+        f, w = np.array(imu.f_b), np.array(imu.omega_b)
         # specific force low-passed over ~0.3 s (30 samples at 100 Hz)
         self._f_lp = f.copy() if self._f_lp is None else self._f_lp + (f - self._f_lp) / 30.0
         if gps is not None and math.hypot(gps.v_ned[0], gps.v_ned[1]) >= self.params["EK_ALIGN_GSPD"]:
@@ -486,7 +486,7 @@ class NavFilterBase:
         self._al_w += w
         self._al_w2 += w * w
         if frame.mag is not None:
-            self._al_m += frame.mag.m_b
+            self._al_m += frame.mag.m_b        # (a tuple added to the array)
             self._al_nm += 1
         if (frame.t_us - self._al_t0) * 1e-6 >= self.params["EK_ALIGN_T"] and self._al_nm > 0 \
                 and self.declination_rad is not None:

@@ -140,7 +140,7 @@ class SimRun:
             t = int(self.t_us[k])
             yield SensorFrame(
                 t_us=t,
-                imu=ImuSample(t, self._imu_f[k], self._imu_w[k]),
+                imu=ImuSample(t, tuple(self._imu_f[k].tolist()), tuple(self._imu_w[k].tolist())),
                 mag=self._mag.get(k), baro=self._baro.get(k),
                 airspeed=self._arsp.get(k), gps=self._gps.get(k))
 
@@ -317,7 +317,7 @@ def _sensors(rng, cfg: SimConfig, p, v, q, wind, airspeed, g, gps_outages, gps_g
     R = qbatch.to_dcm(q[km])
     m_b = np.einsum("nji,j->ni", R, cfg.mag_ned()) + cfg.mag_sigma * rng.standard_normal((len(km), 3))
     for j, k in enumerate(km):
-        mag[int(k)] = MagSample(int(t_us[k]), m_b[j])
+        mag[int(k)] = MagSample(int(t_us[k]), tuple(m_b[j].tolist()))
     arsp = {}
     ka = ticks(cfg.airspeed_rate_hz)
     na = cfg.airspeed_sigma_pa * rng.standard_normal(len(ka))

@@ -162,9 +162,10 @@ def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:
     nom.R = R
 
 
-def mag_ned(R: tuple, m_b: np.ndarray) -> tuple[float, float, float]:
-    """The measured field rotated into NED by the attitude R (row-major 9-tuple)."""
-    mx, my, mz = m_b.tolist()
+def mag_ned(R: tuple, m_b: tuple) -> tuple[float, float, float]:
+    """The measured field m_b (3 floats) rotated into NED by the attitude R (row-major
+    9-tuple)."""
+    mx, my, mz = m_b
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
     return (r00 * mx + r01 * my + r02 * mz, r10 * mx + r11 * my + r12 * mz,
             r20 * mx + r21 * my + r22 * mz)
