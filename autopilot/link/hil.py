@@ -142,8 +142,8 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
 def gps_fix_from(v) -> GpsFix:
     """HIL_GPS values (wire order) -> GpsFix in SI."""
     return GpsFix.make(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
-                  np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
-                  v[11], v[12])
+                       np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
+                       v[11], v[12])
 
 
 class AutopilotHilEnd:

@@ -245,7 +245,7 @@ class QuadrotorPlant:
         lat, lon, alt = self._frame.to_geodetic_fast(xs[_P:_V])
         v, q, w, f, wind = _VECTORS(tuple(xs))
         return PlantState.make(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
-                          self.on_ground, self.rho)
+                               self.on_ground, self.rho)
 
     # ---------------------------------------------------------------- stepping ---
     def static_thrusts(self, controls) -> list[float]:

@@ -261,7 +261,7 @@ class SensorSuite:
         if q and q[0][0] <= t_us:
             _, t_valid, lat, lon, alt, v_ned, sats = q.popleft()
             gps = GpsReading.make(t_us, lat, lon, alt, v_ned, self.eph_m, self.epv_m,
-                             self.params.gps_fix_type, sats, t_valid)
+                                  self.params.gps_fix_type, sats, t_valid)
 
         return SensorReadings.make(
             t_us, accel, gyro, self._mag_b,
