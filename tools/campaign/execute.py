@@ -60,10 +60,10 @@ class DriverInterrupt:
     (``waiting``). Anywhere else it is held and raised at the next wait
     (``raise_if_requested``): a ``KeyboardInterrupt`` landing in a store's insert comes out
     of DuckDB as ``RuntimeError: Query interrupted``, an error with a traceback, and one
-    landing in the closing of the local cluster left it to Python's exit handlers, which
-    wait for the cluster without a bound. Once the driver is closing (``closing``), a
-    Ctrl-C is only noted, and a second one ends the process at once (its worker
-    processes end with it). Installed only in the main thread and where SIGINT has
+    landing in the closing of the local cluster left the cluster to Python's exit
+    handlers (one was seen still waiting for it after 7 s). Once the driver is closing
+    (``closing``), a Ctrl-C is only noted, and a second one ends the process at once (its
+    worker processes end with it). Installed only in the main thread and where SIGINT has
     Python's default handler (a shell's background job keeps ignoring it)."""
 
     def __init__(self) -> None:
