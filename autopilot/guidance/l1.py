@@ -89,6 +89,19 @@ def _accel(vn, ve, gs, ln, le, l1, k):
 
 
 @kernel
+def _l1_point(tn, te, xtrack, l1):
+    """The L1 point (north, east) from the vehicle, for the path's unit tangent (tn, te)
+    and the vehicle ``xtrack`` to the right of it: where a circle of radius L1 about the
+    vehicle meets the path, no nearer along it than the capture angle allows."""
+    nn, ne = -te, tn                     # unit normal, to the right of the path
+    ahead = l1 * l1 - xtrack * xtrack
+    ahead = math.sqrt(0.0 if 0.0 > ahead else ahead)
+    steep = abs(xtrack) / _TAN_INTERCEPT
+    ahead = steep if steep > ahead else ahead
+    return tn * ahead - nn * xtrack, te * ahead - ne * xtrack
+
+
+@kernel
 def _line(vn, ve, gs, dn, de, length, pn, pe, heading_rad, airspeed_mps, zeta_t, k):
     """:meth:`L1Guidance.line` on floats: V_g (vn, ve), |V_g| ``gs``; the leg A->B
     (dn, de), its ``length``; the vehicle from A (pn, pe)."""
@@ -103,12 +116,7 @@ def _line(vn, ve, gs, dn, de, length, pn, pe, heading_rad, airspeed_mps, zeta_t,
     nn, ne = -te, tn                     # unit normal, to the right of the track
     xtrack = pn * nn + pe * ne           # + right of the path
     along = pn * tn + pe * te
-    ahead = l1 * l1 - xtrack * xtrack
-    ahead = math.sqrt(0.0 if 0.0 > ahead else ahead)
-    steep = abs(xtrack) / _TAN_INTERCEPT
-    ahead = steep if steep > ahead else ahead
-    ln = tn * ahead - nn * xtrack
-    le = te * ahead - ne * xtrack
+    ln, le = _l1_point(tn, te, xtrack, l1)
     a, eta = _accel(vn, ve, gs, ln, le, l1, k)
     return a, math.atan(a / G), xtrack, along, eta, l1     # eq 1.27
 
@@ -124,15 +132,9 @@ def _loiter(vn, ve, gs, rn, re, r, radius_m, direction, heading_rad, airspeed_mp
         rn, re, r = -vn, -ve, gs  # at the centre: any radial direction will do
     urn, ure = rn / r, re / r
     tn, te = -direction * ure, direction * urn      # tangent in the flight direction
-    nn, ne = -te, tn                                 # right of the tangent
     radial_err = r - radius_m                        # + outside the circle
     xtrack = -direction * radial_err                 # + right of the tangent
-    ahead = l1 * l1 - xtrack * xtrack
-    ahead = math.sqrt(0.0 if 0.0 > ahead else ahead)
-    steep = abs(xtrack) / _TAN_INTERCEPT
-    ahead = steep if steep > ahead else ahead
-    ln = tn * ahead - nn * xtrack
-    le = te * ahead - ne * xtrack
+    ln, le = _l1_point(tn, te, xtrack, l1)
     a, eta = _accel(vn, ve, gs, ln, le, l1, k)
     if abs(radial_err) < l1 and radius_m > 1.0:
         # centripetal feed-forward for the circle itself

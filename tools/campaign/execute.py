@@ -28,6 +28,8 @@ import warnings
 from datetime import datetime, timezone
 from pathlib import Path
 
+from autopilot.interrupt import StopOnInterrupt
+
 from .spec import Campaign
 from .store import Store
 from .trials import Trial, display_path, resolve, run_argv, write_scenario
@@ -53,8 +55,10 @@ class TrialInterrupted(RuntimeError):
     is incomplete, so the trial is not stored and a rerun flies it again."""
 
 
-class DriverInterrupt:
-    """Ctrl-C for the campaign driver (``with DriverInterrupt() as ctrl_c``).
+class DriverInterrupt(StopOnInterrupt):
+    """Ctrl-C for the campaign driver (``with DriverInterrupt() as ctrl_c``), installed
+    as the flight loops' :class:`StopOnInterrupt` is (main thread, Python's default
+    handler).
 
     SIGINT raises ``KeyboardInterrupt`` only while the driver waits for a trial's result
     (``waiting``). Anywhere else it is held and raised at the next wait
@@ -63,14 +67,12 @@ class DriverInterrupt:
     landing in the closing of the local cluster left the cluster to Python's exit
     handlers (one was seen still waiting for it after 7 s). Once the driver is closing
     (``closing``), a Ctrl-C is only noted, and a second one ends the process at once (its
-    worker processes end with it). Installed only in the main thread and where SIGINT has
-    Python's default handler (a shell's background job keeps ignoring it)."""
+    worker processes end with it)."""
 
     def __init__(self) -> None:
-        self.requested = False
+        super().__init__()
         self.waiting = False
         self.closing = False
-        self._previous = None
 
     def _handler(self, signum, frame) -> None:
         if self.closing and self.requested:
@@ -84,20 +86,6 @@ class DriverInterrupt:
     def raise_if_requested(self) -> None:
         if self.requested:
             raise KeyboardInterrupt
-
-    def __enter__(self) -> "DriverInterrupt":
-        import signal
-        import threading
-        if (threading.current_thread() is threading.main_thread()
-                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
-            self._previous = signal.signal(signal.SIGINT, self._handler)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self._previous is not None:
-            import signal
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
 
 
 # --- the package's version -------------------------------------------------------------
