@@ -40,7 +40,10 @@ _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
 def round_sat(v, lo, hi):
     """``v`` rounded half away from zero and saturated to the field's range [lo, hi]
     (integers, given as floats). Saturated first: for integer bounds the same result,
-    and no float beyond the field's integers (an infinity) is ever converted."""
+    and no float beyond the field's integers (an infinity) is ever converted. A NaN has
+    no integer: refused (compiled, its conversion would give an out-of-range one)."""
+    if v != v:
+        raise ValueError("NaN in a MAVLink integer field")
     v = lo if v < lo else (hi if v > hi else v)
     return floor(v + 0.5) if v >= 0.0 else ceil(v - 0.5)
 

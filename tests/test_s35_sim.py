@@ -6,6 +6,7 @@ import math
 from math import ceil, floor
 
 import numpy as np
+import pytest
 
 from autopilot.link.codec import Codec
 from autopilot.link.hil import ID_STATE, RAD_TO_E7
@@ -38,6 +39,15 @@ def test_round_sat_is_the_law_compiled_and_interpreted():
     # beyond the integers: saturated (the law itself cannot convert an infinity)
     assert round_sat(math.inf, 0.0, 254.0) == _round_sat(math.inf, 0.0, 254.0) == 254
     assert round_sat(-math.inf, -5.0, 5.0) == _round_sat(-1e300, -5.0, 5.0) == -5
+
+
+def test_a_nan_is_refused_by_name_compiled_and_interpreted():
+    # (compiled, its conversion gave -2**63, refused only later by the packing)
+    for f in (round_sat, _round_sat):
+        with pytest.raises(ValueError, match="NaN in a MAVLink integer field"):
+            f(math.nan, -32767.0, 32767.0)
+    with pytest.raises(ValueError, match="NaN"):
+        truth_ints(math.nan, 0.1, 100.0, 1.0, 2.0, 3.0, 20.0, 1.2, 0.0, 0.0, -9.8)
 
 
 def _truth_reference(codec, truth):
