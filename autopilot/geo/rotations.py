@@ -171,6 +171,8 @@ def euler_321(w, x, y, z):
     pitch = math.asin(s if s > -1.0 else -1.0)
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     return roll, pitch, (yaw + PI) % TWO_PI - PI   # wrap_pi
+
+
 @kernel
 def quat_dcm(w, x, y, z):
     """R(q_nb) of q = (w, x, y, z) as a row-major 9-tuple (:func:`quat_to_dcm`)."""

@@ -689,10 +689,6 @@ class CopterMissionSequencer:
     def total_items(self) -> int:
         return max(len(self.items) - 1, 0)
 
-    @property
-    def curving(self) -> bool:
-        return self._poly is not None
-
     def shift(self, d) -> None:
         """Home moved: the goal being flown moves by ``d`` (NED) in the new frame."""
         g = self._goal
