@@ -60,61 +60,85 @@ def dryden_step(x_u, x_v, x_w, h_agl_m, speed_mps, dt_s, n_steps, sigma_w, nu_u,
     return x_u, x_v, x_w, axis_n * x_u - axis_e * x_v, axis_e * x_u + axis_n * x_v
 
 
+# The gusts' state array (``DrydenGusts.s``), which :func:`gust_advance` updates in
+# place: the filters x_u, x_v, x_w, the gust (NED), the law's sigma_w, the u axis (north,
+# east components) and the time step.
+_X, _GUST, _SIGMA_W, _AXIS, _DT = 0, 3, 6, 7, 9
+_NS = 10
+
+
+@kernel
+def gust_advance(s, noise, row, h_agl_m, speed_mps, n_steps):
+    """:func:`dryden_step` on the state array ``s`` (``_X`` ... ``_DT``), driven by row
+    ``row`` of the block of standard normals ``noise``; the new filters and gust are
+    written into ``s`` and the gust (north, east, down) [m/s] returned."""
+    x_u, x_v, x_w, gust_n, gust_e = dryden_step(
+        s[0], s[1], s[2], h_agl_m, speed_mps, s[9], n_steps, s[6],
+        noise[row, 0], noise[row, 1], noise[row, 2], s[7], s[8])
+    s[0], s[1], s[2] = x_u, x_v, x_w
+    s[3], s[4], s[5] = gust_n, gust_e, x_w
+    return gust_n, gust_e, x_w
+
+
 class DrydenGusts:
     """``step(h_agl_m, speed_mps, n_steps) -> (gust_n, gust_e, gust_d)`` once per plant
     step (``n_steps`` time steps of ``dt_s``, one draw of the noise). ``configure``
-    changes the intensity and the steady wind on the way."""
+    changes the intensity and the steady wind on the way. The state is the array ``s``
+    (a plant's own kernel may advance it with :func:`gust_advance`, taking this step's
+    row of ``noise`` from :meth:`next_row`)."""
 
     def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
                  wind_ned=(0.0, 0.0, 0.0)):
         if turbulence not in TURBULENCE_W20_KT:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_W20_KT)}")
         self._rng = rng
-        self._dt_s = float(dt_s)
-        self._sigma_w = 0.1 * TURBULENCE_W20_KT[turbulence] * KT_MPS
-        self.active = self._sigma_w > 0.0
+        self.s = np.zeros(_NS)
+        self.s[_DT] = float(dt_s)
+        sigma_w = 0.1 * TURBULENCE_W20_KT[turbulence] * KT_MPS
+        self.s[_SIGMA_W] = sigma_w
+        self.active = sigma_w > 0.0
         h = math.hypot(wind_ned[0], wind_ned[1])
-        self._axis_u = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
-        self._x = (0.0, 0.0, 0.0)                 # u, v, w gust along the axes [m/s]
-        self.gust_ned = (0.0, 0.0, 0.0)
-        self._noise: list = []
+        self.s[_AXIS:_DT] = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
+        self.noise = np.zeros((0, 3))             # standard normals, one row per step
         self._k = 0
         # the kernel loaded now, not at the take-off (autopilot.jit.preload)
-        preload(dryden_step, 0.0, 0.0, 0.0, 10.0, 5.0, self._dt_s, 1, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+        preload(gust_advance, self.s.copy(), np.zeros((1, 3)), 0, 10.0, 5.0, 1)
+
+    @property
+    def gust_ned(self) -> tuple[float, float, float]:
+        """The gust of the last step (NED, m/s)."""
+        return tuple(self.s[_GUST:_SIGMA_W].tolist())
 
     def reset(self) -> None:
         """Calm air: the gust filters start again from zero."""
-        self._x = (0.0, 0.0, 0.0)
-        self.gust_ned = (0.0, 0.0, 0.0)
+        self.s[_X:_SIGMA_W] = 0.0
 
     def configure(self, w20_mps: float, wind_ned) -> None:
         """The wind speed at 20 ft ``w20_mps`` (0: no turbulence) and the steady wind
         (NED, m/s: the u axis); the filters start from zero when turbulence starts or
         stops."""
-        self._sigma_w = 0.1 * w20_mps
+        s = self.s
+        s[_SIGMA_W] = 0.1 * w20_mps
         was_active, self.active = self.active, w20_mps > 0.0
         if not self.active:
             self.reset()
         elif not was_active:
-            self._x = (0.0, 0.0, 0.0)
+            s[_X:_GUST] = 0.0
         wn, we = float(wind_ned[0]), float(wind_ned[1])
         horizontal = math.hypot(wn, we)
-        self._axis_u = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
+        s[_AXIS:_DT] = (wn / horizontal, we / horizontal) if horizontal > 0.1 else (1.0, 0.0)
+
+    def next_row(self) -> int:
+        """The row of ``noise`` for this step (a new block drawn when the last is used up)."""
+        k = self._k
+        if k >= len(self.noise):
+            self.noise = self._rng.standard_normal((_BLOCK, 3))
+            k = 0
+        self._k = k + 1
+        return k
 
     def step(self, h_agl_m: float, speed_mps: float, n_steps: int = 1) -> tuple[float, float, float]:
         if not self.active:
             return self.gust_ned
-        if self._k >= len(self._noise):
-            self._noise = self._rng.standard_normal((_BLOCK, 3)).tolist()
-            self._k = 0
-        nu_u, nu_v, nu_w = self._noise[self._k]
-        self._k += 1
-        x_u, x_v, x_w = self._x
-        axis_n, axis_e = self._axis_u
-        # (arguments named one by one: a starred call builds its argument tuple first)
-        x_u, x_v, x_w, gust_n, gust_e = dryden_step(
-            x_u, x_v, x_w, h_agl_m, speed_mps, self._dt_s, n_steps, self._sigma_w, nu_u, nu_v,
-            nu_w, axis_n, axis_e)
-        self._x = (x_u, x_v, x_w)
-        self.gust_ned = (gust_n, gust_e, x_w)
-        return self.gust_ned
+        row = self.next_row()                     # (before ``noise`` is read: it may draw)
+        return gust_advance(self.s, self.noise, row, h_agl_m, speed_mps, n_steps)

@@ -39,11 +39,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.geo import LocalFrame, gravity_m_s2
-from autopilot.geo.rotations import quat_dcm, quat_step
+from autopilot.geo.rotations import PI, TWO_PI, quat_dcm, quat_step
 from autopilot.jit import kernel
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import isa
-from sim_bridge.wind import DrydenGusts
+from sim_bridge.wind import DrydenGusts, gust_advance
 
 CRASH_SPEED_MPS = 3.0     # touchdown faster than this counts as a crash [m/s]
 CRASH_TILT_RAD = math.radians(35.0)
@@ -133,14 +133,20 @@ AIRFRAMES = {"f450": F450}
 
 # The plant's state, one array (``QuadrotorPlant._x``) that flight_step updates in place:
 # p (NED from home's ground point), v, q_nb, omega_b, the specific force f_b, the wind
-# of the last state() (steady + gust, NED), the rotor thrusts T.
-_P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
-_NX = 23
+# of the last state() (steady + gust, NED), the rotor thrusts T; then what the state
+# record reports besides (written by state_readout): lat, lon, alt, airspeed, alpha, beta.
+_P, _V, _Q, _W, _F, _WIND, _T, _GEO, _AIR = 0, 3, 6, 10, 13, 16, 19, 23, 26
+_NX = 29
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
-# v, q, omega_b, f_b, wind of a state as a tuple: five tuples cut in one call (each cut
-# by a subscript of its own costs a slice object and an interpreter step more)
-_VECTORS = operator.itemgetter(slice(_V, _Q), slice(_Q, _W), slice(_W, _F), slice(_F, _WIND),
-                              slice(_WIND, _T))
+# lat, lon, alt, then v, q, omega_b, f_b, wind as tuples, then airspeed, alpha, beta of
+# the state array as a tuple, cut in one call (each cut by a subscript of its own costs
+# a slice object and an interpreter step more)
+_RECORD = operator.itemgetter(_GEO, _GEO + 1, _GEO + 2, slice(_V, _Q), slice(_Q, _W),
+                              slice(_W, _F), slice(_F, _WIND), slice(_WIND, _T),
+                              _AIR, _AIR + 1, _AIR + 2)
+# the steady wind and the local frame's constants (LocalFrame.to_geodetic_fast), after
+# flight_step's in the constants array ``_consts``
+_C_WIND, _C_FRAME = 19, 22
 
 
 class QuadrotorPlant:
@@ -184,10 +190,13 @@ class QuadrotorPlant:
         self.touchdown_speed_mps: float | None = None
         # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
         self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
-        # flight_step's constants: the step's, then static_thrust's
+        # flight_step's constants: the step's, then static_thrust's; then state_readout's:
+        # the steady wind, the local frame at home (LocalFrame.to_geodetic_fast)
+        f = self._frame
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
-                                 af.gear_height_m) + self._ts)
+                                 af.gear_height_m) + self._ts + self._wind
+                                + (f.lat0_rad, f.lon0_rad, f.alt0_m, f._bend, f._rm, f._rn0))
         self._x = np.zeros(_NX)
         # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
         # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
@@ -206,8 +215,8 @@ class QuadrotorPlant:
                  lambda self, val: self._x.__setitem__(slice(_Q, _W), val))
     w = property(lambda self: self._x[_W:_F].tolist(),
                  lambda self, val: self._x.__setitem__(slice(_W, _F), val))
-    thrust = property(lambda self: self._x[_T:_NX].tolist(),
-                      lambda self, val: self._x.__setitem__(slice(_T, _NX), val))
+    thrust = property(lambda self: self._x[_T:_GEO].tolist(),
+                      lambda self, val: self._x.__setitem__(slice(_T, _GEO), val))
 
     def reset(self) -> None:
         """At rest on the ground at home, heading as home's, motors stopped."""
@@ -233,17 +242,16 @@ class QuadrotorPlant:
         x[_P:_WIND] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,                      # p, v
                        math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad),  # q
                        0.0, 0.0, 0.0, 0.0, 0.0, -self.g)                          # omega, f_b
-        x[_T:_NX] = (t, t, t, t)
+        x[_T:_GEO] = (t, t, t, t)
         self.on_ground = False
 
     def state(self) -> PlantState:
-        x = self._x
-        gn, ge, gd = self._gusts.gust_ned
-        wn, we, wd = self._wind
-        airspeed, alpha, beta = air_data(x, wn + gn, we + ge, wd + gd)
-        xs = x.tolist()                          # (after air_data: it writes the wind)
-        lat, lon, alt = self._frame.to_geodetic_fast(xs[_P:_V])
-        v, q, w, f, wind = _VECTORS(tuple(xs))
+        state_readout(self._x, self._consts, self._gusts.s)
+        return self._record()
+
+    def _record(self) -> PlantState:
+        """The state record of the state array (its readout written)."""
+        lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta = _RECORD(tuple(self._x.tolist()))
         return PlantState.make(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
                                self.on_ground, self.rho)
 
@@ -253,7 +261,7 @@ class QuadrotorPlant:
         return [static_thrust(u, *self._ts) for u in controls[:4]]
 
     def step(self, controls, n_steps: int = 1) -> PlantState:
-        """Hold the rotor commands for ``n_steps`` integration steps (:func:`flight_step`;
+        """Hold the rotor commands for ``n_steps`` integration steps (:func:`plant_step`;
         the ground, resting and touching down, in :meth:`_rest` / :meth:`_touchdown`)."""
         u1, u2, u3, u4 = controls[:4]
         k1, k2, k3, k4 = self.rotor_scale
@@ -263,16 +271,11 @@ class QuadrotorPlant:
             h = self.terrain(math.degrees(lat), math.degrees(lon))
             self._ground_d = 0.0 if h is None else self.home[2] - h
         gusts = self._gusts
+        code = _ON_GROUND                         # (no step: the readout below)
         for _ in range(n_steps):
-            wn, we, wd = self._wind
-            if gusts.active:
-                # the Dryden gust at the air-relative speed over the steady wind
-                pd, vn, ve, vd = x[_P + 2:_Q].tolist()
-                an0, ae0, ad0 = vn - wn, ve - we, vd - wd
-                gn, ge, gd = gusts.step(self._ground_d - pd, math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0))
-                wn, we, wd = wn + gn, we + ge, wd + gd
-            code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd,
-                               self.on_ground, self._ground_d)
+            row = gusts.next_row() if gusts.active else -1
+            code = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3, k4,
+                              self.on_ground, self._ground_d)
             if code == _ON_GROUND:
                 self._rest(self.dt_s)
             else:
@@ -280,7 +283,9 @@ class QuadrotorPlant:
                 if code == _TOUCHDOWN:
                     self._touchdown(x[_V + 2])
             self._t_us += self._dt_us
-        return self.state()
+        if code != _FLYING:                       # (the ground moved the state after its readout)
+            state_readout(x, c, gusts.s)
+        return self._record()
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
@@ -364,6 +369,42 @@ def air_data(x, wn, we, wd):
         s = s if s < 1.0 else 1.0
         beta = math.asin(s if s > -1.0 else -1.0)
     return airspeed, alpha, beta
+
+
+@kernel
+def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d):
+    """One step of the plant on its state array ``x`` and constants ``c``: the Dryden gust
+    (``gust``, ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no
+    gust when ``row`` is negative) at the height above the ground and the speed through
+    the steady wind, then :func:`flight_step` in the steady wind + gust, then, when the
+    vehicle flew, the state's readout (:func:`state_readout`). Returns flight_step's
+    code."""
+    wn, we, wd = c[19], c[20], c[21]
+    if row >= 0:
+        an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
+        gn, ge, gd = gust_advance(gust, noise, row, ground_d - x[2],
+                                  math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
+        wn, we, wd = wn + gn, we + ge, wd + gd
+    code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
+    if code == 0:
+        state_readout(x, c, gust)
+    return code
+
+
+@kernel
+def state_readout(x, c, gust):
+    """What the state record reports besides the state array's vectors, written into
+    ``x[_GEO:_NX]``: the geodetic position of p (``LocalFrame.to_geodetic_fast`` of the
+    frame at home, the constants ``c[_C_FRAME:]``), and the air data (:func:`air_data`)
+    in the steady wind ``c[_C_WIND:_C_FRAME]`` + the gust ``gust[3:6]``."""
+    airspeed, alpha, beta = air_data(x, c[19] + gust[3], c[20] + gust[4], c[21] + gust[5])
+    lat0, lon0, alt0, bend, rm, rn0 = c[22], c[23], c[24], c[25], c[26], c[27]
+    e = x[1]
+    lat = lat0 + (x[0] - e * e * bend) / rm
+    x[23] = lat
+    x[24] = (lon0 + e / (rn0 * math.cos(lat)) + PI) % TWO_PI - PI      # wrap_pi
+    x[25] = alt0 - x[2]
+    x[26], x[27], x[28] = airspeed, alpha, beta
 
 
 @kernel
