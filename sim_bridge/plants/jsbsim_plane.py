@@ -63,8 +63,7 @@ import math
 import os
 import warnings
 from dataclasses import dataclass
-from itertools import repeat
-from operator import add, truediv
+from operator import add
 from pathlib import Path
 
 import jsbsim
@@ -192,19 +191,21 @@ class JSBSimPlane:
     # rate the aircraft does not have; the mean is right.
     imu_mean_steps = 1
 
-    def state(self, imu=None) -> PlantState:
-        """The true state now, in SI units (see base.PlantState). ``imu``: the body
-        rates and specific force (p, q, r, ax, ay, az in JSBSim's units) to report
-        instead of this step's (``step``'s means)."""
-        if imu is None:
-            (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
-                _read, self._state_nodes)
-        else:                                     # (the rates and forces not read twice)
-            (lat, lon, alt, vn, ve, vd, phi, theta, psi, wn, we, wd,
-             vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
-                _read, self._state_nodes_no_imu)
-            p, q, r, ax, ay, az = imu
+    def state(self) -> PlantState:
+        """The true state now, in SI units (see base.PlantState)."""
+        return self._readout(_ZERO6, 1)
+
+    def _readout(self, imu_sums: tuple, n_mean: int) -> PlantState:
+        """The state now, its body rates and specific force the means over ``n_mean``
+        steps: this one's and the earlier ones' sums ``imu_sums`` (p, q, r, ax, ay, az
+        in JSBSim's units; with ``n_mean`` 1, this step's values as read)."""
+        (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
+         vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
+            _read, self._state_nodes)
+        if n_mean > 1:
+            sum_p, sum_q, sum_r, sum_ax, sum_ay, sum_az = imu_sums
+            p, q, r = (sum_p + p) / n_mean, (sum_q + q) / n_mean, (sum_r + r) / n_mean
+            ax, ay, az = (sum_ax + ax) / n_mean, (sum_ay + ay) / n_mean, (sum_az + az) / n_mean
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
@@ -245,15 +246,17 @@ class JSBSimPlane:
         imu = self._imu_nodes
         n_mean = self.imu_mean_steps
         n_mean = n_steps if n_steps < n_mean else n_mean    # min() (autopilot/control/pid.py)
+        # the means' earlier steps summed here; the last step's read with the state
+        first, last = n_steps - n_mean, n_steps - 1
         acc = _ZERO6                              # sums of p, q, r, ax, ay, az
         for k in range(n_steps):
             if self._phase != _FREE:
                 self._launcher_logic(controls.throttle)
             run()
             self._t_us += self._dt_us
-            if k >= n_steps - n_mean:
+            if first <= k < last:
                 acc = tuple(map(add, acc, map(_read, imu)))
-        return self.state(imu=map(truediv, acc, repeat(n_mean)) if n_mean > 1 else None)
+        return self._readout(acc, n_mean)
 
     def set_wind(self, wind_ned, turbulence: str = "none") -> None:
         """Steady wind, the air's velocity over ground NED [m/s], and turbulence level."""
@@ -471,7 +474,6 @@ class JSBSimPlane:
         node = {name: get.__self__ for name, get in self._n.items()}
         self._state_nodes = tuple(node[name] for name in names)
         self._imu_nodes = tuple(node[name] for name in imu)
-        self._state_nodes_no_imu = tuple(node[name] for name in names if name not in imu)
         self._gust_nodes = tuple(node[name] for name in ("agl", "vn", "ve", "vd"))
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")

@@ -100,7 +100,7 @@ class SensorSuite:
         # Noise block state
         self._imu_err = np.zeros((0, 6))         # white + bias per row
         self._imu_bias = np.zeros((0, 6))        # bias per row
-        self._rows: list[list[float]] = []
+        self._block = np.zeros((0, _NCOL))
         self._row = _BLOCK_ROWS                  # forces a draw at the first sample
 
         # Schedules (set at the first sample)
@@ -176,7 +176,9 @@ class SensorSuite:
         self._imu_bias = bias
         self._imu_err = block[:, _IMU_WHITE] * self._imu_white_scale + bias
         self._imu_err_rows = self._imu_err.tolist()
-        self._rows = block[:, _N_IMU:].tolist()
+        # the slower sensors' columns are read row by row at the steps where one of them
+        # updates (converting the whole block cost more than the reads it spared)
+        self._block = block
         self._row = 0
 
     def sample(self, state) -> SensorReadings:
@@ -186,7 +188,6 @@ class SensorSuite:
             self._draw_block()
             i = 0
         self._row = i + 1
-        n = self._rows[i]
         t_us = state.t_us
 
         # IMU (truth + this row's white noise and bias)
@@ -196,9 +197,18 @@ class SensorSuite:
         accel = (fx + ex, fy + ey, fz + ez)
         gyro = (wx + egx, wy + egy, wz + egz)
 
-        # Barometer
         nxt = self._next_baro_us
         baro_updated = nxt is None or t_us >= nxt
+        nxt = self._next_mag_us
+        mag_updated = nxt is None or t_us >= nxt
+        nxt = self._next_arsp_us
+        arsp_updated = nxt is None or t_us >= nxt
+        nxt = self._next_gps_us
+        gps_epoch = nxt is None or t_us >= nxt
+        if baro_updated or mag_updated or arsp_updated or gps_epoch:
+            n = self._block[i, _N_IMU:].tolist()  # this step's normals of those sensors
+
+        # Barometer
         if baro_updated:
             self._next_baro_us = self._advance(self._next_baro_us, self._baro_period_us, t_us)
             alt = state.alt_m
@@ -217,8 +227,6 @@ class SensorSuite:
             self._temperature_k = temp + prm.baro_temperature_sigma_k * n[_TEMP_W]
 
         # Magnetometer
-        nxt = self._next_mag_us
-        mag_updated = nxt is None or t_us >= nxt
         if mag_updated:
             self._next_mag_us = self._advance(self._next_mag_us, self._mag_period_us, t_us)
             if self._b_ned is None:
@@ -238,8 +246,6 @@ class SensorSuite:
             )
 
         # Airspeed
-        nxt = self._next_arsp_us
-        arsp_updated = nxt is None or t_us >= nxt
         if arsp_updated:
             self._next_arsp_us = self._advance(self._next_arsp_us, self._arsp_period_us, t_us)
             rho = state.rho_kgm3
@@ -252,8 +258,7 @@ class SensorSuite:
             self._airspeed_mps = math.sqrt(2.0 * dp / isa.RHO0_KGM3) if dp > 0.0 else 0.0
 
         # GPS: compute a fix at its epoch, deliver it after the latency
-        nxt = self._next_gps_us
-        if nxt is None or t_us >= nxt:
+        if gps_epoch:
             self._next_gps_us = self._advance(self._next_gps_us, self._gps_period_us, t_us)
             self._gps_epoch(state, n)
         gps = None
