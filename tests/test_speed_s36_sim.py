@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame
-from sim_bridge.plants.quadrotor import (_AIR, _GEO, _NX, QuadrotorPlant, air_data,
-                                         flight_step, plant_step, state_readout)
+from sim_bridge.plants.quadrotor import (QuadrotorPlant, air_data, flight_step, plant_step,
+                                         state_readout)
 from sim_bridge.wind import DrydenGusts, dryden_step, gust_advance
 
 
@@ -62,16 +62,18 @@ def test_state_readout_is_air_data_and_the_frames_geodetic_position():
             q = rng.standard_normal(4)
             x[6:10] = q / np.linalg.norm(q)
             p._gusts.s[3:6] = rng.standard_normal(3)
-            # WHEN the readout is written
-            state_readout(x, p._consts, p._gusts.s)
-            # THEN it is LocalFrame.to_geodetic_fast and air_data in steady wind + gust
+            # WHEN the readout is taken
+            got = state_readout(x, p._consts, p._gusts.s)
+            # THEN it is LocalFrame.to_geodetic_fast, the state's vectors and air_data in
+            # the steady wind + gust (stored in the state as its wind)
             y = x.copy()
             gn, ge, gd = p._gusts.gust_ned
             want_air = air_data(y, 1.0 + gn, 3.0 + ge, 0.0 + gd)
             want_geo = frame.to_geodetic_fast(x[0:3].tolist())
-            assert x[_GEO:_AIR].tolist() == list(want_geo)
-            assert tuple(x[_AIR:_NX].tolist()) == want_air
-            assert x.tolist() == y.tolist()
+            xs = x.tolist()
+            assert got == (*want_geo, tuple(xs[3:6]), tuple(xs[6:10]), tuple(xs[10:13]),
+                           tuple(xs[13:16]), tuple(xs[16:19]), *want_air)
+            assert xs == y.tolist()
 
 
 def test_plant_step_is_the_gust_then_flight_step_then_the_readout():
@@ -82,14 +84,15 @@ def test_plant_step_is_the_gust_then_flight_step_then_the_readout():
     for _ in range(300):
         # WHEN one takes plant_step and the other the steps it composes, in Python
         row = a._gusts.next_row()
-        code = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, *k, False, 0.0)
+        code, readout = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, *k,
+                                   False, 0.0)
         x = b._x
         wn, we, wd = b._wind
         an, ae, ad = x[3] - wn, x[4] - we, x[5] - wd
         gn, ge, gd = b._gusts.step(-x[2], math.sqrt(an * an + ae * ae + ad * ad))
         want = flight_step(x, b._consts, *u, *k, wn + gn, we + ge, wd + gd, False, 0.0)
-        state_readout(x, b._consts, b._gusts.s)
-        # THEN the states, gusts and codes agree bit for bit
+        # THEN the states, gusts, readouts and codes agree bit for bit
+        assert readout == state_readout(x, b._consts, b._gusts.s)
         assert code == want == 0
         assert a._x.tolist() == b._x.tolist()
         assert a._gusts.s.tolist() == b._gusts.s.tolist()

@@ -33,7 +33,6 @@ the ground contact: docs/simulator.md, "The quadrotor plant".
 from __future__ import annotations
 
 import math
-import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,17 +132,10 @@ AIRFRAMES = {"f450": F450}
 
 # The plant's state, one array (``QuadrotorPlant._x``) that flight_step updates in place:
 # p (NED from home's ground point), v, q_nb, omega_b, the specific force f_b, the wind
-# of the last state() (steady + gust, NED), the rotor thrusts T; then what the state
-# record reports besides (written by state_readout): lat, lon, alt, airspeed, alpha, beta.
-_P, _V, _Q, _W, _F, _WIND, _T, _GEO, _AIR = 0, 3, 6, 10, 13, 16, 19, 23, 26
-_NX = 29
+# of the last state() (steady + gust, NED), the rotor thrusts T.
+_P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
+_NX = 23
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
-# lat, lon, alt, then v, q, omega_b, f_b, wind as tuples, then airspeed, alpha, beta of
-# the state array as a tuple, cut in one call (each cut by a subscript of its own costs
-# a slice object and an interpreter step more)
-_RECORD = operator.itemgetter(_GEO, _GEO + 1, _GEO + 2, slice(_V, _Q), slice(_Q, _W),
-                              slice(_W, _F), slice(_F, _WIND), slice(_WIND, _T),
-                              _AIR, _AIR + 1, _AIR + 2)
 # the steady wind and the local frame's constants (LocalFrame.to_geodetic_fast), after
 # flight_step's in the constants array ``_consts``
 _C_WIND, _C_FRAME = 19, 22
@@ -215,8 +207,8 @@ class QuadrotorPlant:
                  lambda self, val: self._x.__setitem__(slice(_Q, _W), val))
     w = property(lambda self: self._x[_W:_F].tolist(),
                  lambda self, val: self._x.__setitem__(slice(_W, _F), val))
-    thrust = property(lambda self: self._x[_T:_GEO].tolist(),
-                      lambda self, val: self._x.__setitem__(slice(_T, _GEO), val))
+    thrust = property(lambda self: self._x[_T:_NX].tolist(),
+                      lambda self, val: self._x.__setitem__(slice(_T, _NX), val))
 
     def reset(self) -> None:
         """At rest on the ground at home, heading as home's, motors stopped."""
@@ -242,16 +234,15 @@ class QuadrotorPlant:
         x[_P:_WIND] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,                      # p, v
                        math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad),  # q
                        0.0, 0.0, 0.0, 0.0, 0.0, -self.g)                          # omega, f_b
-        x[_T:_GEO] = (t, t, t, t)
+        x[_T:_NX] = (t, t, t, t)
         self.on_ground = False
 
     def state(self) -> PlantState:
-        state_readout(self._x, self._consts, self._gusts.s)
-        return self._record()
+        return self._record(state_readout(self._x, self._consts, self._gusts.s))
 
-    def _record(self) -> PlantState:
-        """The state record of the state array (its readout written)."""
-        lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta = _RECORD(tuple(self._x.tolist()))
+    def _record(self, readout: tuple) -> PlantState:
+        """The state record of :func:`state_readout`'s values."""
+        lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta = readout
         return PlantState.make(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
                                self.on_ground, self.rho)
 
@@ -274,7 +265,7 @@ class QuadrotorPlant:
         code = _ON_GROUND                         # (no step: the readout below)
         for _ in range(n_steps):
             row = gusts.next_row() if gusts.active else -1
-            code = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3, k4,
+            code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3, k4,
                               self.on_ground, self._ground_d)
             if code == _ON_GROUND:
                 self._rest(self.dt_s)
@@ -284,8 +275,8 @@ class QuadrotorPlant:
                     self._touchdown(x[_V + 2])
             self._t_us += self._dt_us
         if code != _FLYING:                       # (the ground moved the state after its readout)
-            state_readout(x, c, gusts.s)
-        return self._record()
+            readout = state_readout(x, c, gusts.s)
+        return self._record(readout)
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
@@ -376,9 +367,9 @@ def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground
     """One step of the plant on its state array ``x`` and constants ``c``: the Dryden gust
     (``gust``, ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no
     gust when ``row`` is negative) at the height above the ground and the speed through
-    the steady wind, then :func:`flight_step` in the steady wind + gust, then, when the
-    vehicle flew, the state's readout (:func:`state_readout`). Returns flight_step's
-    code."""
+    the steady wind, then :func:`flight_step` in the steady wind + gust. Returns
+    flight_step's code and the state's readout (:func:`state_readout`; out of date
+    unless the vehicle flew: the ground then moves it, in Python)."""
     wn, we, wd = c[19], c[20], c[21]
     if row >= 0:
         an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
@@ -386,25 +377,24 @@ def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground
                                   math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
         wn, we, wd = wn + gn, we + ge, wd + gd
     code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
-    if code == 0:
-        state_readout(x, c, gust)
-    return code
+    return code, state_readout(x, c, gust)
 
 
 @kernel
 def state_readout(x, c, gust):
-    """What the state record reports besides the state array's vectors, written into
-    ``x[_GEO:_NX]``: the geodetic position of p (``LocalFrame.to_geodetic_fast`` of the
-    frame at home, the constants ``c[_C_FRAME:]``), and the air data (:func:`air_data`)
-    in the steady wind ``c[_C_WIND:_C_FRAME]`` + the gust ``gust[3:6]``."""
+    """The state record's values of the state array ``x`` (PlantState's lat_rad ...
+    beta_rad): the geodetic position of p (``LocalFrame.to_geodetic_fast`` of the frame
+    at home, the constants ``c[_C_FRAME:]``), v, q, omega, f, the wind (the steady wind
+    ``c[_C_WIND:_C_FRAME]`` + the gust ``gust[3:6]``, stored in x) and the air data in
+    it (:func:`air_data`)."""
     airspeed, alpha, beta = air_data(x, c[19] + gust[3], c[20] + gust[4], c[21] + gust[5])
     lat0, lon0, alt0, bend, rm, rn0 = c[22], c[23], c[24], c[25], c[26], c[27]
     e = x[1]
     lat = lat0 + (x[0] - e * e * bend) / rm
-    x[23] = lat
-    x[24] = (lon0 + e / (rn0 * math.cos(lat)) + PI) % TWO_PI - PI      # wrap_pi
-    x[25] = alt0 - x[2]
-    x[26], x[27], x[28] = airspeed, alpha, beta
+    lon = (lon0 + e / (rn0 * math.cos(lat)) + PI) % TWO_PI - PI      # wrap_pi
+    return (lat, lon, alt0 - x[2], (x[3], x[4], x[5]), (x[6], x[7], x[8], x[9]),
+            (x[10], x[11], x[12]), (x[13], x[14], x[15]), (x[16], x[17], x[18]),
+            airspeed, alpha, beta)
 
 
 @kernel
