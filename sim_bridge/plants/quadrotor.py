@@ -136,9 +136,6 @@ AIRFRAMES = {"f450": F450}
 _P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
 _NX = 23
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
-# the steady wind and the local frame's constants (LocalFrame.to_geodetic_fast), after
-# flight_step's in the constants array ``_consts``
-_C_WIND, _C_FRAME = 19, 22
 
 
 class QuadrotorPlant:
@@ -182,8 +179,9 @@ class QuadrotorPlant:
         self.touchdown_speed_mps: float | None = None
         # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
         self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
-        # flight_step's constants: the step's, then static_thrust's; then state_readout's:
-        # the steady wind, the local frame at home (LocalFrame.to_geodetic_fast)
+        # flight_step's constants: the step's, then static_thrust's; then (from 19)
+        # plant_step's and state_readout's: the steady wind NED, the local frame at home
+        # (lat0, lon0, alt0 and LocalFrame.to_geodetic_fast's bend and radii)
         f = self._frame
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
@@ -265,8 +263,8 @@ class QuadrotorPlant:
         code = _ON_GROUND                         # (no step: the readout below)
         for _ in range(n_steps):
             row = gusts.next_row() if gusts.active else -1
-            code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3, k4,
-                              self.on_ground, self._ground_d)
+            code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4,
+                                       k1, k2, k3, k4, self.on_ground, self._ground_d)
             if code == _ON_GROUND:
                 self._rest(self.dt_s)
             else:
@@ -384,9 +382,9 @@ def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground
 def state_readout(x, c, gust):
     """The state record's values of the state array ``x`` (PlantState's lat_rad ...
     beta_rad): the geodetic position of p (``LocalFrame.to_geodetic_fast`` of the frame
-    at home, the constants ``c[_C_FRAME:]``), v, q, omega, f, the wind (the steady wind
-    ``c[_C_WIND:_C_FRAME]`` + the gust ``gust[3:6]``, stored in x) and the air data in
-    it (:func:`air_data`)."""
+    at home, the constants ``c[22:28]``), v, q, omega, f, the wind (the steady wind
+    ``c[19:22]`` + the gust ``gust[3:6]``, stored in x) and the air data in it
+    (:func:`air_data`)."""
     airspeed, alpha, beta = air_data(x, c[19] + gust[3], c[20] + gust[4], c[21] + gust[5])
     lat0, lon0, alt0, bend, rm, rn0 = c[22], c[23], c[24], c[25], c[26], c[27]
     e = x[1]
