@@ -38,12 +38,13 @@ that step's time is its time (:class:`~autopilot.messages.RpmSample`).
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
 from ..messages import (AirspeedSample, ActuatorOutputs, BaroSample, GpsFix, ImuSample,
                         MagSample, RangeSample, RpmSample, SensorFrame)
-from .codec import MAV, Codec
+from .codec import MAV, Codec, Routes
 
 DEG_E7 = 1e7
 RAD_TO_E7 = 180.0 / math.pi * 1e7
@@ -170,51 +171,61 @@ class AutopilotHilEnd:
         self.other: list = []
         self.acks: list = []
         self.battery = None
+        self._steps: list = []
+        self._routes = Routes({ID_SENSOR: self._on_sensor, ID_STATE: self._on_state, ID_GPS: self._on_gps,
+                               ID_DISTANCE: self._on_range, ID_ESC: self._on_esc,
+                               ID_ACTUATORS: self._on_actuators})
 
     def poll(self, timeout_s: float = 0.0) -> list[tuple[SensorFrame, TruthSample | None]]:
-        steps = []
         data = self.transport.recv(timeout_s)
         if not data:
-            return steps
-        for msg in self.codec.decode(data, HIL_IDS, pairs=True):
-            if type(msg) is not tuple:      # not a lockstep message: a message object
-                kind = msg.get_type()
-                if kind == "BATTERY_STATUS":
-                    self.battery = msg
-                elif kind == "COMMAND_ACK":
-                    self.acks.append(msg)
-                else:
-                    self.other.append(msg)
-                continue
-            mid, v = msg
-            if mid == ID_SENSOR:
-                t_us = v[0]
-                last = self._last_t_us
-                if t_us == last:
-                    # the simulator did not get our answer: repeat it, do not re-run
-                    self.duplicates += 1
-                    if self._last_answer is not None:
-                        self.transport.send(self._last_answer)
-                    continue
-                if last is not None and t_us < last:
-                    continue  # stale (late duplicate of an older step)
-                truth = self._truth
-                if truth is not None and truth.t_us != t_us:
-                    truth = None
-                steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
-                self._gps = None
-                self._range = None
-                self._esc = None
-                self._last_t_us = t_us
-            elif mid == ID_STATE:
-                self._truth = TruthSample(v)
-            elif mid == ID_GPS:
-                self._gps = gps_fix_from(v)
-            elif mid == ID_DISTANCE:
-                self._range = range_sample_from(v)
-            elif mid == ID_ESC:
-                self._esc = v
+            return []
+        self._steps = steps = []        # the HIL_SENSOR handler's (on_sensor)
+        for msg in self.codec.dispatch(data, self._routes):   # not a lockstep message
+            kind = msg.get_type()
+            if kind == "BATTERY_STATUS":
+                self.battery = msg
+            elif kind == "COMMAND_ACK":
+                self.acks.append(msg)
+            else:
+                self.other.append(msg)
         return steps
+
+    # --- the lockstep messages' handlers (values in the payload's own order) ----------
+    def _on_sensor(self, v) -> None:
+        t_us = v[0]
+        last = self._last_t_us
+        if t_us == last:
+            # the simulator did not get our answer: repeat it, do not re-run
+            self.duplicates += 1
+            if self._last_answer is not None:
+                self.transport.send(self._last_answer)
+            return
+        if last is not None and t_us < last:
+            return  # stale (late duplicate of an older step)
+        truth = self._truth
+        if truth is not None and truth.t_us != t_us:
+            truth = None
+        self._steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
+        self._gps = None
+        self._range = None
+        self._esc = None
+        self._last_t_us = t_us
+
+    def _on_state(self, v) -> None:
+        self._truth = TruthSample(v)
+
+    def _on_gps(self, v) -> None:
+        self._gps = gps_fix_from(v)
+
+    def _on_range(self, v) -> None:
+        self._range = range_sample_from(v)
+
+    def _on_esc(self, v) -> None:
+        self._esc = v
+
+    def _on_actuators(self, v) -> None:
+        """Our own message (a looped-back link): not for us."""
 
     def relay_command(self, command: int, params) -> None:
         """COMMAND_LONG to the simulator (MAV_CMD_INJECT_FAILURE from a ground station)."""
@@ -228,13 +239,13 @@ class AutopilotHilEnd:
 
     def answer(self, outputs: ActuatorOutputs) -> None:
         c = outputs.controls
-        mode = _ARMED if outputs.armed else 0
-        # in wire order: time_usec, flags, controls[16], mode
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_PADS[len(c)], mode),
-                                       wire=True)
+        buf = self.codec.frame(ID_ACTUATORS, _ACTUATORS[len(c)].pack(outputs.t_us, *c,
+                                                                    _ARMED if outputs.armed else 0))
         self._last_answer = buf
         self.transport.send(buf)
 
 
-_ZERO_PADS = tuple((0.0,) * (16 - k) for k in range(17))   # the 16 - k zero controls after k given
+# HIL_ACTUATOR_CONTROLS's payload (wire order: time_usec, flags, controls[16], mode) packed
+# from k given controls: flags and the 16 - k controls after them 0, as pad bytes
+_ACTUATORS = tuple(struct.Struct(f"<Q8x{k}f{4 * (16 - k)}xB") for k in range(17))
 _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
