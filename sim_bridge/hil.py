@@ -119,14 +119,13 @@ class SimulatorHilEnd:
         """HIL_GPS (if a fix arrives), HIL_STATE_QUATERNION (module docstring: truth),
         DISTANCE_SENSOR (if ``range_reading``), ESC_TELEMETRY_1_TO_4 (if
         ``rpm_reading``), then HIL_SENSOR, in one write."""
-        enc = self.codec.encode_values
-        out = []
+        out = b""                 # the frames before HIL_SENSOR
         gps = readings.gps
         if gps is not None:
             vn, ve, vd = gps.v_ned
             vel = math.hypot(vn, ve)
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
-            out.append(enc(ID_GPS, (
+            out += self.codec.encode_values(ID_GPS, (
                 gps.t_us, int(gps.fix_type),
                 _round_sat(gps.lat_rad * RAD_TO_E7, -900000000.0, 900000000.0),
                 _round_sat(gps.lon_rad * RAD_TO_E7, -1800000000.0, 1800000000.0),
@@ -135,16 +134,16 @@ class SimulatorHilEnd:
                 _round_sat(vel * 100.0, 0.0, 65534.0),
                 _round_sat(vn * 100.0, -32767.0, 32767.0), _round_sat(ve * 100.0, -32767.0, 32767.0),
                 _round_sat(vd * 100.0, -32767.0, 32767.0),
-                _round_sat(cog_cdeg, 0.0, 35999.0), int(gps.satellites), 0, 0)))
+                _round_sat(cog_cdeg, 0.0, 35999.0), int(gps.satellites), 0, 0))
         self._steps_sent = k = self._steps_sent + 1
         div = self.truth_div
         if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
-            out.append(self._truth_message(truth))
+            out += self._truth_message(truth)
         if range_reading is not None:
-            out.append(enc(ID_DISTANCE, distance_sensor_values(range_reading)))
+            out += self.codec.encode_values(ID_DISTANCE, distance_sensor_values(range_reading))
         if rpm_reading is not None:
             self._esc_count += 1
-            out.append(enc(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count)))
+            out += self.codec.encode_values(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS
@@ -159,8 +158,7 @@ class SimulatorHilEnd:
             readings.t_us, ax, ay, az, gx, gy, gz, mx, my, mz,
             readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,
             readings.pressure_alt_m, readings.temperature_k - 273.15, flags, 0))
-        out.append(buf)
-        self.transport.send(b"".join(out))
+        self.transport.send(out + buf)
 
     def _truth_message(self, truth) -> bytes:
         """HIL_STATE_QUATERNION of a PlantState."""

@@ -42,7 +42,7 @@ _V2_HEADER = struct.Struct("<BBBBBBBHB")
 _V2_BODY_HEAD = struct.Struct("<BxxBBBHB")  # the header after the magic byte, flags 0
 # the lockstep decoder's look at a header: magic, length with the incompatibility flags
 # above it, and the 3-byte message id read with the payload's first byte above it
-_V2_FAST_HEAD = struct.Struct("<BH4xI")
+_fast_head = struct.Struct("<BH4xI").unpack_from
 _V1_HEADER = struct.Struct("<BBBBBB")
 _CRC = struct.Struct("<H")
 _MAP = mavlink2.mavlink_map
@@ -335,7 +335,7 @@ class Codec:
         self.received += len(out)
         return out
 
-    def dispatch(self, data: bytes, routes: Routes) -> list:
+    def dispatch(self, data: bytes, routes: Routes) -> list | tuple:
         """Feed received bytes: each message whose id ``routes`` knows goes to its handler
         (the lockstep link's form: no message object, no pair, no list of them); the
         other messages come back as ``decode`` gives them."""
@@ -353,18 +353,16 @@ class Codec:
         to its entry's handler, or without one into ``out`` (a pair with ``pairs``, else a
         RawMessage). Returns where it stopped: at the end, or at anything else (another
         message, a partial frame, garbage, a signature), which the general loop reads."""
-        head = _V2_FAST_HEAD.unpack_from
-        crc16 = _crc16
         n = len(data)
         i = handled = 0
         while n - i >= 12:
-            stx, plen, word = head(data, i)
+            stx, plen, word = _fast_head(data, i)
             f = table.get(word & 0xFFFFFF)
             end = i + 10 + plen
             if stx != STX_V2 or plen > 255 or f is None or end + 2 > n:   # (> 255: incompat flags)
                 break
             body = data[i + 1:end]
-            if (data[end] | (data[end + 1] << 8)) != crc16(body + f.extra, 0xFFFF):
+            if (data[end] | (data[end + 1] << 8)) != _crc16(body + f.extra, 0xFFFF):
                 break
             # the payload, its truncated zeros restored (unpack_from reads what it needs)
             t = f.unpack_from(data, i + 10) if plen == f.size else f.unpack_from(body + f.zeros, 9)

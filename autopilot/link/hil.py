@@ -70,8 +70,9 @@ ID_DISTANCE = MAV.MAVLINK_MSG_ID_DISTANCE_SENSOR
 ID_ESC = MAV.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4
 HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_ESC})
 # The lockstep messages travel through the codec's flat fast path: field values, arrays
-# flattened, in the message definition's declared order when sent (Codec.encode_values)
-# and in the payload's own order when received (Codec.decode's pairs: no reordering).
+# flattened, packed with one struct call each (the payload's own order, Codec.frame; or
+# the declared order, Codec.encode_values) and received in the payload's own order by
+# each message id's handler (Codec.dispatch with the end's Routes: no reordering).
 # The two orders agree for the first three of these and differ for the last three:
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
 #                abs_pressure, diff_pressure, pressure_alt, temperature, fields_updated, id
@@ -106,15 +107,16 @@ class TruthSample:
                  "airspeed_mps", "f_b")
 
     def __init__(self, v):
-        self.t_us = v[0]
-        self.q_nb = v[1:5]
-        self.omega_b = v[5:8]
-        self.lat_rad = v[8] / RAD_TO_E7
-        self.lon_rad = v[9] / RAD_TO_E7
-        self.alt_m = v[10] * 1e-3
-        self.v_ned = (v[11] * 0.01, v[12] * 0.01, v[13] * 0.01)
-        self.airspeed_mps = v[15] * 0.01
-        self.f_b = (v[16] * _MG_TO_MS2, v[17] * _MG_TO_MS2, v[18] * _MG_TO_MS2)
+        # (one unpacking of the payload's values: cheaper than slicing out the vectors)
+        self.t_us, qw, qx, qy, qz, p, q, r, lat, lon, alt, vn, ve, vd, _, tas, ax, ay, az = v
+        self.q_nb = (qw, qx, qy, qz)
+        self.omega_b = (p, q, r)
+        self.lat_rad = lat / RAD_TO_E7
+        self.lon_rad = lon / RAD_TO_E7
+        self.alt_m = alt * 1e-3
+        self.v_ned = (vn * 0.01, ve * 0.01, vd * 0.01)
+        self.airspeed_mps = tas * 0.01
+        self.f_b = (ax * _MG_TO_MS2, ay * _MG_TO_MS2, az * _MG_TO_MS2)
 
 
 def range_sample_from(v) -> RangeSample:
@@ -126,14 +128,13 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
                       esc=None) -> SensorFrame:
     """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
     values) -> SensorFrame in SI."""
-    t_us = v[0]
-    flags = v[14]
-    imu = ImuSample.make(t_us, v[1:4], v[4:7])      # (the readers take the vectors' floats)
-    mag = MagSample.make(t_us, v[7:10]) if flags & MAG_FLAGS else None
-    baro = BaroSample.make(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
+    t_us, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, dp_hpa, alt_m, temp_c, flags, _ = v
+    imu = ImuSample.make(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
+    mag = MagSample.make(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
+    baro = BaroSample.make(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
-        dp_pa = v[11] * 100.0
+        dp_pa = dp_hpa * 100.0
         q = 2.0 * dp_pa / RHO0
         air = AirspeedSample.make(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
     rpm = None if esc is None else RpmSample.make(t_us, float(esc[ESC_RPM]))
