@@ -8,7 +8,10 @@ variables at import). The framing, however, is our own, for two reasons:
   general-purpose parser costs more than the flight software itself. Frames are found
   with ``bytes.find``, checked with the C CRC that pymavlink itself uses when it is
   installed (``fastcrc``'s CRC-16/MCRF4XX, the X.25 CRC of the MAVLink specification),
-  and payloads are unpacked with each message class's own ``struct`` layout;
+  and payloads are unpacked with each message class's own ``struct`` layout. The
+  lockstep ends pack each payload with one struct call straight from their values
+  (``frame``) and hand each received one to its message id's handler, chosen once
+  (``dispatch`` with a :class:`Routes`);
 * robustness: a frame that fails its CRC, carries an unknown message id or an unknown
   incompatibility flag costs only its start byte: scanning resumes right behind it, so
   garbage on a link never swallows the good frames that follow it.
@@ -244,8 +247,8 @@ class Codec:
         """Feed received bytes; return the complete, valid messages among them.
         Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`, or with
         ``pairs`` as plain ``(msg_id, values)`` tuples whose values are in the payload's
-        own order, as ``encode_values(..., wire=True)`` takes them (the lockstep link's
-        form: no object to build, no source ids, no reordering).
+        own order, as ``encode_values(..., wire=True)`` takes them (no object to build,
+        no source ids, no reordering: what :meth:`dispatch` hands to its handlers).
         With ``limit``: stop after that many frames (messages plus rejected frames or
         stretches of garbage) and keep the rest for the next call (``pending``)."""
         buf = self._buf

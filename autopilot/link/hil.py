@@ -181,7 +181,7 @@ class AutopilotHilEnd:
         data = self.transport.recv(timeout_s)
         if not data:
             return []
-        self._steps = steps = []        # the HIL_SENSOR handler's (on_sensor)
+        self._steps = steps = []        # (_on_sensor appends the new steps)
         for msg in self.codec.dispatch(data, self._routes):   # not a lockstep message
             kind = msg.get_type()
             if kind == "BATTERY_STATUS":
