@@ -24,7 +24,7 @@ import time
 from math import ceil, floor
 
 from autopilot.jit import kernel
-from autopilot.link.codec import MAV, Codec
+from autopilot.link.codec import MAV, Codec, Routes
 from autopilot.link.hil import (BARO_FLAGS, DIFF_FLAG, HIL_IDS, ID_ACTUATORS, ID_DISTANCE,
                                 ID_ESC, ID_GPS, ID_SENSOR, ID_STATE, IMU_FLAGS, MAG_FLAGS, RAD_TO_E7,
                                 SIM_COMPONENT_ID, SIM_SYSTEM_ID)
@@ -34,6 +34,9 @@ G0 = 9.80665
 
 MG_PER_MS2 = 1000.0 / G0
 _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
+# the payloads packed straight from the values (the messages' own layouts; one call each)
+_SENSOR = MAV.mavlink_map[ID_SENSOR].unpacker.pack
+_STATE = MAV.mavlink_map[ID_STATE].unpacker.pack
 
 
 @kernel
@@ -106,20 +109,23 @@ class SimulatorHilEnd:
         self.truth_div = 1         # HIL_STATE_QUATERNION every truth_div-th step (and with GPS); 0 never
         self._steps_sent = 0
         self._esc_count = 0        # ESC_TELEMETRY_1_TO_4 frames sent (its ``count``)
+        self._asked_t_us = None    # poll_answer's step, and its answer when it came
+        self._answer = None
+        self._routes = Routes({i: self._on_actuators if i == ID_ACTUATORS else self._on_other
+                               for i in HIL_IDS})
 
     # --- sending ---------------------------------------------------------------------
     def send_step(self, readings, truth, range_reading=None, rpm_reading=None) -> None:
         """HIL_GPS (if a fix arrives), HIL_STATE_QUATERNION (module docstring: truth),
         DISTANCE_SENSOR (if ``range_reading``), ESC_TELEMETRY_1_TO_4 (if
         ``rpm_reading``), then HIL_SENSOR, in one write."""
-        enc = self.codec.encode_values
-        out = []
+        out = b""                 # the frames before HIL_SENSOR
         gps = readings.gps
         if gps is not None:
             vn, ve, vd = gps.v_ned
             vel = math.hypot(vn, ve)
             cog_cdeg = (math.degrees(math.atan2(ve, vn)) % 360.0) * 100.0
-            out.append(enc(ID_GPS, (
+            out += self.codec.encode_values(ID_GPS, (
                 gps.t_us, int(gps.fix_type),
                 _round_sat(gps.lat_rad * RAD_TO_E7, -900000000.0, 900000000.0),
                 _round_sat(gps.lon_rad * RAD_TO_E7, -1800000000.0, 1800000000.0),
@@ -128,16 +134,16 @@ class SimulatorHilEnd:
                 _round_sat(vel * 100.0, 0.0, 65534.0),
                 _round_sat(vn * 100.0, -32767.0, 32767.0), _round_sat(ve * 100.0, -32767.0, 32767.0),
                 _round_sat(vd * 100.0, -32767.0, 32767.0),
-                _round_sat(cog_cdeg, 0.0, 35999.0), int(gps.satellites), 0, 0)))
+                _round_sat(cog_cdeg, 0.0, 35999.0), int(gps.satellites), 0, 0))
         self._steps_sent = k = self._steps_sent + 1
         div = self.truth_div
         if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
-            out.append(self._truth_message(truth))
+            out += self._truth_message(truth)
         if range_reading is not None:
-            out.append(enc(ID_DISTANCE, distance_sensor_values(range_reading)))
+            out += self.codec.encode_values(ID_DISTANCE, distance_sensor_values(range_reading))
         if rpm_reading is not None:
             self._esc_count += 1
-            out.append(enc(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count)))
+            out += self.codec.encode_values(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS
@@ -148,12 +154,11 @@ class SimulatorHilEnd:
         ax, ay, az = readings.accel_b
         gx, gy, gz = readings.gyro_b
         mx, my, mz = readings.mag_b_gauss
-        self._sensor_buf = enc(ID_SENSOR, (
+        self._sensor_buf = buf = self.codec.frame(ID_SENSOR, _SENSOR(
             readings.t_us, ax, ay, az, gx, gy, gz, mx, my, mz,
             readings.pressure_pa * 0.01, readings.diff_pressure_pa * 0.01,
             readings.pressure_alt_m, readings.temperature_k - 273.15, flags, 0))
-        out.append(self._sensor_buf)
-        self.transport.send(b"".join(out))
+        self.transport.send(out + buf)
 
     def _truth_message(self, truth) -> bytes:
         """HIL_STATE_QUATERNION of a PlantState."""
@@ -161,9 +166,9 @@ class SimulatorHilEnd:
         wx, wy, wz = truth.omega_b
         vn, ve, vd = truth.v_ned
         fx, fy, fz = truth.f_b
-        return self.codec.encode_values(ID_STATE, (truth.t_us, qw, qx, qy, qz, wx, wy, wz) + truth_ints(
+        return self.codec.frame(ID_STATE, _STATE(truth.t_us, qw, qx, qy, qz, wx, wy, wz, *truth_ints(
             truth.lat_rad, truth.lon_rad, truth.alt_m, vn, ve, vd, truth.airspeed_mps,
-            truth.rho_kgm3, fx, fy, fz))
+            truth.rho_kgm3, fx, fy, fz)))
 
     def send_battery(self, battery) -> None:
         """BATTERY_STATUS of the simulated pack (``sim_bridge.battery.Battery``)."""
@@ -184,22 +189,25 @@ class SimulatorHilEnd:
     def poll_answer(self, t_us: int, timeout_s: float = 0.0):
         """Controls answering step ``t_us`` if they arrived (else None)."""
         data = self.transport.recv(timeout_s)
-        found = None
         if not data:
-            return found
-        for msg in self.codec.decode(data, HIL_IDS, pairs=True):
-            if type(msg) is not tuple:      # not a lockstep message: a message object
-                if msg.get_type() == "COMMAND_LONG":
-                    self.commands.append(msg)
-                continue
-            mid, v = msg
-            if mid == ID_ACTUATORS:         # (wire order: time_usec, flags, controls[16], mode)
-                if v[0] == t_us:
-                    found = v[2:18]
-                    self.armed = (v[18] & _ARMED) != 0
-                else:
-                    self.stale += 1
-        return found
+            return None
+        self._asked_t_us = t_us
+        self._answer = None
+        for msg in self.codec.dispatch(data, self._routes):   # not a lockstep message
+            if msg.get_type() == "COMMAND_LONG":
+                self.commands.append(msg)
+        return self._answer
+
+    def _on_actuators(self, v) -> None:
+        """HIL_ACTUATOR_CONTROLS (wire order: time_usec, flags, controls[16], mode)."""
+        if v[0] == self._asked_t_us:
+            self._answer = v[2:18]
+            self.armed = (v[18] & _ARMED) != 0
+        else:
+            self.stale += 1
+
+    def _on_other(self, v) -> None:
+        """The autopilot's end of the link's messages (a looped-back link): not for us."""
 
     def wait_answer(self, t_us: int):
         """Block (wall time) for the answer to step ``t_us``, retrying; None if the

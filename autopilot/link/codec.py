@@ -8,7 +8,10 @@ variables at import). The framing, however, is our own, for two reasons:
   general-purpose parser costs more than the flight software itself. Frames are found
   with ``bytes.find``, checked with the C CRC that pymavlink itself uses when it is
   installed (``fastcrc``'s CRC-16/MCRF4XX, the X.25 CRC of the MAVLink specification),
-  and payloads are unpacked with each message class's own ``struct`` layout;
+  and payloads are unpacked with each message class's own ``struct`` layout. The
+  lockstep ends pack each payload with one struct call straight from their values
+  (``frame``) and hand each received one to its message id's handler, chosen once
+  (``dispatch`` with a :class:`Routes`);
 * robustness: a frame that fails its CRC, carries an unknown message id or an unknown
   incompatibility flag costs only its start byte: scanning resumes right behind it, so
   garbage on a link never swallows the good frames that follow it.
@@ -42,7 +45,7 @@ _V2_HEADER = struct.Struct("<BBBBBBBHB")
 _V2_BODY_HEAD = struct.Struct("<BxxBBBHB")  # the header after the magic byte, flags 0
 # the lockstep decoder's look at a header: magic, length with the incompatibility flags
 # above it, and the 3-byte message id read with the payload's first byte above it
-_V2_FAST_HEAD = struct.Struct("<BH4xI")
+_fast_head = struct.Struct("<BH4xI").unpack_from
 _V1_HEADER = struct.Struct("<BBBBBB")
 _CRC = struct.Struct("<H")
 _MAP = mavlink2.mavlink_map
@@ -67,13 +70,14 @@ class _Flat:
     """For one message class: the declared-order flat field list <-> the wire-order
     tuple of its struct (arrays flattened in place), as C-level itemgetters (``tuple``,
     which hands a tuple back as it is, when the two orders agree: HIL_SENSOR,
-    HIL_STATE_QUATERNION); and what framing needs (the struct, the zeros its truncated
-    payloads lost, the CRC extra byte, the id's header fields)."""
+    HIL_STATE_QUATERNION); what framing needs (the struct, the zeros its truncated
+    payloads lost, the CRC extra byte, the id's header fields); in a :class:`Routes`, the
+    handler its messages go to."""
 
     __slots__ = ("cls", "msg_id", "to_declared", "to_wire", "n", "pack", "unpack_from",
-                 "extra", "zeros", "id_low", "id_high")
+                 "extra", "zeros", "size", "id_low", "id_high", "handler")
 
-    def __init__(self, cls):
+    def __init__(self, cls, handler=None):
         plan = _field_plan(cls)
         if plan is None:
             raise ValueError(f"{cls.msgname} has text fields: no flat form")
@@ -91,9 +95,11 @@ class _Flat:
         self.pack = cls.unpacker.pack
         self.unpack_from = cls.unpacker.unpack_from
         self.extra = bytes((cls.crc_extra,))
-        self.zeros = bytes(cls.unpacker.size)     # pads a truncated payload back to its size
+        self.size = cls.unpacker.size
+        self.zeros = bytes(self.size)     # pads a truncated payload back to its size
         self.msg_id = msg_id = cls.id
         self.id_low, self.id_high = msg_id & 0xFFFF, msg_id >> 16
+        self.handler = handler   # a Routes entry's: called with the payload's values
 
 
 _FLAT: dict[int, _Flat] = {}
@@ -107,6 +113,7 @@ def _flat(msg_id: int) -> _Flat:
 
 
 _RAW: dict[frozenset, dict[int, _Flat]] = {}
+_NOTHING = ()   # dispatch's other messages when there were none
 
 
 def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
@@ -115,6 +122,32 @@ def _raw_flats(raw_ids: frozenset) -> dict[int, _Flat]:
     if flats is None:
         flats = _RAW[raw_ids] = {i: _flat(i) for i in raw_ids if i in _MAP and _field_plan(_MAP[i])}
     return flats
+
+
+class Routes:
+    """What a lockstep end does with each message id it reads, decided once (not per
+    decode, nor per message by comparing ids): ``{msg_id: handler}``, each handler called
+    with the message's values in the payload's own order (as ``encode_values(...,
+    wire=True)`` takes them), in the order the messages arrive. For
+    :meth:`Codec.dispatch`."""
+
+    __slots__ = ("ids", "table")
+
+    def __init__(self, handlers: dict):
+        self.ids = frozenset(handlers)
+        self.table = {i: _Flat(_MAP[i], h) for i, h in handlers.items()}
+
+    def route(self, msgs: list) -> list:
+        """``decode(..., self.ids, pairs=True)``'s pairs to their handlers; the other
+        messages back."""
+        others = []
+        table = self.table
+        for m in msgs:
+            if type(m) is tuple:
+                table[m[0]].handler(m[1])
+            else:
+                others.append(m)
+        return others
 
 
 class RawMessage:
@@ -192,7 +225,14 @@ class Codec:
         in the payload's own order instead (the fields sorted by type size, as
         ``ordered_fieldnames``), which spares the reordering."""
         f = _FLAT.get(msg_id) or _flat(msg_id)
-        p = f.pack(*(values if wire else f.to_wire(values))).rstrip(b"\x00") or b"\x00"
+        return self.frame(msg_id, f.pack(*(values if wire else f.to_wire(values))))
+
+    def frame(self, msg_id: int, payload: bytes) -> bytes:
+        """The MAVLink 2 frame of a packed payload, in the message's own layout: what a
+        lockstep end packs with one struct call straight from its values (a struct of
+        its own may stand pad bytes for the fields it always leaves zero)."""
+        p = payload.rstrip(b"\x00") or b"\x00"       # (MAVLink 2 truncates trailing zeros)
+        f = _FLAT.get(msg_id) or _flat(msg_id)
         mav = self.mav
         seq = mav.seq
         mav.seq = (seq + 1) % 256
@@ -207,8 +247,8 @@ class Codec:
         """Feed received bytes; return the complete, valid messages among them.
         Messages whose id is in ``raw_ids`` come back as :class:`RawMessage`, or with
         ``pairs`` as plain ``(msg_id, values)`` tuples whose values are in the payload's
-        own order, as ``encode_values(..., wire=True)`` takes them (the lockstep link's
-        form: no object to build, no source ids, no reordering).
+        own order, as ``encode_values(..., wire=True)`` takes them (no object to build,
+        no source ids, no reordering: what :meth:`dispatch` hands to its handlers).
         With ``limit``: stop after that many frames (messages plus rejected frames or
         stretches of garbage) and keep the rest for the next call (``pending``)."""
         buf = self._buf
@@ -225,25 +265,7 @@ class Codec:
         i = 0
         crc16 = _crc16
         if limit is None and raw_ids:
-            # the lockstep stream's case: whole unsigned MAVLink 2 frames of raw_ids back
-            # to back, read without the general loop's cases; anything else (another
-            # message, a partial frame, garbage, a signature) goes on below from there
-            flats = _RAW.get(raw_ids) or _raw_flats(raw_ids)
-            head = _V2_FAST_HEAD.unpack_from
-            while n - i >= 12:
-                stx, plen, word = head(data, i)
-                f = flats.get(word & 0xFFFFFF)
-                end = i + 10 + plen
-                if stx != STX_V2 or plen > 255 or f is None or end + 2 > n:   # (> 255: incompat flags)
-                    break
-                body = data[i + 1:end]
-                if (data[end] | (data[end + 1] << 8)) != crc16(body + f.extra, 0xFFFF):
-                    break
-                # the payload, its truncated zeros restored (unpack_from reads what it needs)
-                t = f.unpack_from(body + f.zeros, 9)
-                out.append((f.msg_id, t) if pairs else
-                           RawMessage(f.msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
-                i = end + 2
+            i = self._whole_frames(data, _RAW.get(raw_ids) or _raw_flats(raw_ids), out, pairs)
             if i == n:
                 self.limited = False
                 self.received += len(out)
@@ -315,6 +337,49 @@ class Codec:
             buf += data[i:]
         self.received += len(out)
         return out
+
+    def dispatch(self, data: bytes, routes: Routes) -> list | tuple:
+        """Feed received bytes: each message whose id ``routes`` knows goes to its handler
+        (the lockstep link's form: no message object, no pair, no list of them); the
+        other messages come back as ``decode`` gives them."""
+        if self._buf or type(data) is not bytes:     # (the tail of the last call comes first)
+            return routes.route(self.decode(data, routes.ids, pairs=True))
+        i = self._whole_frames(data, routes.table, None, True)
+        if i == len(data):
+            self.limited = False
+            return _NOTHING
+        return routes.route(self.decode(data[i:], routes.ids, pairs=True))
+
+    def _whole_frames(self, data: bytes, table: dict, out: list | None, pairs: bool) -> int:
+        """The lockstep stream's case: whole unsigned MAVLink 2 frames of ``table``'s ids
+        (msg_id -> _Flat) back to back, read without the general loop's cases. Each goes
+        to its entry's handler, or without one into ``out`` (a pair with ``pairs``, else a
+        RawMessage). Returns where it stopped: at the end, or at anything else (another
+        message, a partial frame, garbage, a signature), which the general loop reads."""
+        n = len(data)
+        i = handled = 0
+        while n - i >= 12:
+            stx, plen, word = _fast_head(data, i)
+            f = table.get(word & 0xFFFFFF)
+            end = i + 10 + plen
+            if stx != STX_V2 or plen > 255 or f is None or end + 2 > n:   # (> 255: incompat flags)
+                break
+            body = data[i + 1:end]
+            if (data[end] | (data[end + 1] << 8)) != _crc16(body + f.extra, 0xFFFF):
+                break
+            # the payload, its truncated zeros restored (unpack_from reads what it needs)
+            t = f.unpack_from(data, i + 10) if plen == f.size else f.unpack_from(body + f.zeros, 9)
+            handler = f.handler
+            if handler is not None:
+                handler(t)
+                handled += 1
+            elif pairs:
+                out.append((f.msg_id, t))
+            else:
+                out.append(RawMessage(f.msg_id, data[i + 5], data[i + 6], f.to_declared(t)))
+            i = end + 2
+        self.received += handled
+        return i
 
     @staticmethod
     def unsigned(frame: bytes) -> bytes:

@@ -38,12 +38,13 @@ that step's time is its time (:class:`~autopilot.messages.RpmSample`).
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
 from ..messages import (AirspeedSample, ActuatorOutputs, BaroSample, GpsFix, ImuSample,
                         MagSample, RangeSample, RpmSample, SensorFrame)
-from .codec import MAV, Codec
+from .codec import MAV, Codec, Routes
 
 DEG_E7 = 1e7
 RAD_TO_E7 = 180.0 / math.pi * 1e7
@@ -69,8 +70,9 @@ ID_DISTANCE = MAV.MAVLINK_MSG_ID_DISTANCE_SENSOR
 ID_ESC = MAV.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4
 HIL_IDS = frozenset({ID_SENSOR, ID_GPS, ID_STATE, ID_ACTUATORS, ID_DISTANCE, ID_ESC})
 # The lockstep messages travel through the codec's flat fast path: field values, arrays
-# flattened, in the message definition's declared order when sent (Codec.encode_values)
-# and in the payload's own order when received (Codec.decode's pairs: no reordering).
+# flattened, packed with one struct call each (the payload's own order, Codec.frame; or
+# the declared order, Codec.encode_values) and received in the payload's own order by
+# each message id's handler (Codec.dispatch with the end's Routes: no reordering).
 # The two orders agree for the first three of these and differ for the last three:
 #   HIL_SENSOR:  time_usec, xacc, yacc, zacc, xgyro, ygyro, zgyro, xmag, ymag, zmag,
 #                abs_pressure, diff_pressure, pressure_alt, temperature, fields_updated, id
@@ -105,15 +107,16 @@ class TruthSample:
                  "airspeed_mps", "f_b")
 
     def __init__(self, v):
-        self.t_us = v[0]
-        self.q_nb = v[1:5]
-        self.omega_b = v[5:8]
-        self.lat_rad = v[8] / RAD_TO_E7
-        self.lon_rad = v[9] / RAD_TO_E7
-        self.alt_m = v[10] * 1e-3
-        self.v_ned = (v[11] * 0.01, v[12] * 0.01, v[13] * 0.01)
-        self.airspeed_mps = v[15] * 0.01
-        self.f_b = (v[16] * _MG_TO_MS2, v[17] * _MG_TO_MS2, v[18] * _MG_TO_MS2)
+        # (one unpacking of the payload's values: cheaper than slicing out the vectors)
+        self.t_us, qw, qx, qy, qz, p, q, r, lat, lon, alt, vn, ve, vd, _, tas, ax, ay, az = v
+        self.q_nb = (qw, qx, qy, qz)
+        self.omega_b = (p, q, r)
+        self.lat_rad = lat / RAD_TO_E7
+        self.lon_rad = lon / RAD_TO_E7
+        self.alt_m = alt * 1e-3
+        self.v_ned = (vn * 0.01, ve * 0.01, vd * 0.01)
+        self.airspeed_mps = tas * 0.01
+        self.f_b = (ax * _MG_TO_MS2, ay * _MG_TO_MS2, az * _MG_TO_MS2)
 
 
 def range_sample_from(v) -> RangeSample:
@@ -125,14 +128,13 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
                       esc=None) -> SensorFrame:
     """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
     values) -> SensorFrame in SI."""
-    t_us = v[0]
-    flags = v[14]
-    imu = ImuSample.make(t_us, v[1:4], v[4:7])      # (the readers take the vectors' floats)
-    mag = MagSample.make(t_us, v[7:10]) if flags & MAG_FLAGS else None
-    baro = BaroSample.make(t_us, v[10] * 100.0, v[12], v[13] + 273.15) if flags & BARO_FLAGS else None
+    t_us, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, dp_hpa, alt_m, temp_c, flags, _ = v
+    imu = ImuSample.make(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
+    mag = MagSample.make(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
+    baro = BaroSample.make(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
-        dp_pa = v[11] * 100.0
+        dp_pa = dp_hpa * 100.0
         q = 2.0 * dp_pa / RHO0
         air = AirspeedSample.make(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
     rpm = None if esc is None else RpmSample.make(t_us, float(esc[ESC_RPM]))
@@ -170,51 +172,61 @@ class AutopilotHilEnd:
         self.other: list = []
         self.acks: list = []
         self.battery = None
+        self._steps: list = []
+        self._routes = Routes({ID_SENSOR: self._on_sensor, ID_STATE: self._on_state, ID_GPS: self._on_gps,
+                               ID_DISTANCE: self._on_range, ID_ESC: self._on_esc,
+                               ID_ACTUATORS: self._on_actuators})
 
     def poll(self, timeout_s: float = 0.0) -> list[tuple[SensorFrame, TruthSample | None]]:
-        steps = []
         data = self.transport.recv(timeout_s)
         if not data:
-            return steps
-        for msg in self.codec.decode(data, HIL_IDS, pairs=True):
-            if type(msg) is not tuple:      # not a lockstep message: a message object
-                kind = msg.get_type()
-                if kind == "BATTERY_STATUS":
-                    self.battery = msg
-                elif kind == "COMMAND_ACK":
-                    self.acks.append(msg)
-                else:
-                    self.other.append(msg)
-                continue
-            mid, v = msg
-            if mid == ID_SENSOR:
-                t_us = v[0]
-                last = self._last_t_us
-                if t_us == last:
-                    # the simulator did not get our answer: repeat it, do not re-run
-                    self.duplicates += 1
-                    if self._last_answer is not None:
-                        self.transport.send(self._last_answer)
-                    continue
-                if last is not None and t_us < last:
-                    continue  # stale (late duplicate of an older step)
-                truth = self._truth
-                if truth is not None and truth.t_us != t_us:
-                    truth = None
-                steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
-                self._gps = None
-                self._range = None
-                self._esc = None
-                self._last_t_us = t_us
-            elif mid == ID_STATE:
-                self._truth = TruthSample(v)
-            elif mid == ID_GPS:
-                self._gps = gps_fix_from(v)
-            elif mid == ID_DISTANCE:
-                self._range = range_sample_from(v)
-            elif mid == ID_ESC:
-                self._esc = v
+            return []
+        self._steps = steps = []        # (_on_sensor appends the new steps)
+        for msg in self.codec.dispatch(data, self._routes):   # not a lockstep message
+            kind = msg.get_type()
+            if kind == "BATTERY_STATUS":
+                self.battery = msg
+            elif kind == "COMMAND_ACK":
+                self.acks.append(msg)
+            else:
+                self.other.append(msg)
         return steps
+
+    # --- the lockstep messages' handlers (values in the payload's own order) ----------
+    def _on_sensor(self, v) -> None:
+        t_us = v[0]
+        last = self._last_t_us
+        if t_us == last:
+            # the simulator did not get our answer: repeat it, do not re-run
+            self.duplicates += 1
+            if self._last_answer is not None:
+                self.transport.send(self._last_answer)
+            return
+        if last is not None and t_us < last:
+            return  # stale (late duplicate of an older step)
+        truth = self._truth
+        if truth is not None and truth.t_us != t_us:
+            truth = None
+        self._steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
+        self._gps = None
+        self._range = None
+        self._esc = None
+        self._last_t_us = t_us
+
+    def _on_state(self, v) -> None:
+        self._truth = TruthSample(v)
+
+    def _on_gps(self, v) -> None:
+        self._gps = gps_fix_from(v)
+
+    def _on_range(self, v) -> None:
+        self._range = range_sample_from(v)
+
+    def _on_esc(self, v) -> None:
+        self._esc = v
+
+    def _on_actuators(self, v) -> None:
+        """Our own message (a looped-back link): not for us."""
 
     def relay_command(self, command: int, params) -> None:
         """COMMAND_LONG to the simulator (MAV_CMD_INJECT_FAILURE from a ground station)."""
@@ -228,13 +240,13 @@ class AutopilotHilEnd:
 
     def answer(self, outputs: ActuatorOutputs) -> None:
         c = outputs.controls
-        mode = _ARMED if outputs.armed else 0
-        # in wire order: time_usec, flags, controls[16], mode
-        buf = self.codec.encode_values(ID_ACTUATORS, (outputs.t_us, 0, *c, *_ZERO_PADS[len(c)], mode),
-                                       wire=True)
+        buf = self.codec.frame(ID_ACTUATORS, _ACTUATORS[len(c)].pack(outputs.t_us, *c,
+                                                                    _ARMED if outputs.armed else 0))
         self._last_answer = buf
         self.transport.send(buf)
 
 
-_ZERO_PADS = tuple((0.0,) * (16 - k) for k in range(17))   # the 16 - k zero controls after k given
+# HIL_ACTUATOR_CONTROLS's payload (wire order: time_usec, flags, controls[16], mode) packed
+# from k given controls: flags and the 16 - k controls after them 0, as pad bytes
+_ACTUATORS = tuple(struct.Struct(f"<Q8x{k}f{4 * (16 - k)}xB") for k in range(17))
 _ARMED = MAV.MAV_MODE_FLAG_SAFETY_ARMED
