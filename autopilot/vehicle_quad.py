@@ -38,7 +38,7 @@ from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
-from .geo.rotations import quat_dcm, quat_step
+from .geo.rotations import euler_321, quat_dcm, quat_step
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .jit import kernel
@@ -117,8 +117,9 @@ class DecimatedNav:
     (module docstring). Magnetometer and barometer samples are averaged and handed to
     the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
-    p, v, q, omega)`` with p, v, q the predicted state as floats (lists or tuples; nav
-    origin NED, q_nb) and omega the bias-corrected rate of this step (likewise)."""
+    p, v, q, omega, euler)`` with p, v, q the predicted state as floats (lists or tuples;
+    nav origin NED, q_nb), omega the bias-corrected rate of this step (likewise) and
+    euler q's (roll, pitch, yaw)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -220,10 +221,11 @@ class DecimatedNav:
             self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
-        p, v, q, w = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
+            return (nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]],
+                    quat_to_euler(self._q))
+        p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
         self._p, self._v, self._q = p, v, q
-        return self.nav, p, v, q, w
+        return self.nav, p, v, q, w, euler
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -451,14 +453,15 @@ class QuadVehicle(VehicleBase):
             v = nav.v_ned.tolist()
             q = nav.q_nb.tolist()
             omega = nav.omega_b.tolist()
+            euler = quat_to_euler(q)
         else:
-            nav, p_nav, v, q, omega = self.nav.update(frame)
+            nav, p_nav, v, q, omega, euler = self.nav.update(frame)
         self.nav_state = nav
         hp = self._home_nav_p
         self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
         self.v_ned = v
         self.q_nb = q
-        self.euler = quat_to_euler(q)
+        self.euler = euler
 
         # modes
         if not self.armed and self.autostart and not self.mission_landed:
@@ -682,9 +685,10 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g), its p, v, q updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
-    omega the bias-corrected specific force and rate. Returns the new p, v, q and omega
-    as four tuples of floats (the caller's values without reading them back out of ``x``
-    or slicing one long tuple)."""
+    omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
+    q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
+    them back out of ``x`` or slicing one long tuple; the angles here rather than in a
+    call of their own)."""
     wx -= x[13]
     wy -= x[14]
     wz -= x[15]
@@ -704,4 +708,5 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[3], x[4], x[5] = vn1, ve1, vd1
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
-    return (x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz)
+    return ((x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz),
+            euler_321(qw, qx, qy, qz))

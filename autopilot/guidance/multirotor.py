@@ -1018,7 +1018,8 @@ class CopterMissionSequencer:
             return self.current, False
         if self.home_request is not None:
             return self.current, False          # the vehicle moves home first
-        if not self._run_do_items(t_us, yaw):
+        # (the navigation item entered: no DO item before it left to run)
+        if self._entered != self.current and not self._run_do_items(t_us, yaw):
             return self.current, False
         seq, hold = self._step_nav(t_us, p_ned, touchdown, yaw)
         if self.pending and not self.landed:
