@@ -500,7 +500,6 @@ class QuadVehicle(VehicleBase):
         roll, pitch, yaw = self.euler
         pos = self.p_home
         v = self.v_ned
-        h = -pos[2]
         if self.on_ground:
             self._yaw_hold = yaw
         if mode in _PILOT_MODES:
@@ -519,11 +518,12 @@ class QuadVehicle(VehicleBase):
                 return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
             stick = 0.5 if pl.throttle is None else pl.throttle
             climb = (stick - 0.5) * 2.0 * p["PILOT_SPEED_UP"] if abs(stick - 0.5) > 0.05 else 0.0
+            h = -pos[2]
             if self.on_ground and climb <= 0.0:
                 self._alt_ref = h
                 return ctrl.idle(p["QD_SPIN_ARM"])
             self._alt_ref += climb * dt
-            u_z = self._altitude(self._alt_ref, climb, 0.0, h, v, roll, pitch, dt)
+            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -v[2], roll, pitch, dt, not self.flying)
             self._update_ground_state(u_z, v, t_us, landing=climb < 0.0)
             return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
 
@@ -556,12 +556,10 @@ class QuadVehicle(VehicleBase):
             nv.init(pos, yaw)
             return ctrl.idle(p["QD_SPIN_ARM"])
         hold_i = not self.flying
-        tp, tv, ta = tgt.p_ned, tgt.v_ned, tgt.a_ned
-        r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
-                                   ta[0], ta[1], yaw, dt, hold_i)
-        u_z = self._altitude(-tp[2], -tv[2], -ta[2], h, v, roll, pitch, dt)
-        self._update_ground_state(u_z, v, t_us, landing=tgt.kind == "land")
-        return ctrl.attitude(q, omega, r_d, p_d, tgt.yaw_rad, u_z)
+        motors = ctrl.track(q, omega, tgt.p_ned, tgt.v_ned, tgt.a_ned, pos, v, yaw, roll, pitch,
+                            tgt.yaw_rad, dt, hold_i, hold_i)
+        self._update_ground_state(ctrl.u[0], v, t_us, landing=tgt.kind == "land")
+        return motors
 
     _touchdown_pending = False
 
@@ -597,16 +595,6 @@ class QuadVehicle(VehicleBase):
             mon.failsafe = None
             if self.armed and self.mode != CopterMode.LAND:
                 self.set_mode(CopterMode.LAND, t_us)
-
-    def _altitude(self, h_d, hdot_d, hddot_d, h, v, roll, pitch, dt) -> float:
-        ctrl = self.ctrl
-        m = ctrl.mixer
-        sat = m.saturated[2]
-        req = ctrl.u[0]
-        sat_hi = sat and m.collective < req - 1e-6
-        sat_lo = sat and m.collective > req + 1e-6
-        return ctrl.alt.update(h_d, hdot_d, hddot_d, h, -v[2], math.cos(roll) * math.cos(pitch),
-                               dt, not self.flying, sat_hi, sat_lo)
 
     def _update_ground_state(self, u_z: float, v, t_us: int, landing: bool) -> None:
         """Leaving the ground, and the land detector (module docstring)."""

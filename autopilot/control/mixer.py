@@ -50,12 +50,14 @@ ROTOR_SIGNS = ((0.0, -1.0, 1.0), (1.0, 0.0, -1.0), (0.0, 1.0, 1.0), (-1.0, 0.0, 
 
 class QuadPlusMixer:
     """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1 (the law:
-    :func:`mix_rotors`; its constants in ``k``, rebuilt when a parameter changes)."""
+    :func:`mix_rotors`; its constants in ``k``, rewritten in place when a parameter
+    changes: ``k`` may be a part of the controller's array, given here)."""
 
     __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
                  "thrusts", "collective", "eff", "k", "_full", "_lin")
 
-    def __init__(self, t_max_n: float, expo: float, spin_min: float):
+    def __init__(self, t_max_n: float, expo: float, spin_min: float, k=None):
+        self.k = np.zeros(K_NK) if k is None else k
         self.t_max = t_max_n
         self.expo = expo
         self.spin_min = spin_min
@@ -91,9 +93,9 @@ class QuadPlusMixer:
         e = self.expo
         eff = self.eff
         self._lin = 1.0 - e                          # thrust_of's factor, as it writes it
-        self.k = np.array((0.0, 0.0, 0.0,
-                           1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
-                           0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
+        self.k[:] = ((0.0, 0.0, 0.0,
+                      1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
+                      0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
         self._density()
 
     def _density(self) -> None:
@@ -136,6 +138,7 @@ class QuadPlusMixer:
 # QuadPlusMixer.k: the thrust limits, T_max rho/rho0, the thrust curve's inverse (linear
 # flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and k_1..k_4
 K_LO, K_HI, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(10)
+K_NK = K_EFF + 4
 
 
 @kernel
