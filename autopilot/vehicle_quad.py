@@ -126,8 +126,6 @@ class DecimatedNav:
         self.div = max(1, int(div))
         self._aux_us = int(1e6 / aux_hz) if aux_hz > 0 else 0
         self._k = 0
-        self._f = [0.0, 0.0, 0.0]
-        self._w = [0.0, 0.0, 0.0]
         self._m = [0.0, 0.0, 0.0]
         self._nm = 0
         self._b = [0.0, 0.0, 0.0]       # pressure, altitude, temperature sums
@@ -192,20 +190,20 @@ class DecimatedNav:
             self._gps = frame.gps
         if frame.airspeed is not None:
             self._air = frame.airspeed
-        f, w = self._f, self._w
-        f[0] += fx; f[1] += fy; f[2] += fz
-        w[0] += wx; w[1] += wy; w[2] += wz
         self._k += 1
         if self._k >= self.div or self.nav is None or not self.nav.aligned:
             mag, baro = self._aux(t)
             if self._k == 1:
                 imu_f = imu
             else:
+                # the samples of the predictor's steps since the last update, summed in
+                # x by predict_output, and this one
+                f0, f1, f2, w0, w1, w2 = self._x[X_SUMS:].tolist()
                 n = 1.0 / self._k
-                imu_f = ImuSample.make(t, (f[0] * n, f[1] * n, f[2] * n), (w[0] * n, w[1] * n, w[2] * n))
+                imu_f = ImuSample.make(t, ((f0 + fx) * n, (f1 + fy) * n, (f2 + fz) * n),
+                                       ((w0 + wx) * n, (w1 + wy) * n, (w2 + wz) * n))
             fr = SensorFrame.make(t, imu_f, mag, baro, self._air, self._gps)
             self._k = 0
-            f[0] = f[1] = f[2] = w[0] = w[1] = w[2] = 0.0
             self._gps = self._air = None
             nav = self.filt.update(fr)
             self.nav = nav
@@ -217,8 +215,9 @@ class DecimatedNav:
                 self._ba = tuple(nom.ba)
                 self._bg = tuple(nom.bg)
                 self._g = getattr(self.filt, "_g", G)
-            # the output predictor starts from here
-            self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g))
+            # the output predictor starts from here (its sums of the samples at zero)
+            self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g,
+                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
             return (nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]],
@@ -668,15 +667,26 @@ class QuadVehicle(VehicleBase):
         return (mon.ratio, mon.iso_ratio, *mon.gamma.tolist(), mon.lam)
 
 
+X_SUMS = 17                       # predict_output's x: where the sums of the samples start
+
+
 @kernel
 def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
-    accelerometer bias, gyro bias, g), its p, v, q updated in place;
+    accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
+    filter's update: X_SUMS), its p, v, q and sums updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
     omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
     q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
     them back out of ``x`` or slicing one long tuple; the angles here rather than in a
     call of their own)."""
+    # the raw sample summed for the filter's next update (DecimatedNav.update)
+    x[X_SUMS] += fx
+    x[X_SUMS + 1] += fy
+    x[X_SUMS + 2] += fz
+    x[X_SUMS + 3] += wx
+    x[X_SUMS + 4] += wy
+    x[X_SUMS + 5] += wz
     wx -= x[13]
     wy -= x[14]
     wz -= x[15]

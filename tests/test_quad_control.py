@@ -273,14 +273,16 @@ def test_copter_modes_are_numbered_as_arducopter():
 def test_output_predictor_kernel_is_the_strapdown_step():
     """The output predictor (autopilot/vehicle_quad.py, predict_output) against its law
     written out with autopilot.geo: q <- q (x) Exp(omega dt), v <- v + (R f + g) dt,
-    p <- p + (v + v') dt / 2, f and omega less the filter's bias estimates."""
+    p <- p + (v + v') dt / 2, f and omega less the filter's bias estimates; the raw
+    sample added to the sums kept for the filter's next update."""
     from autopilot.geo import quat_integrate, quat_to_dcm, quat_to_euler
     from autopilot.vehicle_quad import predict_output
     p, v = np.array([3.0, -2.0, -15.0]), np.array([4.0, 1.0, -0.5])
     q = euler_to_quat(0.2, -0.1, 1.0)
     ba, bg, g = np.array([0.02, -0.01, 0.05]), np.array([0.001, -0.002, 0.003]), 9.79
     f, w, dt = np.array([0.4, -0.3, -9.9]), np.array([0.3, -0.2, 0.1]), 0.004
-    x = np.concatenate((p, v, q, ba, bg, [g]))
+    sums = np.array([1.0, 2.0, 3.0, 0.1, 0.2, 0.3])               # of earlier samples
+    x = np.concatenate((p, v, q, ba, bg, [g], sums))
     p_out, v_out, q_out, w_out, euler = predict_output(x, *f, *w, dt)
     a = quat_to_dcm(q) @ (f - ba) + np.array([0.0, 0.0, g])
     v1 = v + a * dt
@@ -289,7 +291,8 @@ def test_output_predictor_kernel_is_the_strapdown_step():
     assert np.max(np.abs(x[3:6] - v1)) < 1e-12
     assert np.max(np.abs(x[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
     assert np.max(np.abs(x[6:10] - quat_integrate(q, w - bg, dt))) < 1e-12
-    assert np.all(x[10:] == np.concatenate((ba, bg, [g])))          # biases untouched
+    assert np.all(x[10:17] == np.concatenate((ba, bg, [g])))        # biases untouched
+    assert x[17:].tolist() == (sums + np.concatenate((f, w))).tolist()   # the raw sample summed
     assert euler == quat_to_euler(q_out)                            # the new q's angles
 
 
