@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from autopilot.control.mixer import QuadPlusMixer
+from autopilot.control.mixer import K_EFF, QuadPlusMixer
 from autopilot.control.multirotor import (G, MULTIROTOR_PARAMS, NO_LEAD, SEED_ALT,
                                           SEED_POS_PITCH, SEED_ROLL_PITCH, SEED_YAW,
                                           AltitudeController, AttitudeController, DiscretePdd,
@@ -351,4 +351,4 @@ def test_mixer_density_update_is_the_full_rebuild():
     assert (m.t_lo, m.t_hi) == (ref.t_lo, ref.t_hi) and m.k[0] > 0.0
     m.set_effectiveness((1.0, 0.5, 1.0, 1.0))
     m.set_density_ratio(1.1)
-    assert m.k[-3] == 0.5 and m.k[1] == m.thrust_of(1.0)
+    assert m.k[K_EFF + 1] == 0.5 and m.k[1] == m.thrust_of(1.0)

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..jit import kernel, preload
 from ..params import Param
-from .mixer import K_NK, QuadPlusMixer, mix_rotors
+from .mixer import K_COLL, K_N, K_SAT, QuadPlusMixer, mix_rotors
 
 G = 9.80665
 
@@ -244,47 +244,43 @@ def _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d):
 
 
 # MultirotorController.x: the loops' coefficients and states in one array (one argument
-# of the kernels, written in place): the attitude loops' rows of pdd_step (coefficients
-# 3 x 9, then states 3 x 3: AttitudeController.x), the mixer's constants (mixer.K_*),
-# the reference-angle generator's gains and integral (P_*), the altitude loop's gains
-# and integral (A_*), and the record of the last mixing that the altitude loop's
-# anti-windup reads (R_*: the thrust asked, the collective given, collective saturated)
-X_ATT, X_MIX, X_POS, X_ALT, X_REC = 0, 36, 36 + K_NK, 36 + K_NK + 10, 36 + K_NK + 16
-X_N = X_REC + 3
-ATT_STATE = 27                      # AttitudeController.x: coefficients, then states
+# of the kernels, written in place): the attitude loops' (AttitudeController.x: the
+# rows of pdd_step's coefficients 3 x 9, of its states 3 x 3, the attitude error), the
+# mixer's constants and record (mixer.K_*), the reference-angle generator's gains and
+# integral (P_*), the altitude loop's gains and integral (A_*), and the thrust asked of
+# the mixer last (the altitude loop's anti-windup compares the collective given with it)
+ATT_STATE, ATT_ERR, ATT_N = 27, 36, 39
+X_ATT, X_MIX = 0, ATT_N
+X_POS = X_MIX + K_N
+X_ALT = X_POS + 10
+X_REQ = X_ALT + 6
+X_N = X_REQ + 1
 P_KPP, P_KIP, P_KDP, P_KPR, P_KIR, P_KDR, P_ANG, P_ILIM, P_IN, P_IE = range(10)
 A_KD, A_KP, A_KI, A_IMAX, A_MASS, A_INTEG = range(6)
-R_REQ, R_COLL, R_SATC = range(3)
 
 
 @kernel
 def attitude_step(a, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d):
     """The three PDD loops on the attitude error (:class:`AttitudeController`): ``a``
     holds the roll, pitch and yaw rows of :func:`pdd_step`'s coefficients, then of its
-    states. Returns the error (3) and (u_phi, u_theta, u_psi)."""
+    states, then the error (written). Returns (u_phi, u_theta, u_psi)."""
     ex, ey, ez = _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d)
+    a[ATT_ERR], a[ATT_ERR + 1], a[ATT_ERR + 2] = ex, ey, ez
     s = ATT_STATE
-    return (ex, ey, ez, pdd_step(a[0:9], a[s:s + 3], ex, wx),
-            pdd_step(a[9:18], a[s + 3:s + 6], ey, wy), pdd_step(a[18:27], a[s + 6:s + 9], ez, wz))
+    return (pdd_step(a[0:9], a[s:s + 3], ex, wx), pdd_step(a[9:18], a[s + 3:s + 6], ey, wy),
+            pdd_step(a[18:27], a[s + 6:s + 9], ez, wz))
 
 
 @kernel
 def attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z):
     """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`) on
     the controller's array ``x`` in one call (:meth:`MultirotorController.attitude`),
-    the mixing's record kept in ``x``: the error, (u_phi, u_theta, u_psi), the rotor
-    thrusts and commands, the collective and the saturation flags (mix_rotors'
-    outputs), each vector a tuple (the records the caller keeps, built here rather than
-    from one long tuple)."""
-    ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(x[X_ATT:X_MIX], qw, qx, qy, qz, wx, wy,
-                                                      wz, roll_d, pitch_d, yaw_d)
-    t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(u_z, u_phi, u_theta,
-                                                                     u_psi, x[X_MIX:X_POS])
-    x[X_REC + R_REQ] = u_z
-    x[X_REC + R_COLL] = coll
-    x[X_REC + R_SATC] = 1.0 if s_c else 0.0
-    return ((ex, ey, ez), (u_phi, u_theta, u_psi), (t1, t2, t3, t4), (c1, c2, c3, c4), coll,
-            (s_rp, s_y, s_c))
+    their records (the error, the mixing's) kept in ``x``: (u_z, u_phi, u_theta, u_psi)
+    and the motor commands, two tuples (the caller's records)."""
+    u_phi, u_theta, u_psi = attitude_step(x[X_ATT:X_MIX], qw, qx, qy, qz, wx, wy, wz, roll_d,
+                                          pitch_d, yaw_d)
+    x[X_REQ] = u_z
+    return (u_z, u_phi, u_theta, u_psi), mix_rotors(u_z, u_phi, u_theta, u_psi, x[X_MIX:X_POS])
 
 
 @kernel
@@ -328,15 +324,16 @@ def hypot(x, y):
 
 class AttitudeController:
     """Roll, pitch and yaw PDD loops: ``update(q, omega_b, roll_d, pitch_d, yaw_d)``
-    -> (u_phi, u_theta, u_psi) [N per rotor]. Coefficients and states in ``x`` (the
-    controller's array's part, given, or its own), ``coef`` and ``state`` its rows."""
+    -> (u_phi, u_theta, u_psi) [N per rotor]. Coefficients, states and the error in
+    ``x`` (the controller's array's part, given, or its own), ``coef`` and ``state``
+    its rows."""
 
     def __init__(self, params, dt: float, x=None):
         self.params = params
         self.dt = dt
-        self.x = np.zeros(X_MIX - X_ATT) if x is None else x
+        self.x = np.zeros(ATT_N) if x is None else x
         self.coef = self.x[:ATT_STATE].reshape(3, 9)
-        self.state = self.x[ATT_STATE:].reshape(3, 3)
+        self.state = self.x[ATT_STATE:ATT_ERR].reshape(3, 3)
         self.configure()
 
     def gains(self) -> dict:
@@ -363,18 +360,20 @@ class AttitudeController:
             self.coef[k] = loop.coef
             self.state[k] = loop.state
             loop.state = self.state[k]
-        self.error = (0.0, 0.0, 0.0)
+        self.x[ATT_ERR:] = 0.0
+
+    @property
+    def error(self) -> tuple[float, float, float]:
+        """The last attitude error in body axes (:func:`attitude_error`) [rad]."""
+        return tuple(self.x[ATT_ERR:].tolist())
 
     def reset(self) -> None:
         for loop in self.loops:
             loop.reset()
 
     def update(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float) -> tuple:
-        ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(
-            self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d,
-            yaw_d)
-        self.error = (ex, ey, ez)
-        return u_phi, u_theta, u_psi
+        return attitude_step(self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1],
+                             omega_b[2], roll_d, pitch_d, yaw_d)
 
 
 # ----------------------------------------------------------------- altitude --------
@@ -399,9 +398,9 @@ def altitude_step(x, h_d, hdot_d, hddot_d, h, hdot, roll, pitch, dt, hold_integr
     """:func:`altitude_thrust` on the controller's array ``x``, its integral held while
     the last mixing moved the collective against the error (below the thrust asked
     with the height low, above it with the height high)."""
-    sat = x[X_REC + R_SATC] != 0.0
-    req, coll = x[X_REC + R_REQ], x[X_REC + R_COLL]
-    return altitude_thrust(x[X_ALT:X_REC], h_d, hdot_d, hddot_d, h, hdot,
+    sat = x[X_MIX + K_SAT + 2] != 0.0
+    req, coll = x[X_REQ], x[X_MIX + K_COLL]
+    return altitude_thrust(x[X_ALT:X_REQ], h_d, hdot_d, hddot_d, h, hdot,
                            math.cos(roll) * math.cos(pitch), dt, hold_integrator,
                            sat and coll < req - 1e-6, sat and coll > req + 1e-6)
 
@@ -413,7 +412,7 @@ class AltitudeController:
 
     def __init__(self, params, g=None):
         self.params = params
-        self.g = np.zeros(X_REC - X_ALT) if g is None else g
+        self.g = np.zeros(X_REQ - X_ALT) if g is None else g
         self.configure()
 
     @property
@@ -529,12 +528,12 @@ def track_mix(x, qw, qx, qy, qz, wx, wy, wz, pn_d, pe_d, pd_d, vn_d, ve_d, vd_d,
     (:meth:`MultirotorController.track`): the reference angles (eqs 3.38-3.41) from the
     reference's position, velocity and acceleration (_d; home NED) against the
     estimate's, the thrust of the altitude loop (eq 3.37), then the attitude loops and
-    the mixer (:func:`attitude_mix`). Returns (phi_d, theta_d, u_z, attitude_mix's)."""
+    the mixer (:func:`attitude_mix`). Returns phi_d, theta_d and attitude_mix's."""
     roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], pn_d - pn, pe_d - pe, vn_d - vn,
                                        ve_d - ve, an_d, ae_d, yaw, dt, hold_pos)
     u_z = altitude_step(x, -pd_d, -vd_d, -ad_d, -pd, -vd, roll, pitch, dt, hold_alt)
-    return roll_d, pitch_d, u_z, attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d,
-                                              yaw_d, u_z)
+    u, motors = attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z)
+    return roll_d, pitch_d, u, motors
 
 
 class MultirotorController:
@@ -547,7 +546,7 @@ class MultirotorController:
         self.dt = dt
         self.x = np.zeros(X_N)
         self.att = AttitudeController(params, dt, self.x[X_ATT:X_MIX])
-        self.alt = AltitudeController(params, self.x[X_ALT:X_REC])
+        self.alt = AltitudeController(params, self.x[X_ALT:X_REQ])
         self.pos = ReferenceAngleGenerator(params, self.x[X_POS:X_ALT])
         self.mixer = QuadPlusMixer(params["QD_THST_MAX"], params["QD_THST_EXPO"], params["QD_SPIN_MIN"],
                                    self.x[X_MIX:X_POS])
@@ -582,9 +581,9 @@ class MultirotorController:
         """Attitude loops and mixer for given reference angles and total thrust: what
         ``att.update`` and ``mixer.mix`` do, in one kernel call (:func:`attitude_mix`)."""
         self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
-        return self._record(u_z, attitude_mix(self.x, q[0], q[1], q[2], q[3], omega_b[0],
-                                              omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
-                                              u_z))
+        self.u, self.motors = attitude_mix(self.x, q[0], q[1], q[2], q[3], omega_b[0],
+                                           omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d, u_z)
+        return self.motors
 
     def altitude(self, h_d: float, hdot_d: float, hddot_d: float, h: float, hdot: float,
                  roll: float, pitch: float, dt: float, hold_integrator: bool) -> float:
@@ -599,28 +598,17 @@ class MultirotorController:
         a_d; home NED) and heading ``yaw_d``, the vehicle at p, v (home NED), heading
         ``yaw``, tilt (roll, pitch): ``pos.update``, ``altitude``, then ``attitude``, in
         one kernel call (:func:`track_mix`). Integrators held with ``hold_*``."""
-        self.roll_d, self.pitch_d, u_z, out = track_mix(
+        self.roll_d, self.pitch_d, self.u, self.motors = track_mix(
             self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
             p_d[0], p_d[1], p_d[2], v_d[0], v_d[1], v_d[2], a_d[0], a_d[1], a_d[2],
             p[0], p[1], p[2], v[0], v[1], v[2], yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt)
         self.yaw_d = yaw_d
-        return self._record(u_z, out)
-
-    def _record(self, u_z: float, out: tuple) -> tuple:
-        """attitude_mix's outputs kept (the error, the inputs, the mixer's record)."""
-        att, mixer = self.att, self.mixer
-        att.error, (u_phi, u_theta, u_psi), thrusts, motors, coll, saturated = out
-        self.u = (u_z, u_phi, u_theta, u_psi)
-        mixer.saturated = saturated              # the mixer's record (QuadPlusMixer.mix)
-        mixer.collective = coll
-        mixer.thrusts = thrusts
-        self.motors = motors
-        return motors
+        return self.motors
 
     def idle(self, spin: float) -> tuple:
         """Armed on the ground: every motor at ``spin``, loops held at rest."""
         self.att.reset()
         self.u = (0.0, 0.0, 0.0, 0.0)
-        self.x[X_REC + R_REQ] = 0.0
+        self.x[X_REQ] = 0.0
         self.motors = (spin, spin, spin, spin)
         return self.motors
