@@ -133,7 +133,6 @@ class DecimatedNav:
         self._aux_t: int | None = None
         self._gps = self._air = None
         self.nav: NavState | None = None
-        self._p = self._v = self._q = None
         self._x = None                  # the output predictor's state (predict_output)
         self._ba = (0.0, 0.0, 0.0)
         self._bg = (0.0, 0.0, 0.0)
@@ -207,23 +206,19 @@ class DecimatedNav:
             self._gps = self._air = None
             nav = self.filt.update(fr)
             self.nav = nav
-            self._p = nav.p_ned.tolist()
-            self._v = nav.v_ned.tolist()
-            self._q = nav.q_nb.tolist()
+            p, v, q = nav.p_ned.tolist(), nav.v_ned.tolist(), nav.q_nb.tolist()
             nom = getattr(self.filt, "nom", None)
             if nom is not None:
                 self._ba = tuple(nom.ba)
                 self._bg = tuple(nom.bg)
                 self._g = getattr(self.filt, "_g", G)
             # the output predictor starts from here (its sums of the samples at zero)
-            self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g,
+            self._x = np.array((*p, *v, *q, *self._ba, *self._bg, self._g,
                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return (nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]],
-                    quat_to_euler(self._q))
+            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], quat_to_euler(q)
         p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
-        self._p, self._v, self._q = p, v, q
         return self.nav, p, v, q, w, euler
 
 
