@@ -517,7 +517,8 @@ class QuadVehicle(VehicleBase):
                 self._alt_ref = h
                 return ctrl.idle(p["QD_SPIN_ARM"])
             self._alt_ref += climb * dt
-            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -v[2], roll, pitch, dt, not self.flying)
+            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -v[2], roll, pitch, dt,
+                                not self.flying)
             self._update_ground_state(u_z, v, t_us, landing=climb < 0.0)
             return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
 
@@ -550,6 +551,7 @@ class QuadVehicle(VehicleBase):
             nv.init(pos, yaw)
             return ctrl.idle(p["QD_SPIN_ARM"])
         hold_i = not self.flying
+        # (the ground state after the loops: in these modes it changes none of their inputs)
         motors = ctrl.track(q, omega, tgt.p_ned, tgt.v_ned, tgt.a_ned, pos, v, yaw, roll, pitch,
                             tgt.yaw_rad, dt, hold_i, hold_i)
         self._update_ground_state(ctrl.u[0], v, t_us, landing=tgt.kind == "land")

@@ -92,8 +92,8 @@ class QuadPlusMixer:
         eff = self.eff
         self._lin = 1.0 - e                          # thrust_of's factor, as it writes it
         self.k[:K_COLL] = ((0.0, 0.0, 0.0,
-                      1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
-                      0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
+                            1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
+                            0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
         self._density()
 
     def _density(self) -> None:
