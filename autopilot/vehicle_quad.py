@@ -38,7 +38,7 @@ from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, quat_to_euler, wrap_pi
-from .geo.rotations import quat_dcm, quat_step
+from .geo.rotations import euler_321, quat_dcm, quat_step
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .jit import kernel
@@ -117,16 +117,15 @@ class DecimatedNav:
     (module docstring). Magnetometer and barometer samples are averaged and handed to
     the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
-    p, v, q, omega)`` with p, v, q the predicted state as floats (lists or tuples; nav
-    origin NED, q_nb) and omega the bias-corrected rate of this step (likewise)."""
+    p, v, q, omega, euler)`` with p, v, q the predicted state as floats (lists or tuples;
+    nav origin NED, q_nb), omega the bias-corrected rate of this step (likewise) and
+    euler q's (roll, pitch, yaw)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
         self.div = max(1, int(div))
         self._aux_us = int(1e6 / aux_hz) if aux_hz > 0 else 0
         self._k = 0
-        self._f = [0.0, 0.0, 0.0]
-        self._w = [0.0, 0.0, 0.0]
         self._m = [0.0, 0.0, 0.0]
         self._nm = 0
         self._b = [0.0, 0.0, 0.0]       # pressure, altitude, temperature sums
@@ -134,7 +133,6 @@ class DecimatedNav:
         self._aux_t: int | None = None
         self._gps = self._air = None
         self.nav: NavState | None = None
-        self._p = self._v = self._q = None
         self._x = None                  # the output predictor's state (predict_output)
         self._ba = (0.0, 0.0, 0.0)
         self._bg = (0.0, 0.0, 0.0)
@@ -191,39 +189,37 @@ class DecimatedNav:
             self._gps = frame.gps
         if frame.airspeed is not None:
             self._air = frame.airspeed
-        f, w = self._f, self._w
-        f[0] += fx; f[1] += fy; f[2] += fz
-        w[0] += wx; w[1] += wy; w[2] += wz
         self._k += 1
         if self._k >= self.div or self.nav is None or not self.nav.aligned:
             mag, baro = self._aux(t)
             if self._k == 1:
                 imu_f = imu
             else:
+                # the samples of the predictor's steps since the last update, summed in
+                # x by predict_output, and this one
+                f0, f1, f2, w0, w1, w2 = self._x[X_SUMS:].tolist()
                 n = 1.0 / self._k
-                imu_f = ImuSample.make(t, (f[0] * n, f[1] * n, f[2] * n), (w[0] * n, w[1] * n, w[2] * n))
+                imu_f = ImuSample.make(t, ((f0 + fx) * n, (f1 + fy) * n, (f2 + fz) * n),
+                                       ((w0 + wx) * n, (w1 + wy) * n, (w2 + wz) * n))
             fr = SensorFrame.make(t, imu_f, mag, baro, self._air, self._gps)
             self._k = 0
-            f[0] = f[1] = f[2] = w[0] = w[1] = w[2] = 0.0
             self._gps = self._air = None
             nav = self.filt.update(fr)
             self.nav = nav
-            self._p = nav.p_ned.tolist()
-            self._v = nav.v_ned.tolist()
-            self._q = nav.q_nb.tolist()
+            p, v, q = nav.p_ned.tolist(), nav.v_ned.tolist(), nav.q_nb.tolist()
             nom = getattr(self.filt, "nom", None)
             if nom is not None:
                 self._ba = tuple(nom.ba)
                 self._bg = tuple(nom.bg)
                 self._g = getattr(self.filt, "_g", G)
-            # the output predictor starts from here
-            self._x = np.array((*self._p, *self._v, *self._q, *self._ba, *self._bg, self._g))
+            # the output predictor starts from here (its sums of the samples at zero)
+            self._x = np.array((*p, *v, *q, *self._ba, *self._bg, self._g,
+                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return nav, self._p, self._v, self._q, [wx - bg[0], wy - bg[1], wz - bg[2]]
-        p, v, q, w = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
-        self._p, self._v, self._q = p, v, q
-        return self.nav, p, v, q, w
+            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], quat_to_euler(q)
+        p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
+        return self.nav, p, v, q, w, euler
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -451,14 +447,15 @@ class QuadVehicle(VehicleBase):
             v = nav.v_ned.tolist()
             q = nav.q_nb.tolist()
             omega = nav.omega_b.tolist()
+            euler = quat_to_euler(q)
         else:
-            nav, p_nav, v, q, omega = self.nav.update(frame)
+            nav, p_nav, v, q, omega, euler = self.nav.update(frame)
         self.nav_state = nav
         hp = self._home_nav_p
         self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
         self.v_ned = v
         self.q_nb = q
-        self.euler = quat_to_euler(q)
+        self.euler = euler
 
         # modes
         if not self.armed and self.autostart and not self.mission_landed:
@@ -497,7 +494,6 @@ class QuadVehicle(VehicleBase):
         roll, pitch, yaw = self.euler
         pos = self.p_home
         v = self.v_ned
-        h = -pos[2]
         if self.on_ground:
             self._yaw_hold = yaw
         if mode in _PILOT_MODES:
@@ -516,11 +512,13 @@ class QuadVehicle(VehicleBase):
                 return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
             stick = 0.5 if pl.throttle is None else pl.throttle
             climb = (stick - 0.5) * 2.0 * p["PILOT_SPEED_UP"] if abs(stick - 0.5) > 0.05 else 0.0
+            h = -pos[2]
             if self.on_ground and climb <= 0.0:
                 self._alt_ref = h
                 return ctrl.idle(p["QD_SPIN_ARM"])
             self._alt_ref += climb * dt
-            u_z = self._altitude(self._alt_ref, climb, 0.0, h, v, roll, pitch, dt)
+            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -v[2], roll, pitch, dt,
+                                not self.flying)
             self._update_ground_state(u_z, v, t_us, landing=climb < 0.0)
             return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
 
@@ -553,12 +551,11 @@ class QuadVehicle(VehicleBase):
             nv.init(pos, yaw)
             return ctrl.idle(p["QD_SPIN_ARM"])
         hold_i = not self.flying
-        tp, tv, ta = tgt.p_ned, tgt.v_ned, tgt.a_ned
-        r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
-                                   ta[0], ta[1], yaw, dt, hold_i)
-        u_z = self._altitude(-tp[2], -tv[2], -ta[2], h, v, roll, pitch, dt)
-        self._update_ground_state(u_z, v, t_us, landing=tgt.kind == "land")
-        return ctrl.attitude(q, omega, r_d, p_d, tgt.yaw_rad, u_z)
+        # (the ground state after the loops: in these modes it changes none of their inputs)
+        motors = ctrl.track(q, omega, tgt.p_ned, tgt.v_ned, tgt.a_ned, pos, v, yaw, roll, pitch,
+                            tgt.yaw_rad, dt, hold_i, hold_i)
+        self._update_ground_state(ctrl.u[0], v, t_us, landing=tgt.kind == "land")
+        return motors
 
     _touchdown_pending = False
 
@@ -594,16 +591,6 @@ class QuadVehicle(VehicleBase):
             mon.failsafe = None
             if self.armed and self.mode != CopterMode.LAND:
                 self.set_mode(CopterMode.LAND, t_us)
-
-    def _altitude(self, h_d, hdot_d, hddot_d, h, v, roll, pitch, dt) -> float:
-        ctrl = self.ctrl
-        m = ctrl.mixer
-        sat = m.saturated[2]
-        req = ctrl.u[0]
-        sat_hi = sat and m.collective < req - 1e-6
-        sat_lo = sat and m.collective > req + 1e-6
-        return ctrl.alt.update(h_d, hdot_d, hddot_d, h, -v[2], math.cos(roll) * math.cos(pitch),
-                               dt, not self.flying, sat_hi, sat_lo)
 
     def _update_ground_state(self, u_z: float, v, t_us: int, landing: bool) -> None:
         """Leaving the ground, and the land detector (module docstring)."""
@@ -677,14 +664,26 @@ class QuadVehicle(VehicleBase):
         return (mon.ratio, mon.iso_ratio, *mon.gamma.tolist(), mon.lam)
 
 
+X_SUMS = 17                       # predict_output's x: where the sums of the samples start
+
+
 @kernel
 def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
-    accelerometer bias, gyro bias, g), its p, v, q updated in place;
+    accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
+    filter's update: X_SUMS), its p, v, q and sums updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
-    omega the bias-corrected specific force and rate. Returns the new p, v, q and omega
-    as four tuples of floats (the caller's values without reading them back out of ``x``
-    or slicing one long tuple)."""
+    omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
+    q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
+    them back out of ``x`` or slicing one long tuple; the angles here rather than in a
+    call of their own)."""
+    # the raw sample summed for the filter's next update (DecimatedNav.update)
+    x[X_SUMS] += fx
+    x[X_SUMS + 1] += fy
+    x[X_SUMS + 2] += fz
+    x[X_SUMS + 3] += wx
+    x[X_SUMS + 4] += wy
+    x[X_SUMS + 5] += wz
     wx -= x[13]
     wy -= x[14]
     wz -= x[15]
@@ -704,4 +703,5 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[3], x[4], x[5] = vn1, ve1, vd1
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
-    return (x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz)
+    return ((x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz),
+            euler_321(qw, qx, qy, qz))

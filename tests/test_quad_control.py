@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from autopilot.control.mixer import QuadPlusMixer
+from autopilot.control.mixer import K_EFF, QuadPlusMixer
 from autopilot.control.multirotor import (G, MULTIROTOR_PARAMS, NO_LEAD, SEED_ALT,
                                           SEED_POS_PITCH, SEED_ROLL_PITCH, SEED_YAW,
                                           AltitudeController, AttitudeController, DiscretePdd,
@@ -273,15 +273,17 @@ def test_copter_modes_are_numbered_as_arducopter():
 def test_output_predictor_kernel_is_the_strapdown_step():
     """The output predictor (autopilot/vehicle_quad.py, predict_output) against its law
     written out with autopilot.geo: q <- q (x) Exp(omega dt), v <- v + (R f + g) dt,
-    p <- p + (v + v') dt / 2, f and omega less the filter's bias estimates."""
-    from autopilot.geo import quat_integrate, quat_to_dcm
+    p <- p + (v + v') dt / 2, f and omega less the filter's bias estimates; the raw
+    sample added to the sums kept for the filter's next update."""
+    from autopilot.geo import quat_integrate, quat_to_dcm, quat_to_euler
     from autopilot.vehicle_quad import predict_output
     p, v = np.array([3.0, -2.0, -15.0]), np.array([4.0, 1.0, -0.5])
     q = euler_to_quat(0.2, -0.1, 1.0)
     ba, bg, g = np.array([0.02, -0.01, 0.05]), np.array([0.001, -0.002, 0.003]), 9.79
     f, w, dt = np.array([0.4, -0.3, -9.9]), np.array([0.3, -0.2, 0.1]), 0.004
-    x = np.concatenate((p, v, q, ba, bg, [g]))
-    p_out, v_out, q_out, w_out = predict_output(x, *f, *w, dt)
+    sums = np.array([1.0, 2.0, 3.0, 0.1, 0.2, 0.3])               # of earlier samples
+    x = np.concatenate((p, v, q, ba, bg, [g], sums))
+    p_out, v_out, q_out, w_out, euler = predict_output(x, *f, *w, dt)
     a = quat_to_dcm(q) @ (f - ba) + np.array([0.0, 0.0, g])
     v1 = v + a * dt
     assert p_out + v_out + q_out == tuple(x[:10].tolist())          # the new p, v, q as x holds them
@@ -289,7 +291,9 @@ def test_output_predictor_kernel_is_the_strapdown_step():
     assert np.max(np.abs(x[3:6] - v1)) < 1e-12
     assert np.max(np.abs(x[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
     assert np.max(np.abs(x[6:10] - quat_integrate(q, w - bg, dt))) < 1e-12
-    assert np.all(x[10:] == np.concatenate((ba, bg, [g])))          # biases untouched
+    assert np.all(x[10:17] == np.concatenate((ba, bg, [g])))        # biases untouched
+    assert x[17:].tolist() == (sums + np.concatenate((f, w))).tolist()   # the raw sample summed
+    assert euler == quat_to_euler(q_out)                            # the new q's angles
 
 
 def test_mixer_with_a_weak_rotor_keeps_every_rotor_within_its_share():
@@ -347,4 +351,4 @@ def test_mixer_density_update_is_the_full_rebuild():
     assert (m.t_lo, m.t_hi) == (ref.t_lo, ref.t_hi) and m.k[0] > 0.0
     m.set_effectiveness((1.0, 0.5, 1.0, 1.0))
     m.set_density_ratio(1.1)
-    assert m.k[-3] == 0.5 and m.k[1] == m.thrust_of(1.0)
+    assert m.k[K_EFF + 1] == 0.5 and m.k[1] == m.thrust_of(1.0)

@@ -50,19 +50,19 @@ ROTOR_SIGNS = ((0.0, -1.0, 1.0), (1.0, 0.0, -1.0), (0.0, 1.0, 1.0), (-1.0, 0.0, 
 
 class QuadPlusMixer:
     """``mix(u_z, u_phi, u_theta, u_psi) -> (c1, c2, c3, c4)`` commands 0..1 (the law:
-    :func:`mix_rotors`; its constants in ``k``, rebuilt when a parameter changes)."""
+    :func:`mix_rotors`). Its constants and the record of its last mixing are in ``k``
+    (K_*), the constants rewritten in place when a parameter changes: ``k`` may be a
+    part of the controller's array, given here."""
 
-    __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "saturated",
-                 "thrusts", "collective", "eff", "k", "_full", "_lin")
+    __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "eff", "k",
+                 "_full", "_lin")
 
-    def __init__(self, t_max_n: float, expo: float, spin_min: float):
+    def __init__(self, t_max_n: float, expo: float, spin_min: float, k=None):
+        self.k = np.zeros(K_N) if k is None else k
         self.t_max = t_max_n
         self.expo = expo
         self.spin_min = spin_min
         self.rho_ratio = 1.0
-        self.saturated = (False, False, False)    # (roll/pitch, yaw, collective)
-        self.thrusts = (0.0, 0.0, 0.0, 0.0)
-        self.collective = 0.0
         self.eff: tuple[float, float, float, float] | None = None   # None: all healthy
         self._limits()
 
@@ -91,9 +91,9 @@ class QuadPlusMixer:
         e = self.expo
         eff = self.eff
         self._lin = 1.0 - e                          # thrust_of's factor, as it writes it
-        self.k = np.array((0.0, 0.0, 0.0,
-                           1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
-                           0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
+        self.k[:K_COLL] = ((0.0, 0.0, 0.0,
+                            1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
+                            0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
         self._density()
 
     def _density(self) -> None:
@@ -106,6 +106,22 @@ class QuadPlusMixer:
         k[K_LO] = self.t_lo
         k[K_HI] = self.t_hi
         k[K_FULL] = self._full
+
+    # ------------------------------------------------- the last mixing's record --
+    @property
+    def saturated(self) -> tuple[bool, bool, bool]:
+        """(roll/pitch, yaw, collective) saturated."""
+        return tuple(s != 0.0 for s in self.k[K_SAT:K_SAT + 3].tolist())
+
+    @property
+    def collective(self) -> float:
+        """The collective given, 4 c [N]."""
+        return float(self.k[K_COLL])
+
+    @property
+    def thrusts(self) -> tuple[float, float, float, float]:
+        """The rotor thrusts [N]."""
+        return tuple(self.k[K_T:K_T + 4].tolist())
 
     # -------------------------------------------------------------- thrust curve --
     def thrust_of(self, u: float) -> float:
@@ -125,17 +141,18 @@ class QuadPlusMixer:
         return self.thrusts
 
     def mix(self, u_z: float, u_phi: float, u_theta: float, u_psi: float) -> tuple:
-        t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(
-            u_z, u_phi, u_theta, u_psi, self.k)
-        self.saturated = (s_rp, s_y, s_c)
-        self.collective = coll
-        self.thrusts = (t1, t2, t3, t4)
-        return (c1, c2, c3, c4)
+        return mix_rotors(u_z, u_phi, u_theta, u_psi, self.k)
 
 
 # QuadPlusMixer.k: the thrust limits, T_max rho/rho0, the thrust curve's inverse (linear
-# flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and k_1..k_4
+# flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and k_1..k_4; then the last
+# mixing's record (mix_rotors writes it): the collective, the three saturation flags
+# (1.0 or 0.0), the rotor thrusts
 K_LO, K_HI, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(10)
+K_COLL = K_EFF + 4
+K_SAT = K_COLL + 1
+K_T = K_SAT + 3
+K_N = K_T + 4
 
 
 @kernel
@@ -168,9 +185,9 @@ def _low_high(a, b, c, d):
 @kernel
 def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     """Eq 3.30 with the attitude-first saturation and the effectiveness (module
-    docstring): (T_1..T_4 [N], their commands c_1..c_4, the collective 4 c [N],
-    saturated roll/pitch, yaw, collective). (min / max spelt out as Python's: the first
-    of equal values.)"""
+    docstring): the commands c_1..c_4; the thrusts T_1..T_4 [N], the collective 4 c [N]
+    and which of roll/pitch, yaw, collective saturated recorded in ``k``. (min / max
+    spelt out as Python's: the first of equal values.)"""
     lo, hi = k[K_LO], k[K_HI]
     healthy = k[K_HAS_EFF] == 0.0
     e1, e2, e3, e4 = k[K_EFF], k[K_EFF + 1], k[K_EFF + 2], k[K_EFF + 3]
@@ -233,4 +250,9 @@ def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     else:
         m1, m2, m3, m4 = (command_of_thrust(k, t1 / e1), command_of_thrust(k, t2 / e2),
                           command_of_thrust(k, t3 / e3), command_of_thrust(k, t4 / e4))
-    return t1, t2, t3, t4, m1, m2, m3, m4, 4.0 * c, sat_rp, sat_y, sat_c
+    k[K_COLL] = 4.0 * c
+    k[K_SAT] = 1.0 if sat_rp else 0.0
+    k[K_SAT + 1] = 1.0 if sat_y else 0.0
+    k[K_SAT + 2] = 1.0 if sat_c else 0.0
+    k[K_T], k[K_T + 1], k[K_T + 2], k[K_T + 3] = t1, t2, t3, t4
+    return m1, m2, m3, m4

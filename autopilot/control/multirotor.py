@@ -31,7 +31,7 @@ import numpy as np
 
 from ..jit import kernel, preload
 from ..params import Param
-from .mixer import QuadPlusMixer, mix_rotors
+from .mixer import K_COLL, K_N, K_SAT, QuadPlusMixer, mix_rotors
 
 G = 9.80665
 
@@ -243,38 +243,99 @@ def _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d):
     return ex * k, ey * k, ez * k + e_yaw
 
 
+# MultirotorController.x: the loops' coefficients and states in one array (one argument
+# of the kernels, written in place): the attitude loops' (AttitudeController.x: the
+# rows of pdd_step's coefficients 3 x 9, of its states 3 x 3, the attitude error), the
+# mixer's constants and record (mixer.K_*), the reference-angle generator's gains and
+# integral (P_*), the altitude loop's gains and integral (A_*), and the thrust asked of
+# the mixer last (the altitude loop's anti-windup compares the collective given with it)
+ATT_STATE, ATT_ERR, ATT_N = 27, 36, 39
+X_ATT, X_MIX = 0, ATT_N
+X_POS = X_MIX + K_N
+X_ALT = X_POS + 10
+X_REQ = X_ALT + 6
+X_N = X_REQ + 1
+P_KPP, P_KIP, P_KDP, P_KPR, P_KIR, P_KDR, P_ANG, P_ILIM, P_IN, P_IE = range(10)
+A_KD, A_KP, A_KI, A_IMAX, A_MASS, A_INTEG = range(6)
+
+
 @kernel
-def attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, coef, state):
-    """The three PDD loops on the attitude error (:class:`AttitudeController`): ``coef``
-    and ``state`` hold the roll, pitch and yaw rows of :func:`pdd_step`'s. Returns the
-    error (3) and (u_phi, u_theta, u_psi)."""
+def attitude_step(a, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d):
+    """The three PDD loops on the attitude error (:class:`AttitudeController`): ``a``
+    holds the roll, pitch and yaw rows of :func:`pdd_step`'s coefficients, then of its
+    states, then the error (written). Returns (u_phi, u_theta, u_psi)."""
     ex, ey, ez = _attitude_error(qw, qx, qy, qz, roll_d, pitch_d, yaw_d)
-    return (ex, ey, ez, pdd_step(coef[0], state[0], ex, wx), pdd_step(coef[1], state[1], ey, wy),
-            pdd_step(coef[2], state[2], ez, wz))
+    a[ATT_ERR], a[ATT_ERR + 1], a[ATT_ERR + 2] = ex, ey, ez
+    s = ATT_STATE
+    return (pdd_step(a[0:9], a[s:s + 3], ex, wx), pdd_step(a[9:18], a[s + 3:s + 6], ey, wy),
+            pdd_step(a[18:27], a[s + 6:s + 9], ez, wz))
 
 
 @kernel
-def attitude_mix(qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z, coef, state, k):
-    """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`, its
-    constants ``k``) in one call (:meth:`MultirotorController.attitude`): the error,
-    (u_phi, u_theta, u_psi), the rotor thrusts and commands, the collective and the
-    saturation flags (mix_rotors' outputs), each vector a tuple (the records the caller
-    keeps, built here rather than from one long tuple)."""
-    ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(qw, qx, qy, qz, wx, wy, wz, roll_d,
-                                                      pitch_d, yaw_d, coef, state)
-    t1, t2, t3, t4, c1, c2, c3, c4, coll, s_rp, s_y, s_c = mix_rotors(u_z, u_phi, u_theta,
-                                                                     u_psi, k)
-    return ((ex, ey, ez), (u_phi, u_theta, u_psi), (t1, t2, t3, t4), (c1, c2, c3, c4), coll,
-            (s_rp, s_y, s_c))
+def attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z):
+    """The attitude loops (:func:`attitude_step`) and the mixer (:func:`mix_rotors`) on
+    the controller's array ``x`` in one call (:meth:`MultirotorController.attitude`),
+    their records (the error, the mixing's) kept in ``x``: (u_z, u_phi, u_theta, u_psi)
+    and the motor commands, two tuples (the caller's records)."""
+    u_phi, u_theta, u_psi = attitude_step(x[X_ATT:X_MIX], qw, qx, qy, qz, wx, wy, wz, roll_d,
+                                          pitch_d, yaw_d)
+    x[X_REQ] = u_z
+    return (u_z, u_phi, u_theta, u_psi), mix_rotors(u_z, u_phi, u_theta, u_psi, x[X_MIX:X_POS])
+
+
+@kernel
+def hypot(x, y):
+    """CPython's ``math.hypot(x, y)`` step for step (3.11's vector_norm: the squares
+    and sums carried in double length, then one correction of the root), so that the
+    kernels give the bits the Python loops gave (the C library's hypot differs in the
+    last bit about once in a thousand). Subnormal arguments aside (CPython rescales
+    those first): a tilt or an integral of 1e-308 does not occur.
+    tests/test_speed_s36_quad.py compares it with ``math.hypot``."""
+    x, y = abs(x), abs(y)
+    m = x if x > y else y
+    if math.isinf(m):
+        return m
+    if math.isnan(x) or math.isnan(y):
+        return math.nan
+    if m == 0.0:
+        return m
+    scale = math.ldexp(1.0, -math.frexp(m)[1])
+    csum, frac1, frac2, frac3 = 1.0, 0.0, 0.0, 0.0
+    for v in (x, y):
+        v *= scale
+        t = v * 134217729.0             # 2^27 + 1: v split into hi + lo exactly
+        hi = t - (t - v)
+        lo = v - hi
+        old, csum = csum, csum + hi * hi
+        frac1 += (old - csum) + hi * hi
+        old, csum = csum, csum + 2.0 * hi * lo
+        frac2 += (old - csum) + 2.0 * hi * lo
+        frac3 += lo * lo
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2 + frac3))
+    t = h * 134217729.0
+    hi = t - (t - h)
+    lo = h - hi
+    old, csum = csum, csum - hi * hi
+    frac1 += (old - csum) - hi * hi
+    old, csum = csum, csum - 2.0 * hi * lo
+    frac2 += (old - csum) - 2.0 * hi * lo
+    old, csum = csum, csum - lo * lo
+    frac3 += (old - csum) - lo * lo
+    return (h + (csum - 1.0 + (frac1 + frac2 + frac3)) / (2.0 * h)) / scale
 
 
 class AttitudeController:
     """Roll, pitch and yaw PDD loops: ``update(q, omega_b, roll_d, pitch_d, yaw_d)``
-    -> (u_phi, u_theta, u_psi) [N per rotor]."""
+    -> (u_phi, u_theta, u_psi) [N per rotor]. Coefficients, states and the error in
+    ``x`` (the controller's array's part, given, or its own), ``coef`` and ``state``
+    its rows."""
 
-    def __init__(self, params, dt: float):
+    def __init__(self, params, dt: float, x=None):
         self.params = params
         self.dt = dt
+        self.x = np.zeros(ATT_N) if x is None else x
+        self.coef = self.x[:ATT_STATE].reshape(3, 9)
+        self.state = self.x[ATT_STATE:ATT_ERR].reshape(3, 3)
         self.configure()
 
     def gains(self) -> dict:
@@ -295,35 +356,70 @@ class AttitudeController:
     def configure(self) -> None:
         g = self.gains()
         self.loops = tuple(DiscretePdd(dt=self.dt, **g[a]) for a in ("roll", "pitch", "yaw"))
-        # the three loops' coefficients and states as rows of one array each (the
-        # loops' own ``state`` are views of these rows)
-        self.coef = np.array([loop.coef for loop in self.loops])
-        self.state = np.array([loop.state for loop in self.loops])
+        # the three loops' coefficients and states as rows of ``x`` (the loops' own
+        # ``state`` are views of these rows)
         for k, loop in enumerate(self.loops):
+            self.coef[k] = loop.coef
+            self.state[k] = loop.state
             loop.state = self.state[k]
-        self.error = (0.0, 0.0, 0.0)
+        self.x[ATT_ERR:] = 0.0
+
+    @property
+    def error(self) -> tuple[float, float, float]:
+        """The last attitude error in body axes (:func:`attitude_error`) [rad]."""
+        return tuple(self.x[ATT_ERR:].tolist())
 
     def reset(self) -> None:
         for loop in self.loops:
             loop.reset()
 
     def update(self, q, omega_b, roll_d: float, pitch_d: float, yaw_d: float) -> tuple:
-        ex, ey, ez, u_phi, u_theta, u_psi = attitude_step(
-            q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
-            self.coef, self.state)
-        self.error = (ex, ey, ez)
-        return u_phi, u_theta, u_psi
+        return attitude_step(self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1],
+                             omega_b[2], roll_d, pitch_d, yaw_d)
 
 
 # ----------------------------------------------------------------- altitude --------
+@kernel
+def altitude_thrust(g, h_d, hdot_d, hddot_d, h, hdot, tilt_cos, dt, hold_integrator,
+                    sat_hi, sat_lo):
+    """Eq 3.37 with tilt compensation (:class:`AltitudeController`) on its gains and
+    integral ``g`` (A_*; the integral updated in place): u_z total thrust [N]."""
+    e = h_d - h
+    t_nom = g[A_MASS] * (G + hddot_d)
+    u = g[A_KD] * (hdot_d - hdot) + g[A_KP] * e + g[A_INTEG] + t_nom
+    u /= tilt_cos if tilt_cos > 0.5 else 0.5
+    if not hold_integrator and not ((sat_hi and e > 0.0) or (sat_lo and e < 0.0)):
+        i = g[A_INTEG] + g[A_KI] * e * dt
+        i_max = g[A_IMAX]
+        g[A_INTEG] = i if -i_max <= i <= i_max else math.copysign(i_max, i)
+    return u if u > 0.0 else 0.0
+
+
+@kernel
+def altitude_step(x, h_d, hdot_d, hddot_d, h, hdot, roll, pitch, dt, hold_integrator):
+    """:func:`altitude_thrust` on the controller's array ``x``, its integral held while
+    the last mixing moved the collective against the error (below the thrust asked
+    with the height low, above it with the height high)."""
+    sat = x[X_MIX + K_SAT + 2] != 0.0
+    req, coll = x[X_REQ], x[X_MIX + K_COLL]
+    return altitude_thrust(x[X_ALT:X_REQ], h_d, hdot_d, hddot_d, h, hdot,
+                           math.cos(roll) * math.cos(pitch), dt, hold_integrator,
+                           sat and coll < req - 1e-6, sat and coll > req + 1e-6)
+
+
 class AltitudeController:
     """Eq 3.37 with tilt compensation: ``update(h_d, hdot_d, hddot_d, h, hdot, tilt_cos,
-    dt, hold_integrator)`` -> u_z total thrust [N]."""
+    dt, hold_integrator)`` -> u_z total thrust [N] (:func:`altitude_thrust`; gains and
+    integral in ``g``, the controller's array's part, given, or its own)."""
 
-    def __init__(self, params):
+    def __init__(self, params, g=None):
         self.params = params
-        self.integ = 0.0
+        self.g = np.zeros(X_REQ - X_ALT) if g is None else g
         self.configure()
+
+    @property
+    def integ(self) -> float:
+        return float(self.g[A_INTEG])
 
     def configure(self) -> None:
         p = self.params
@@ -334,31 +430,75 @@ class AltitudeController:
             self.k_d, self.k_p, self.k_i = p["QD_ALT_KD"], p["QD_ALT_KP"], p["QD_ALT_KI"]
         self.i_max = p["QD_ALT_IMAX"]
         self.mass = p["QD_MASS"]
+        self.g[:A_INTEG] = (self.k_d, self.k_p, self.k_i, self.i_max, self.mass)
 
     def reset(self, integ: float = 0.0) -> None:
-        self.integ = integ
+        self.g[A_INTEG] = integ
 
     def update(self, h_d: float, hdot_d: float, hddot_d: float, h: float, hdot: float,
                tilt_cos: float, dt: float, hold_integrator: bool = False,
                sat_hi: bool = False, sat_lo: bool = False) -> float:
-        e = h_d - h
-        t_nom = self.mass * (G + hddot_d)
-        u = self.k_d * (hdot_d - hdot) + self.k_p * e + self.integ + t_nom
-        u /= tilt_cos if tilt_cos > 0.5 else 0.5
-        if not hold_integrator and not ((sat_hi and e > 0.0) or (sat_lo and e < 0.0)):
-            i = self.integ + self.k_i * e * dt
-            self.integ = i if -self.i_max <= i <= self.i_max else math.copysign(self.i_max, i)
-        return u if u > 0.0 else 0.0
+        return altitude_thrust(self.g, h_d, hdot_d, hddot_d, h, hdot, tilt_cos, dt,
+                               hold_integrator, sat_hi, sat_lo)
 
 
 # ------------------------------------------------------ reference-angle generator ---
-class ReferenceAngleGenerator:
-    """Eqs 3.38-3.41: ``update(e_ne, ev_ne, a_ne, yaw, dt)`` -> (phi_d, theta_d)."""
+@kernel
+def reference_angles(g, e_n, e_e, ev_n, ev_e, a_n, a_e, yaw, dt, hold_integrator):
+    """Eqs 3.38-3.41 (:class:`ReferenceAngleGenerator`) on its gains and integral ``g``
+    (P_*; the integral updated in place): (phi_d, theta_d)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    # into the heading frame (c e_e - s e_n: -s e_n + c e_e to the bit, one negation less)
+    ex, ey = c * e_n + s * e_e, c * e_e - s * e_n
+    vx, vy = c * ev_n + s * ev_e, c * ev_e - s * ev_n
+    ax, ay = c * a_n + s * a_e, c * a_e - s * a_n
+    i_n, i_e = g[P_IN], g[P_IE]
+    ix, iy = c * i_n + s * i_e, c * i_e - s * i_n
+    theta = -(g[P_KPP] * ex + g[P_KIP] * ix + g[P_KDP] * vx) - ax / G
+    phi = (g[P_KPR] * ey + g[P_KIR] * iy + g[P_KDR] * vy) + ay / G
+    tilt = hypot(phi, theta)
+    saturated = tilt > g[P_ANG]
+    if saturated:
+        k = g[P_ANG] / tilt
+        phi, theta = phi * k, theta * k
+    if not hold_integrator and not saturated:
+        i_n += e_n * dt
+        i_e += e_e * dt
+        lim_n = g[P_ILIM]
+        m = hypot(i_n, i_e)
+        if m > lim_n:
+            k = lim_n / m
+            i_n *= k
+            i_e *= k
+        g[P_IN], g[P_IE] = i_n, i_e
+    return phi, theta
 
-    def __init__(self, params):
+
+class ReferenceAngleGenerator:
+    """Eqs 3.38-3.41: ``update(e_ne, ev_ne, a_ne, yaw, dt)`` -> (phi_d, theta_d)
+    (:func:`reference_angles`; gains and integral in ``g``, the controller's array's
+    part, given, or its own)."""
+
+    def __init__(self, params, g=None):
         self.params = params
-        self.i_n = self.i_e = 0.0
+        self.g = np.zeros(X_ALT - X_POS) if g is None else g
         self.configure()
+
+    @property
+    def i_n(self) -> float:
+        return float(self.g[P_IN])
+
+    @i_n.setter
+    def i_n(self, value: float) -> None:
+        self.g[P_IN] = value
+
+    @property
+    def i_e(self) -> float:
+        return float(self.g[P_IE])
+
+    @i_e.setter
+    def i_e(self, value: float) -> None:
+        self.g[P_IE] = value
 
     def configure(self) -> None:
         p = self.params
@@ -373,59 +513,54 @@ class ReferenceAngleGenerator:
         self.i_max = math.radians(p["QD_POS_IMAX"])
         # keep each axis' integral action within QD_POS_IMAX: |i_ne| <= i_lim
         self.i_lim = self.i_max / max(self.pitch[1], self.roll[1], 1e-6)
+        self.g[:P_IN] = (*self.pitch, *self.roll, self.angle_max, self.i_lim)
 
     def reset(self) -> None:
-        self.i_n = self.i_e = 0.0
+        self.g[P_IN] = self.g[P_IE] = 0.0
 
     def update(self, e_n: float, e_e: float, ev_n: float, ev_e: float, a_n: float, a_e: float,
                yaw: float, dt: float, hold_integrator: bool = False) -> tuple[float, float]:
-        c, s = math.cos(yaw), math.sin(yaw)
-        # into the heading frame (c e_e - s e_n: -s e_n + c e_e to the bit, one negation less)
-        ex, ey = c * e_n + s * e_e, c * e_e - s * e_n
-        vx, vy = c * ev_n + s * ev_e, c * ev_e - s * ev_n
-        ax, ay = c * a_n + s * a_e, c * a_e - s * a_n
-        i_n, i_e = self.i_n, self.i_e
-        ix, iy = c * i_n + s * i_e, c * i_e - s * i_n
-        kpp, kip, kdp = self.pitch
-        kpr, kir, kdr = self.roll
-        theta = -(kpp * ex + kip * ix + kdp * vx) - ax / G
-        phi = (kpr * ey + kir * iy + kdr * vy) + ay / G
-        tilt = math.hypot(phi, theta)
-        saturated = tilt > self.angle_max
-        if saturated:
-            k = self.angle_max / tilt
-            phi, theta = phi * k, theta * k
-        if not hold_integrator and not saturated:
-            i_n += e_n * dt
-            i_e += e_e * dt
-            lim_n = self.i_lim
-            m = math.hypot(i_n, i_e)
-            if m > lim_n:
-                k = lim_n / m
-                i_n *= k
-                i_e *= k
-            self.i_n, self.i_e = i_n, i_e
-        return phi, theta
+        return reference_angles(self.g, e_n, e_e, ev_n, ev_e, a_n, a_e, yaw, dt, hold_integrator)
+
+
+@kernel
+def track_mix(x, qw, qx, qy, qz, wx, wy, wz, pn_d, pe_d, pd_d, vn_d, ve_d, vd_d, an_d, ae_d,
+              ad_d, pn, pe, pd, vn, ve, vd, yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt):
+    """The loops of Fig 3.6 end to end on the controller's array ``x``
+    (:meth:`MultirotorController.track`): the reference angles (eqs 3.38-3.41) from the
+    reference's position, velocity and acceleration (_d; home NED) against the
+    estimate's, the thrust of the altitude loop (eq 3.37), then the attitude loops and
+    the mixer (:func:`attitude_mix`). Returns phi_d, theta_d and attitude_mix's."""
+    roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], pn_d - pn, pe_d - pe, vn_d - vn,
+                                       ve_d - ve, an_d, ae_d, yaw, dt, hold_pos)
+    u_z = altitude_step(x, -pd_d, -vd_d, -ad_d, -pd, -vd, roll, pitch, dt, hold_alt)
+    u, motors = attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z)
+    return roll_d, pitch_d, u, motors
 
 
 class MultirotorController:
     """The loops of Fig 3.6 end to end: reference angles or a thrust, the attitude and
-    altitude loops, the mixer. Outputs are the four motor commands 0..1."""
+    altitude loops, the mixer. Outputs are the four motor commands 0..1. The loops'
+    coefficients and states are parts of one array, ``x`` (X_*)."""
 
     def __init__(self, params, dt: float):
         self.params = params
         self.dt = dt
-        self.att = AttitudeController(params, dt)
-        self.alt = AltitudeController(params)
-        self.pos = ReferenceAngleGenerator(params)
-        self.mixer = QuadPlusMixer(params["QD_THST_MAX"], params["QD_THST_EXPO"], params["QD_SPIN_MIN"])
+        self.x = np.zeros(X_N)
+        self.att = AttitudeController(params, dt, self.x[X_ATT:X_MIX])
+        self.alt = AltitudeController(params, self.x[X_ALT:X_REQ])
+        self.pos = ReferenceAngleGenerator(params, self.x[X_POS:X_ALT])
+        self.mixer = QuadPlusMixer(params["QD_THST_MAX"], params["QD_THST_EXPO"],
+                                   params["QD_SPIN_MIN"], self.x[X_MIX:X_POS])
         self.roll_d = self.pitch_d = self.yaw_d = 0.0
         self.u = (0.0, 0.0, 0.0, 0.0)       # (u_z, u_phi, u_theta, u_psi) before mixing
         self.motors = (0.0, 0.0, 0.0, 0.0)
-        # the kernel loaded now, not at the take-off (autopilot.jit.preload; on a copy of
-        # the state, which the loops write)
-        preload(attitude_mix, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                self.att.coef, self.att.state.copy(), self.mixer.k)
+        # the kernels loaded now, not at the take-off (autopilot.jit.preload; on a copy of
+        # the array, which the loops write)
+        preload(attitude_mix, self.x.copy(), 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                0.0)
+        preload(track_mix, self.x.copy(), 1.0, *(0.0,) * 25, 0.004, False, False)
+        preload(altitude_step, self.x.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.004, False)
 
     def configure(self) -> None:
         """Re-derive every gain after a parameter change."""
@@ -448,20 +583,34 @@ class MultirotorController:
         """Attitude loops and mixer for given reference angles and total thrust: what
         ``att.update`` and ``mixer.mix`` do, in one kernel call (:func:`attitude_mix`)."""
         self.roll_d, self.pitch_d, self.yaw_d = roll_d, pitch_d, yaw_d
-        att, mixer = self.att, self.mixer
-        att.error, (u_phi, u_theta, u_psi), thrusts, motors, coll, saturated = attitude_mix(
-            q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d,
-            u_z, att.coef, att.state, mixer.k)
-        self.u = (u_z, u_phi, u_theta, u_psi)
-        mixer.saturated = saturated              # the mixer's record (QuadPlusMixer.mix)
-        mixer.collective = coll
-        mixer.thrusts = thrusts
-        self.motors = motors
-        return motors
+        self.u, self.motors = attitude_mix(self.x, q[0], q[1], q[2], q[3], omega_b[0],
+                                           omega_b[1], omega_b[2], roll_d, pitch_d, yaw_d, u_z)
+        return self.motors
+
+    def altitude(self, h_d: float, hdot_d: float, hddot_d: float, h: float, hdot: float,
+                 roll: float, pitch: float, dt: float, hold_integrator: bool) -> float:
+        """The altitude loop's thrust [N] (:func:`altitude_step`: its anti-windup from
+        the last mixing)."""
+        return altitude_step(self.x, h_d, hdot_d, hddot_d, h, hdot, roll, pitch, dt,
+                             hold_integrator)
+
+    def track(self, q, omega_b, p_d, v_d, a_d, p, v, yaw: float, roll: float, pitch: float,
+              yaw_d: float, dt: float, hold_pos: bool, hold_alt: bool) -> tuple:
+        """Position, altitude and attitude loops and the mixer for a reference (p_d, v_d,
+        a_d; home NED) and heading ``yaw_d``, the vehicle at p, v (home NED), heading
+        ``yaw``, tilt (roll, pitch): ``pos.update``, ``altitude``, then ``attitude``, in
+        one kernel call (:func:`track_mix`). Integrators held with ``hold_*``."""
+        self.roll_d, self.pitch_d, self.u, self.motors = track_mix(
+            self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
+            p_d[0], p_d[1], p_d[2], v_d[0], v_d[1], v_d[2], a_d[0], a_d[1], a_d[2],
+            p[0], p[1], p[2], v[0], v[1], v[2], yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt)
+        self.yaw_d = yaw_d
+        return self.motors
 
     def idle(self, spin: float) -> tuple:
         """Armed on the ground: every motor at ``spin``, loops held at rest."""
         self.att.reset()
         self.u = (0.0, 0.0, 0.0, 0.0)
+        self.x[X_REQ] = 0.0
         self.motors = (spin, spin, spin, spin)
         return self.motors

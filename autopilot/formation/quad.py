@@ -30,11 +30,9 @@ vehicle's home frame (its arming position) for its loops; they differ by a trans
 
 Hook wanted in ``QuadVehicle`` (not ours to change): a setpoint-source interface for
 GUIDED (position, velocity, acceleration, yaw per step); until then ``_fly`` is
-overridden here and calls the same controller objects in the same order.
+overridden here and hands the reference to the same controller (``ctrl.track``).
 """
 from __future__ import annotations
-
-import math
 
 from ..geo import LocalFrame
 from ..guidance.multirotor import new_target
@@ -130,7 +128,5 @@ class FormationQuad(QuadVehicle):
         tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
         ne = (tp[0], tp[1])
         self.target = new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
-        r_d, p_d = ctrl.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
-                                   ta[0], ta[1], yaw, dt, False)
-        u_z = self._altitude(-tp[2], -tv[2], -ta[2], -pos[2], v, roll, pitch, dt)
-        return ctrl.attitude(q, omega, r_d, p_d, 0.0, u_z)
+        return ctrl.track(q, omega, tp, tv, ta, pos, v, yaw, roll, pitch, 0.0, dt, False,
+                          not self.flying)

@@ -53,13 +53,15 @@ ends without landing returns to launch and lands (as the fixed-wing returns home
 """
 from __future__ import annotations
 
-import bisect
 import functools
 import math
 from typing import NamedTuple
 
+import numpy as np
+
 from ..geo import LocalFrame, wrap_pi
 from ..geo.terrain import height_or
+from ..jit import kernel, preload
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
                              MAV_CMD_CONDITION_DISTANCE, MAV_CMD_CONDITION_YAW,
                              MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP, MAV_CMD_DO_SET_HOME,
@@ -130,6 +132,43 @@ _PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "ho
                "land_descend": "land", "landed": "idle"}
 
 
+# Trajectory.x, the trajectory's state in one array (read and written in place by
+# trajectory_step): the raw profile's position and velocity, the reference model's p
+# and v, the direction of the line (of the curve's segment being flown), the line's
+# start, the goal; distance and speed along the path; and the leg's constants the step
+# reads, written when a leg starts or changes (length, speed and acceleration limits,
+# end speed, descent speed, open-ended descent, the model's w)
+_RAW, _VRAW, _P, _V, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18
+_S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(21, 30)
+_NX = 30
+#: a curve's rows (Trajectory.curve_to): a sample point (NED), the distance along the
+#: curve to it, the direction of the segment from it to the next point (the last row
+#: repeats the one before); a straight line has this one row
+_NO_CURVE = np.zeros((1, 7))
+
+
+class _Part:
+    """A named part of ``Trajectory.x``: a float, or (``n`` > 0) a list of n floats."""
+
+    __slots__ = ("i", "n")
+
+    def __init__(self, i: int, n: int = 0):
+        self.i, self.n = i, n
+
+    def __get__(self, tr, owner=None):
+        if tr is None:
+            return self
+        i, n = self.i, self.n
+        return tr.x[i:i + n].tolist() if n else float(tr.x[i])
+
+    def __set__(self, tr, value) -> None:
+        i, n = self.i, self.n
+        if n:
+            tr.x[i:i + n] = value
+        else:
+            tr.x[i] = value
+
+
 class Trajectory:
     """The moving reference point: a raw profile along straight lines (trapezoidal
     speed, leash) smoothed by a critically damped second-order reference model,
@@ -139,72 +178,92 @@ class Trajectory:
     so the acceleration fed forward changes smoothly (the raw profile's acceleration
     jumps between +a_max and -a_max; through the model it rises and falls within
     about 1/w s, never exceeding a_max, and the jerk stays below 2 a_max w / e).
-    ``p``, ``v``, ``a`` are the model's output: the reference of the loops."""
+    ``p``, ``v``, ``a`` are the model's output: the reference of the loops. The state
+    is one array, ``x`` (stepped in place by :func:`trajectory_step`, one call a step);
+    its parts by name below."""
+
+    raw = _Part(_RAW, 3)              # raw profile position
+    _vraw = _Part(_VRAW, 3)
+    goal = _Part(_GOAL, 3)
+    _s = _Part(_S)                    # distance along the line
+    _vs = _Part(_VS)                  # speed along the line
+    _len = _Part(_LEN)
+    _vmax = _Part(_VMAX)
+    _amax = _Part(_AMAX)
+    _v_end = _Part(_VEND)             # speed kept at the end of a curve (flown through)
+    _vdesc = _Part(_VDESC)
+    w = _Part(_W)
 
     def __init__(self, smooth_rad_s: float = 4.0):
+        self.x = np.zeros(_NX)
+        self.x[_AMAX] = 1.0
         self.w = smooth_rad_s
         self.p = (0.0, 0.0, 0.0)      # smoothed reference (output; tuples, replaced
         self.v = (0.0, 0.0, 0.0)      # at every step: the target hands them on)
         self.a = (0.0, 0.0, 0.0)
-        self.raw = [0.0, 0.0, 0.0]    # raw profile position
-        self._vraw = [0.0, 0.0, 0.0]
-        self.goal = [0.0, 0.0, 0.0]
-        self._u = (0.0, 0.0, 0.0)     # unit direction of the line
-        self._len = 0.0
-        self._s = 0.0                 # distance along the line
-        self._vs = 0.0                # speed along the line
-        self._vmax = 0.0
-        self._amax = 1.0
-        self.start = (0.0, 0.0, 0.0)
-        self.descending = False       # open-ended descent (landing)
-        self._vdesc = 0.0
-        self._poly = None             # a curve (spline): sampled points, NED
-        self.curving = False          # flying one (_poly not None; read at every step)
-        self._cum = None              # ... and the distance along it at each
-        self._v_end = 0.0             # speed kept at the end of a curve (flown through)
+        self.start = (0.0, 0.0, 0.0)  # (also in x: the step reads it)
+        self._poly = _NO_CURVE        # a curve (spline): its rows (_NO_CURVE: a line)
+        self.curving = False          # flying one (read at every step)
+        self.arrived = True           # (trajectory_arrived, kept by every change)
+        # the kernels loaded now, not in flight (autopilot.jit.preload; on a copy of x)
+        preload(trajectory_step, self.x.copy(), _NO_CURVE, 0.004, 0.0, 0.0, 0.0, 1.0)
+        preload(trajectory_arrived, self.x)
+        preload(curve_point, _NO_CURVE, 0.0)
 
     @property
-    def arrived(self) -> bool:
-        """The raw profile is at its goal and the smoothed reference has settled on it."""
-        if self.descending or self._s < self._len:
-            return False
-        if self._v_end > 0.0:
-            return True               # a curve flown through: done when its end is passed
-        if self._vs != 0.0:
-            return False
-        p, g, v = self.p, self.goal, self.v
-        return (abs(p[0] - g[0]) + abs(p[1] - g[1]) + abs(p[2] - g[2]) < 0.03
-                and abs(v[0]) + abs(v[1]) + abs(v[2]) < 0.05)
+    def descending(self) -> bool:
+        """An open-ended descent (landing)."""
+        return self.x[_DESC] != 0.0
+
+    @property
+    def _u(self) -> tuple:
+        """Unit direction of the line (of the curve's segment at the raw reference)."""
+        return tuple(self.x[_U:_U + 3].tolist())
+
+    def _set_p(self, p, v) -> None:
+        self.p, self.v = p, v
+        self.x[_P:_P + 3] = p
+        self.x[_V:_V + 3] = v
+
+    def _set_start(self, st) -> None:
+        self.start = st
+        self.x[_START:_START + 3] = st
+
+    def _settled(self) -> None:
+        """``arrived`` after a change made here rather than by the step."""
+        self.arrived = trajectory_arrived(self.x)
 
     def reset(self, p) -> None:
         """Stationary at p."""
-        self.p = (float(p[0]), float(p[1]), float(p[2]))
-        self.v = (0.0, 0.0, 0.0)
+        p = (float(p[0]), float(p[1]), float(p[2]))
+        self._set_p(p, (0.0, 0.0, 0.0))
         self.a = (0.0, 0.0, 0.0)
-        self.raw = list(self.p)
-        self._vraw = [0.0, 0.0, 0.0]
-        self.goal = list(self.p)
-        self.start = tuple(self.p)
+        self.raw = p
+        self._vraw = (0.0, 0.0, 0.0)
+        self.goal = p
+        self._set_start(p)
         self._len = self._s = self._vs = 0.0
-        self.descending = False
-        self._poly = self._cum = None
+        self.x[_DESC] = 0.0
+        self._poly = _NO_CURVE
         self.curving = False
         self._v_end = 0.0
+        self._settled()
 
     def line_to(self, goal, v_h: float, v_up: float, v_dn: float, a_h: float, a_z: float) -> None:
         """From the raw reference's current position to ``goal`` (NED)."""
         r = self.raw
         d = [goal[0] - r[0], goal[1] - r[1], goal[2] - r[2]]
         length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        self.start = tuple(r)
-        self.goal = [float(goal[0]), float(goal[1]), float(goal[2])]
-        self.descending = False
-        self._poly = self._cum = None
+        self._set_start(tuple(r))
+        self.goal = (float(goal[0]), float(goal[1]), float(goal[2]))
+        self.x[_DESC] = 0.0
+        self._poly = _NO_CURVE
         self.curving = False
         self._v_end = 0.0
         if length < 1e-6:
             self._len = self._s = self._vs = 0.0
-            self._vraw = [0.0, 0.0, 0.0]
+            self._vraw = (0.0, 0.0, 0.0)
+            self._settled()
             return
         u = (d[0] / length, d[1] / length, d[2] / length)
         uh = math.hypot(u[0], u[1])
@@ -215,8 +274,10 @@ class Trajectory:
         # carry on with the part of the current raw velocity along the new line
         vr = self._vraw
         vs = max(0.0, vr[0] * u[0] + vr[1] * u[1] + vr[2] * u[2])
-        self._u, self._len, self._s, self._vs = u, length, 0.0, min(vs, vmax)
+        self.x[_U:_U + 3] = u
+        self._len, self._s, self._vs = length, 0.0, min(vs, vmax)
         self._vmax, self._amax = vmax, amax
+        self._settled()
 
     def curve_to(self, points, v_h: float, v_up: float, v_dn: float, a_h: float, a_z: float,
                  v_end: float = 0.0) -> None:
@@ -244,18 +305,21 @@ class Trajectory:
                 if turn > 1e-6:
                     r_min = min(r_min, 0.5 * (l1 + l2) / turn)
         self._vmax = min(self._vmax, math.sqrt(a_h * r_min))
-        self._poly, self._cum, self._len = pts, cum, cum[-1]
+        # each segment's direction once, here (the step looks it up)
+        dirs = []
+        for a, b in zip(pts, pts[1:]):
+            ln = max(math.dist(a, b), 1e-9)
+            dirs.append(((b[0] - a[0]) / ln, (b[1] - a[1]) / ln, (b[2] - a[2]) / ln))
+        dirs.append(dirs[-1])
+        self._poly = np.array([(*q, c, *u) for q, c, u in zip(pts, cum, dirs)])
+        self._len = cum[-1]
         self.curving = True
         self._v_end = min(max(v_end, 0.0), self._vmax)
-        u = self._seg_dir(0)
+        u = dirs[0]
         vr = self._vraw
-        self._u = u
+        self.x[_U:_U + 3] = u
         self._vs = min(max(0.0, vr[0] * u[0] + vr[1] * u[1] + vr[2] * u[2]), self._vmax)
-
-    def _seg_dir(self, i: int):
-        a, b = self._poly[i], self._poly[i + 1]
-        ln = max(math.dist(a, b), 1e-9)
-        return ((b[0] - a[0]) / ln, (b[1] - a[1]) / ln, (b[2] - a[2]) / ln)
+        self._settled()
 
     @property
     def course(self) -> float | None:
@@ -268,22 +332,25 @@ class Trajectory:
         """Move every position by ``d`` (NED) without changing the motion: the same
         reference in a frame whose origin moved by -d (home moved)."""
         p = self.p
-        self.p = (p[0] + d[0], p[1] + d[1], p[2] + d[2])
-        for v in (self.raw, self.goal):
-            v[0] += d[0]
-            v[1] += d[1]
-            v[2] += d[2]
+        self._set_p((p[0] + d[0], p[1] + d[1], p[2] + d[2]), self.v)
+        for part in ("raw", "goal"):
+            v = getattr(self, part)
+            setattr(self, part, (v[0] + d[0], v[1] + d[1], v[2] + d[2]))
         st = self.start
-        self.start = (st[0] + d[0], st[1] + d[1], st[2] + d[2])
-        if self._poly is not None:
-            self._poly = [(q[0] + d[0], q[1] + d[1], q[2] + d[2]) for q in self._poly]
+        self._set_start((st[0] + d[0], st[1] + d[1], st[2] + d[2]))
+        if self.curving:
+            q = self._poly
+            q[:, 0] += d[0]
+            q[:, 1] += d[1]
+            q[:, 2] += d[2]
+        self._settled()
 
     def retune(self, v_h: float, v_up: float, v_dn: float) -> None:
         """New speed limits for the line being flown (a speed change in flight: the
         profile slows down at its acceleration limit or speeds up)."""
         if self.descending or self._len <= 0.0:
             return
-        if self._poly is not None:
+        if self.curving:
             self._vmax = min(self._vmax, v_h)
             return
         u = self._u
@@ -294,93 +361,135 @@ class Trajectory:
     def stopping_point(self) -> tuple[float, float, float]:
         """Where the raw profile stops if it brakes now at its acceleration limit."""
         r = self.raw
-        if self.descending or self._len <= 0.0 or self._vs <= 0.0:
+        vs = self._vs
+        if self.descending or self._len <= 0.0 or vs <= 0.0:
             return (r[0], r[1], r[2])
-        d = min(self._vs * self._vs / (2.0 * self._amax), self._len - self._s)
-        if self._poly is not None:
-            return self._at(self._s + d)
+        d = min(vs * vs / (2.0 * self._amax), self._len - self._s)
+        if self.curving:
+            return curve_point(self._poly, self._s + d)[1:]
         u = self._u
         return (r[0] + u[0] * d, r[1] + u[1] * d, r[2] + u[2] * d)
 
     def descend(self, speed: float, accel: float) -> None:
         """Open-ended vertical descent at ``speed`` (landing); horizontal held."""
-        self.descending = True
+        self.x[_DESC] = 1.0
         self._vdesc = speed
         self._amax = accel
         self._len = self._s = self._vs = 0.0
+        self.arrived = False
 
     def set_descent_speed(self, speed: float) -> None:
         self._vdesc = speed
 
     def update(self, dt: float, p_vehicle, leash: float) -> None:
-        self._raw_step(dt, p_vehicle, leash)
-        # reference model: a = w^2 (p_raw - p) - 2 w v  (semi-implicit Euler)
-        w = self.w
-        w2, w2x = w * w, 2.0 * w
-        r, p, v = self.raw, self.p, self.v
-        a0 = w2 * (r[0] - p[0]) - w2x * v[0]
-        a1 = w2 * (r[1] - p[1]) - w2x * v[1]
-        a2 = w2 * (r[2] - p[2]) - w2x * v[2]
-        v0, v1, v2 = v[0] + a0 * dt, v[1] + a1 * dt, v[2] + a2 * dt
-        self.p = (p[0] + v0 * dt, p[1] + v1 * dt, p[2] + v2 * dt)
-        self.v = (v0, v1, v2)
-        self.a = (a0, a1, a2)
+        """One step of the raw profile and the reference model (:func:`trajectory_step`)."""
+        self.p, self.v, self.a, self.arrived = trajectory_step(
+            self.x, self._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2], leash)
 
-    def _raw_step(self, dt: float, p_vehicle, leash: float) -> None:
-        r = self.raw
-        if self.descending:
-            vd0 = self._vraw[2]
-            dv = self._vdesc - vd0
-            lim = self._amax * dt
-            vd1 = vd0 + (lim if dv > lim else -lim if dv < -lim else dv)
-            # leash: the reference may not get more than 1 m below the vehicle
-            if r[2] - p_vehicle[2] > 1.0:
-                vd1 = min(vd1, 0.0)
-            r[2] += 0.5 * (vd0 + vd1) * dt
-            self._vraw = [0.0, 0.0, vd1]
-            return
-        if self._len <= 0.0:
-            self._vraw = [0.0, 0.0, 0.0]
-            return
-        vs0 = self._vs
-        remaining = self._len - self._s
-        lim = self._amax * dt
+
+@kernel
+def curve_point(poly, s):
+    """The segment i and the point at distance ``s`` along a sampled curve (its rows:
+    ``Trajectory.curve_to``), the distance held to the curve."""
+    n = poly.shape[0]
+    lo, hi = 0, n                   # bisect_right on the distances
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if s < poly[mid, 3]:
+            hi = mid
+        else:
+            lo = mid + 1
+    i = lo - 1                      # min(max(lo - 1, 0), n - 2)
+    i = 0 if i < 0 else i
+    i = n - 2 if i > n - 2 else i
+    seg = poly[i + 1, 3] - poly[i, 3]
+    f = 1.0
+    if seg > 1e-9:                  # min(max(f, 0), 1), as Python's
+        f = (s - poly[i, 3]) / seg
+        f = 0.0 if 0.0 > f else f
+        f = 1.0 if 1.0 < f else f
+    return (i, poly[i, 0] + f * (poly[i + 1, 0] - poly[i, 0]),
+            poly[i, 1] + f * (poly[i + 1, 1] - poly[i, 1]),
+            poly[i, 2] + f * (poly[i + 1, 2] - poly[i, 2]))
+
+
+@kernel
+def trajectory_arrived(x):
+    """The raw profile is at its goal and the smoothed reference has settled on it
+    (``Trajectory.x``)."""
+    if x[_DESC] != 0.0 or x[_S] < x[_LEN]:
+        return False
+    if x[_VEND] > 0.0:
+        return True                 # a curve flown through: done when its end is passed
+    if x[_VS] != 0.0:
+        return False
+    return (abs(x[_P] - x[_GOAL]) + abs(x[_P + 1] - x[_GOAL + 1]) + abs(x[_P + 2] - x[_GOAL + 2])
+            < 0.03 and abs(x[_V]) + abs(x[_V + 1]) + abs(x[_V + 2]) < 0.05)
+
+
+@kernel
+def trajectory_step(x, poly, dt, pv_n, pv_e, pv_d, leash):
+    """One step of :class:`Trajectory` on its state ``x`` (in place), ``poly`` the curve
+    flown (``_NO_CURVE``: a line), the vehicle at (pv_n, pv_e, pv_d). Returns the
+    reference's p, v, a and whether it has arrived (:func:`trajectory_arrived`).
+    (min / max spelt out as Python's.)"""
+    if x[_DESC] != 0.0:
+        # open-ended descent at the descent speed, reached at the acceleration limit
+        vd0 = x[_VRAW + 2]
+        dv = x[_VDESC] - vd0
+        lim = x[_AMAX] * dt
+        vd1 = vd0 + (lim if dv > lim else -lim if dv < -lim else dv)
+        # leash: the reference may not get more than 1 m below the vehicle
+        if x[_RAW + 2] - pv_d > 1.0 and vd1 > 0.0:
+            vd1 = 0.0
+        x[_RAW + 2] += 0.5 * (vd0 + vd1) * dt
+        x[_VRAW], x[_VRAW + 1], x[_VRAW + 2] = 0.0, 0.0, vd1
+    elif x[_LEN] <= 0.0:
+        x[_VRAW], x[_VRAW + 1], x[_VRAW + 2] = 0.0, 0.0, 0.0
+    else:
+        length, v_end = x[_LEN], x[_VEND]
+        vs0 = x[_VS]
+        remaining = length - x[_S]
+        lim = x[_AMAX] * dt
         # braking curve v = sqrt(2 a d): followed exactly (the discrete steps need a
         # little more than a_max at its very end), so the profile stops on the goal
-        # max() and min() spelt out (the builtins' cost: control/pid.py)
-        v_brake = math.sqrt(2.0 * self._amax * (0.0 if 0.0 > remaining else remaining)
-                            + self._v_end * self._v_end)
-        v_goal = v_brake if v_brake < self._vmax else self._vmax
-        ex, ey, ez = r[0] - p_vehicle[0], r[1] - p_vehicle[1], r[2] - p_vehicle[2]
+        v_brake = math.sqrt(2.0 * x[_AMAX] * (0.0 if 0.0 > remaining else remaining)
+                            + v_end * v_end)
+        v_goal = v_brake if v_brake < x[_VMAX] else x[_VMAX]
+        # leash: beyond it from the vehicle the raw profile brakes and waits
+        ex, ey, ez = x[_RAW] - pv_n, x[_RAW + 1] - pv_e, x[_RAW + 2] - pv_d
         if ex * ex + ey * ey + ez * ez > leash * leash:
             v_goal = 0.0
         dv = v_goal - vs0
         vs1 = vs0 + (lim if dv > lim else -lim if dv < -lim else dv)
         if vs1 > v_brake:
             vs1 = v_brake
-        s = self._s + 0.5 * (vs0 + vs1) * dt
-        if s >= self._len or (vs1 <= 0.0 and remaining < 1e-3):
-            s, vs1 = self._len, (self._v_end if self._v_end > 0.0 and s >= self._len else 0.0)
-        self._s, self._vs = s, vs1
-        if self._poly is not None:
-            self.raw = list(self._at(s))
-            u = self._u
-            self._vraw = [u[0] * vs1, u[1] * vs1, u[2] * vs1]
-            return
-        u = self._u
-        st = self.start
-        self.raw = [st[0] + u[0] * s, st[1] + u[1] * s, st[2] + u[2] * s]
-        self._vraw = [u[0] * vs1, u[1] * vs1, u[2] * vs1]
-
-    def _at(self, s: float):
-        """The point at distance ``s`` along the curve (and its direction in ``_u``)."""
-        cum, pts = self._cum, self._poly
-        i = min(max(bisect.bisect_right(cum, s) - 1, 0), len(pts) - 2)
-        seg = cum[i + 1] - cum[i]
-        f = min(max((s - cum[i]) / seg, 0.0), 1.0) if seg > 1e-9 else 1.0
-        a, b = pts[i], pts[i + 1]
-        self._u = self._seg_dir(i)
-        return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
+        s = x[_S] + 0.5 * (vs0 + vs1) * dt
+        if s >= length or (vs1 <= 0.0 and remaining < 1e-3):
+            vs1 = v_end if v_end > 0.0 and s >= length else 0.0
+            s = length
+        x[_S], x[_VS] = s, vs1
+        if poly.shape[0] > 1:
+            # along a curve: the point at s, the direction of its segment
+            i, rn, re, rd = curve_point(poly, s)
+            x[_U], x[_U + 1], x[_U + 2] = poly[i, 4], poly[i, 5], poly[i, 6]
+        else:
+            rn = x[_START] + x[_U] * s
+            re = x[_START + 1] + x[_U + 1] * s
+            rd = x[_START + 2] + x[_U + 2] * s
+        x[_RAW], x[_RAW + 1], x[_RAW + 2] = rn, re, rd
+        x[_VRAW], x[_VRAW + 1], x[_VRAW + 2] = x[_U] * vs1, x[_U + 1] * vs1, x[_U + 2] * vs1
+    # reference model: a = w^2 (p_raw - p) - 2 w v  (semi-implicit Euler)
+    w = x[_W]
+    w2, w2x = w * w, 2.0 * w
+    a0 = w2 * (x[_RAW] - x[_P]) - w2x * x[_V]
+    a1 = w2 * (x[_RAW + 1] - x[_P + 1]) - w2x * x[_V + 1]
+    a2 = w2 * (x[_RAW + 2] - x[_P + 2]) - w2x * x[_V + 2]
+    v0, v1, v2 = x[_V] + a0 * dt, x[_V + 1] + a1 * dt, x[_V + 2] + a2 * dt
+    p0, p1, p2 = x[_P] + v0 * dt, x[_P + 1] + v1 * dt, x[_P + 2] + v2 * dt
+    x[_P], x[_P + 1], x[_P + 2] = p0, p1, p2
+    x[_V], x[_V + 1], x[_V + 2] = v0, v1, v2
+    return (p0, p1, p2), (v0, v1, v2), (a0, a1, a2), trajectory_arrived(x)
 
 
 class CopterNavigator:
@@ -909,7 +1018,8 @@ class CopterMissionSequencer:
             return self.current, False
         if self.home_request is not None:
             return self.current, False          # the vehicle moves home first
-        if not self._run_do_items(t_us, yaw):
+        # (the navigation item entered: no DO item before it left to run)
+        if self._entered != self.current and not self._run_do_items(t_us, yaw):
             return self.current, False
         seq, hold = self._step_nav(t_us, p_ned, touchdown, yaw)
         if self.pending and not self.landed:
