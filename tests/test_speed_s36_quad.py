@@ -1,6 +1,6 @@
 """Stop 36's structural rewrites of the quadrotor's per-step code give the same bits as
 the code they replaced: the trajectory's step as one kernel on its state array (against
-its Python step written out here as it was), CPython's hypot in a kernel, and the
+its Python step written out here as it was), a correctly rounded hypot in a kernel, and the
 position, altitude and attitude loops with the mixer in one kernel (against the three
 controllers called in turn)."""
 import bisect

@@ -284,44 +284,45 @@ def attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z):
 
 
 @kernel
+def _exact_product(a, b):
+    """a * b as an unevaluated pair (p, e), p + e exactly (Dekker's product: each factor
+    split by 2**27 + 1 into halves whose products are exact)."""
+    p = a * b
+    t = a * 134217729.0
+    a_hi = t - (t - a)
+    a_lo = a - a_hi
+    t = b * 134217729.0
+    b_hi = t - (t - b)
+    b_lo = b - b_hi
+    return p, ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+
+
+@kernel
 def hypot(x, y):
-    """CPython's ``math.hypot(x, y)`` step for step (3.11's vector_norm: the squares
-    and sums carried in double length, then one correction of the root), so that the
-    kernels give the bits the Python loops gave (the C library's hypot differs in the
-    last bit about once in a thousand). Subnormal arguments aside (CPython rescales
-    those first): a tilt or an integral of 1e-308 does not occur.
-    tests/test_speed_s36_quad.py compares it with ``math.hypot``."""
+    """sqrt(x**2 + y**2) correctly rounded, as Python's ``math.hypot`` gives it (the
+    loops called that before they were compiled; the C library's hypot, numba's, can
+    differ in the last bit). Scaled by a power of two (exact) so that nothing overflows;
+    the sum of the squares carried exactly as a pair of doubles, its root then corrected
+    by one Newton step on the exact residual. tests/test_speed_s36_quad.py compares it
+    with ``math.hypot`` bit for bit."""
     x, y = abs(x), abs(y)
-    m = x if x > y else y
-    if math.isinf(m):
-        return m
+    if x < y:
+        x, y = y, x
+    if math.isinf(x):
+        return x                                  # (even with a NaN, as math.hypot)
     if math.isnan(x) or math.isnan(y):
         return math.nan
-    if m == 0.0:
-        return m
-    scale = math.ldexp(1.0, -math.frexp(m)[1])
-    csum, frac1, frac2, frac3 = 1.0, 0.0, 0.0, 0.0
-    for v in (x, y):
-        v *= scale
-        t = v * 134217729.0             # 2^27 + 1: v split into hi + lo exactly
-        hi = t - (t - v)
-        lo = v - hi
-        old, csum = csum, csum + hi * hi
-        frac1 += (old - csum) + hi * hi
-        old, csum = csum, csum + 2.0 * hi * lo
-        frac2 += (old - csum) + 2.0 * hi * lo
-        frac3 += lo * lo
-    h = math.sqrt(csum - 1.0 + (frac1 + frac2 + frac3))
-    t = h * 134217729.0
-    hi = t - (t - h)
-    lo = h - hi
-    old, csum = csum, csum - hi * hi
-    frac1 += (old - csum) - hi * hi
-    old, csum = csum, csum - 2.0 * hi * lo
-    frac2 += (old - csum) - 2.0 * hi * lo
-    old, csum = csum, csum - lo * lo
-    frac3 += (old - csum) - lo * lo
-    return (h + (csum - 1.0 + (frac1 + frac2 + frac3)) / (2.0 * h)) / scale
+    if x == 0.0:
+        return 0.0
+    e = math.frexp(x)[1]
+    x, y = math.ldexp(x, -e), math.ldexp(y, -e)
+    xx, xx_err = _exact_product(x, x)
+    yy, yy_err = _exact_product(y, y)
+    s = xx + yy
+    s_err = (xx - s) + yy + xx_err + yy_err       # xx >= yy: (xx - s) + yy is exact
+    h = math.sqrt(s + s_err)
+    hh, hh_err = _exact_product(h, h)
+    return math.ldexp(h + ((s - hh) + (s_err - hh_err)) / (2.0 * h), e)
 
 
 class AttitudeController:
