@@ -369,8 +369,10 @@ class PlaneVehicle(VehicleBase):
                                  else "throttle out: airspeed flown on the pitch")
                 ctrl.throttle_out = to
             seq = self._sequencer
-            if seq is not None:
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
+            if seq is not None and (so is not None or to is not None or seq.bank_limit_rad is not None
+                                    or seq.reaction_airspeed_mps is not None):
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py;
+                # with no aileron, rudder or throttle out both are None, as they stay)
                 seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
                 seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
@@ -672,10 +674,12 @@ class PlaneVehicle(VehicleBase):
             bank = max(min(bank, lim), -lim)
         if land == "rollout" or land == "ground":
             bank = 0.0                           # on the skids: wings level (landing.py)
+        # (by position: pitch_min_rad, throttle_override, euler, climb_override,
+        # pitch_max_rad, climb_kp, spd_weight, rudder_override)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
-                                euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
-                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None,
-                                spd_weight=tgt.spd_weight, rudder_override=rudder)
+                                self.euler, climb, pitch_max,
+                                p["LAND_FLR_CLMB_KP"] if climb is not None else None,
+                                tgt.spd_weight, rudder)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step

@@ -396,13 +396,12 @@ class FixedWingController:
         self._x = np.zeros(10)                  # the loops' state (ROLL .. CLIMB_CMD)
         self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
         self._c = np.zeros(34)
-        self.last = (0.0, 0.0, 0.0, 0.0)
         self.elevator_out = False
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
         self.eout_full_throttle = False          # the model has no level trim for it
-        self._surface_out: dict | None = None
-        self._throttle_out: dict | None = None
+        self.surface_out: dict | None = None     # a stuck aileron or rudder (monitor's surface_out)
+        self.throttle_out: dict | None = None    # a stuck throttle (monitor's throttle_out)
         self.configure_gains()
         self._load_reactions()
 
@@ -416,44 +415,25 @@ class FixedWingController:
         a = float(self._x[ALT_DEM])
         return None if math.isnan(a) else a
 
-    @property
-    def surface_out(self) -> dict | None:
-        """A stuck aileron or rudder (the monitor's ``surface_out``; a new dict for a new
-        reaction: the kernel reads it as it was set)."""
-        return self._surface_out
-
-    @surface_out.setter
-    def surface_out(self, so: dict | None) -> None:
-        self._surface_out = so
-        self._load_reactions()
-
-    @property
-    def throttle_out(self) -> dict | None:
-        """A stuck throttle (the monitor's ``throttle_out``; read as it was set, as
-        ``surface_out``)."""
-        return self._throttle_out
-
-    @throttle_out.setter
-    def throttle_out(self, tout: dict | None) -> None:
-        self._throttle_out = tout
-        self._load_reactions()
-
     def _load_reactions(self) -> None:
-        """The fault reactions in force into the kernel's parameters (NaN or 0: none)."""
+        """The fault reactions in force into the kernel's parameters (NaN or 0: none);
+        ``update`` calls it when ``surface_out`` or ``throttle_out`` is another (a new
+        dict for a new reaction, the monitor's way: one changed in place is not seen)."""
         c, nan = self._c, math.nan
         c[C_EOUT_ON] = 1.0 if self.elevator_out else 0.0
         c[C_EOUT_TRIM] = nan if self.eout_trim_mps is None else self.eout_trim_mps
         c[C_EOUT_BANK] = nan if self.eout_bank_max_rad is None else self.eout_bank_max_rad
         c[C_EOUT_FULL] = 1.0 if self.eout_full_throttle else 0.0
-        so = self._surface_out
+        so = self.surface_out
         c[C_SO] = 0.0 if so is None else SO_AILERON if so["surface"] == "aileron" else SO_RUDDER
         c[C_SO_COUNTER] = nan if so is None else so["counter_rad"]
         c[C_SO_ROLL_GAIN] = nan if so is None else so.get("roll_gain", nan)
-        tout = self._throttle_out
+        tout = self.throttle_out
         c[C_TOUT] = 0.0 if tout is None else 1.0
         c[C_TOUT_LEVEL] = 1.0 if tout is not None and tout["level"] else 0.0
         c[C_TOUT_V_FLY] = nan if tout is None else tout.get("v_fly", nan)
         c[C_TOUT_V_GLIDE] = nan if tout is None else tout.get("v_glide", nan)
+        self._loaded = (so, tout)
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -487,7 +467,7 @@ class FixedWingController:
         EOUT_BANK_MIN_DEG either. With an aileron or rudder out the mission's turns are
         planned at it (guidance/mission.py, ``bank_limit_rad``)."""
         eout_bank = self.eout_bank_max_rad if self.elevator_out else None
-        so = self._surface_out
+        so = self.surface_out
         return _roll_limit(self._roll_lim_rad, math.nan if eout_bank is None else eout_bank,
                            math.nan if so is None else so["counter_rad"])
 
@@ -499,7 +479,7 @@ class FixedWingController:
         answer it (fault_elevator_stuck_launch.toml trial 2, 0.051 rad from 119 m:
         replanned, it turned left and hit the ground, 68 m lost turning right before;
         over the 200 trials 4 lost and 2 saved)."""
-        if self._surface_out is None:
+        if self.surface_out is None:
             return None
         lim = self.roll_limit_rad()
         return lim if lim < self._roll_lim_rad else None
@@ -511,7 +491,7 @@ class FixedWingController:
         turns are sized for it where it is faster (guidance/mission.py,
         ``reaction_airspeed_mps``). Not a stuck elevator's trim, for the reason of
         :meth:`reaction_bank_limit_rad`."""
-        tout = self._throttle_out
+        tout = self.throttle_out
         p = self.params
         if tout is not None and tout["level"] and p["TOUT_ARSPD_MAX"] > 0.0:
             v_hi = max(p["TOUT_ARSPD_MAX"], p["ARSPD_FBW_MIN"])
@@ -542,14 +522,16 @@ class FixedWingController:
         ``rudder_override``: on the wheels (a runway's take-off roll), the rudder the
         ground steering asks, and the roll loop's integrator held at zero (the wings
         cannot roll on the gear: it would wind up against it and roll the aircraft at
-        the lift-off). The loops are the kernel ``_loops``."""
+        the lift-off). The loops are the kernel ``_loops``; the vehicle passes every
+        argument by position (keywords cost the call a name lookup each)."""
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb.tolist())
+        loaded = self._loaded
+        if self.surface_out is not loaded[0] or self.throttle_out is not loaded[1]:
+            self._load_reactions()
         ovr = _NO_OVERRIDES
         if pitch_min_rad is not None or throttle_override is not None or climb_override is not None \
                 or pitch_max_rad is not None or climb_kp is not None or rudder_override is not None:
             ovr = np.array([math.nan if v is None else v for v in (
                 pitch_min_rad, throttle_override, climb_override, pitch_max_rad, climb_kp, rudder_override)])
-        self.last = _loops(self._gains, self._x, self._c, ovr, roll, pitch, nav.omega_b, nav.v_ned,
-                           nav.alt_m, nav.airspeed_mps, dt, bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps,
-                           spd_weight)
-        return self.last
+        return _loops(self._gains, self._x, self._c, ovr, roll, pitch, nav.omega_b, nav.v_ned,
+                      nav.alt_m, nav.airspeed_mps, dt, bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight)
