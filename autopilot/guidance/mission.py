@@ -215,6 +215,9 @@ class MissionSequencer:
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
+        self._gs = 0.0                 # the ground speed and course of the step (_update)
+        self._chi = 0.0
+        self._slope_leg = (None, None, (1.0, 0.0))   # (A, B, unit A->B) of _steepest_slope
         self._airspeed_mps = 0.0
         self._wind_ne = (0.0, 0.0)
         self._alt_m = self.home_alt_m
@@ -785,7 +788,7 @@ class MissionSequencer:
         next arc of an S-turn) ROLL_LEAD_S per bank change of the arc's bank before
         the arc's end, half the roll's transition flown on each side of the tangent
         point, so the vehicle neither runs on past it nor under-turns the next arc."""
-        gs = math.hypot(float(self._v_ned[0]), float(self._v_ned[1]))
+        gs = self._gs
         nxt = self._path[1] if len(self._path) > 1 else None
         if nxt is not None and nxt[0] == "arc" and nxt[3] == direction:
             return 0.0
@@ -950,8 +953,7 @@ class MissionSequencer:
             # not on a landing: from its approach on, the landing's own airspeed
             # (TECS_LAND_ARSPD), as ArduPlane's landing stage sets it; a ground-speed
             # minimum raised it past the overspeed abort (random-plane trials 117, 383)
-            chi = self._course(v_ned, heading_rad)
-            v = self.commanded_airspeed_mps(chi)
+            v = self.commanded_airspeed_mps(self._chi)
             if v != tgt.airspeed_mps:
                 tgt = tgt._replace(airspeed_mps=v)
         return tgt
@@ -970,14 +972,13 @@ class MissionSequencer:
             return tgt
         return tgt._replace(alt_m=float(h) + item.z_alt_m)
 
-    @staticmethod
-    def _course(v_ned, heading_rad: float) -> float:
-        vn, ve = float(v_ned[0]), float(v_ned[1])
-        return math.atan2(ve, vn) if math.hypot(vn, ve) > 5.0 else heading_rad
-
     def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps=None) -> NavTarget:
         p_ne = (float(p_ned[0]), float(p_ned[1]))
         self._v_ned = v_ned
+        # the ground speed, and the course (the heading when slower than 5 m/s), once a step
+        vn, ve = float(v_ned[0]), float(v_ned[1])
+        self._gs = gs = math.hypot(vn, ve)
+        self._chi = chi = math.atan2(ve, vn) if gs > 5.0 else heading_rad
         if airspeed_mps is not None:
             self._airspeed_mps = airspeed_mps
         if wind_ne is not None:
@@ -994,7 +995,6 @@ class MissionSequencer:
             return self._rtl_loiter(t_us, p_ne, alt_m)
         item = self.items[self.current]
         cmd = item.command
-        chi = self._course(v_ned, heading_rad)
         self._track_next(item, p_ne)
         if self._do_pending:
             # the DO items before this navigation item run first (a condition holds back
@@ -1243,9 +1243,13 @@ class MissionSequencer:
         p = self.params
         rate = (self.climb_rate_mps or p["DEM_CLMB_FRAC"] * p["CLMB_MAX"]) if dh > 0 \
             else (self.sink_rate_mps or p["DEM_CLMB_FRAC"] * p["SINK_MAX"])
-        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
-        gs = self._groundspeed_along(u)
+        leg = self._slope_leg
+        if leg[0] is not a_ne or leg[1] is not b_ne:
+            # the leg's direction, once a leg (A and B are the same objects all along it)
+            ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
+            leg = self._slope_leg = (a_ne, b_ne, u)
+        gs = self._groundspeed_along(leg[2])
         return SLOPE_MARGIN * rate / (1.0 if 1.0 > gs else gs)
 
     def _join_alt(self, t_us, seq, p_ne, a_ne, b_ne, alt_b) -> float:
