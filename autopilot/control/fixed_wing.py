@@ -82,7 +82,7 @@ from ..geo import quat_to_euler
 from ..jit import kernel, preload
 from ..messages import NavState
 from ..params import Param
-from .pid import I_MAX, KD, KI, KP, OUT_MAX, OUT_MIN, pid_update
+from .pid import I_MAX, KD, KI, KP, OUT_MAX, OUT_MIN, clamp, max2, min2, pid_update
 
 G = 9.80665
 # elevator out: the bank limit never under this, so that the aircraft can still turn back
@@ -159,13 +159,10 @@ def _roll_limit(roll_lim, eout_bank_rad, counter_rad):
     ``roll_lim``, the elevator out's steepest level turn ``eout_bank_rad`` and the
     stuck aileron's or rudder's counter deflection ``counter_rad`` (NaN: none)."""
     if not math.isnan(eout_bank_rad):
-        b = _EOUT_BANK_MIN_RAD if _EOUT_BANK_MIN_RAD > eout_bank_rad else eout_bank_rad
-        roll_lim = b if b < roll_lim else roll_lim
+        roll_lim = min2(roll_lim, max2(eout_bank_rad, _EOUT_BANK_MIN_RAD))
     if not math.isnan(counter_rad):
         share = 1.0 - abs(counter_rad) / LAT_DEFLECTION_RAD
-        b = roll_lim * share
-        b = _EOUT_BANK_MIN_RAD if _EOUT_BANK_MIN_RAD > b else b
-        roll_lim = b if b < roll_lim else roll_lim
+        roll_lim = min2(roll_lim, max2(roll_lim * share, _EOUT_BANK_MIN_RAD))
     return roll_lim
 
 
@@ -177,12 +174,11 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
     The squares are the C library's pow (``c[C_SQUARE]`` = 2.0, which LLVM cannot fold
     into x * x: that differs from Python's ** 2 in the last bit of 0.1 % of values)."""
     two = c[C_SQUARE]
-    v_air = 5.0 if 5.0 > airspeed_mps else airspeed_mps          # max(V, 5)
+    v_air = max2(airspeed_mps, 5.0)
     eout_on = c[C_EOUT_ON] > 0.0
     roll_lim = _roll_limit(c[C_ROLL_LIM], c[C_EOUT_BANK] if eout_on else math.nan,
                            c[C_SO_COUNTER])
-    phi_c = -roll_lim if -roll_lim > bank_cmd_rad else bank_cmd_rad
-    phi_c = roll_lim if roll_lim < phi_c else phi_c
+    phi_c = clamp(bank_cmd_rad, -roll_lim, roll_lim)
     throttle_override, climb_override = ovr[O_THROTTLE], ovr[O_CLIMB]
     thr_over = not math.isnan(throttle_override)
     climb_over = not math.isnan(climb_override)
@@ -194,37 +190,24 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
     sink_max, clmb_max = c[C_SINK_MAX], c[C_CLMB_MAX]
     up, down = c[C_DEM_UP], c[C_DEM_DOWN]
     if eout_on:
-        rate = c[C_EOUT_DEM_RATE]
-        up = rate if rate < up else up
-        down = rate if rate < down else down
-    if dt > 0:
-        hdot_dem = (alt_cmd_m - x[ALT_DEM]) / dt
-        hdot_dem = -down if -down > hdot_dem else hdot_dem
-        hdot_dem = up if up < hdot_dem else hdot_dem
-    else:
-        hdot_dem = 0.0
+        up, down = min2(up, c[C_EOUT_DEM_RATE]), min2(down, c[C_EOUT_DEM_RATE])
+    hdot_dem = clamp((alt_cmd_m - x[ALT_DEM]) / dt, -down, up) if dt > 0 else 0.0
     x[ALT_DEM] += hdot_dem * dt
     if thr_over:
         hdot_dem, alt_err = 0.0, alt_cmd_m - alt_m
     else:
         alt_err = x[ALT_DEM] - alt_m
-    hdot_c = hdot_dem + c[C_ALT_KP] * alt_err
-    hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
-    hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
+    hdot_c = clamp(hdot_dem + c[C_ALT_KP] * alt_err, -sink_max, clmb_max)
     if climb_over:
         x[ALT_DEM] = alt_m
-        hdot_c = -sink_max if -sink_max > climb_override else climb_override
-        hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
+        hdot_c = clamp(climb_override, -sink_max, clmb_max)
     dv = airspeed_cmd_mps - v_air
     db = c[C_SPD_PRIO_DB]
     eout = eout_on and not thr_over
     if eout:
         # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
         # (should the surface work again) trade height for speed
-        over = c[C_ARSPD_MAX] - v_air
-        over = over if over < 0.0 else 0.0
-        under = c[C_ARSPD_MIN] - v_air
-        dv = over if over > under else under
+        dv = max2(c[C_ARSPD_MIN] - v_air, min2(0.0, c[C_ARSPD_MAX] - v_air))
     spd_prio = c[C_SPD_PRIO]
     if c[C_TOUT] > 0.0 and not climb_over:
         # throttle out: where the stuck throttle holds level flight the height demand
@@ -241,12 +224,9 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
             # SPD_PRIO times its margin under TOUT_ARSPD_MAX (a climb the stuck thrust
             # cannot give is flown just over ARSPD_FBW_MIN, not traded down to the
             # stall; out of the two the pitch gives height for airspeed)
-            v_hi = c[C_TOUT_ARSPD_MAX]
-            v_hi = v_lo if v_lo > v_hi else v_hi
-            lo, hi = -spd_prio * (v_hi - v_air), spd_prio * (v_air - v_lo)
-            hdot_c = lo if lo > hdot_c else hdot_c
-            hdot_c = hi if hi < hdot_c else hdot_c
-            hi = 2.0 * clmb_max
+            v_hi = max2(c[C_TOUT_ARSPD_MAX], v_lo)
+            hdot_c = clamp(hdot_c, -spd_prio * (v_hi - v_air), spd_prio * (v_air - v_lo))
+            hdot_c = clamp(hdot_c, -sink_max, 2.0 * clmb_max)
         elif c[C_TOUT_LEVEL] > 0.0:
             # the airspeed the model says the stuck thrust holds level, if slower
             # than the demand; the height is what the excess thrust gives, the climb
@@ -254,45 +234,31 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
             # the cruise airspeed; flying faster to climb less was tried: the pitch
             # loop could not hold the steeper climb a slowing down needs, and the
             # airspeed went 3 m/s over ARSPD_FBW_MAX)
-            v_fly = c[C_TOUT_V_FLY]
-            v_t = v_fly if v_fly < airspeed_cmd_mps else airspeed_cmd_mps
-            hdot_c = -spd_prio * (v_t - v_air)
-            hi = 2.0 * clmb_max
+            v_t = min2(airspeed_cmd_mps, c[C_TOUT_V_FLY])
+            hdot_c = clamp(-spd_prio * (v_t - v_air), -sink_max, 2.0 * clmb_max)
         else:
-            v_glide = c[C_TOUT_V_GLIDE]
-            v_t = v_lo if v_lo > v_glide else v_glide
-            hdot_c = -spd_prio * (v_t - v_air)
-            hi = clmb_max
-        hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
-        hdot_c = hi if hi < hdot_c else hdot_c
+            v_t = max2(c[C_TOUT_V_GLIDE], v_lo)
+            hdot_c = clamp(-spd_prio * (v_t - v_air), -sink_max, clmb_max)
     elif abs(dv) > db and not climb_over:
         hdot_c -= spd_weight * spd_prio * (dv - math.copysign(db, dv))
-        hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
-        hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
+        hdot_c = clamp(hdot_c, -sink_max, clmb_max)
     trim_arspd = c[C_TRIM_ARSPD]
     q_ratio = (trim_arspd / v_air) ** two
-    scale = 0.5 if 0.5 > q_ratio else q_ratio
-    scale = 2.0 if 2.0 < scale else scale
-    cos_roll = math.cos(roll)
-    turn_ff = c[C_TURN_FF] * (1.0 / (0.5 if 0.5 > cos_roll else cos_roll) - 1.0)
-    sin_gamma = hdot_c / v_air
-    sin_gamma = -0.5 if -0.5 > sin_gamma else sin_gamma
-    gamma_c = math.asin(0.5 if 0.5 < sin_gamma else sin_gamma)
+    scale = clamp(q_ratio, 0.5, 2.0)
+    turn_ff = c[C_TURN_FF] * (1.0 / max2(math.cos(roll), 0.5) - 1.0)
+    gamma_c = math.asin(clamp(hdot_c / v_air, -0.5, 0.5))
     # trim angle of attack at the *commanded* airspeed: using the measured one would
     # raise the nose further as the aircraft slows (positive feedback towards stall)
-    v_c = 5.0 if 5.0 > airspeed_cmd_mps else airspeed_cmd_mps
-    alpha_ratio = (trim_arspd / v_c) ** two
-    alpha_ff = c[C_ALPHA_TRIM] * (2.0 if 2.0 < alpha_ratio else alpha_ratio)
+    alpha_ff = c[C_ALPHA_TRIM] * min2((trim_arspd / max2(airspeed_cmd_mps, 5.0)) ** two, 2.0)
     kp = ovr[O_CLIMB_KP]
     if math.isnan(kp):
         kp = gains[CLIMB, KP]
     # (rate 0.0: no derivative term)
     theta_c = pid_update(gains, x, CLIMB, kp, hdot_c, hdot, dt, 0.0, alpha_ff + gamma_c + turn_ff, 1.0)
-    pitch_max, pitch_min = ovr[O_PITCH_MAX], ovr[O_PITCH_MIN]
-    if not math.isnan(pitch_max):
-        theta_c = pitch_max if pitch_max < theta_c else theta_c     # min()
-    if not math.isnan(pitch_min):
-        theta_c = pitch_min if pitch_min > theta_c else theta_c     # max()
+    if not math.isnan(ovr[O_PITCH_MAX]):
+        theta_c = min2(theta_c, ovr[O_PITCH_MAX])
+    if not math.isnan(ovr[O_PITCH_MIN]):
+        theta_c = max2(theta_c, ovr[O_PITCH_MIN])
 
     # airspeed from throttle (with the climb feed-forward)
     if thr_over:
@@ -302,8 +268,7 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
         # below its own slow mean (the speed the stuck elevator trims to)
         if math.isnan(x[V_MEAN]):
             x[V_MEAN] = v_air
-        a = dt / c[C_EOUT_SPD_TAU]
-        x[V_MEAN] += (v_air - x[V_MEAN]) * (1.0 if 1.0 < a else a)
+        x[V_MEAN] += (v_air - x[V_MEAN]) * min2(dt / c[C_EOUT_SPD_TAU], 1.0)
         if not math.isnan(c[C_EOUT_TRIM]):
             x[V_MEAN] = c[C_EOUT_TRIM]
         thr = pid_update(gains, x, EOUT, gains[EOUT, KP], x[ALT_DEM], alt_m, dt, 0.0,
@@ -319,12 +284,10 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
     rudder_override = ovr[O_RUDDER]
     if not math.isnan(rudder_override):
         x[ROLL] = 0.0
-    de_ff = c[C_ELEV_TRIM] * (2.0 if 2.0 < q_ratio else q_ratio)
+    de_ff = c[C_ELEV_TRIM] * min2(q_ratio, 2.0)
     de = pid_update(gains, x, PITCH, gains[PITCH, KP], theta_c, pitch, dt, omega[1], de_ff, scale)
     r_c = G * math.tan(roll) * math.cos(pitch) / v_air
-    dr = c[C_YAW_KD] * (r_c - omega[2])
-    dr = -1.0 if -1.0 > dr else dr
-    dr = 1.0 if 1.0 < dr else dr
+    dr = clamp(c[C_YAW_KD] * (r_c - omega[2]), -1.0, 1.0)
     if not math.isnan(rudder_override):
         dr = rudder_override
     so = c[C_SO]
@@ -335,13 +298,9 @@ def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
         # their rolling moments (the Aerosonde's rudder rolls more than it yaws)
         ff = c[C_SO_COUNTER] / LAT_DEFLECTION_RAD
         if so == SO_AILERON:
-            dr = ff + c[C_SO_ROLL_GAIN] * da
-            dr = -1.0 if -1.0 > dr else dr
-            dr = 1.0 if 1.0 < dr else dr
+            dr = clamp(ff + c[C_SO_ROLL_GAIN] * da, -1.0, 1.0)
         else:
-            da = da + ff
-            da = -1.0 if -1.0 > da else da
-            da = 1.0 if 1.0 < da else da
+            da = clamp(da + ff, -1.0, 1.0)
 
     x[ROLL_CMD], x[PITCH_CMD], x[CLIMB_CMD] = phi_c, theta_c, hdot_c
     return da, de, dr, thr
