@@ -705,7 +705,7 @@ class PlaneVehicle(VehicleBase):
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         sig, gps_row = self._nav_rows(hf, gps)
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
-        alt_dem = c.alt_dem_m
+        alt_dem, roll_c, pitch_c, climb_c = c.commands()
         h_rf = rf.height_m
         # one tuple built from its parts at once (``*``: no intermediate tuples); the
         # flags, mode and counts as they are (the log converts its rows once, at the end)
@@ -714,7 +714,7 @@ class PlaneVehicle(VehicleBase):
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
-            alt_dem if alt_dem is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
+            tgt.alt_m if math.isnan(alt_dem) else alt_dem, tgt.airspeed_mps, roll_c, pitch_c, climb_c,
             a[0], a[1], b[0], b[1], cc[0], cc[1],
             tgt.radius_m, tgt.direction, self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],

@@ -135,9 +135,10 @@ FW_PARAMS = (
 
 # the loops: their rows of ``gains`` and their integrators' places in the state array
 ROLL, PITCH, CLIMB, SPEED, EOUT = range(5)
-# ... which holds after them the altitude demand (NaN: none yet), the airspeed low-passed
-# while the elevator is out (NaN: none yet) and the step's commands, for the log
-ALT_DEM, V_MEAN, ROLL_CMD, PITCH_CMD, CLIMB_CMD = range(5, 10)
+# ... which holds after them the altitude demand (NaN: none yet) and the step's commands
+# (``commands``, for the log), and the airspeed low-passed while the elevator is out
+# (NaN: none yet)
+ALT_DEM, ROLL_CMD, PITCH_CMD, CLIMB_CMD, V_MEAN = range(5, 10)
 # the parameters the loops read (``FixedWingController.configure_gains``) and the fault
 # reactions in force (NaN or 0: none), in the kernel's array ``c``
 (C_SINK_MAX, C_CLMB_MAX, C_DEM_UP, C_DEM_DOWN, C_ALT_KP, C_SPD_PRIO, C_SPD_PRIO_DB,
@@ -364,15 +365,10 @@ class FixedWingController:
         self.configure_gains()
         self._load_reactions()
 
-    # the step's commands and the altitude demand (None before the first step), for the log
-    roll_cmd_rad = property(lambda self: float(self._x[ROLL_CMD]))
-    pitch_cmd_rad = property(lambda self: float(self._x[PITCH_CMD]))
-    climb_cmd_mps = property(lambda self: float(self._x[CLIMB_CMD]))
-
-    @property
-    def alt_dem_m(self) -> float | None:
-        a = float(self._x[ALT_DEM])
-        return None if math.isnan(a) else a
+    def commands(self) -> list[float]:
+        """[altitude demand (NaN before the first step), roll, pitch, climb-rate
+        command] of the last step, for the log."""
+        return self._x[ALT_DEM:V_MEAN].tolist()
 
     def _load_reactions(self) -> None:
         """The fault reactions in force into the kernel's parameters (NaN or 0: none);
