@@ -314,9 +314,11 @@ class FixedWingController:
     def __init__(self, params):
         self.params = params
         self.configure()
-        # (the kernel flown, loaded now: autopilot.jit.preload)
+        # (the kernels flown, loaded now: autopilot.jit.preload; _roll_limit is called from
+        # Python once a reaction limits the bank)
         preload(_loops, self._gains, self._x.copy(), self._c, _NO_OVERRIDES, 0.0, 0.0, np.zeros(3),
                 np.zeros(3), 100.0, 25.0, 0.01, 0.0, 100.0, 25.0, 1.0)
+        preload(_roll_limit, 0.5, math.nan, 0.1)
 
     def configure_gains(self) -> None:
         """Re-read the gains and the parameters the loops read every step, after a
