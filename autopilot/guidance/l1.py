@@ -58,11 +58,6 @@ class LateralCommand(NamedTuple):
     l1_m: float              # L1 distance used
 
 
-# a LateralCommand of a kernel's 6-tuple: its ``_make`` without the length check (the
-# kernels return six), one C call where ``_make`` is a Python one
-_command = tuple.__new__
-
-
 @kernel
 def _l1_distance(zeta_t, groundspeed_mps):
     """L1 = zeta T |V_g| / pi (``zeta_t``: zeta T)."""
@@ -170,9 +165,9 @@ class L1Guidance:
         vn, ve = v_ne
         an, ae = a_ne
         dn, de = b_ne[0] - an, b_ne[1] - ae
-        return _command(LateralCommand, _line(vn, ve, math.hypot(vn, ve), dn, de, math.hypot(dn, de),
-                                              p_ne[0] - an, p_ne[1] - ae, heading_rad, airspeed_mps,
-                                              self._zeta_t, self.k))
+        return LateralCommand._make(_line(vn, ve, math.hypot(vn, ve), dn, de, math.hypot(dn, de),
+                                          p_ne[0] - an, p_ne[1] - ae, heading_rad, airspeed_mps,
+                                          self._zeta_t, self.k))
 
     def loiter(self, p_ne, v_ne, c_ne, radius_m: float, direction: int,
                heading_rad: float = 0.0, airspeed_mps: float = 0.0) -> LateralCommand:
@@ -180,6 +175,6 @@ class L1Guidance:
         from above). ``xtrack_m`` is the radial error, + outside."""
         vn, ve = v_ne
         rn, re = p_ne[0] - c_ne[0], p_ne[1] - c_ne[1]
-        return _command(LateralCommand, _loiter(vn, ve, math.hypot(vn, ve), rn, re, math.hypot(rn, re),
-                                                radius_m, direction, heading_rad, airspeed_mps,
-                                                self._zeta_t, self.k))
+        return LateralCommand._make(_loiter(vn, ve, math.hypot(vn, ve), rn, re, math.hypot(rn, re),
+                                            radius_m, direction, heading_rad, airspeed_mps,
+                                            self._zeta_t, self.k))
