@@ -215,7 +215,7 @@ class MissionSequencer:
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
-        self._gs = 0.0                 # the ground speed and course of the step (_update)
+        self._gs = 0.0                 # the ground speed and course of the step (update)
         self._chi = 0.0
         self._slope_leg = (None, None, (1.0, 0.0))   # (A, B, unit A->B) of _steepest_slope
         self._airspeed_mps = 0.0
