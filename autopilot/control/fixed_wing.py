@@ -351,11 +351,11 @@ class FixedWingController:
         c[C_THR_MAX], c[C_ARSPD_MIN], c[C_ARSPD_MAX] = p["THR_MAX"], p["ARSPD_FBW_MIN"], p["ARSPD_FBW_MAX"]
         c[C_TOUT_ARSPD_MAX], c[C_EOUT_DEM_RATE] = p["TOUT_ARSPD_MAX"], p["EOUT_DEM_RATE"]
         c[C_EOUT_SPD_TAU], c[C_EOUT_SPD_KP] = p["EOUT_SPD_TAU"], p["EOUT_SPD_KP"]
-        c[C_SQUARE] = 2.0
+        c[C_SQUARE] = 2.0                      # (the squares' exponent: _loops)
 
     def configure(self) -> None:
         self._gains = np.zeros((5, 6))
-        self._x = np.zeros(10)                  # the loops' state (ROLL .. CLIMB_CMD)
+        self._x = np.zeros(10)                  # the loops' state (ROLL .. V_MEAN)
         self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
         self._c = np.zeros(34)
         self.elevator_out = False
