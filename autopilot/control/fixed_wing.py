@@ -82,7 +82,7 @@ from ..geo import quat_to_euler
 from ..jit import kernel, preload
 from ..messages import NavState
 from ..params import Param
-from .pid import I_MAX, KD, KI, KP, OUT_MAX, OUT_MIN, clamp, max2, min2, pid_update
+from .pid import I_MAX, KD, KI, KP, OUT_MIN, clamp, max2, min2, pid_update
 
 G = 9.80665
 # elevator out: the bank limit never under this, so that the aircraft can still turn back
