@@ -403,6 +403,14 @@ def test_the_loops_kernel_flies_as_the_python_it_replaced(case):
     for step in range(3000):
         if step % 500 == 0:
             new.reset(), ref.reset()
+        if so is not None and step % 300 == 150:
+            # the monitor refines a stuck surface's reading in its dict, in place
+            so.update(counter_rad=rng.uniform(-0.3, 0.3), stuck_rad=rng.uniform(-0.2, 0.2))
+        if step == 2500 and case != "none":
+            # the reactions ended (the elevator's by its method, the others' dicts dropped)
+            for c in (new, ref):
+                c.set_elevator_out(False)
+                c.surface_out = c.throttle_out = None
         nav = _nav(rng)
         euler = (rng.uniform(-1.2, 1.2), rng.uniform(-0.6, 0.6), 0.0) if step % 7 else None
         kw = {}

@@ -374,8 +374,9 @@ class FixedWingController:
 
     def _load_reactions(self) -> None:
         """The fault reactions in force into the kernel's parameters (NaN or 0: none);
-        ``update`` calls it when ``surface_out`` or ``throttle_out`` is another (a new
-        dict for a new reaction, the monitor's way: one changed in place is not seen)."""
+        ``update`` calls it every step while ``surface_out`` or ``throttle_out`` is set,
+        and once more when neither is (the monitor refines a reaction's dict in place:
+        a stuck surface's position as its reading settles)."""
         c, nan = self._c, math.nan
         c[C_EOUT_ON] = 1.0 if self.elevator_out else 0.0
         c[C_EOUT_TRIM] = nan if self.eout_trim_mps is None else self.eout_trim_mps
@@ -390,7 +391,7 @@ class FixedWingController:
         c[C_TOUT_LEVEL] = 1.0 if tout is not None and tout["level"] else 0.0
         c[C_TOUT_V_FLY] = nan if tout is None else tout.get("v_fly", nan)
         c[C_TOUT_V_GLIDE] = nan if tout is None else tout.get("v_glide", nan)
-        self._loaded = (so, tout)
+        self._reacting = so is not None or tout is not None
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
@@ -482,8 +483,7 @@ class FixedWingController:
         the lift-off). The loops are the kernel ``_loops``; the vehicle passes every
         argument by position (keywords cost the call a name lookup each)."""
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb.tolist())
-        loaded = self._loaded
-        if self.surface_out is not loaded[0] or self.throttle_out is not loaded[1]:
+        if self.surface_out is not None or self.throttle_out is not None or self._reacting:
             self._load_reactions()
         ovr = _NO_OVERRIDES
         if pitch_min_rad is not None or throttle_override is not None or climb_override is not None \
