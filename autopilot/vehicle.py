@@ -369,8 +369,10 @@ class PlaneVehicle(VehicleBase):
                                  else "throttle out: airspeed flown on the pitch")
                 ctrl.throttle_out = to
             seq = self._sequencer
-            if seq is not None:
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
+            if seq is not None and (so is not None or to is not None or seq.bank_limit_rad is not None
+                                    or seq.reaction_airspeed_mps is not None):
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py;
+                # with no aileron, rudder or throttle out both are None, as they stay)
                 seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
                 seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
@@ -672,10 +674,12 @@ class PlaneVehicle(VehicleBase):
             bank = max(min(bank, lim), -lim)
         if land == "rollout" or land == "ground":
             bank = 0.0                           # on the skids: wings level (landing.py)
+        # (by position: pitch_min_rad, throttle_override, euler, climb_override,
+        # pitch_max_rad, climb_kp, spd_weight, rudder_override)
         return self.ctrl.update(nav, dt, bank, tgt.alt_m, tgt.airspeed_mps, pitch_min, throttle,
-                                euler=self.euler, climb_override=climb, pitch_max_rad=pitch_max,
-                                climb_kp=p["LAND_FLR_CLMB_KP"] if climb is not None else None,
-                                spd_weight=tgt.spd_weight, rudder_override=rudder)
+                                self.euler, climb, pitch_max,
+                                p["LAND_FLR_CLMB_KP"] if climb is not None else None,
+                                tgt.spd_weight, rudder)
 
     def _log(self, t_us: int, nav: NavState, truth, controls) -> None:
         gps = self._gps_this_step
@@ -701,7 +705,7 @@ class PlaneVehicle(VehicleBase):
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
         sig, gps_row = self._nav_rows(hf, gps)
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
-        alt_dem = c.alt_dem_m
+        alt_dem, roll_c, pitch_c, climb_c = c.commands()
         h_rf = rf.height_m
         # one tuple built from its parts at once (``*``: no intermediate tuples); the
         # flags, mode and counts as they are (the log converts its rows once, at the end)
@@ -710,7 +714,7 @@ class PlaneVehicle(VehicleBase):
             p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
-            alt_dem if alt_dem is not None else tgt.alt_m, tgt.airspeed_mps, c.roll_cmd_rad, c.pitch_cmd_rad, c.climb_cmd_mps,
+            tgt.alt_m if math.isnan(alt_dem) else alt_dem, tgt.airspeed_mps, roll_c, pitch_c, climb_c,
             a[0], a[1], b[0], b[1], cc[0], cc[1],
             tgt.radius_m, tgt.direction, self.xtrack_m,
             controls[0], controls[1], controls[2], controls[3],

@@ -61,7 +61,10 @@ the flight-path angle for a commanded climb rate is asin(hdot_c / V); the loops 
 correct what the feed-forwards miss. The surface loops are scaled by
 s = clamp((TRIM_ARSPD / V)^2, 0.5, 2) because control power grows with dynamic pressure.
 
-Every PID has explicit saturation and anti-windup (control/pid.py). The course loop is
+Every PID has explicit saturation and anti-windup (control/pid.py). The loops of a step
+are one compiled kernel (``_loops``, autopilot/jit.py): their integrators and the
+altitude demand in a state array it advances in place, the gains and the parameters it
+reads in arrays written when a parameter or a fault's reaction changes. The course loop is
 L1 guidance (guidance/l1.py), which commands the bank angle directly.
 
 Normalised outputs, as HIL_ACTUATOR_CONTROLS carries them: aileron +1 rolls right,
@@ -73,16 +76,20 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..geo import quat_to_euler
+from ..jit import kernel, preload
 from ..messages import NavState
 from ..params import Param
-from .pid import Pid
+from .pid import I_MAX, KD, KI, KP, OUT_MIN, clamp, max2, min2, pid_update
 
 G = 9.80665
 # elevator out: the bank limit never under this, so that the aircraft can still turn back
 # to its mission where the model has no level turn (a 10 deg turn costs 1.5 % of the lift)
 EOUT_BANK_MIN_DEG = 10.0
 LAT_DEFLECTION_RAD = 0.35   # aileron and rudder deflection at a normalised command of 1 [rad]
+_EOUT_BANK_MIN_RAD = math.radians(EOUT_BANK_MIN_DEG)
 
 FW_PARAMS = (
     Param("RLL_KP", 1.2, 0.0, 10.0, "1/rad", "roll angle to aileron, proportional"),
@@ -126,6 +133,180 @@ FW_PARAMS = (
 )
 
 
+# the loops: their rows of ``gains`` and their integrators' places in the state array
+ROLL, PITCH, CLIMB, SPEED, EOUT = range(5)
+# ... which holds after them the altitude demand (NaN: none yet) and the step's commands
+# (``commands``, for the log), and the airspeed low-passed while the elevator is out
+# (NaN: none yet)
+ALT_DEM, ROLL_CMD, PITCH_CMD, CLIMB_CMD, V_MEAN = range(5, 10)
+# the parameters the loops read (``FixedWingController.configure_gains``) and the fault
+# reactions in force (NaN or 0: none), in the kernel's array ``c``
+(C_SINK_MAX, C_CLMB_MAX, C_DEM_UP, C_DEM_DOWN, C_ALT_KP, C_SPD_PRIO, C_SPD_PRIO_DB,
+ C_TRIM_ARSPD, C_TURN_FF, C_ALPHA_TRIM, C_THR_TRIM, C_THR_CLMB_FF, C_ELEV_TRIM, C_YAW_KD,
+ C_ROLL_LIM, C_THR_MAX, C_ARSPD_MIN, C_ARSPD_MAX, C_TOUT_ARSPD_MAX, C_EOUT_DEM_RATE,
+ C_EOUT_SPD_TAU, C_EOUT_SPD_KP, C_SQUARE,
+ C_EOUT_ON, C_EOUT_TRIM, C_EOUT_BANK, C_EOUT_FULL,
+ C_SO, C_SO_COUNTER, C_SO_ROLL_GAIN,
+ C_TOUT, C_TOUT_LEVEL, C_TOUT_V_FLY, C_TOUT_V_GLIDE) = range(34)
+SO_AILERON, SO_RUDDER = 1.0, 2.0            # c[C_SO]: which surface is out (0: none)
+# a step's optional demands (NaN: none), the kernel's array ``ovr``
+O_PITCH_MIN, O_THROTTLE, O_CLIMB, O_PITCH_MAX, O_CLIMB_KP, O_RUDDER = range(6)
+_NO_OVERRIDES = np.full(6, math.nan)
+
+
+@kernel
+def _roll_limit(roll_lim, eout_bank_rad, counter_rad):
+    """The bank limit in force (``FixedWingController.roll_limit_rad``): ROLL_LIMIT_DEG
+    ``roll_lim``, the elevator out's steepest level turn ``eout_bank_rad`` and the
+    stuck aileron's or rudder's counter deflection ``counter_rad`` (NaN: none)."""
+    if not math.isnan(eout_bank_rad):
+        roll_lim = min2(roll_lim, max2(eout_bank_rad, _EOUT_BANK_MIN_RAD))
+    if not math.isnan(counter_rad):
+        share = 1.0 - abs(counter_rad) / LAT_DEFLECTION_RAD
+        roll_lim = min2(roll_lim, max2(roll_lim * share, _EOUT_BANK_MIN_RAD))
+    return roll_lim
+
+
+@kernel
+def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
+           bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight):
+    """One step of every loop (module docstring; ``FixedWingController.update``): the
+    controls (aileron, elevator, rudder, throttle), the state ``x`` advanced in place.
+    The squares are the C library's pow (``c[C_SQUARE]`` = 2.0, which LLVM cannot fold
+    into x * x: that differs from Python's ** 2 in the last bit of 0.1 % of values)."""
+    two = c[C_SQUARE]
+    v_air = max2(airspeed_mps, 5.0)
+    eout_on = c[C_EOUT_ON] > 0.0
+    roll_lim = _roll_limit(c[C_ROLL_LIM], c[C_EOUT_BANK] if eout_on else math.nan,
+                           c[C_SO_COUNTER])
+    phi_c = clamp(bank_cmd_rad, -roll_lim, roll_lim)
+    throttle_override, climb_override = ovr[O_THROTTLE], ovr[O_CLIMB]
+    thr_over = not math.isnan(throttle_override)
+    climb_over = not math.isnan(climb_override)
+
+    # altitude to climb rate (outer), climb rate to pitch (middle)
+    hdot = -v_ned[2]
+    if math.isnan(x[ALT_DEM]) or thr_over:
+        x[ALT_DEM] = alt_m   # (takeoff: the demand starts from where we are)
+    sink_max, clmb_max = c[C_SINK_MAX], c[C_CLMB_MAX]
+    up, down = c[C_DEM_UP], c[C_DEM_DOWN]
+    if eout_on:
+        up, down = min2(up, c[C_EOUT_DEM_RATE]), min2(down, c[C_EOUT_DEM_RATE])
+    hdot_dem = clamp((alt_cmd_m - x[ALT_DEM]) / dt, -down, up) if dt > 0 else 0.0
+    x[ALT_DEM] += hdot_dem * dt
+    if thr_over:
+        hdot_dem, alt_err = 0.0, alt_cmd_m - alt_m
+    else:
+        alt_err = x[ALT_DEM] - alt_m
+    hdot_c = clamp(hdot_dem + c[C_ALT_KP] * alt_err, -sink_max, clmb_max)
+    if climb_over:
+        x[ALT_DEM] = alt_m
+        hdot_c = clamp(climb_override, -sink_max, clmb_max)
+    dv = airspeed_cmd_mps - v_air
+    db = c[C_SPD_PRIO_DB]
+    eout = eout_on and not thr_over
+    if eout:
+        # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
+        # (should the surface work again) trade height for speed
+        dv = max2(c[C_ARSPD_MIN] - v_air, min2(0.0, c[C_ARSPD_MAX] - v_air))
+    spd_prio = c[C_SPD_PRIO]
+    if c[C_TOUT] > 0.0 and not climb_over:
+        # throttle out: where the stuck throttle holds level flight the height demand
+        # acts, the airspeed bounding it as TECS does; else (or TOUT_ARSPD_MAX 0) the
+        # airspeed on the pitch alone, and where no level flight the height is given
+        # up: the glide at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
+        v_lo = c[C_ARSPD_MIN]
+        if c[C_TOUT_LEVEL] > 0.0 and c[C_TOUT_ARSPD_MAX] > 0.0:
+            # the stuck thrust holds level flight: the height held on the pitch (TECS's
+            # height priority), the airspeed left to float to where that thrust meets
+            # the drag (at full throttle the airframe's top speed, stuck low slower than
+            # the cruise). The airspeed bounds the climb and the descent: the climb at
+            # most SPD_PRIO times the airspeed over ARSPD_FBW_MIN, the descent at most
+            # SPD_PRIO times its margin under TOUT_ARSPD_MAX (a climb the stuck thrust
+            # cannot give is flown just over ARSPD_FBW_MIN, not traded down to the
+            # stall; out of the two the pitch gives height for airspeed)
+            v_hi = max2(c[C_TOUT_ARSPD_MAX], v_lo)
+            hdot_c = clamp(hdot_c, -spd_prio * (v_hi - v_air), spd_prio * (v_air - v_lo))
+            hdot_c = clamp(hdot_c, -sink_max, 2.0 * clmb_max)
+        elif c[C_TOUT_LEVEL] > 0.0:
+            # the airspeed the model says the stuck thrust holds level, if slower
+            # than the demand; the height is what the excess thrust gives, the climb
+            # free up to twice CLMB_MAX (a throttle stuck at full climbs at 3 m/s at
+            # the cruise airspeed; flying faster to climb less was tried: the pitch
+            # loop could not hold the steeper climb a slowing down needs, and the
+            # airspeed went 3 m/s over ARSPD_FBW_MAX)
+            v_t = min2(airspeed_cmd_mps, c[C_TOUT_V_FLY])
+            hdot_c = clamp(-spd_prio * (v_t - v_air), -sink_max, 2.0 * clmb_max)
+        else:
+            v_t = max2(c[C_TOUT_V_GLIDE], v_lo)
+            hdot_c = clamp(-spd_prio * (v_t - v_air), -sink_max, clmb_max)
+    elif abs(dv) > db and not climb_over:
+        hdot_c -= spd_weight * spd_prio * (dv - math.copysign(db, dv))
+        hdot_c = clamp(hdot_c, -sink_max, clmb_max)
+    trim_arspd = c[C_TRIM_ARSPD]
+    q_ratio = (trim_arspd / v_air) ** two
+    scale = clamp(q_ratio, 0.5, 2.0)
+    turn_ff = c[C_TURN_FF] * (1.0 / max2(math.cos(roll), 0.5) - 1.0)
+    gamma_c = math.asin(clamp(hdot_c / v_air, -0.5, 0.5))
+    # trim angle of attack at the *commanded* airspeed: using the measured one would
+    # raise the nose further as the aircraft slows (positive feedback towards stall)
+    alpha_ff = c[C_ALPHA_TRIM] * min2((trim_arspd / max2(airspeed_cmd_mps, 5.0)) ** two, 2.0)
+    kp = ovr[O_CLIMB_KP]
+    if math.isnan(kp):
+        kp = gains[CLIMB, KP]
+    # (rate 0.0: no derivative term)
+    theta_c = pid_update(gains, x, CLIMB, kp, hdot_c, hdot, dt, 0.0, alpha_ff + gamma_c + turn_ff, 1.0)
+    if not math.isnan(ovr[O_PITCH_MAX]):
+        theta_c = min2(theta_c, ovr[O_PITCH_MAX])
+    if not math.isnan(ovr[O_PITCH_MIN]):
+        theta_c = max2(theta_c, ovr[O_PITCH_MIN])
+
+    # airspeed from throttle (with the climb feed-forward)
+    if thr_over:
+        thr = throttle_override          # (the airspeed's integrator held)
+    elif eout:
+        # elevator out: throttle from the height error, plus the airspeed's deviation
+        # below its own slow mean (the speed the stuck elevator trims to)
+        if math.isnan(x[V_MEAN]):
+            x[V_MEAN] = v_air
+        x[V_MEAN] += (v_air - x[V_MEAN]) * min2(dt / c[C_EOUT_SPD_TAU], 1.0)
+        if not math.isnan(c[C_EOUT_TRIM]):
+            x[V_MEAN] = c[C_EOUT_TRIM]
+        thr = pid_update(gains, x, EOUT, gains[EOUT, KP], x[ALT_DEM], alt_m, dt, 0.0,
+                         c[C_THR_TRIM] + c[C_EOUT_SPD_KP] * (x[V_MEAN] - v_air), 1.0)
+        if c[C_EOUT_FULL] > 0.0 and alt_m < x[ALT_DEM]:
+            thr = c[C_THR_MAX]     # no level trim: the least height loss
+    else:
+        thr = pid_update(gains, x, SPEED, gains[SPEED, KP], airspeed_cmd_mps, v_air, dt, 0.0,
+                         c[C_THR_TRIM] + c[C_THR_CLMB_FF] * hdot_c, 1.0)
+
+    # inner loops
+    da = pid_update(gains, x, ROLL, gains[ROLL, KP], phi_c, roll, dt, omega[0], 0.0, scale)
+    rudder_override = ovr[O_RUDDER]
+    if not math.isnan(rudder_override):
+        x[ROLL] = 0.0
+    de_ff = c[C_ELEV_TRIM] * min2(q_ratio, 2.0)
+    de = pid_update(gains, x, PITCH, gains[PITCH, KP], theta_c, pitch, dt, omega[1], de_ff, scale)
+    r_c = G * math.tan(roll) * math.cos(pitch) / v_air
+    dr = clamp(c[C_YAW_KD] * (r_c - omega[2]), -1.0, 1.0)
+    if not math.isnan(rudder_override):
+        dr = rudder_override
+    so = c[C_SO]
+    if so > 0.0:
+        # aileron or rudder out: the other surface at the deflection that holds the
+        # wings level against it (the airframe's model), the roll loop on top of it;
+        # a stuck aileron's roll loop acts through the rudder, scaled by the ratio of
+        # their rolling moments (the Aerosonde's rudder rolls more than it yaws)
+        ff = c[C_SO_COUNTER] / LAT_DEFLECTION_RAD
+        if so == SO_AILERON:
+            dr = clamp(ff + c[C_SO_ROLL_GAIN] * da, -1.0, 1.0)
+        else:
+            da = clamp(da + ff, -1.0, 1.0)
+
+    x[ROLL_CMD], x[PITCH_CMD], x[CLIMB_CMD] = phi_c, theta_c, hdot_c
+    return da, de, dr, thr
+
+
 class FixedWingController:
     """Attitude, altitude and airspeed loops; ``update`` returns the 4 normalised
     controls (aileron, elevator, rudder, throttle)."""
@@ -133,65 +314,95 @@ class FixedWingController:
     def __init__(self, params):
         self.params = params
         self.configure()
+        # (the kernels flown, loaded now: autopilot.jit.preload; _roll_limit is called from
+        # Python once a reaction limits the bank)
+        preload(_loops, self._gains, self._x.copy(), self._c, _NO_OVERRIDES, 0.0, 0.0, np.zeros(3),
+                np.zeros(3), 100.0, 25.0, 0.01, 0.0, 100.0, 25.0, 1.0)
+        preload(_roll_limit, 0.5, math.nan, 0.1)
 
     def configure_gains(self) -> None:
         """Re-read the gains and the parameters the loops read every step, after a
         parameter change (integrators kept)."""
         p = self.params
-        for pid, (kp, ki, kd) in ((self.roll_pid, ("RLL_KP", "RLL_KI", "RLL_KD")),
-                                  (self.pitch_pid, ("PTCH_KP", "PTCH_KI", "PTCH_KD")),
-                                  (self.climb_pid, ("CLMB_KP", "CLMB_KI", None)),
-                                  (self.speed_pid, ("SPD_KP", "SPD_KI", None))):
-            pid.kp, pid.ki = p[kp], p[ki]
-            if kd is not None:
-                pid.kd = p[kd]
-        self.speed_pid.out_max = p["THR_MAX"]
-        self.eout_pid.kp, self.eout_pid.ki, self.eout_pid.out_max = p["EOUT_THR_KP"], p["EOUT_THR_KI"], p["THR_MAX"]
-        self.climb_pid.out_min = math.radians(p["PTCH_LIM_MIN_DEG"])
-        self.climb_pid.out_max = math.radians(p["PTCH_LIM_MAX_DEG"])
-        # the parameters every step reads, read here (a change reaches them as it does
-        # the gains): a parameter's lookup cost as much as the arithmetic it feeds
-        self._sink_max, self._clmb_max = p["SINK_MAX"], p["CLMB_MAX"]
-        self._dem_up, self._dem_down = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
-        self._alt_kp, self._spd_prio, self._spd_prio_db = p["ALT_KP"], p["SPD_PRIO"], p["SPD_PRIO_DB"]
-        self._trim_arspd, self._turn_ff = p["TRIM_ARSPD"], p["PTCH_TURN_FF"]
-        self._alpha_trim_rad = math.radians(p["PTCH_TRIM_DEG"])
-        self._thr_trim, self._thr_clmb_ff = p["THR_TRIM"], p["THR_CLMB_FF"]
-        self._elev_trim, self._yaw_kd = p["ELEV_TRIM"], p["YAW_KD"]
-        self._roll_lim_rad = math.radians(p["ROLL_LIMIT_DEG"])
+        g = self._gains
+        for j, kp, ki, kd in ((ROLL, "RLL_KP", "RLL_KI", "RLL_KD"),
+                              (PITCH, "PTCH_KP", "PTCH_KI", "PTCH_KD"),
+                              (CLIMB, "CLMB_KP", "CLMB_KI", None),
+                              (SPEED, "SPD_KP", "SPD_KI", None),
+                              (EOUT, "EOUT_THR_KP", "EOUT_THR_KI", None)):
+            g[j, KP], g[j, KI] = p[kp], p[ki]
+            g[j, KD] = p[kd] if kd is not None else 0.0
+        # (out_min, out_max, i_max)
+        g[ROLL, OUT_MIN:] = g[PITCH, OUT_MIN:] = (-1.0, 1.0, 0.3)
+        g[PITCH, I_MAX] = 0.4
+        g[CLIMB, OUT_MIN:] = (math.radians(p["PTCH_LIM_MIN_DEG"]), math.radians(p["PTCH_LIM_MAX_DEG"]),
+                              math.radians(5.0))
+        g[SPEED, OUT_MIN:] = (0.0, p["THR_MAX"], 0.4)
+        g[EOUT, OUT_MIN:] = (0.0, p["THR_MAX"], 0.5)
+        c = self._c
+        c[C_SINK_MAX], c[C_CLMB_MAX] = p["SINK_MAX"], p["CLMB_MAX"]
+        c[C_DEM_UP], c[C_DEM_DOWN] = p["DEM_CLMB_FRAC"] * p["CLMB_MAX"], p["DEM_CLMB_FRAC"] * p["SINK_MAX"]
+        c[C_ALT_KP], c[C_SPD_PRIO], c[C_SPD_PRIO_DB] = p["ALT_KP"], p["SPD_PRIO"], p["SPD_PRIO_DB"]
+        c[C_TRIM_ARSPD], c[C_TURN_FF] = p["TRIM_ARSPD"], p["PTCH_TURN_FF"]
+        c[C_ALPHA_TRIM] = math.radians(p["PTCH_TRIM_DEG"])
+        c[C_THR_TRIM], c[C_THR_CLMB_FF] = p["THR_TRIM"], p["THR_CLMB_FF"]
+        c[C_ELEV_TRIM], c[C_YAW_KD] = p["ELEV_TRIM"], p["YAW_KD"]
+        self._roll_lim_rad = c[C_ROLL_LIM] = math.radians(p["ROLL_LIMIT_DEG"])
+        c[C_THR_MAX], c[C_ARSPD_MIN], c[C_ARSPD_MAX] = p["THR_MAX"], p["ARSPD_FBW_MIN"], p["ARSPD_FBW_MAX"]
+        c[C_TOUT_ARSPD_MAX], c[C_EOUT_DEM_RATE] = p["TOUT_ARSPD_MAX"], p["EOUT_DEM_RATE"]
+        c[C_EOUT_SPD_TAU], c[C_EOUT_SPD_KP] = p["EOUT_SPD_TAU"], p["EOUT_SPD_KP"]
+        c[C_SQUARE] = 2.0                      # (the squares' exponent: _loops)
 
     def configure(self) -> None:
-        p = self.params
-        self.roll_pid = Pid(p["RLL_KP"], p["RLL_KI"], p["RLL_KD"], -1.0, 1.0, i_max=0.3)
-        self.pitch_pid = Pid(p["PTCH_KP"], p["PTCH_KI"], p["PTCH_KD"], -1.0, 1.0, i_max=0.4)
-        self.climb_pid = Pid(p["CLMB_KP"], p["CLMB_KI"], 0.0,
-                             math.radians(p["PTCH_LIM_MIN_DEG"]), math.radians(p["PTCH_LIM_MAX_DEG"]),
-                             i_max=math.radians(5.0))
-        self.speed_pid = Pid(p["SPD_KP"], p["SPD_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.4)
-        self.last = (0.0, 0.0, 0.0, 0.0)
-        self.roll_cmd_rad = 0.0
-        self.pitch_cmd_rad = 0.0
-        self.climb_cmd_mps = 0.0
-        self.alt_dem_m: float | None = None
+        self._gains = np.zeros((5, 6))
+        self._x = np.zeros(10)                  # the loops' state (ROLL .. V_MEAN)
+        self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
+        self._c = np.zeros(34)
         self.elevator_out = False
-        self.eout_pid = Pid(p["EOUT_THR_KP"], p["EOUT_THR_KI"], 0.0, 0.0, p["THR_MAX"], i_max=0.5)
-        self._eout_v_mean: float | None = None  # airspeed low-passed while the elevator is out
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
         self.eout_full_throttle = False          # the model has no level trim for it
         self.surface_out: dict | None = None     # a stuck aileron or rudder (monitor's surface_out)
         self.throttle_out: dict | None = None    # a stuck throttle (monitor's throttle_out)
         self.configure_gains()
+        self._load_reactions()
+
+    def commands(self) -> list[float]:
+        """[altitude demand (NaN before the first step), roll, pitch, climb-rate
+        command] of the last step, for the log."""
+        return self._x[ALT_DEM:V_MEAN].tolist()
+
+    def _load_reactions(self) -> None:
+        """The fault reactions in force into the kernel's parameters (NaN or 0: none);
+        ``update`` calls it every step while ``surface_out`` or ``throttle_out`` is set,
+        and once more when neither is (the monitor refines a reaction's dict in place:
+        a stuck surface's position as its reading settles)."""
+        c, nan = self._c, math.nan
+        c[C_EOUT_ON] = 1.0 if self.elevator_out else 0.0
+        c[C_EOUT_TRIM] = nan if self.eout_trim_mps is None else self.eout_trim_mps
+        c[C_EOUT_BANK] = nan if self.eout_bank_max_rad is None else self.eout_bank_max_rad
+        c[C_EOUT_FULL] = 1.0 if self.eout_full_throttle else 0.0
+        so = self.surface_out
+        c[C_SO] = 0.0 if so is None else SO_AILERON if so["surface"] == "aileron" else SO_RUDDER
+        c[C_SO_COUNTER] = nan if so is None else so["counter_rad"]
+        c[C_SO_ROLL_GAIN] = nan if so is None else so.get("roll_gain", nan)
+        tout = self.throttle_out
+        c[C_TOUT] = 0.0 if tout is None else 1.0
+        c[C_TOUT_LEVEL] = 1.0 if tout is not None and tout["level"] else 0.0
+        c[C_TOUT_V_FLY] = nan if tout is None else tout.get("v_fly", nan)
+        c[C_TOUT_V_GLIDE] = nan if tout is None else tout.get("v_glide", nan)
+        self._reacting = so is not None or tout is not None
 
     def set_elevator_out(self, out: bool) -> None:
         """Elevator out (stuck): the height on the throttle (module docstring)."""
         if out and not self.elevator_out:
-            self.eout_pid.reset()
-            self._eout_v_mean = None
+            self._x[EOUT] = 0.0
+            self._x[V_MEAN] = math.nan
         if not out:
             self.eout_trim_mps = self.eout_bank_max_rad = None
             self.eout_full_throttle = False
         self.elevator_out = out
+        self._load_reactions()
 
     def set_elevator_trim(self, trim_mps: float | None, bank_max_rad: float | None = None,
                           full_throttle: bool = False) -> None:
@@ -204,6 +415,7 @@ class FixedWingController:
         self.eout_trim_mps = trim_mps
         self.eout_bank_max_rad = bank_max_rad
         self.eout_full_throttle = full_throttle
+        self._load_reactions()
 
     def roll_limit_rad(self) -> float:
         """The bank limit in force [rad]: ROLL_LIMIT_DEG, or less under a fault's
@@ -212,14 +424,10 @@ class FixedWingController:
         travel left after countering it (monitor.py, _lateral_reaction), not under
         EOUT_BANK_MIN_DEG either. With an aileron or rudder out the mission's turns are
         planned at it (guidance/mission.py, ``bank_limit_rad``)."""
-        roll_lim = self._roll_lim_rad
-        if self.elevator_out and self.eout_bank_max_rad is not None:
-            roll_lim = min(roll_lim, max(self.eout_bank_max_rad, math.radians(EOUT_BANK_MIN_DEG)))
+        eout_bank = self.eout_bank_max_rad if self.elevator_out else None
         so = self.surface_out
-        if so is not None:
-            share = 1.0 - abs(so["counter_rad"]) / LAT_DEFLECTION_RAD
-            roll_lim = min(roll_lim, max(roll_lim * share, math.radians(EOUT_BANK_MIN_DEG)))
-        return roll_lim
+        return _roll_limit(self._roll_lim_rad, math.nan if eout_bank is None else eout_bank,
+                           math.nan if so is None else so["counter_rad"])
 
     def reaction_bank_limit_rad(self) -> float | None:
         """The bank limit an aileron's or rudder's reaction imposes below ROLL_LIMIT_DEG
@@ -250,9 +458,9 @@ class FixedWingController:
         return None
 
     def reset(self) -> None:
-        self.alt_dem_m = None
-        for pid in (self.roll_pid, self.pitch_pid, self.climb_pid, self.speed_pid):
-            pid.reset()
+        x = self._x
+        x[ROLL] = x[PITCH] = x[CLIMB] = x[SPEED] = 0.0
+        x[ALT_DEM] = math.nan
 
     def update(self, nav: NavState, dt: float, bank_cmd_rad: float, alt_cmd_m: float,
                airspeed_cmd_mps: float, pitch_min_rad: float | None = None,
@@ -272,156 +480,15 @@ class FixedWingController:
         ``rudder_override``: on the wheels (a runway's take-off roll), the rudder the
         ground steering asks, and the roll loop's integrator held at zero (the wings
         cannot roll on the gear: it would wind up against it and roll the aircraft at
-        the lift-off)."""
-        # (every min(max(x, lo), hi) of the steps flown in every step is spelt out, as in
-        # control/pid.py: the builtins cost more than the rest of the line)
-        p = self.params
+        the lift-off). The loops are the kernel ``_loops``; the vehicle passes every
+        argument by position (keywords cost the call a name lookup each)."""
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb.tolist())
-        omega = nav.omega_b.tolist()
-        v_air = nav.airspeed_mps
-        v_air = 5.0 if 5.0 > v_air else v_air                        # max(V, 5)
-        roll_lim = self.roll_limit_rad()
-        so = self.surface_out
-        phi_c = -roll_lim if -roll_lim > bank_cmd_rad else bank_cmd_rad
-        phi_c = roll_lim if roll_lim < phi_c else phi_c
-
-        # altitude to climb rate (outer), climb rate to pitch (middle)
-        hdot = -nav.v_ned.item(2)
-        if self.alt_dem_m is None or throttle_override is not None:
-            self.alt_dem_m = nav.alt_m   # (takeoff: the demand starts from where we are)
-        sink_max, clmb_max = self._sink_max, self._clmb_max
-        up, down = self._dem_up, self._dem_down
-        if self.elevator_out:
-            up, down = min(up, p["EOUT_DEM_RATE"]), min(down, p["EOUT_DEM_RATE"])
-        if dt > 0:
-            hdot_dem = (alt_cmd_m - self.alt_dem_m) / dt
-            hdot_dem = -down if -down > hdot_dem else hdot_dem
-            hdot_dem = up if up < hdot_dem else hdot_dem
-        else:
-            hdot_dem = 0.0
-        self.alt_dem_m += hdot_dem * dt
-        if throttle_override is not None:
-            hdot_dem, alt_err = 0.0, alt_cmd_m - nav.alt_m
-        else:
-            alt_err = self.alt_dem_m - nav.alt_m
-        hdot_c = hdot_dem + self._alt_kp * alt_err
-        hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
-        hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
-        if climb_override is not None:
-            self.alt_dem_m = nav.alt_m
-            hdot_c = min(max(climb_override, -p["SINK_MAX"]), p["CLMB_MAX"])
-        dv = airspeed_cmd_mps - v_air
-        db = self._spd_prio_db
-        eout = self.elevator_out and throttle_override is None
-        if eout:
-            # elevator out: the airspeed is the stuck trim's, not a demand; only its limits
-            # (should the surface work again) trade height for speed
-            dv = max(p["ARSPD_FBW_MIN"] - v_air, min(0.0, p["ARSPD_FBW_MAX"] - v_air))
-        tout = self.throttle_out
-        if tout is not None and climb_override is None:
-            # throttle out: where the stuck throttle holds level flight the height demand
-            # acts, the airspeed bounding it as TECS does; else (or TOUT_ARSPD_MAX 0) the
-            # airspeed on the pitch alone, and where no level flight the height is given
-            # up: the glide at the best lift-to-drag airspeed, not under ARSPD_FBW_MIN
-            if tout["level"] and p["TOUT_ARSPD_MAX"] > 0.0:
-                # the stuck thrust holds level flight: the height held on the pitch (TECS's
-                # height priority), the airspeed left to float to where that thrust meets
-                # the drag (at full throttle the airframe's top speed, stuck low slower than
-                # the cruise). The airspeed bounds the climb and the descent: the climb at
-                # most SPD_PRIO times the airspeed over ARSPD_FBW_MIN, the descent at most
-                # SPD_PRIO times its margin under TOUT_ARSPD_MAX (a climb the stuck thrust
-                # cannot give is flown just over ARSPD_FBW_MIN, not traded down to the
-                # stall; out of the two the pitch gives height for airspeed)
-                v_lo = p["ARSPD_FBW_MIN"]
-                v_hi = max(p["TOUT_ARSPD_MAX"], v_lo)
-                hdot_c = min(max(hdot_c, -p["SPD_PRIO"] * (v_hi - v_air)), p["SPD_PRIO"] * (v_air - v_lo))
-                hdot_c = min(max(hdot_c, -p["SINK_MAX"]), 2.0 * p["CLMB_MAX"])
-            elif tout["level"]:
-                # the airspeed the model says the stuck thrust holds level, if slower
-                # than the demand; the height is what the excess thrust gives, the climb
-                # free up to twice CLMB_MAX (a throttle stuck at full climbs at 3 m/s at
-                # the cruise airspeed; flying faster to climb less was tried: the pitch
-                # loop could not hold the steeper climb a slowing down needs, and the
-                # airspeed went 3 m/s over ARSPD_FBW_MAX)
-                v_t = min(airspeed_cmd_mps, tout["v_fly"])
-                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), 2.0 * p["CLMB_MAX"])
-            else:
-                v_t = max(tout["v_glide"], p["ARSPD_FBW_MIN"])
-                hdot_c = min(max(-p["SPD_PRIO"] * (v_t - v_air), -p["SINK_MAX"]), p["CLMB_MAX"])
-        elif abs(dv) > db and climb_override is None:
-            hdot_c -= spd_weight * self._spd_prio * (dv - math.copysign(db, dv))
-            hdot_c = -sink_max if -sink_max > hdot_c else hdot_c
-            hdot_c = clmb_max if clmb_max < hdot_c else hdot_c
-        trim_arspd = self._trim_arspd
-        q_ratio = (trim_arspd / v_air) ** 2
-        scale = 0.5 if 0.5 > q_ratio else q_ratio
-        scale = 2.0 if 2.0 < scale else scale
-        cos_roll = math.cos(roll)
-        turn_ff = self._turn_ff * (1.0 / (0.5 if 0.5 > cos_roll else cos_roll) - 1.0)
-        sin_gamma = hdot_c / v_air
-        sin_gamma = -0.5 if -0.5 > sin_gamma else sin_gamma
-        gamma_c = math.asin(0.5 if 0.5 < sin_gamma else sin_gamma)
-        # trim angle of attack at the *commanded* airspeed: using the measured one would
-        # raise the nose further as the aircraft slows (positive feedback towards stall)
-        v_c = 5.0 if 5.0 > airspeed_cmd_mps else airspeed_cmd_mps
-        alpha_ratio = (trim_arspd / v_c) ** 2
-        alpha_ff = self._alpha_trim_rad * (2.0 if 2.0 < alpha_ratio else alpha_ratio)
-        climb_pid = self.climb_pid
-        kp = climb_pid.kp
-        if climb_kp is not None:
-            climb_pid.kp = climb_kp
-        # (the loops' Pid.update arguments by position: setpoint, measurement, dt, rate,
-        # feed-forward, scale; rate 0.0: no derivative term)
-        theta_c = climb_pid.update(hdot_c, hdot, dt, 0.0, alpha_ff + gamma_c + turn_ff)
-        climb_pid.kp = kp
-        if pitch_max_rad is not None:
-            theta_c = pitch_max_rad if pitch_max_rad < theta_c else theta_c     # min()
-        if pitch_min_rad is not None:
-            theta_c = pitch_min_rad if pitch_min_rad > theta_c else theta_c     # max()
-
-        # airspeed from throttle (with the climb feed-forward)
-        if throttle_override is not None:
-            thr = throttle_override
-            self.speed_pid.reset(self.speed_pid.integ)
-        elif eout:
-            # elevator out: throttle from the height error, plus the airspeed's deviation
-            # below its own slow mean (the speed the stuck elevator trims to)
-            if self._eout_v_mean is None:
-                self._eout_v_mean = v_air
-            self._eout_v_mean += (v_air - self._eout_v_mean) * min(dt / p["EOUT_SPD_TAU"], 1.0)
-            if self.eout_trim_mps is not None:
-                self._eout_v_mean = self.eout_trim_mps
-            thr = self.eout_pid.update(self.alt_dem_m, nav.alt_m, dt, 0.0,
-                                       p["THR_TRIM"] + p["EOUT_SPD_KP"] * (self._eout_v_mean - v_air))
-            if self.eout_full_throttle and nav.alt_m < self.alt_dem_m:
-                thr = p["THR_MAX"]     # no level trim: the least height loss
-        else:
-            thr = self.speed_pid.update(airspeed_cmd_mps, v_air, dt, 0.0,
-                                        self._thr_trim + self._thr_clmb_ff * hdot_c)
-
-        # inner loops
-        da = self.roll_pid.update(phi_c, roll, dt, omega[0], 0.0, scale)
-        if rudder_override is not None:
-            self.roll_pid.integ = 0.0
-        de_ff = self._elev_trim * (2.0 if 2.0 < q_ratio else q_ratio)
-        de = self.pitch_pid.update(theta_c, pitch, dt, omega[1], de_ff, scale)
-        r_c = G * math.tan(roll) * math.cos(pitch) / v_air
-        dr = self._yaw_kd * (r_c - omega[2])
-        dr = -1.0 if -1.0 > dr else dr
-        dr = 1.0 if 1.0 < dr else dr
-        if rudder_override is not None:
-            dr = rudder_override
-        if so is not None:
-            # aileron or rudder out: the other surface at the deflection that holds the
-            # wings level against it (the airframe's model), the roll loop on top of it;
-            # a stuck aileron's roll loop acts through the rudder, scaled by the ratio of
-            # their rolling moments (the Aerosonde's rudder rolls more than it yaws)
-            ff = so["counter_rad"] / LAT_DEFLECTION_RAD
-            if so["surface"] == "aileron":
-                dr = min(max(ff + so["roll_gain"] * da, -1.0), 1.0)
-            else:
-                da = min(max(da + ff, -1.0), 1.0)
-
-        self.roll_cmd_rad, self.pitch_cmd_rad, self.climb_cmd_mps = phi_c, theta_c, hdot_c
-        self.last = (da, de, dr, thr)
-        return self.last
+        if self.surface_out is not None or self.throttle_out is not None or self._reacting:
+            self._load_reactions()
+        ovr = _NO_OVERRIDES
+        if pitch_min_rad is not None or throttle_override is not None or climb_override is not None \
+                or pitch_max_rad is not None or climb_kp is not None or rudder_override is not None:
+            ovr = np.array([math.nan if v is None else v for v in (
+                pitch_min_rad, throttle_override, climb_override, pitch_max_rad, climb_kp, rudder_override)])
+        return _loops(self._gains, self._x, self._c, ovr, roll, pitch, nav.omega_b, nav.v_ned,
+                      nav.alt_m, nav.airspeed_mps, dt, bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight)

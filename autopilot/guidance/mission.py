@@ -215,6 +215,9 @@ class MissionSequencer:
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
+        self._gs = 0.0                 # the ground speed and course of the step (update)
+        self._chi = 0.0
+        self._slope_leg = (None, None, (1.0, 0.0))   # (A, B, unit A->B) of _steepest_slope
         self._airspeed_mps = 0.0
         self._wind_ne = (0.0, 0.0)
         self._alt_m = self.home_alt_m
@@ -785,7 +788,7 @@ class MissionSequencer:
         next arc of an S-turn) ROLL_LEAD_S per bank change of the arc's bank before
         the arc's end, half the roll's transition flown on each side of the tangent
         point, so the vehicle neither runs on past it nor under-turns the next arc."""
-        gs = math.hypot(float(self._v_ned[0]), float(self._v_ned[1]))
+        gs = self._gs
         nxt = self._path[1] if len(self._path) > 1 else None
         if nxt is not None and nxt[0] == "arc" and nxt[3] == direction:
             return 0.0
@@ -942,7 +945,65 @@ class MissionSequencer:
 
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float, wind_ne=None, airspeed_mps: float | None = None) -> NavTarget:
-        tgt = self._update(t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps)
+        """The step's target: the current item's, after any items completed (or skipped)
+        on this step, each in turn, as the mission goes on within one step."""
+        p_ne = (float(p_ned[0]), float(p_ned[1]))
+        self._v_ned = v_ned
+        # the ground speed, and the course (the heading when slower than 5 m/s), once a step
+        vn, ve = float(v_ned[0]), float(v_ned[1])
+        self._gs = gs = math.hypot(vn, ve)
+        self._chi = chi = math.atan2(ve, vn) if gs > 5.0 else heading_rad
+        if airspeed_mps is not None:
+            self._airspeed_mps = airspeed_mps
+        if wind_ne is not None:
+            self._wind_ne = (float(wind_ne[0]), float(wind_ne[1]))
+        if self._prev_alt is None:
+            self._prev_alt = alt_m
+        self._alt_m = alt_m
+        while True:
+            if self.current < len(self.items) and self.items[self.current].command not in NAV_ITEMS \
+                    and not self.finished:
+                self._collect_do_items(t_us)
+            if self.finished or self.current >= len(self.items):
+                self.finished = True
+                self._service_do(t_us, p_ne, None)
+                tgt = self._rtl_loiter(t_us, p_ne, alt_m)
+                break
+            item = self.items[self.current]
+            cmd = item.command
+            self._track_next(item, p_ne)
+            if self._do_pending:
+                # the DO items before this navigation item run first (a condition holds back
+                # those after it): CONDITION_DISTANCE measures to this item's place
+                b = None
+                if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) or cmd in LOITER_COMMANDS:
+                    b = self._resolve(item, p_ne, alt_m)[0]
+                elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+                    b = (0.0, 0.0)
+                self._service_do(t_us, p_ne, b)
+            if cmd == MAV_CMD_NAV_TAKEOFF:
+                tgt = self._takeoff(t_us, item, p_ne, heading_rad, alt_m)
+            elif cmd == MAV_CMD_NAV_WAYPOINT:
+                tgt = self._waypoint(t_us, item, p_ne, chi, alt_m)
+            elif cmd in LOITER_COMMANDS:
+                tgt = self._loiter(t_us, item, p_ne, chi, alt_m)
+            elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
+                tgt = self._rtl(t_us, item, p_ne, chi, alt_m)
+            elif cmd == MAV_CMD_NAV_LAND:
+                tgt = self._land(t_us, item, p_ne, chi, alt_m)
+            elif cmd == MAV_CMD_NAV_DELAY:
+                # ArduPlane does not delay while armed (a plane cannot stop): done at once
+                self.say(t_us, SEV_INFO, f"NAV_DELAY #{item.seq}: no delay in flight")
+                self._advance(t_us)
+                continue
+            else:
+                # anything else was refused when the mission was loaded; skip defensively
+                self.say(t_us, SEV_WARNING, f"Skipping unsupported command #{item.seq} ({cmd})")
+                self._advance(t_us)
+                continue
+            if tgt is not None:
+                break
+            # (None: the item completed: go on with the next)
         if self.terrain is not None and tgt.kind in ("line", "direct", "loiter") \
                 and 0 < tgt.seq < len(self.items) and self.items[tgt.seq].frame in TERRAIN_FRAMES:
             tgt = self._above_terrain(tgt, p_ned, v_ned)
@@ -950,7 +1011,6 @@ class MissionSequencer:
             # not on a landing: from its approach on, the landing's own airspeed
             # (TECS_LAND_ARSPD), as ArduPlane's landing stage sets it; a ground-speed
             # minimum raised it past the overspeed abort (random-plane trials 117, 383)
-            chi = self._course(v_ned, heading_rad)
             v = self.commanded_airspeed_mps(chi)
             if v != tgt.airspeed_mps:
                 tgt = tgt._replace(airspeed_mps=v)
@@ -969,65 +1029,6 @@ class MissionSequencer:
         if h is None or math.isnan(item.z_alt_m):
             return tgt
         return tgt._replace(alt_m=float(h) + item.z_alt_m)
-
-    @staticmethod
-    def _course(v_ned, heading_rad: float) -> float:
-        vn, ve = float(v_ned[0]), float(v_ned[1])
-        return math.atan2(ve, vn) if math.hypot(vn, ve) > 5.0 else heading_rad
-
-    def _update(self, t_us, p_ned, v_ned, heading_rad, alt_m, wind_ne, airspeed_mps=None) -> NavTarget:
-        p_ne = (float(p_ned[0]), float(p_ned[1]))
-        self._v_ned = v_ned
-        if airspeed_mps is not None:
-            self._airspeed_mps = airspeed_mps
-        if wind_ne is not None:
-            self._wind_ne = (float(wind_ne[0]), float(wind_ne[1]))
-        if self._prev_alt is None:
-            self._prev_alt = alt_m
-        self._alt_m = alt_m
-        if self.current < len(self.items) and self.items[self.current].command not in NAV_ITEMS \
-                and not self.finished:
-            self._collect_do_items(t_us)
-        if self.finished or self.current >= len(self.items):
-            self.finished = True
-            self._service_do(t_us, p_ne, None)
-            return self._rtl_loiter(t_us, p_ne, alt_m)
-        item = self.items[self.current]
-        cmd = item.command
-        chi = self._course(v_ned, heading_rad)
-        self._track_next(item, p_ne)
-        if self._do_pending:
-            # the DO items before this navigation item run first (a condition holds back
-            # those after it): CONDITION_DISTANCE measures to this item's place
-            b = None
-            if cmd in (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND) or cmd in LOITER_COMMANDS:
-                b = self._resolve(item, p_ne, alt_m)[0]
-            elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
-                b = (0.0, 0.0)
-            self._service_do(t_us, p_ne, b)
-        if cmd == MAV_CMD_NAV_TAKEOFF:
-            tgt = self._takeoff(t_us, item, p_ne, heading_rad, alt_m)
-        elif cmd == MAV_CMD_NAV_WAYPOINT:
-            tgt = self._waypoint(t_us, item, p_ne, chi, alt_m)
-        elif cmd in LOITER_COMMANDS:
-            tgt = self._loiter(t_us, item, p_ne, chi, alt_m)
-        elif cmd == MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            tgt = self._rtl(t_us, item, p_ne, chi, alt_m)
-        elif cmd == MAV_CMD_NAV_LAND:
-            tgt = self._land(t_us, item, p_ne, chi, alt_m)
-        elif cmd == MAV_CMD_NAV_DELAY:
-            # ArduPlane does not delay while armed (a plane cannot stop): done at once
-            self.say(t_us, SEV_INFO, f"NAV_DELAY #{item.seq}: no delay in flight")
-            self._advance(t_us)
-            return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
-        else:
-            # anything else was refused when the mission was loaded; skip defensively
-            self.say(t_us, SEV_WARNING, f"Skipping unsupported command #{item.seq} ({cmd})")
-            self._advance(t_us)
-            return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
-        if tgt is None:   # the item completed: go on with the next
-            return self._update(t_us, p_ned, v_ned, heading_rad, alt_m, None)
-        return tgt
 
     def _track_next(self, item, p_ne) -> None:
         """The closest approach to the next NAV_WAYPOINT (with a position of its own)
@@ -1243,9 +1244,13 @@ class MissionSequencer:
         p = self.params
         rate = (self.climb_rate_mps or p["DEM_CLMB_FRAC"] * p["CLMB_MAX"]) if dh > 0 \
             else (self.sink_rate_mps or p["DEM_CLMB_FRAC"] * p["SINK_MAX"])
-        ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
-        u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
-        gs = self._groundspeed_along(u)
+        leg = self._slope_leg
+        if leg[0] is not a_ne or leg[1] is not b_ne:
+            # the leg's direction, once a leg (A and B are the same objects all along it)
+            ln = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+            u = ((b_ne[0] - a_ne[0]) / ln, (b_ne[1] - a_ne[1]) / ln) if ln > 1e-3 else (1.0, 0.0)
+            leg = self._slope_leg = (a_ne, b_ne, u)
+        gs = self._groundspeed_along(leg[2])
         return SLOPE_MARGIN * rate / (1.0 if 1.0 > gs else gs)
 
     def _join_alt(self, t_us, seq, p_ne, a_ne, b_ne, alt_b) -> float:
@@ -1256,11 +1261,12 @@ class MissionSequencer:
         if last is not None:
             self._join_run += math.hypot(p_ne[0] - last[0], p_ne[1] - last[1])
         dh = alt_b - self._leg_start_alt
-        if abs(dh) < 1e-3:
+        step = abs(dh)
+        if step < 1e-3:
             return alt_b
         slope = self._steepest_slope(dh, a_ne, b_ne)
         rise = slope * self._join_run
-        rise = rise if rise < abs(dh) else abs(dh)     # min(), spelt out (control/pid.py)
+        rise = rise if rise < step else step     # min(), spelt out (control/pid.py)
         self._join_alt_now = self._leg_start_alt + math.copysign(rise, dh)
         return self._join_alt_now
 
