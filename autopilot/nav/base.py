@@ -148,7 +148,14 @@ S_ACC_HAS, S_QS_HAS = 55, 56  # whether that interval has a step, a sampling err
 S_HI = 57               # history ring: the next row to write
 S_ORG = 58              # origin (7): known (1/0), lat0, lon0, alt0, R_M, R_N, bend (wgs84.py)
 S_BHGT, S_BB0 = 65, 66  # output height from the baro (1/0), the baro datum [m]
-S_SIZE = 67
+# the aux sensors' samples since their last fusion (aux_into): the sums and counts of
+# baro altitudes [m], NED field N, E [gauss], true airspeeds [m/s]; the smoothed NED
+# field (3, the mag H) and whether it is set
+S_BARO, S_N_BARO, S_MAG, S_N_MAG, S_AIR, S_N_AIR = 67, 68, 69, 71, 72, 73
+S_MREF, S_MREF_SET = 74, 77
+S_SIZE = 78
+# which samples aux_into is given (bits)
+_AUX_BARO, _AUX_MAG, _AUX_AIR = 1, 2, 4
 # history rows: t, p, v, c_p, c_v, running f_n dt, running sampling variance (_delayed)
 _H_T, _H_P, _H_V, _H_CP, _H_CV, _H_SF, _H_QS, _H_SIZE = 0, 1, 4, 7, 10, 13, 16, 19
 
@@ -287,6 +294,35 @@ def inject_into(x, s, dx):
         x[X_WIND + k] = x[X_WIND + k] + dx[_IW + k]
 
 
+@kernel
+def aux_into(x, s, which, alt, mx, my, mz, tas):
+    """Add this step's barometer altitude, magnetometer field and true airspeed (those
+    ``which`` names, bits _AUX_*) to the running sums (NavFilterBase._accumulate_aux); the
+    field rotated into NED, and only where its horizontal part is large enough to give a
+    heading, also into the smoothed field. Returns whether the sums hold a sample."""
+    if which & _AUX_BARO:
+        s[S_BARO] += alt
+        s[S_N_BARO] += 1.0
+    if which & _AUX_MAG:
+        mn, me, md = mag_ned(x[X_R:X_R + 9], mx, my, mz)
+        bh2 = mn * mn + me * me
+        if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
+            if s[S_MREF_SET] == 0.0:
+                s[S_MREF], s[S_MREF + 1], s[S_MREF + 2] = mn, me, md
+                s[S_MREF_SET] = 1.0
+            else:
+                s[S_MREF] += (mn - s[S_MREF]) * _MAG_REF_GAIN
+                s[S_MREF + 1] += (me - s[S_MREF + 1]) * _MAG_REF_GAIN
+                s[S_MREF + 2] += (md - s[S_MREF + 2]) * _MAG_REF_GAIN
+            s[S_MAG] += mn
+            s[S_MAG + 1] += me
+            s[S_N_MAG] += 1.0
+    if which & _AUX_AIR:
+        s[S_AIR] += tas
+        s[S_N_AIR] += 1.0
+    return s[S_N_BARO] + s[S_N_MAG] + s[S_N_AIR] > 0.0
+
+
 class Batch:
     """The measurements of one step: per source a name and its rows; stacked ``z``
     (observation, angles unwrapped to within pi of the prediction), ``h0 = h(x)``,
@@ -310,21 +346,6 @@ class Batch:
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
-
-
-class _AuxSums:
-    """Running sums of the aux sensors' samples between two fusions."""
-
-    __slots__ = ("t_us", "baro", "n_baro", "mag", "n_mag", "air", "n_air")
-
-    def __init__(self):
-        self.clear(-(1 << 62))
-
-    def clear(self, t_us: int) -> None:
-        self.t_us = t_us              # time of the last fusion [us]
-        self.baro, self.n_baro = 0.0, 0            # altitude [m]
-        self.mag, self.n_mag = [0.0, 0.0], 0       # field N, E in NED [gauss]
-        self.air, self.n_air = 0.0, 0              # true airspeed [m/s]
 
 
 class NavFilterBase:
@@ -430,8 +451,8 @@ class NavFilterBase:
         self._al_t0: int | None = None
         self._f_lp: np.ndarray | None = None  # low-passed specific force for in-flight alignment
         self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
-        self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
-        self._aux = _AuxSums()                # aux samples since their last fusion
+        self._aux_due_us = self._aux_period_us - _AUX_PERIOD_TOL_US
+        self._clear_aux(-(1 << 62))
         # P's version: every change of P counts it up (the filters' _set_P, predictions
         # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
         self._P_ver = 0
@@ -750,33 +771,30 @@ class NavFilterBase:
     # ----------------------------------------------------------- measurement models --
     def _accumulate_aux(self, frame: SensorFrame) -> bool:
         """Add this step's barometer, magnetometer and airspeed samples to the running
-        sums; True when they are due for fusion (module docstring: aux sensors)."""
-        acc = self._aux
-        if frame.baro is not None:
-            acc.baro += frame.baro.alt_m
-            acc.n_baro += 1
-            self._air = (frame.baro.pressure_pa, frame.baro.temperature_k)
-        if frame.mag is not None and self._tilt_aligned():
-            mn, me, md = mag_ned(self.nom.R, frame.mag.m_b)
-            bh2 = mn * mn + me * me
-            if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
-                ref = self._m_ref
-                if ref is None:
-                    self._m_ref = [mn, me, md]
-                else:
-                    ref[0] += (mn - ref[0]) * _MAG_REF_GAIN
-                    ref[1] += (me - ref[1]) * _MAG_REF_GAIN
-                    ref[2] += (md - ref[2]) * _MAG_REF_GAIN
-                m = acc.mag
-                m[0] += mn
-                m[1] += me
-                acc.n_mag += 1
-        if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
-                and frame.airspeed.airspeed_mps >= self.params["EK_ARSP_MIN"]):
-            acc.air += self._true_airspeed(frame.airspeed)
-            acc.n_air += 1
-        return (acc.n_baro + acc.n_mag + acc.n_air > 0
-                and frame.t_us - acc.t_us >= self._aux_period_us - _AUX_PERIOD_TOL_US)
+        sums (:func:`aux_into`); True when they are due for fusion (module docstring:
+        aux sensors). The magnetometer once roll and pitch are known, the airspeed on
+        the fixed-wing above EK_ARSP_MIN once the GPS fixes the position."""
+        which, alt, mx, my, mz, tas = 0, 0.0, 0.0, 0.0, 0.0, 0.0
+        baro, mag, air = frame.baro, frame.mag, frame.airspeed
+        if baro is not None:
+            which, alt = _AUX_BARO, baro.alt_m
+            self._air = (baro.pressure_pa, baro.temperature_k)
+        if mag is not None and self._tilt_aligned():
+            which |= _AUX_MAG
+            mx, my, mz = mag.m_b
+        if (self.is_plane and air is not None and self._pos_src == "gps"
+                and air.airspeed_mps >= self.params["EK_ARSP_MIN"]):
+            which |= _AUX_AIR
+            tas = self._true_airspeed(air)
+        if which:
+            self._aux_any = aux_into(self.nom.x, self._s, which, alt, mx, my, mz, tas)
+        return self._aux_any and frame.t_us - self._aux_t >= self._aux_due_us
+
+    def _clear_aux(self, t: int) -> None:
+        """The aux sums start afresh at t (their fusion)."""
+        self._s[S_BARO:S_N_AIR + 1] = 0.0
+        self._aux_t = t              # time of the last fusion [us]
+        self._aux_any = False        # whether the sums hold a sample
 
     def _assemble(self, frame: SensorFrame, gps, aux_due: bool = True) -> Batch | None:
         """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H
@@ -828,24 +846,23 @@ class NavFilterBase:
             add("fake_pos", self._fake_hold, nom.p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
 
         if aux_due:
-            acc = self._aux
-            if acc.n_baro and self._baro_ok:
+            baro, n_baro, mn, me, n_mag, air, n_air = self._s[S_BARO:S_N_AIR + 1].tolist()
+            if n_baro and self._baro_ok:
                 # baro: h = alt0 - p_D + b_baro  (mean of the samples since the last fusion)
-                add("baro", (acc.baro / acc.n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
-                    (prm["EK_BARO_NSE"] ** 2 / acc.n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
-            if acc.n_mag:
+                add("baro", (baro / n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
+                    (prm["EK_BARO_NSE"] ** 2 / n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
+            if n_mag:
                 # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q), m = the mean of the
                 #      samples rotated into NED,  H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
                 #      about the smoothed field, not this sample (module docstring)
-                mn, me = acc.mag[0], acc.mag[1]
-                rn, re, rd = self._m_ref
+                rn, re, rd = self._s[S_MREF:S_MREF + 3].tolist()
                 rh2 = rn * rn + re * re
                 Rm = nom.R
                 yaw0 = math.atan2(Rm[3], Rm[0])
                 add("mag", (yaw0 + wrap_pi(self.declination_rad - math.atan2(me, mn)),), (yaw0,),
-                    (prm["EK_MAG_NSE"] ** 2 / acc.n_mag,), prm["EK_MAG_GATE"],
+                    (prm["EK_MAG_NSE"] ** 2 / n_mag,), prm["EK_MAG_GATE"],
                     (-rd * rn / rh2, -rd * re / rh2, 1.0))
-            if acc.n_air:
+            if n_air:
                 w = nom.wind
                 v = nom.v
                 ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
@@ -854,7 +871,7 @@ class NavFilterBase:
                     # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|);
                     #   R not divided by the samples: turbulence, not the sensor, is its error
                     ux, uy, uz = ax / tas, ay / tas, az / tas
-                    add("airspeed", (acc.air / acc.n_air,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
+                    add("airspeed", (air / n_air,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
                         prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
                     # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
                     #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
@@ -863,7 +880,7 @@ class NavFilterBase:
                     add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
                         prm["EK_BETA_GATE"],
                         (cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax, cx, cy, cz, -cx, -cy))
-            acc.clear(frame.t_us)
+            self._clear_aux(frame.t_us)
 
         if not z:
             return None

@@ -185,13 +185,12 @@ def rotate_global(q, ax, ay, az):
     return q1, quat_dcm(q1[0], q1[1], q1[2], q1[3])
 
 
-def mag_ned(R: tuple, m_b: tuple) -> tuple[float, float, float]:
-    """The measured field m_b (3 floats) rotated into NED by the attitude R (row-major
-    9-tuple)."""
-    mx, my, mz = m_b
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
-    return (r00 * mx + r01 * my + r02 * mz, r10 * mx + r11 * my + r12 * mz,
-            r20 * mx + r21 * my + r22 * mz)
+@kernel
+def mag_ned(R, mx, my, mz):
+    """The measured field (mx, my, mz) rotated into NED by the attitude R (9 floats,
+    row-major)."""
+    return (R[0] * mx + R[1] * my + R[2] * mz, R[3] * mx + R[4] * my + R[5] * mz,
+            R[6] * mx + R[7] * my + R[8] * mz)
 
 
 def level_from_accel(f_b: np.ndarray) -> tuple[float, float]:

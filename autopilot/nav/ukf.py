@@ -43,7 +43,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from autopilot.jit import kernel
 
-from .base import S_W0, Batch, NavFilterBase
+from .base import S_MREF, S_W0, Batch, NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 from .strapdown import GRAVITY_GRADIENT
 
@@ -413,7 +413,7 @@ class InsGpsUkf(NavFilterBase):
                 # about the smoothed field, as the EKF's H (noise in the spread of the
                 # sigma points would correlate with the noise of the innovation)
                 col = np.empty(len(sig))
-                sigma_heading(sig, float(batch.h0[r]), np.array(self._m_ref), col)
+                sigma_heading(sig, float(batch.h0[r]), self._s[S_MREF:S_MREF + 3].copy(), col)
                 Zs[:, r] = col
             elif name == "airspeed":
                 col = np.empty(len(sig))
