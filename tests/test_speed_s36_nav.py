@@ -1,6 +1,7 @@
 """The navigation filters' step kernels on their arrays held in place (autopilot/nav/base.py:
 ``inject_into``, ``push_history`` / ``delayed``, ``output_into``, ``aux_into``) against
-the Python they replaced, written out once more here, bit for bit."""
+the Python they replaced, written out once more here, bit for bit; the delayed-state
+lookup (``_delayed``) on the history ring those kernels write."""
 from __future__ import annotations
 
 import math
@@ -8,11 +9,12 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame, euler_to_quat, wrap_pi
-from autopilot.nav.base import (_AUX_AIR, _AUX_BARO, _AUX_MAG, _BA_MAX, _H_SIZE, _H_T, _HIST,
+from autopilot.nav.base import (_AUX_AIR, _AUX_BARO, _AUX_MAG, _BA_MAX, _HIST,
                                 _MAG_REF_GAIN, S_AIR, S_BARO, S_BB0, S_BHGT, S_CP, S_CV, S_HI,
                                 S_MAG, S_MREF, S_MREF_SET, S_N_AIR, S_N_BARO, S_N_MAG, S_ORG,
-                                S_QS, S_SF, S_SIZE, S_W0, aux_into, delayed, inject_into,
-                                output_into, push_history)
+                                S_QS, S_SF, S_SIZE, S_W0, aux_into, inject_into, output_into,
+                                push_history)
+from autopilot.nav.ekf import InsGpsEkf
 from autopilot.nav.strapdown import Nominal, rotate_global
 
 
@@ -53,10 +55,8 @@ def test_inject_into_is_the_injection_written_out():
 
 def test_delayed_is_the_nearest_history_row_with_the_later_corrections():
     rng = np.random.default_rng(2)
-    nom = _nominal(rng)
-    s = np.zeros(S_SIZE)
-    hist = np.zeros((_HIST, _H_SIZE))
-    hist[:, _H_T] = -math.inf
+    f = InsGpsEkf()
+    nom, s, hist = f.nom, f._s, f._hist
     rows = []
     t = 1_000_000
     for k in range(_HIST + 40):                         # (the ring wraps)
@@ -77,7 +77,8 @@ def test_delayed_is_the_nearest_history_row_with_the_later_corrections():
         _, p, v, cp0, cv0, sf0, qs0 = best
         want = ([(p[i] - cp0[i]) + cp[i] for i in range(3)] + [(v[i] - cv0[i]) + cv[i] for i in range(3)]
                 + [sf[i] - sf0[i] for i in range(3)] + [qs[i] - qs0[i] for i in range(3)])
-        assert list(delayed(hist, s, t_valid)) == want, t_valid
+        p, v, dv, qs_since = f._delayed(t_valid)
+        assert list(p + v + dv + qs_since) == want, t_valid
 
 
 def test_output_into_is_the_output_written_out():
