@@ -43,7 +43,7 @@ from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
 from .records import InnovationRecord
 from .strapdown import (X_BA, X_BB, X_BG, X_FN, X_GB, X_P, X_Q, X_R, X_V, X_WIND, Nominal,
                         earth_rate_ned, heading_from_mag, level_from_accel, mag_ned,
-                        mechanise_into, rotate_global)
+                        mechanise, rotate_global)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -177,6 +177,26 @@ def push_history(x, s, hist, t):
 
 
 @kernel
+def delayed(hist, s, t_valid):
+    """(p, v, dv_f, q_s), 12 floats, of the history row nearest to t_valid with the later
+    corrections added (NavFilterBase._delayed)."""
+    i = (int(s[S_HI]) - 1) % _HIST
+    for _ in range(_HIST - 1):
+        j = (i - 1) % _HIST
+        # (an empty row's t is -inf: never nearer)
+        if abs(hist[j, _H_T] - t_valid) > abs(hist[i, _H_T] - t_valid):
+            break
+        i = j
+    h = hist[i]
+    return ((h[_H_P] - h[_H_CP]) + s[S_CP], (h[_H_P + 1] - h[_H_CP + 1]) + s[S_CP + 1],
+            (h[_H_P + 2] - h[_H_CP + 2]) + s[S_CP + 2],
+            (h[_H_V] - h[_H_CV]) + s[S_CV], (h[_H_V + 1] - h[_H_CV + 1]) + s[S_CV + 1],
+            (h[_H_V + 2] - h[_H_CV + 2]) + s[S_CV + 2],
+            s[S_SF] - h[_H_SF], s[S_SF + 1] - h[_H_SF + 1], s[S_SF + 2] - h[_H_SF + 2],
+            s[S_QS] - h[_H_QS], s[S_QS + 1] - h[_H_QS + 1], s[S_QS + 2] - h[_H_QS + 2])
+
+
+@kernel
 def output_into(x, s, a):
     """The output of the nominal state (NavFilterBase._output): ``a`` (13) = p, v, q,
     omega_b = gyro - b_g; returns (lat, lon, alt). Under the baro height reference
@@ -223,8 +243,13 @@ def imu_step(x, s, hist, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
         s[S_QS + 1] = s[S_QS + 1] + e1
         s[S_QS + 2] = s[S_QS + 2] + e2
         s[S_QS_HAS] = 1.0
-    mechanise_into(x, f1x, f1y, f1z, 0.5 * (w0x + w1x), 0.5 * (w0y + w1y), 0.5 * (w0z + w1z),
-                   dt, s[S_G], s[S_WIE], s[S_WIE + 1], s[S_WIE + 2])
+    o = mechanise(x[X_P], x[X_P + 1], x[X_P + 2], x[X_V], x[X_V + 1], x[X_V + 2],
+                  x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3],
+                  x[X_BG], x[X_BG + 1], x[X_BG + 2], x[X_BA], x[X_BA + 1], x[X_BA + 2],
+                  f1x, f1y, f1z, 0.5 * (w0x + w1x), 0.5 * (w0y + w1y), 0.5 * (w0z + w1z),
+                  dt, s[S_G], s[S_WIE], s[S_WIE + 1], s[S_WIE + 2])
+    for k in range(25):                    # (the layout puts mechanise's outputs in its order)
+        x[X_P + k] = o[k]
     summing = s[S_ACC_HAS] != 0.0
     for k in range(3):                     # f_n dt
         v = x[X_FN + k] * dt
@@ -745,22 +770,9 @@ class NavFilterBase:
     def _delayed(self, t_valid: int) -> tuple:
         """(p, v, dv_f, q_s) of the nominal state nearest to t_valid, with later
         corrections; dv_f = integral of f_n dt from then to now, q_s = the velocity
-        sampling variances (N, E, D) added since."""
-        ts = self._hist[:, _H_T].tolist()
-        i = (int(self._s[S_HI]) - 1) % _HIST
-        for _ in range(_HIST - 1):
-            j = (i - 1) % _HIST
-            if abs(ts[j] - t_valid) > abs(ts[i] - t_valid):   # (an empty row's t: -inf)
-                break
-            i = j
-        (_, p0, p1, p2, v0, v1, v2, cp0, cp1, cp2, cv0, cv1, cv2,
-         f0, f1, f2, q0, q1, q2) = self._hist[i].tolist()
-        s = self._s
-        cp, cv, sf, qs = (s[S_CP:S_CP + 3].tolist(), s[S_CV:S_CV + 3].tolist(),
-                          s[S_SF:S_SF + 3].tolist(), s[S_QS:S_QS + 3].tolist())
-        return (((p0 - cp0) + cp[0], (p1 - cp1) + cp[1], (p2 - cp2) + cp[2]),
-                ((v0 - cv0) + cv[0], (v1 - cv1) + cv[1], (v2 - cv2) + cv[2]),
-                (sf[0] - f0, sf[1] - f1, sf[2] - f2), (qs[0] - q0, qs[1] - q1, qs[2] - q2))
+        sampling variances (N, E, D) added since (:func:`delayed`)."""
+        o = delayed(self._hist, self._s, t_valid)
+        return o[0:3], o[3:6], o[6:9], o[9:12]
 
     # ----------------------------------------------------------- measurement models --
     def _accumulate_aux(self, frame: SensorFrame) -> bool:

@@ -59,7 +59,8 @@ def dcm9(q) -> tuple:
 
 
 # The nominal state's layout in Nominal.x: p, v, q and then mechanise's other outputs
-# in its order (R(q) row-major, f_n, omega), so that its 25 floats land at X_P: +25.
+# in its order (R(q) row-major, f_n, omega), so that its 25 floats land at X_P: +25
+# (base.imu_step writes them there).
 X_P, X_V, X_Q, X_R, X_FN, X_W = 0, 3, 6, 10, 19, 22
 X_BG, X_BA, X_BB, X_GB, X_WIND = 25, 28, 31, 32, 35
 X_SIZE = 37
@@ -158,18 +159,6 @@ def mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, b
     return (px + (vx + ux) * h, py + (vy + uy) * h, pz + (vz + uz) * h, ux, uy, uz,
             sw, sx, sy, sz, R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8],
             fnx, fny, fnz, wx, wy, wz)
-
-
-@kernel
-def mechanise_into(x, fmx, fmy, fmz, omx, omy, omz, dt, g, ex, ey, ez):
-    """One step of the mechanisation of the nominal state ``x`` (Nominal.x), in place:
-    :func:`mechanise`'s 25 floats written at X_P (the layout puts them in its order)."""
-    o = mechanise(x[X_P], x[X_P + 1], x[X_P + 2], x[X_V], x[X_V + 1], x[X_V + 2],
-                  x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3],
-                  x[X_BG], x[X_BG + 1], x[X_BG + 2], x[X_BA], x[X_BA + 1], x[X_BA + 2],
-                  fmx, fmy, fmz, omx, omy, omz, dt, g, ex, ey, ez)
-    for k in range(25):
-        x[X_P + k] = o[k]
 
 
 @kernel
