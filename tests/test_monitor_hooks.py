@@ -80,7 +80,7 @@ def test_q_hook_fades_the_process_noise():
     f.q_scale_hook = lambda dt: lam
     P0 = np.eye(21) * 1e-6
     f._P = P0.copy()
-    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], 10_000)
     # P = F P F^T + Lambda Q: with the hook, the gyro-bias diagonal grows by 50 q
     assert f._P[13, 13] == pytest.approx(1e-6 + 50.0 * q[13], rel=1e-12)
     assert f._P[15, 15] == pytest.approx(1e-6 + q[15], rel=1e-12)

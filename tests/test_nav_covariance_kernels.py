@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from autopilot.geo import euler_to_quat
-from autopilot.nav.base import imu_step, sampling_error_into
+from autopilot.nav.base import (_H_SIZE, _HIST, S_ACC, S_F0, S_G, S_GM, S_HI, S_QS, S_QS_HAS,
+                                S_SF, S_SIZE, S_THR, S_W0, S_WIE, imu_step, sampling_error_into)
 from autopilot.nav.ekf import InsGpsEkf, joseph_update_into, predict_covariance_into
-from autopilot.nav.strapdown import dcm9, mechanise
+from autopilot.nav.strapdown import X_BA, X_BG, Nominal, dcm9, mechanise
 from autopilot.nav.layout import ABIAS, ATT, GBIAS, GPSB, POS, VEL
 
 
@@ -91,11 +92,11 @@ def test_the_filter_uses_two_covariance_arrays_in_turn():
     f.aligned = True
     P0 = f.P
     P0_values = P0.copy()
-    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], 10_000)
     P1 = f.P
     # THEN a prediction writes a new array, leaving the one handed out before as it was
     assert P1 is not P0 and np.array_equal(P0, P0_values)
-    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    f._predict(0.01, [0.0, 0.0, -9.8], [0.0, 0.0, 0.0], 10_000)
     # AND the next one reuses the older array (the filter's own memory: copy P to keep it)
     assert f.P is P0 and f.P is not P1
     assert np.all(np.diag(f.P) > np.diag(P1))
@@ -136,29 +137,52 @@ def test_sampling_error_into_writes_or_adds_e_et_and_c_ct_above_the_thresholds()
 
 def test_imu_step_is_the_mechanisation_the_sampling_error_and_the_interval_sums():
     rng = np.random.default_rng(8)
-    q = list(euler_to_quat(0.2, 0.1, -1.0))
-    p, v = rng.standard_normal(3).tolist(), (rng.standard_normal(3) * 20.0).tolist()
-    bg, ba = (rng.standard_normal(3) * 1e-3).tolist(), (rng.standard_normal(3) * 0.05).tolist()
+    nom = Nominal()
+    nom.set_attitude(euler_to_quat(0.2, 0.1, -1.0))
+    nom.p, nom.v = rng.standard_normal(3).tolist(), (rng.standard_normal(3) * 20.0).tolist()
+    nom.bg, nom.ba = (rng.standard_normal(3) * 1e-3).tolist(), (rng.standard_normal(3) * 0.05).tolist()
+    nom.gb = [0.5, -0.3, 1.0]
     f0, f1 = [0.5, 0.1, -9.0], [3.0, -1.0, -12.0]
     w0, w1 = [0.1, -0.2, 0.05], [0.3, 0.1, -0.2]
-    dt, g, w_ie = 0.01, 9.79, (5e-5, 0.0, -4e-5)
-    thr = (1e-3, 1e-3)
-    acc = np.full(30, np.nan)
-    o, s = imu_step(*p, *v, *q, *bg, *ba, *f0, *f1, *w0, *w1, dt, g, *w_ie, *thr, acc, False, False)
+    dt, g, w_ie, thr, a_gm = 0.01, 9.79, (5e-5, 0.0, -4e-5), (1e-3, 1e-3), 0.999
+    s = np.zeros(S_SIZE)
+    s[S_F0:S_F0 + 3], s[S_W0:S_W0 + 3] = f0, w0
+    s[S_G], s[S_WIE:S_WIE + 3], s[S_THR:S_THR + 2], s[S_GM] = g, w_ie, thr, a_gm
+    s[S_SF:S_SF + 3], s[S_QS:S_QS + 3] = (1.0, 2.0, 3.0), (0.1, 0.2, 0.3)
+    s[S_ACC:S_ACC + 30] = np.nan
+    hist = np.zeros((_HIST, _H_SIZE))
+    x0, s0 = nom.x.copy(), s.copy()
+    out = np.empty(13)
+    # WHEN one step is taken
+    geo = imu_step(nom.x, s, hist, out, *f1, *w1, dt, 7)
     # THEN the mechanisation with f1 and the trapezoid of the rates, bit for bit
     wm = [0.5 * (w0[i] + w1[i]) for i in range(3)]
-    assert o == mechanise(*p, *v, *q, *bg, *ba, *f1, *wm, dt, g, *w_ie)
-    # AND the sampling error at the attitude before the step, bit for bit
+    o = mechanise(*x0[0:10], *x0[X_BG:X_BG + 3], *x0[X_BA:X_BA + 3], *f1, *wm, dt, g, *w_ie)
+    assert nom.x[0:25].tolist() == list(o)
+    # AND the sampling error at the attitude before the step, bit for bit, into the
+    # interval (not added: none there yet) and its velocity part into the running sum
     qs = np.empty(18)
-    assert s == sampling_error_into(dt, *f0, *f1, *w0, *w1, dcm9(q), *thr, qs, False)
-    assert np.array_equal(acc[12:], qs)
-    # AND f_n dt and R(q') dt
-    assert acc[0:3].tolist() == [x * dt for x in o[19:22]]
-    assert acc[3:12].tolist() == [x * dt for x in o[10:19]]
+    smp = sampling_error_into(dt, *f0, *f1, *w0, *w1, dcm9(x0[6:10]), *thr, qs, False)
+    assert smp[0] and np.array_equal(s[S_ACC + 12:S_ACC + 30], qs) and s[S_QS_HAS] == 1.0
+    assert s[S_QS:S_QS + 3].tolist() == [s0[S_QS + k] + smp[1 + k] for k in range(3)]
+    # AND f_n dt and R(q') dt started afresh, the running f_n dt, the GPS error's decay
+    assert s[S_ACC:S_ACC + 3].tolist() == [c * dt for c in o[19:22]]
+    assert s[S_ACC + 3:S_ACC + 12].tolist() == [c * dt for c in o[10:19]]
+    assert s[S_SF:S_SF + 3].tolist() == [s0[S_SF + k] + o[19 + k] * dt for k in range(3)]
+    assert nom.gb == [c * a_gm for c in (0.5, -0.3, 1.0)]
+    # AND this step's samples kept for the next, the history row, the output
+    assert s[S_F0:S_F0 + 6].tolist() == f1 + w1
+    assert hist[0, 0] == 7 and hist[0, 1:7].tolist() == list(o[0:6]) and s[S_HI] == 1
+    assert out.tolist() == list(o[0:10]) + [w1[k] - nom.bg[k] for k in range(3)]
+    assert geo == (0.0, 0.0, -o[2])                      # (no origin)
     # AND the next step adds to the sums
-    before = acc.copy()
-    o2, s2 = imu_step(*o[0:10], *bg, *ba, *f1, *f0, *w1, *w0, dt, g, *w_ie, *thr, acc, True, True)
-    assert acc[0:3].tolist() == [before[k] + o2[19 + k] * dt for k in range(3)]
-    assert acc[3:12].tolist() == [before[3 + k] + o2[10 + k] * dt for k in range(9)]
-    sampling_error_into(dt, *f1, *f0, *w1, *w0, dcm9(o[6:10]), *thr, qs, False)
-    assert acc[12:].tolist() == (before[12:] + qs).tolist()
+    before = s.copy()
+    x1 = nom.x.copy()
+    imu_step(nom.x, s, hist, out, *f0, *w0, dt, 8)
+    o2 = mechanise(*x1[0:10], *x1[X_BG:X_BG + 3], *x1[X_BA:X_BA + 3], *f0, *wm, dt, g, *w_ie)
+    assert nom.x[0:25].tolist() == list(o2)
+    a = S_ACC
+    assert s[a:a + 3].tolist() == [before[a + k] + o2[19 + k] * dt for k in range(3)]
+    assert s[a + 3:a + 12].tolist() == [before[a + 3 + k] + o2[10 + k] * dt for k in range(9)]
+    sampling_error_into(dt, *f1, *f0, *w1, *w0, dcm9(x1[6:10]), *thr, qs, False)
+    assert s[a + 12:a + 30].tolist() == (before[a + 12:a + 30] + qs).tolist()

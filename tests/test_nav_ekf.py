@@ -20,6 +20,7 @@ from autopilot.geo import LocalFrame, euler_to_quat, quat_to_euler
 from autopilot.messages import (AirspeedSample, BaroSample, GpsFix, ImuSample, MagSample, NavState,
                                 SensorFrame)
 from autopilot.nav import InsGpsEkf, InsGpsUkf, NAV_PARAMS
+from autopilot.nav.base import S_BB0
 from autopilot.nav.layout import N_BASE, N_WIND, STATE_NAMES
 from autopilot.nav.records import SOURCES, InnovationRecord
 from autopilot.nav.simulate import (DEFAULT_SEGMENTS, SimConfig, accuracy, golden_numbers,
@@ -322,7 +323,7 @@ def test_barometric_height_reference_keeps_the_height_off_the_gps_wander():
                 # the filter's own position is the same in both; only the output differs
                 if ref == 0:
                     assert s.p_ned[2] == pytest.approx(
-                        filt.position_ned[2] - (filt.baro_bias - filt._bb0), abs=1e-9)
+                        filt.position_ned[2] - (filt.baro_bias - filt._s[S_BB0]), abs=1e-9)
         spread[ref] = float(np.std(ez))
     # THEN the output height on the barometer's datum moves by centimetres, under half
     #      of what it moves when it follows the GPS's height, whose Gauss-Markov wander is

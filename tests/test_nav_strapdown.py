@@ -9,8 +9,8 @@ import numpy as np
 from autopilot.geo import quat_to_dcm
 from autopilot.geo.rotations import quat_dcm as dcm
 from autopilot.nav import qbatch
-from autopilot.nav.strapdown import (GRAVITY_GRADIENT, Nominal, earth_rate_ned,
-                                     inject_attitude, mechanise, rotate_global, set_mechanised)
+from autopilot.nav.strapdown import (GRAVITY_GRADIENT, X_P, X_SIZE, Nominal, earth_rate_ned,
+                                     mechanise, rotate_global)
 
 
 def _mechanise_numpy(p, v, q, bg, ba, f_m, omega_m, dt, g, w_ie):
@@ -52,21 +52,26 @@ def test_mechanise_matches_the_equations():
         assert np.allclose(o[22:25], omega, rtol=0.0, atol=1e-15)
 
 
-def test_set_mechanised_writes_the_kernel_result_into_the_nominal_state():
+def test_the_nominal_state_reads_the_kernel_result_written_into_its_array():
     rng = np.random.default_rng(5)
     p, v, q, bg, ba, f_m, omega_m = _random_state(rng)
     nom = Nominal()
     nom.p, nom.v, nom.bg, nom.ba = p.tolist(), v.tolist(), bg.tolist(), ba.tolist()
+    nom.bb, nom.gb, nom.wind = 3.0, [0.5, -0.3, 1.0], [3.0, -2.0]
     nom.set_attitude(q)
     w_ie = earth_rate_ned(0.6)
-    set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m.tolist(),
-                                  *omega_m.tolist(), 0.01, 9.8, *w_ie))
+    before = nom.x.copy()
+    o = mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f_m.tolist(), *omega_m.tolist(),
+                  0.01, 9.8, *w_ie)
+    nom.x[X_P:X_P + 25] = o                 # (as base.imu_step writes it)
+    assert nom.x[X_P + 25:X_SIZE].tolist() == before[X_P + 25:].tolist()
     p1, v1, q1, f_n, omega = _mechanise_numpy(p, v, q, bg, ba, f_m, omega_m, 0.01, 9.8, np.array(w_ie))
     assert all(isinstance(x, list) for x in (nom.p, nom.v, nom.q, nom.f_n, nom.omega_b))
     assert np.allclose(nom.p, p1, atol=1e-9) and np.allclose(nom.v, v1, atol=1e-11)
     assert np.allclose(nom.q, q1, atol=1e-14) and np.allclose(nom.f_n, f_n, atol=1e-12)
     assert np.allclose(nom.omega_b, omega, atol=1e-15)
     assert nom.R == dcm(*nom.q)
+    assert (nom.bb, nom.gb, nom.wind) == (3.0, [0.5, -0.3, 1.0], [3.0, -2.0])
 
 
 def test_dcm_and_the_global_rotation_match_the_quaternion_algebra():
@@ -80,7 +85,6 @@ def test_dcm_and_the_global_rotation_match_the_quaternion_algebra():
         ref = qbatch.normalize(qbatch.mul(qbatch.from_rotvec(d), q))
         assert np.allclose(q1, ref, rtol=0.0, atol=1e-15)
         assert R1 == dcm(*q1)
-    nom = Nominal()
-    inject_attitude(nom, 0.0, 0.0, math.pi / 2)             # a quarter turn about down
-    assert np.allclose(nom.q, (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)), atol=1e-15)
-    assert np.allclose(np.array(nom.R).reshape(3, 3), ((0, -1, 0), (1, 0, 0), (0, 0, 1)), atol=1e-15)
+    q1, R1 = rotate_global(tuple(Nominal().q), 0.0, 0.0, math.pi / 2)   # a quarter turn about down
+    assert np.allclose(q1, (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)), atol=1e-15)
+    assert np.allclose(np.array(R1).reshape(3, 3), ((0, -1, 0), (1, 0, 0), (0, 0, 1)), atol=1e-15)

@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from .rotations import wrap_pi
+from ..jit import kernel
+from .rotations import PI, TWO_PI, wrap_pi
 
 A_M = 6378137.0                      # semi-major axis [m]
 B_M = 6356752.314245                 # semi-minor axis [m]
@@ -127,11 +128,28 @@ class LocalFrame:
         """``ned_fast`` as an array."""
         return np.array(self.ned_fast(lat_rad, lon_rad, alt_m))
 
+    def fast_constants(self) -> tuple[float, ...]:
+        """(lat0, lon0, alt0, R_M, R_N, bend): the arguments of :func:`geodetic_fast`
+        before the position."""
+        return self.lat0_rad, self.lon0_rad, self.alt0_m, self._rm, self._rn0, self._bend
+
     def to_geodetic_fast(self, p_ned: np.ndarray) -> tuple[float, float, float]:
-        e = float(p_ned[1])
-        lat = self.lat0_rad + (p_ned[0] - e * e * self._bend) / self._rm
-        return (lat, wrap_pi(self.lon0_rad + e / (self._rn0 * math.cos(lat))),
-                self.alt0_m - p_ned[2])
+        """The inverse of ``ned_fast`` (:func:`geodetic_fast`)."""
+        return _geodetic_fast(self.lat0_rad, self.lon0_rad, self.alt0_m, self._rm, self._rn0,
+                              self._bend, p_ned[0], float(p_ned[1]), p_ned[2])
+
+
+@kernel
+def geodetic_fast(lat0, lon0, alt0, rm, rn0, bend, n, e, d):
+    """(lat, lon, alt) of the NED point (n, e, d) of the frame whose constants are
+    ``LocalFrame.fast_constants()``: the inverse of ``LocalFrame.ned_fast`` (the
+    navigation filters' output kernel calls it; ``to_geodetic_fast`` runs the same
+    source interpreted, where a kernel's call would cost more than the arithmetic)."""
+    lat = lat0 + (n - e * e * bend) / rm
+    return lat, (lon0 + e / (rn0 * math.cos(lat)) + PI) % TWO_PI - PI, alt0 - d   # wrap_pi
+
+
+_geodetic_fast = geodetic_fast.py_func
 
 
 def gravity_m_s2(lat_rad: float, alt_m: float) -> float:

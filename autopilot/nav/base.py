@@ -33,6 +33,7 @@ import numpy as np
 
 from autopilot.geo import G0, LocalFrame, euler_to_quat, gravity_m_s2, wrap_pi
 from autopilot.geo.rotations import quat_dcm
+from autopilot.geo.wgs84 import geodetic_fast
 from autopilot.jit import kernel
 from autopilot.messages import NavState, SensorFrame
 
@@ -40,8 +41,9 @@ from . import config
 from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
-from .strapdown import (Nominal, earth_rate_ned, heading_from_mag, inject_attitude,
-                        level_from_accel, mag_ned, mechanise, set_mechanised)
+from .strapdown import (X_BA, X_BB, X_BG, X_FN, X_GB, X_P, X_Q, X_R, X_V, X_WIND, Nominal,
+                        earth_rate_ned, heading_from_mag, level_from_accel, mag_ned,
+                        mechanise, rotate_global)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
 _MAX_DT = 0.1                 # longer IMU gaps are integrated as this [s]
@@ -74,7 +76,7 @@ for _sl, _lo, _hi in _P_LIMITS:
 
 # Columns of H's nonzeros per source, (row, column), from the layout.
 _IP, _IV, _IA, _IBA = POS.start, VEL.start, ATT.start, ABIAS.start
-_IBB, _IGB, _IW = BBIAS.start, GPSB.start, WIND.start
+_IBG, _IBB, _IGB, _IW = GBIAS.start, BBIAS.start, GPSB.start, WIND.start
 _POS_COLS = tuple((i, _IP + i) for i in range(3))
 _ATT_COLS = tuple((0, _IA + i) for i in range(3))
 _GPS_POS_COLS = tuple(c for i in range(3) for c in ((i, _IP + i), (i, _IV + i), (i, _IGB + i)))
@@ -89,7 +91,7 @@ _H_COLS = {"gps_pos": _GPS_POS_COLS, "gps_vel": _GPS_VEL_COLS, "fake_pos": _POS_
            "sideslip": _SIDESLIP_COLS}
 _BLOCKS = {"pos": POS, "vel": VEL, "att": ATT, "abias": ABIAS, "gbias": GBIAS, "bbias": BBIAS,
            "gpsb": GPSB, "wind": WIND}
-# _inject unpacks dx in this order; a layout change must be mirrored there
+# inject_into reads dx in this order; a layout change must be mirrored there
 assert (POS.start, VEL.start, ATT.start, ABIAS.start, GBIAS.start, BBIAS.start, GPSB.start,
         WIND.start) == (0, 3, 6, 9, 12, 15, 16, 19)
 
@@ -133,33 +135,198 @@ def sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1
     return True, e[0] * e[0], e[1] * e[1], e[2] * e[2]
 
 
+# The filter's per-step array (NavFilterBase._s), beside the nominal state (Nominal.x):
+# what the step kernels read and write in place. Offsets:
+S_F0, S_W0 = 0, 3       # the IMU samples of the last step (specific force, rate)
+S_G, S_WIE = 6, 7       # gravity, the Earth rate in NED (3) at the origin
+S_THR = 10              # sampling-error thresholds (2): |df|^2, |dw|^2 (_propagate_nominal)
+S_GM = 12               # Gauss-Markov decay of the GPS error over one step, exp(-dt / tau)
+S_SF, S_QS = 13, 16     # running sums (GPS latency): f_n dt, velocity sampling variances
+S_CP, S_CV = 19, 22     # corrections of p and v since the start (added back on lookup)
+S_ACC = 25              # sums since the last covariance prediction (30): f_n dt, R dt, q_s
+S_ACC_HAS, S_QS_HAS = 55, 56  # whether that interval has a step, a sampling error
+S_HI = 57               # history ring: the next row to write
+S_ORG = 58              # origin (7): known (1/0), lat0, lon0, alt0, R_M, R_N, bend (wgs84.py)
+S_BHGT, S_BB0 = 65, 66  # output height from the baro (1/0), the baro datum [m]
+# the aux sensors' samples since their last fusion (aux_into): the sums and counts of
+# baro altitudes [m], NED field N, E [gauss], true airspeeds [m/s]; the smoothed NED
+# field (3, the mag H) and whether it is set
+S_BARO, S_N_BARO, S_MAG, S_N_MAG, S_AIR, S_N_AIR = 67, 68, 69, 71, 72, 73
+S_MREF, S_MREF_SET = 74, 77
+S_SIZE = 78
+# which samples aux_into is given (bits)
+_AUX_BARO, _AUX_MAG, _AUX_AIR = 1, 2, 4
+# history rows: t, p, v, c_p, c_v, running f_n dt, running sampling variance (_delayed)
+_H_T, _H_P, _H_V, _H_CP, _H_CV, _H_SF, _H_QS, _H_SIZE = 0, 1, 4, 7, 10, 13, 16, 19
+
+
 @kernel
-def imu_step(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
-             f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z, dt, g, ex, ey, ez,
-             thr_f, thr_w, acc, summing, sampled):
-    """One IMU step of the nominal state (NavFilterBase._propagate_nominal) in one call:
+def push_history(x, s, hist, t):
+    """Row S_HI of the history ring: t, the nominal p, v, the corrections so far and the
+    running sums (NavFilterBase._delayed reads it)."""
+    i = int(s[S_HI])
+    hist[i, _H_T] = t
+    for k in range(3):
+        hist[i, _H_P + k] = x[X_P + k]
+        hist[i, _H_V + k] = x[X_V + k]
+        hist[i, _H_CP + k] = s[S_CP + k]
+        hist[i, _H_CV + k] = s[S_CV + k]
+        hist[i, _H_SF + k] = s[S_SF + k]
+        hist[i, _H_QS + k] = s[S_QS + k]
+    s[S_HI] = (i + 1) % _HIST
 
-    * the sampling error of the samples at the step's two ends, at the attitude before
-      the step (:func:`sampling_error_into`), into ``acc[12:30]`` (added when ``sampled``);
-    * the mechanisation (strapdown.py, ``mechanise``) with the specific force at the end
-      of the step and the trapezoid of the rates at its two ends;
+
+@kernel
+def delayed(hist, s, t_valid):
+    """(p, v, dv_f, q_s), 12 floats, of the history row nearest to t_valid with the later
+    corrections added (NavFilterBase._delayed)."""
+    i = (int(s[S_HI]) - 1) % _HIST
+    for _ in range(_HIST - 1):
+        j = (i - 1) % _HIST
+        # (an empty row's t is -inf: never nearer)
+        if abs(hist[j, _H_T] - t_valid) > abs(hist[i, _H_T] - t_valid):
+            break
+        i = j
+    h = hist[i]
+    return ((h[_H_P] - h[_H_CP]) + s[S_CP], (h[_H_P + 1] - h[_H_CP + 1]) + s[S_CP + 1],
+            (h[_H_P + 2] - h[_H_CP + 2]) + s[S_CP + 2],
+            (h[_H_V] - h[_H_CV]) + s[S_CV], (h[_H_V + 1] - h[_H_CV + 1]) + s[S_CV + 1],
+            (h[_H_V + 2] - h[_H_CV + 2]) + s[S_CV + 2],
+            s[S_SF] - h[_H_SF], s[S_SF + 1] - h[_H_SF + 1], s[S_SF + 2] - h[_H_SF + 2],
+            s[S_QS] - h[_H_QS], s[S_QS + 1] - h[_H_QS + 1], s[S_QS + 2] - h[_H_QS + 2])
+
+
+@kernel
+def output_into(x, s, a):
+    """The output of the nominal state (NavFilterBase._output): ``a`` (13) = p, v, q,
+    omega_b = gyro - b_g; returns (lat, lon, alt). Under the baro height reference
+    the height is the one the barometer and the IMU give, on the datum of the offset's
+    initialisation (module docstring)."""
+    pd = x[X_P + 2]
+    if s[S_BHGT] != 0.0:
+        pd = pd - (x[X_BB] - s[S_BB0])
+    for k in range(10):
+        a[k] = x[X_P + k]
+    a[2] = pd
+    for k in range(3):
+        a[10 + k] = s[S_W0 + k] - x[X_BG + k]
+    if s[S_ORG] == 0.0:
+        return 0.0, 0.0, -pd
+    return geodetic_fast(s[S_ORG + 1], s[S_ORG + 2], s[S_ORG + 3], s[S_ORG + 4], s[S_ORG + 5],
+                         s[S_ORG + 6], x[X_P], x[X_P + 1], pd)
+
+
+@kernel
+def imu_step(x, s, hist, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
+    """One IMU step of the nominal state ``x`` (Nominal.x) and the filter's per-step
+    array ``s`` (offsets S_*), in place (NavFilterBase._propagate_nominal), from the
+    samples at the step's two ends (the last step's, in ``s``, and these):
+
+    * the sampling error of the two samples, at the attitude before the step
+      (:func:`sampling_error_into`), into the interval's q_s (added when one is there),
+      its velocity part into the running sum;
+    * the mechanisation (strapdown.py) with the specific force at the end of the step
+      and the trapezoid of the rates at its two ends;
     * the sums over the steps since the last covariance prediction of f_n dt and R dt
-      (F's dynamic entries over the interval, ekf.py module docstring), into
-      ``acc[0:3]`` and ``acc[3:12]`` (added when ``summing``).
-
-    Returns mechanise's 25 floats and sampling_error_into's 4 values."""
-    s = sampling_error_into(dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
-                            quat_dcm(qw, qx, qy, qz), thr_f, thr_w, acc[12:], sampled)
-    o = mechanise(px, py, pz, vx, vy, vz, qw, qx, qy, qz, bgx, bgy, bgz, bax, bay, baz,
+      (F's dynamic entries over the interval, ekf.py module docstring), and the running
+      sum of f_n dt; the Gauss-Markov decay of the GPS error, b' = a b;
+    * the history row of this step (:func:`push_history`) and the output
+      (:func:`output_into`, into ``a``; returns lat, lon, alt)."""
+    f0x, f0y, f0z = s[S_F0], s[S_F0 + 1], s[S_F0 + 2]
+    w0x, w0y, w0z = s[S_W0], s[S_W0 + 1], s[S_W0 + 2]
+    sampled, e0, e1, e2 = sampling_error_into(
+        dt, f0x, f0y, f0z, f1x, f1y, f1z, w0x, w0y, w0z, w1x, w1y, w1z,
+        quat_dcm(x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3]), s[S_THR], s[S_THR + 1],
+        s[S_ACC + 12:S_ACC + 30], s[S_QS_HAS] != 0.0)
+    if sampled:
+        s[S_QS] = s[S_QS] + e0
+        s[S_QS + 1] = s[S_QS + 1] + e1
+        s[S_QS + 2] = s[S_QS + 2] + e2
+        s[S_QS_HAS] = 1.0
+    o = mechanise(x[X_P], x[X_P + 1], x[X_P + 2], x[X_V], x[X_V + 1], x[X_V + 2],
+                  x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3],
+                  x[X_BG], x[X_BG + 1], x[X_BG + 2], x[X_BA], x[X_BA + 1], x[X_BA + 2],
                   f1x, f1y, f1z, 0.5 * (w0x + w1x), 0.5 * (w0y + w1y), 0.5 * (w0z + w1z),
-                  dt, g, ex, ey, ez)
+                  dt, s[S_G], s[S_WIE], s[S_WIE + 1], s[S_WIE + 2])
+    for k in range(25):                    # (the layout puts mechanise's outputs in its order)
+        x[X_P + k] = o[k]
+    summing = s[S_ACC_HAS] != 0.0
     for k in range(3):                     # f_n dt
-        x = o[19 + k] * dt
-        acc[k] = acc[k] + x if summing else x
+        v = x[X_FN + k] * dt
+        s[S_ACC + k] = s[S_ACC + k] + v if summing else v
     for k in range(9):                     # R dt, R(q') row-major
-        x = o[10 + k] * dt
-        acc[3 + k] = acc[3 + k] + x if summing else x
-    return o, s
+        v = x[X_R + k] * dt
+        s[S_ACC + 3 + k] = s[S_ACC + 3 + k] + v if summing else v
+    s[S_ACC_HAS] = 1.0
+    for k in range(3):
+        s[S_SF + k] = s[S_SF + k] + x[X_FN + k] * dt
+        x[X_GB + k] = x[X_GB + k] * s[S_GM]
+    s[S_F0], s[S_F0 + 1], s[S_F0 + 2] = f1x, f1y, f1z
+    s[S_W0], s[S_W0 + 1], s[S_W0 + 2] = w1x, w1y, w1z
+    push_history(x, s, hist, t)
+    return output_into(x, s, a)
+
+
+@kernel
+def inject_into(x, s, dx):
+    """Fold an error-state estimate ``dx`` (layout.py order) into the nominal state ``x``
+    (NavFilterBase._inject); the position and velocity parts also into the corrections
+    (S_CP, S_CV). Biases kept within _BA_MAX and _BG_MAX."""
+    for k in range(3):
+        x[X_P + k] = x[X_P + k] + dx[_IP + k]
+        x[X_V + k] = x[X_V + k] + dx[_IV + k]
+        s[S_CP + k] = s[S_CP + k] + dx[_IP + k]
+        s[S_CV + k] = s[S_CV + k] + dx[_IV + k]
+    q, R = rotate_global((x[X_Q], x[X_Q + 1], x[X_Q + 2], x[X_Q + 3]),
+                         dx[_IA], dx[_IA + 1], dx[_IA + 2])
+    for k in range(4):
+        x[X_Q + k] = q[k]
+    for k in range(9):
+        x[X_R + k] = R[k]
+    for k in range(3):
+        x[X_BA + k] = x[X_BA + k] + dx[_IBA + k]
+        x[X_BG + k] = x[X_BG + k] + dx[_IBG + k]
+        # min(max(b, -limit), limit), as Python's builtins compare (NaN kept)
+        c = x[X_BA + k]
+        c = -_BA_MAX if -_BA_MAX > c else c
+        x[X_BA + k] = _BA_MAX if _BA_MAX < c else c
+        c = x[X_BG + k]
+        c = -_BG_MAX if -_BG_MAX > c else c
+        x[X_BG + k] = _BG_MAX if _BG_MAX < c else c
+    x[X_BB] = x[X_BB] + dx[_IBB]
+    for k in range(3):
+        x[X_GB + k] = x[X_GB + k] + dx[_IGB + k]
+    for k in range(dx.shape[0] - _IW):
+        x[X_WIND + k] = x[X_WIND + k] + dx[_IW + k]
+
+
+@kernel
+def aux_into(x, s, which, alt, mx, my, mz, tas):
+    """Add this step's barometer altitude, magnetometer field and true airspeed (those
+    ``which`` names, bits _AUX_*) to the running sums (NavFilterBase._accumulate_aux); the
+    field rotated into NED, and only where its horizontal part is large enough to give a
+    heading, also into the smoothed field. Returns whether the sums hold a sample."""
+    if which & _AUX_BARO:
+        s[S_BARO] += alt
+        s[S_N_BARO] += 1.0
+    if which & _AUX_MAG:
+        mn, me, md = mag_ned(x[X_R:X_R + 9], mx, my, mz)
+        bh2 = mn * mn + me * me
+        if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
+            if s[S_MREF_SET] == 0.0:
+                s[S_MREF], s[S_MREF + 1], s[S_MREF + 2] = mn, me, md
+                s[S_MREF_SET] = 1.0
+            else:
+                s[S_MREF] += (mn - s[S_MREF]) * _MAG_REF_GAIN
+                s[S_MREF + 1] += (me - s[S_MREF + 1]) * _MAG_REF_GAIN
+                s[S_MREF + 2] += (md - s[S_MREF + 2]) * _MAG_REF_GAIN
+            s[S_MAG] += mn
+            s[S_MAG + 1] += me
+            s[S_N_MAG] += 1.0
+    if which & _AUX_AIR:
+        s[S_AIR] += tas
+        s[S_N_AIR] += 1.0
+    return s[S_N_BARO] + s[S_N_MAG] + s[S_N_AIR] > 0.0
 
 
 class Batch:
@@ -185,21 +352,6 @@ class Batch:
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
-
-
-class _AuxSums:
-    """Running sums of the aux sensors' samples between two fusions."""
-
-    __slots__ = ("t_us", "baro", "n_baro", "mag", "n_mag", "air", "n_air")
-
-    def __init__(self):
-        self.clear(-(1 << 62))
-
-    def clear(self, t_us: int) -> None:
-        self.t_us = t_us              # time of the last fusion [us]
-        self.baro, self.n_baro = 0.0, 0            # altitude [m]
-        self.mag, self.n_mag = [0.0, 0.0], 0       # field N, E in NED [gauss]
-        self.air, self.n_air = 0.0, 0              # true airspeed [m/s]
 
 
 class NavFilterBase:
@@ -246,15 +398,23 @@ class NavFilterBase:
     # ------------------------------------------------------------------ lifecycle --
     def reset(self) -> None:
         """Forget everything; the filter re-aligns from the next samples."""
+        # the per-step array the kernels read and write in place (offsets S_*), and the
+        # history ring for the GPS latency (rows: _H_*; an empty row's t is -inf)
+        s = self._s = np.zeros(S_SIZE)
+        self._hist = np.zeros((_HIST, _H_SIZE))
+        self._hist[:, _H_T] = -math.inf
         self.origin: LocalFrame | None = None
         self._g = G0
         self._w_ie = (0.0, 0.0, 0.0)          # Earth rate in NED at the origin [rad/s]
+        s[S_G] = G0
         self._declination: float | None = None
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal()
-        self._wind_of: list | None = None     # the nom.wind list _wind_ned was made from
-        self._wind_ned: np.ndarray | None = None
+        # the output of the nominal state as it is (imu_step's), None when it has changed since
+        self._out: np.ndarray | None = None
+        self._geo = (0.0, 0.0, 0.0)              # ... and its (lat, lon, alt)
+        self._wind_ned: np.ndarray | None = None   # the output's wind, None when it has changed
         self.aligned = False
         self.healthy = False
         self.innovations: list[InnovationRecord] = []
@@ -264,29 +424,22 @@ class NavFilterBase:
         # FDI_TOUT test reads this)
         self.heard_us: dict[str, int] = {}
         self._t_us: int | None = None
-        self._gyro = (0.0, 0.0, 0.0)          # last raw gyro sample, floats [rad/s]
-        self._gyro_prev: tuple | None = None  # the one before, floats [rad/s]
         self._accel_prev: tuple | None = None  # the last specific-force sample [m/s^2]
         # sums since the last covariance prediction (imu_step): f_n dt, R dt, the
-        # sampling error (18 entries); whether the interval has a step, whether a
-        # sampling error was added (_take_interval hands them out)
-        self._acc = np.zeros(30)
-        self._acc_S, self._acc_Rs, self._acc_qs = self._acc[0:3], self._acc[3:12], self._acc[12:30]
-        self._acc_has = False
-        self._qs_has = False
-        self._qs_thr = ((2.0 * self.params["EK_ACC_NSE"]) ** 2, (2.0 * self.params["EK_GYR_NSE"]) ** 2)
+        # sampling error (18 entries), as views (_take_interval hands them out)
+        a = S_ACC
+        self._acc_S, self._acc_Rs, self._acc_qs = s[a:a + 3], s[a + 3:a + 12], s[a + 12:a + 30]
+        s[S_THR] = (2.0 * self.params["EK_ACC_NSE"]) ** 2
+        s[S_THR + 1] = (2.0 * self.params["EK_GYR_NSE"]) ** 2
         n = self.n
         # flat indices of P's velocity and attitude 3x3 blocks (the sampling error's entries)
         self._qs_idx = [i * n + j for blk in (VEL, ATT) for i in range(blk.start, blk.stop)
                         for j in range(blk.start, blk.stop)]
-        self._sf = [0.0, 0.0, 0.0]            # running integral of f_n dt [m/s] (GPS latency)
         self._gm_step = (-1.0, -1.0, 1.0)     # (dt, tau, exp(-dt / tau)) of the last step
-        self._qs_sum = [0.0, 0.0, 0.0]        # running sum of the velocity sampling variances [m^2/s^2]
         self._air: tuple[float, float] | None = None  # last baro (pressure [Pa], temperature [K])
         self._pos_src: str | None = None      # None -> "fake" (ground, before GPS) -> "gps"
         self._fake_hold = [0.0, 0.0, 0.0]
-        self._baro_ok = False                 # baro offset initialised from GPS
-        self._bb0 = 0.0                       # ... to this value: the baro height datum [m]
+        self._baro_ok = False                 # baro offset initialised from GPS (the datum: S_BB0)
         self._bb0_var = 0.0                   # ... known to this variance [m^2]
         self._hgt_baro = int(self.params["EK_HGT_REF"]) == 0
         self._last_baro_alt: float | None = None
@@ -304,14 +457,8 @@ class NavFilterBase:
         self._al_t0: int | None = None
         self._f_lp: np.ndarray | None = None  # low-passed specific force for in-flight alignment
         self._tilt_ok = False                 # roll/pitch converged: heading fusion may start
-        self._m_ref: list[float] | None = None  # Earth field in NED, smoothed (mag H)
-        self._aux = _AuxSums()                # aux samples since their last fusion
-        # history ring of (t, p, v, c_p, c_v, running f_n integral, running sampling
-        # variance) for the GPS latency
-        self._hist: list = [None] * _HIST
-        self._h_i = 0
-        self._c_p = [0.0, 0.0, 0.0]   # corrections applied since start (added back on lookup)
-        self._c_v = [0.0, 0.0, 0.0]
+        self._aux_due_us = self._aux_period_us - _AUX_PERIOD_TOL_US
+        self._clear_aux(-(1 << 62))
         # P's version: every change of P counts it up (the filters' _set_P, predictions
         # and updates); the health's P test of version _sane_ver and EK_HPOS_MAX _sane_hmax
         self._P_ver = 0
@@ -356,7 +503,7 @@ class NavFilterBase:
         f = self._accel_prev
         if f is None:
             return None
-        ba = self.nom.ba
+        ba = self.nom.x[X_BA:X_BA + 3].tolist()
         return f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]
 
     @property
@@ -364,17 +511,17 @@ class NavFilterBase:
         """The filter's NED position estimate, the state its covariance describes. The
         output (NavState.p_ned) differs from it in height under the barometric height
         reference (EK_HGT_REF = 0) by the offset estimate's change since its datum."""
-        return np.array(self.nom.p)
+        return self.nom.x[X_P:X_P + 3].copy()
 
     @property
     def accel_bias(self) -> np.ndarray:
         """Accelerometer bias estimate, body [m/s^2]."""
-        return np.array(self.nom.ba)
+        return self.nom.x[X_BA:X_BA + 3].copy()
 
     @property
     def gyro_bias(self) -> np.ndarray:
         """Gyro bias estimate, body [rad/s]."""
-        return np.array(self.nom.bg)
+        return self.nom.x[X_BG:X_BG + 3].copy()
 
     @property
     def baro_bias(self) -> float:
@@ -384,7 +531,7 @@ class NavFilterBase:
     @property
     def gps_bias(self) -> np.ndarray:
         """Estimate of the slow (Gauss-Markov) GPS position error, NED [m]."""
-        return np.array(self.nom.gb)
+        return self.nom.x[X_GB:X_GB + 3].copy()
 
     @property
     def P(self) -> np.ndarray:  # pragma: no cover - overridden
@@ -412,13 +559,11 @@ class NavFilterBase:
         if gps is not None and self.origin is None:
             self._set_origin(LocalFrame(gps.lat_rad, gps.lon_rad, gps.alt_m))
 
-        w1 = self._gyro = imu.omega_b
-        w0 = self._gyro_prev if self._gyro_prev is not None else w1
-        self._gyro_prev = w1
-        f1 = imu.f_b
-        f0 = self._accel_prev if self._accel_prev is not None else f1
-        self._accel_prev = f1
+        w1 = imu.omega_b
+        f1 = self._accel_prev = imu.f_b
+        self._out = None
         if not self.aligned:
+            self._hold_samples(f1, w1)
             self._align_step(frame, gps)
             if not self.aligned:
                 return self._output(t)
@@ -426,11 +571,13 @@ class NavFilterBase:
             if self._pos_src == "gps":   # aligned in flight on this very fix
                 self._update_health(t)
                 return self._output(t)
+        elif dt > 0.0:
+            # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
+            # (strapdown.py); the specific force: the sample at t. The history row and
+            # the output with it (imu_step).
+            self._predict(dt, f1, w1, t)
         else:
-            if dt > 0.0:
-                # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
-                # (strapdown.py); the specific force: the sample at t
-                self._predict(dt, f0, f1, w0, w1)
+            self._hold_samples(f1, w1)
             self._push_history(t)
 
         aux_due = self._accumulate_aux(frame)
@@ -442,10 +589,21 @@ class NavFilterBase:
         return self._output(t)
 
     # ------------------------------------------------------------------ alignment --
+    def _hold_samples(self, f1, w1) -> None:
+        """Keep this step's IMU samples for the next step's (imu_step does it itself)."""
+        s = self._s
+        s[S_F0:S_F0 + 3] = f1
+        s[S_W0:S_W0 + 3] = w1
+
     def _set_origin(self, origin: LocalFrame) -> None:
         self.origin = origin
         self._g = gravity_m_s2(origin.lat0_rad, origin.alt0_m)
         self._w_ie = earth_rate_ned(origin.lat0_rad)
+        s = self._s
+        s[S_G] = self._g
+        s[S_WIE:S_WIE + 3] = self._w_ie
+        s[S_ORG] = 1.0
+        s[S_ORG + 1:S_ORG + 7] = origin.fast_constants()
         if self.params["EK_MAG_AUTODEC"]:
             # as ArduPilot's COMPASS_AUTODEC: the declination of the place, from the
             # IGRF main-field model, once the origin (first GPS fix) is known
@@ -544,17 +702,16 @@ class NavFilterBase:
         white = self._gps_white(gps)
         baro_sd = _BARO_INIT_SD
         if self._last_baro_alt is not None:
-            nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+            self._set_baro_datum(self._last_baro_alt - (self.origin.alt0_m - nom.p[2]))
             baro_sd = math.hypot(self._gm_sd()[2], white[2])
             self._bb0_var = baro_sd * baro_sd
-            self._baro_ok = True
         self._init_covariance(self._sd_vector(
             pos=1.0, vel=1.0, att=(0.3, 0.3, 0.35), abias=_BA_INIT_SD, gbias=0.02,
             bbias=baro_sd, gpsb=self._gm_sd(), wind=8.0))
         self._position_from_gps_covariance(np.array(white) ** 2)
         self.aligned = True
         self._pos_src = "gps"
-        self._hist = [None] * _HIST   # the history must not hold the unaligned state
+        self._hist[:, _H_T] = -math.inf   # the history must not hold the unaligned state
 
     def _sd_vector(self, **blocks) -> np.ndarray:
         """Initial 1-sigmas by layout block name (pos=..., att=(r, p, y), ...)."""
@@ -601,62 +758,49 @@ class NavFilterBase:
 
     # -------------------------------------------------------------------- history --
     def _push_history(self, t: int) -> None:
-        # the lists themselves (each is replaced, never written in place): _delayed
-        # subtracts the corrections when a fix asks
-        nom = self.nom
-        self._hist[self._h_i] = (t, nom.p, nom.v, self._c_p, self._c_v, self._sf, self._qs_sum)
-        self._h_i = (self._h_i + 1) % _HIST
+        push_history(self.nom.x, self._s, self._hist, t)
+
+    def _rewrite_history(self, t: int) -> None:
+        """This step's history row written again, after a change of the nominal state
+        within the step's prediction (the UKF folds its mean into it)."""
+        s = self._s
+        s[S_HI] = (s[S_HI] - 1.0) % _HIST
+        self._push_history(t)
 
     def _delayed(self, t_valid: int) -> tuple:
         """(p, v, dv_f, q_s) of the nominal state nearest to t_valid, with later
         corrections; dv_f = integral of f_n dt from then to now, q_s = the velocity
-        sampling variances (N, E, D) added since."""
-        hist = self._hist
-        i = (self._h_i - 1) % _HIST
-        best = hist[i]
-        for _ in range(_HIST - 1):
-            j = (i - 1) % _HIST
-            e = hist[j]
-            if e is None or abs(e[0] - t_valid) > abs(best[0] - t_valid):
-                break
-            best, i = e, j
-        _, p, v, cp0, cv0, sf0, qs0 = best
-        cp, cv, sf, qs = self._c_p, self._c_v, self._sf, self._qs_sum
-        return (((p[0] - cp0[0]) + cp[0], (p[1] - cp0[1]) + cp[1], (p[2] - cp0[2]) + cp[2]),
-                ((v[0] - cv0[0]) + cv[0], (v[1] - cv0[1]) + cv[1], (v[2] - cv0[2]) + cv[2]),
-                (sf[0] - sf0[0], sf[1] - sf0[1], sf[2] - sf0[2]),
-                (qs[0] - qs0[0], qs[1] - qs0[1], qs[2] - qs0[2]))
+        sampling variances (N, E, D) added since (:func:`delayed`)."""
+        o = delayed(self._hist, self._s, t_valid)
+        return o[0:3], o[3:6], o[6:9], o[9:12]
 
     # ----------------------------------------------------------- measurement models --
     def _accumulate_aux(self, frame: SensorFrame) -> bool:
         """Add this step's barometer, magnetometer and airspeed samples to the running
-        sums; True when they are due for fusion (module docstring: aux sensors)."""
-        acc = self._aux
-        if frame.baro is not None:
-            acc.baro += frame.baro.alt_m
-            acc.n_baro += 1
-            self._air = (frame.baro.pressure_pa, frame.baro.temperature_k)
-        if frame.mag is not None and self._tilt_aligned():
-            mn, me, md = mag_ned(self.nom.R, frame.mag.m_b)
-            bh2 = mn * mn + me * me
-            if bh2 > _MIN_HORIZ_FIELD * (bh2 + md * md):
-                ref = self._m_ref
-                if ref is None:
-                    self._m_ref = [mn, me, md]
-                else:
-                    ref[0] += (mn - ref[0]) * _MAG_REF_GAIN
-                    ref[1] += (me - ref[1]) * _MAG_REF_GAIN
-                    ref[2] += (md - ref[2]) * _MAG_REF_GAIN
-                m = acc.mag
-                m[0] += mn
-                m[1] += me
-                acc.n_mag += 1
-        if (self.is_plane and frame.airspeed is not None and self._pos_src == "gps"
-                and frame.airspeed.airspeed_mps >= self.params["EK_ARSP_MIN"]):
-            acc.air += self._true_airspeed(frame.airspeed)
-            acc.n_air += 1
-        return (acc.n_baro + acc.n_mag + acc.n_air > 0
-                and frame.t_us - acc.t_us >= self._aux_period_us - _AUX_PERIOD_TOL_US)
+        sums (:func:`aux_into`); True when they are due for fusion (module docstring:
+        aux sensors). The magnetometer once roll and pitch are known, the airspeed on
+        the fixed-wing above EK_ARSP_MIN once the GPS fixes the position."""
+        which, alt, mx, my, mz, tas = 0, 0.0, 0.0, 0.0, 0.0, 0.0
+        baro, mag, air = frame.baro, frame.mag, frame.airspeed
+        if baro is not None:
+            which, alt = _AUX_BARO, baro.alt_m
+            self._air = (baro.pressure_pa, baro.temperature_k)
+        if mag is not None and self._tilt_aligned():
+            which |= _AUX_MAG
+            mx, my, mz = mag.m_b
+        if (self.is_plane and air is not None and self._pos_src == "gps"
+                and air.airspeed_mps >= self.params["EK_ARSP_MIN"]):
+            which |= _AUX_AIR
+            tas = self._true_airspeed(air)
+        if which:
+            self._aux_any = aux_into(self.nom.x, self._s, which, alt, mx, my, mz, tas)
+        return self._aux_any and frame.t_us - self._aux_t >= self._aux_due_us
+
+    def _clear_aux(self, t: int) -> None:
+        """The aux sums start afresh at t (their fusion)."""
+        self._s[S_BARO:S_N_AIR + 1] = 0.0
+        self._aux_t = t              # time of the last fusion [us]
+        self._aux_any = False        # whether the sums hold a sample
 
     def _assemble(self, frame: SensorFrame, gps, aux_due: bool = True) -> Batch | None:
         """Stack this step's measurements: z, h(x), R, gate^2 and the nonzeros of H
@@ -708,24 +852,23 @@ class NavFilterBase:
             add("fake_pos", self._fake_hold, nom.p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
 
         if aux_due:
-            acc = self._aux
-            if acc.n_baro and self._baro_ok:
+            baro, n_baro, mn, me, n_mag, air, n_air = self._s[S_BARO:S_N_AIR + 1].tolist()
+            if n_baro and self._baro_ok:
                 # baro: h = alt0 - p_D + b_baro  (mean of the samples since the last fusion)
-                add("baro", (acc.baro / acc.n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
-                    (prm["EK_BARO_NSE"] ** 2 / acc.n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
-            if acc.n_mag:
+                add("baro", (baro / n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
+                    (prm["EK_BARO_NSE"] ** 2 / n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
+            if n_mag:
                 # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q), m = the mean of the
                 #      samples rotated into NED,  H_att = [-m_D m_N / B_h^2, -m_D m_E / B_h^2, 1]
                 #      about the smoothed field, not this sample (module docstring)
-                mn, me = acc.mag[0], acc.mag[1]
-                rn, re, rd = self._m_ref
+                rn, re, rd = self._s[S_MREF:S_MREF + 3].tolist()
                 rh2 = rn * rn + re * re
                 Rm = nom.R
                 yaw0 = math.atan2(Rm[3], Rm[0])
                 add("mag", (yaw0 + wrap_pi(self.declination_rad - math.atan2(me, mn)),), (yaw0,),
-                    (prm["EK_MAG_NSE"] ** 2 / acc.n_mag,), prm["EK_MAG_GATE"],
+                    (prm["EK_MAG_NSE"] ** 2 / n_mag,), prm["EK_MAG_GATE"],
                     (-rd * rn / rh2, -rd * re / rh2, 1.0))
-            if acc.n_air:
+            if n_air:
                 w = nom.wind
                 v = nom.v
                 ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
@@ -734,7 +877,7 @@ class NavFilterBase:
                     # airspeed: h = |v - w|,  H_v = u^T, H_w = -u_NE^T  (u = (v - w) / |v - w|);
                     #   R not divided by the samples: turbulence, not the sensor, is its error
                     ux, uy, uz = ax / tas, ay / tas, az / tas
-                    add("airspeed", (acc.air / acc.n_air,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
+                    add("airspeed", (air / n_air,), (tas,), (prm["EK_ARSP_NSE"] ** 2,),
                         prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
                     # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
                     #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
@@ -743,7 +886,7 @@ class NavFilterBase:
                     add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
                         prm["EK_BETA_GATE"],
                         (cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax, cx, cy, cz, -cx, -cy))
-            acc.clear(frame.t_us)
+            self._clear_aux(frame.t_us)
 
         if not z:
             return None
@@ -764,9 +907,10 @@ class NavFilterBase:
         """(sum f_n dt, sum R dt, sampling error) over the steps since the last covariance
         prediction (imu_step; the sampling error: the entries at ``_qs_idx``, empty when
         none), for this prediction; the next interval starts afresh."""
-        self._acc_has = False
-        if self._qs_has:
-            self._qs_has = False
+        s = self._s
+        s[S_ACC_HAS] = 0.0
+        if s[S_QS_HAS]:
+            s[S_QS_HAS] = 0.0
             return self._acc_S, self._acc_Rs, self._acc_qs
         return self._acc_S, self._acc_Rs, _NO_QS
 
@@ -780,10 +924,11 @@ class NavFilterBase:
         p, temp = self._air
         return math.sqrt(2.0 * air.diff_pressure_pa * _R_AIR * temp / p)
 
-    def _propagate_nominal(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> float:
+    def _propagate_nominal(self, dt: float, f1, w1, t: int) -> float:
         """Strapdown step of the nominal state from the IMU samples at the step's two ends
-        (f0, w0 and f1, w1; :func:`imu_step`), and the mean decay of the Gauss-Markov GPS
-        error (b' = a b, a = exp(-dt / tau)). Returns a.
+        (the last step's and f1, w1; :func:`imu_step`, with the history row and the
+        output of step t), and the mean decay of the Gauss-Markov GPS error (b' = a b,
+        a = exp(-dt / tau)). Returns a.
 
         The sampling error of the samples: the integrals of point samples err by up to
         half the change between two samples, along that change: ``e e^T``, e = R (x1 -
@@ -793,25 +938,13 @@ class NavFilterBase:
         in one step. Through a catapult stroke's onset and end (75 m/s^2 in one step) it
         is 0.35 m/s along the stroke, where otherwise the GPS velocity would turn the
         error into an attitude or bias correction."""
-        nom = self.nom
-        o, (sampled, s0, s1, s2) = imu_step(
-            *nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba, *f0, *f1, *w0, *w1, dt, self._g,
-            *self._w_ie, *self._qs_thr, self._acc, self._acc_has, self._qs_has)
-        set_mechanised(nom, o)
-        self._acc_has = True
-        if sampled:
-            q = self._qs_sum
-            self._qs_sum = [q[0] + s0, q[1] + s1, q[2] + s2]
-            self._qs_has = True
-        fn, sf = nom.f_n, self._sf
-        self._sf = [sf[0] + fn[0] * dt, sf[1] + fn[1] * dt, sf[2] + fn[2] * dt]
         tau = self.params["EK_GPSB_TAU"]
         if dt != self._gm_step[0] or tau != self._gm_step[1]:
             self._gm_step = (dt, tau, math.exp(-dt / tau))   # the same dt every step
-        a = self._gm_step[2]
-        gb = nom.gb
-        nom.gb = [gb[0] * a, gb[1] * a, gb[2] * a]
-        return a
+            self._s[S_GM] = self._gm_step[2]
+        self._out = a = np.empty(13)
+        self._geo = imu_step(self.nom.x, self._s, self._hist, a, *f1, *w1, dt, t)
+        return self._gm_step[2]
 
     def _tilt_aligned(self) -> bool:
         """Start predicate of heading fusion: roll and pitch known to 3 deg."""
@@ -912,23 +1045,35 @@ class NavFilterBase:
             self._reset_wind(float(batch.z[a]), float(batch.R[a]))
             return
         nom = self.nom
+        s = self._s
         dz = (batch.z[a:a + 3] - batch.h0[a:a + 3]).tolist()
+        self._out = None
         if source == "gps_pos":
-            nom.p = [nom.p[i] + dz[i] for i in range(3)]
-            self._c_p = [self._c_p[i] + dz[i] for i in range(3)]
+            p, cp = nom.p, s[S_CP:S_CP + 3].tolist()
+            nom.p = [p[i] + dz[i] for i in range(3)]
+            s[S_CP:S_CP + 3] = [cp[i] + dz[i] for i in range(3)]
             self._position_from_gps_covariance(batch.R[a:a + 3])
             self._rej_since.pop("gps_pos", None)
             self._pos_src = "gps"
             if not self._baro_ok and self._last_baro_alt is not None:
-                nom.bb = self._bb0 = self._last_baro_alt - (self.origin.alt0_m - nom.p[2])
+                self._set_baro_datum(self._last_baro_alt - (self.origin.alt0_m - nom.p[2]))
                 self._reset_covariance_block(BBIAS, self.P[_IP + 2, _IP + 2])
                 self._bb0_var = float(self.P[_IBB, _IBB])
-                self._baro_ok = True
         elif source == "gps_vel":
-            nom.v = [nom.v[i] + dz[i] for i in range(3)]
-            self._c_v = [self._c_v[i] + dz[i] for i in range(3)]
+            v, cv = nom.v, s[S_CV:S_CV + 3].tolist()
+            nom.v = [v[i] + dz[i] for i in range(3)]
+            s[S_CV:S_CV + 3] = [cv[i] + dz[i] for i in range(3)]
             self._reset_covariance_block(VEL, batch.R[a:a + 3])
             self._rej_since.pop("gps_vel", None)
+
+    def _set_baro_datum(self, bb: float) -> None:
+        """The baro offset initialised (from the GPS height) to ``bb``, the datum of the
+        output's height under the baro height reference."""
+        self.nom.bb = bb
+        s = self._s
+        s[S_BB0] = bb
+        s[S_BHGT] = 1.0 if self._hgt_baro else 0.0
+        self._baro_ok = True
 
     def _reset_wind(self, tas: float, r_tas: float) -> None:
         """Re-initialise the wind from the airspeed ``tas`` (variance ``r_tas``), the
@@ -954,6 +1099,7 @@ class NavFilterBase:
         c, s = math.cos(psi), math.sin(psi)
         tas_h = math.sqrt(max(tas * tas - v[2] * v[2], 0.0))
         nom.wind = [v[0] - tas_h * c, v[1] - tas_h * s]
+        self._wind_ned = None
         P = self.P
         u = np.array((c, s))
         up = np.array((-s, c))
@@ -968,29 +1114,10 @@ class NavFilterBase:
         self._rej_since.pop("airspeed", None)
 
     def _inject(self, dx: np.ndarray) -> None:
-        """Fold an error-state estimate into the nominal state (dx is then zero)."""
-        (d0, d1, d2, d3, d4, d5, d6, d7, d8, d9, d10, d11, d12, d13, d14,
-         d15, d16, d17, d18, *dw) = dx.tolist()          # layout order (layout.py)
-        nom = self.nom
-        p, v, cp, cv = nom.p, nom.v, self._c_p, self._c_v
-        nom.p = [p[0] + d0, p[1] + d1, p[2] + d2]
-        nom.v = [v[0] + d3, v[1] + d4, v[2] + d5]
-        self._c_p = [cp[0] + d0, cp[1] + d1, cp[2] + d2]
-        self._c_v = [cv[0] + d3, cv[1] + d4, cv[2] + d5]
-        inject_attitude(nom, d6, d7, d8)
-        ba, bg, gb = nom.ba, nom.bg, nom.gb
-        ba = [ba[0] + d9, ba[1] + d10, ba[2] + d11]
-        bg = [bg[0] + d12, bg[1] + d13, bg[2] + d14]
-        if max(abs(ba[0]), abs(ba[1]), abs(ba[2])) > _BA_MAX:
-            ba = [min(max(c, -_BA_MAX), _BA_MAX) for c in ba]
-        if max(abs(bg[0]), abs(bg[1]), abs(bg[2])) > _BG_MAX:
-            bg = [min(max(c, -_BG_MAX), _BG_MAX) for c in bg]
-        nom.ba, nom.bg = ba, bg
-        nom.bb += d15
-        nom.gb = [gb[0] + d16, gb[1] + d17, gb[2] + d18]
-        if dw:
-            w = nom.wind
-            nom.wind = [w[0] + dw[0], w[1] + dw[1]]
+        """Fold an error-state estimate into the nominal state (dx is then zero;
+        :func:`inject_into`)."""
+        inject_into(self.nom.x, self._s, dx)
+        self._out = self._wind_ned = None
 
     def _condition(self, P: np.ndarray) -> np.ndarray:
         """Symmetrise P and keep its diagonal inside [floor, ceiling]."""
@@ -1025,33 +1152,23 @@ class NavFilterBase:
         self.healthy = ok
 
     def _output(self, t: int) -> NavState:
-        nom = self.nom
-        p = nom.p
-        if self._hgt_baro and self._baro_ok:
-            # baro height reference: the height the barometer and the IMU give, on the
-            # datum of the offset's initialisation (module docstring)
-            p = [p[0], p[1], p[2] - (nom.bb - self._bb0)]
-        if self.origin is not None:
-            lat, lon, alt = self.origin.to_geodetic_fast(p)
-        else:
-            lat, lon, alt = 0.0, 0.0, -p[2]
-        w = nom.wind
-        if w is not self._wind_of:
-            # the wind changes in a fusion only (its list is replaced, never written):
-            # one array per estimate, handed to every output until the next
-            self._wind_of = w
-            self._wind_ned = np.array((w[0], w[1], 0.0))
+        a = self._out
+        x = self.nom.x
+        if a is None:                 # (else imu_step wrote it, and nothing changed since)
+            a = np.empty(13)
+            self._geo = output_into(x, self._s, a)
+        lat, lon, alt = self._geo
+        if self._wind_ned is None:
+            # one array per wind estimate (it changes in a fusion), handed to every
+            # output until the next
+            wn, we = x[X_WIND:X_WIND + 2].tolist()
+            self._wind_ned = np.array((wn, we, 0.0))
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
-            v = nom.v
-            airspeed = math.sqrt((v[0] - w[0]) ** 2 + (v[1] - w[1]) ** 2 + v[2] ** 2)
-        # omega_b = gyro - bias estimate (after this step's update)
-        bg = nom.bg
-        gx, gy, gz = self._gyro
-        # one array for the vectors that change every step, handed out as views (one
-        # allocation; fromiter: np.array's shape and type discovery skipped)
-        a = np.fromiter([*p, *nom.v, *nom.q, gx - bg[0], gy - bg[1], gz - bg[2]], float, 13)
+            v0, v1, v2, w0, w1 = x[X_V:X_V + 3].tolist() + x[X_WIND:X_WIND + 2].tolist()
+            airspeed = math.sqrt((v0 - w0) ** 2 + (v1 - w1) ** 2 + v2 ** 2)
+        # the vectors that change every step: views of one array (one allocation)
         return NavState.make(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
                              self._wind_ned, self.aligned, self.healthy, self.SOURCE)
 
@@ -1069,9 +1186,9 @@ class NavFilterBase:
     def _set_P(self, P: np.ndarray) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def _predict(self, dt: float, f0, f1, w0, w1) -> None:  # pragma: no cover - overridden
-        """Propagate over dt from the IMU samples at the step's two ends
-        (:meth:`_propagate_nominal`), and the covariance."""
+    def _predict(self, dt: float, f1, w1, t: int) -> None:  # pragma: no cover - overridden
+        """Propagate over dt to step t from the IMU samples at the step's two ends (the
+        last step's and f1, w1: :meth:`_propagate_nominal`), and the covariance."""
         raise NotImplementedError
 
     def _gate_stats(self, batch: Batch) -> None:  # pragma: no cover - overridden

@@ -34,9 +34,9 @@ def bench(cls=InsGpsEkf, aux_hz: float = 50.0, seconds: float = 30.0, repeats: i
         inner = f._predict
         clock = time.perf_counter
 
-        def timed_predict(dt, f0, f1, w0, w1, inner=inner, acc=acc, clock=clock):
+        def timed_predict(dt, f1, w1, t, inner=inner, acc=acc, clock=clock):
             t0 = clock()
-            inner(dt, f0, f1, w0, w1)
+            inner(dt, f1, w1, t)
             acc[0] += clock() - t0
 
         f._predict = timed_predict

@@ -272,8 +272,8 @@ class InsGpsEkf(NavFilterBase):
         lam = self.q_scale_hook(T) if self.q_scale_hook is not None else None
         return q if lam is None else q * lam
 
-    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:
-        self._propagate_nominal(dt, f0, f1, w0, w1)
+    def _predict(self, dt: float, f1, w1, t: int) -> None:
+        self._propagate_nominal(dt, f1, w1, t)
         if self.cov_div > 1:
             self._pend.append(dt)
             if len(self._pend) >= self.cov_div:

@@ -26,10 +26,10 @@ force ``f_m`` is the sample at the end of the step; ``omega_m`` is the mean of t
 samples at both ends (point samples, integrated by the trapezoidal rule as PX4's
 sensor integrator does).
 
-The nominal state is kept in lists of Python floats (in the 100 Hz loop one numpy call on a
-3-vector costs as much as the whole float mechanisation); the mechanisation is a kernel
-(autopilot/jit.py) on tuples of those floats, cheaper than the same arithmetic in the
-interpreter, with the same operations in the same order.
+The nominal state is one float array (:class:`Nominal`, layout ``X_*`` below) that the
+filters' per-step kernel (base.py, ``imu_step``) reads and writes in place: one compiled
+call a step instead of the state handed over as floats and written back as lists. The
+Python side reads it through ``Nominal``'s attributes (lists of floats, as before).
 """
 from __future__ import annotations
 
@@ -58,53 +58,72 @@ def dcm9(q) -> tuple:
     return quat_dcm(float(w), float(x), float(y), float(z))
 
 
-class Nominal:
-    """The nominal (full) navigation state around which the error state is estimated.
-    Lists of floats; ``R`` is R(q_nb) row-major, kept in step with ``q`` (set both, as
-    ``set_attitude`` does: the mechanisation reads q and recomputes R)."""
+# The nominal state's layout in Nominal.x: p, v, q and then mechanise's other outputs
+# in its order (R(q) row-major, f_n, omega), so that its 25 floats land at X_P: +25
+# (base.imu_step writes them there).
+X_P, X_V, X_Q, X_R, X_FN, X_W = 0, 3, 6, 10, 19, 22
+X_BG, X_BA, X_BB, X_GB, X_WIND = 25, 28, 31, 32, 35
+X_SIZE = 37
 
-    __slots__ = ("p", "v", "q", "ba", "bg", "bb", "gb", "wind", "R", "f_n", "omega_b")
+
+def _block(i: int, n: int):
+    """A Nominal attribute: x[i:i + n] read as a list of floats, written from a sequence."""
+    def get(self):
+        return self.x[i:i + n].tolist()
+
+    def put(self, value):
+        self.x[i:i + n] = value
+    return property(get, put)
+
+
+class Nominal:
+    """The nominal (full) navigation state around which the error state is estimated:
+    the array ``x`` (layout ``X_*``), read and written in place by the filters' kernels;
+    its parts as attributes (lists of floats; ``R`` a tuple, ``bb`` a float). ``R`` is
+    R(q_nb) row-major, kept in step with ``q`` (set both, as ``set_attitude`` does: the
+    mechanisation reads q and recomputes R)."""
+
+    __slots__ = ("x",)
+
+    p = _block(X_P, 3)            # position NED [m]
+    v = _block(X_V, 3)            # velocity NED [m/s]
+    q = _block(X_Q, 4)            # q_nb
+    f_n = _block(X_FN, 3)         # last bias-corrected specific force, NED [m/s^2]
+    omega_b = _block(X_W, 3)      # last bias-corrected body rate [rad/s]
+    bg = _block(X_BG, 3)          # gyro bias, body [rad/s]
+    ba = _block(X_BA, 3)          # accelerometer bias, body [m/s^2]
+    gb = _block(X_GB, 3)          # GPS position error, NED [m]
+    wind = _block(X_WIND, 2)      # wind north, east [m/s]
 
     def __init__(self):
-        self.p = [0.0, 0.0, 0.0]          # position NED [m]
-        self.v = [0.0, 0.0, 0.0]          # velocity NED [m/s]
-        self.q = [1.0, 0.0, 0.0, 0.0]     # q_nb
-        self.ba = [0.0, 0.0, 0.0]         # accelerometer bias, body [m/s^2]
-        self.bg = [0.0, 0.0, 0.0]         # gyro bias, body [rad/s]
-        self.bb = 0.0                     # barometer offset: baro altitude - altitude [m]
-        self.gb = [0.0, 0.0, 0.0]         # GPS position error, NED [m]
-        self.wind = [0.0, 0.0]            # wind north, east [m/s]
-        self.R = dcm9(self.q)
-        self.f_n = [0.0, 0.0, 0.0]        # last bias-corrected specific force, NED [m/s^2]
-        self.omega_b = [0.0, 0.0, 0.0]    # last bias-corrected body rate [rad/s]
+        self.x = np.zeros(X_SIZE)
+        self.set_attitude((1.0, 0.0, 0.0, 0.0))
+
+    @property
+    def R(self) -> tuple:
+        return tuple(self.x[X_R:X_R + 9].tolist())
+
+    @property
+    def bb(self) -> float:
+        """Barometer offset: baro altitude - altitude [m]."""
+        return self.x.item(X_BB)
+
+    @bb.setter
+    def bb(self, value: float) -> None:
+        self.x[X_BB] = value
 
     def set_attitude(self, q) -> None:
-        self.q = [float(c) for c in q]
-        self.R = dcm9(self.q)
+        q = [float(c) for c in q]
+        self.q = q
+        self.x[X_R:X_R + 9] = dcm9(q)
 
     def R_matrix(self) -> np.ndarray:
-        return np.array(self.R).reshape(3, 3)
+        return self.x[X_R:X_R + 9].reshape(3, 3).copy()
 
     def copy(self) -> "Nominal":
         n = Nominal()
-        for name in self.__slots__:
-            v = getattr(self, name)
-            setattr(n, name, list(v) if isinstance(v, list) else v)
+        n.x[:] = self.x
         return n
-
-
-def set_mechanised(nom: Nominal, o: tuple) -> None:
-    """Write :func:`mechanise`'s 25 floats into ``nom``: one IMU step of the nominal
-    state is ``set_mechanised(nom, mechanise(*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba,
-    *f_m, *omega_m, dt, g, *w_ie))`` (the filters take it through ``base.imu_step``)."""
-    (p0, p1, p2, v0, v1, v2, q0, q1, q2, q3, _, _, _, _, _, _, _, _, _,
-     f0, f1, f2, w0, w1, w2) = o                  # (one unpacking: cheaper than slices)
-    nom.p = [p0, p1, p2]
-    nom.v = [v0, v1, v2]
-    nom.q = [q0, q1, q2, q3]
-    nom.R = o[10:19]
-    nom.f_n = [f0, f1, f2]
-    nom.omega_b = [w0, w1, w2]
 
 
 @kernel
@@ -155,20 +174,12 @@ def rotate_global(q, ax, ay, az):
     return q1, quat_dcm(q1[0], q1[1], q1[2], q1[3])
 
 
-def inject_attitude(nom: Nominal, ax: float, ay: float, az: float) -> None:
-    """q <- Exp(dtheta) (x) q: apply a global (NED-frame) attitude correction."""
-    q, R = rotate_global(tuple(nom.q), ax, ay, az)
-    nom.q = list(q)
-    nom.R = R
-
-
-def mag_ned(R: tuple, m_b: tuple) -> tuple[float, float, float]:
-    """The measured field m_b (3 floats) rotated into NED by the attitude R (row-major
-    9-tuple)."""
-    mx, my, mz = m_b
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
-    return (r00 * mx + r01 * my + r02 * mz, r10 * mx + r11 * my + r12 * mz,
-            r20 * mx + r21 * my + r22 * mz)
+@kernel
+def mag_ned(R, mx, my, mz):
+    """The measured field (mx, my, mz) rotated into NED by the attitude R (9 floats,
+    row-major)."""
+    return (R[0] * mx + R[1] * my + R[2] * mz, R[3] * mx + R[4] * my + R[5] * mz,
+            R[6] * mx + R[7] * my + R[8] * mz)
 
 
 def level_from_accel(f_b: np.ndarray) -> tuple[float, float]:

@@ -43,7 +43,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from autopilot.jit import kernel
 
-from .base import Batch, NavFilterBase
+from .base import S_MREF, S_W0, Batch, NavFilterBase
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 from .strapdown import GRAVITY_GRADIENT
 
@@ -376,12 +376,13 @@ class InsGpsUkf(NavFilterBase):
         self._q_dt = dt
 
     # ------------------------------------------------------------------- predict --
-    def _predict(self, dt: float, f0: list, f1: list, w0: list, w1: list) -> None:
+    def _predict(self, dt: float, f1, w1, t: int) -> None:
         if dt != self._q_dt:
             self._process_noise(dt)
         nom = self.nom
         c = [*nom.p, *nom.v, *nom.q, *nom.bg, *nom.ba]          # the nominal before ...
-        a = self._propagate_nominal(dt, f0, f1, w0, w1)
+        w0 = self._s[S_W0:S_W0 + 3].tolist()                    # (the last step's rate)
+        a = self._propagate_nominal(dt, f1, w1, t)
         # ... and after, the IMU samples as the mechanisation took them (the specific
         # force at the step's end, the trapezoid of the rates), w_ie, g, the Gauss-Markov decay
         c = np.array(c + nom.p + nom.v + nom.q
@@ -398,6 +399,7 @@ class InsGpsUkf(NavFilterBase):
         # fold the mean error into the nominal state (the sigma points are centred on it)
         self._inject(ukf.x)
         ukf.x = self._zero
+        self._rewrite_history(t)
 
     # -------------------------------------------------------------------- update --
     def _sigma_measurements(self, batch: Batch, sig: np.ndarray) -> np.ndarray:
@@ -411,7 +413,7 @@ class InsGpsUkf(NavFilterBase):
                 # about the smoothed field, as the EKF's H (noise in the spread of the
                 # sigma points would correlate with the noise of the innovation)
                 col = np.empty(len(sig))
-                sigma_heading(sig, float(batch.h0[r]), np.array(self._m_ref), col)
+                sigma_heading(sig, float(batch.h0[r]), self._s[S_MREF:S_MREF + 3].copy(), col)
                 Zs[:, r] = col
             elif name == "airspeed":
                 col = np.empty(len(sig))
