@@ -123,16 +123,23 @@ def lowpass_advance(lp, st, x, t_us):
 
 
 @kernel
-def _pitch_front(lp, st, t_us, V, throttle, d_cmd, n, q, r_yaw, pc):
-    """MomentBalance.step's signals (1, n (V_REF / V)^2 - 1, throttle (V_REF / V)^2,
+def pitch_front(lp, st, t_us, V, flying, throttle, d_cmd, n, q, r_yaw, pc):
+    """The moment balance's signals (1, n (V_REF / V)^2 - 1, throttle (V_REF / V)^2,
     delta_cmd, q, the propeller's gyroscopic elevator) low-passed (:func:`lowpass_advance`;
-    started again after a gap over RESTART_GAP_S): True where a sample is due. ``pc``:
+    started again after a gap over RESTART_GAP_S), flying at 10 m/s or more: True where a
+    sample is due (MomentBalance.sample), with the pitch acceleration in ``lp[6]``. ``pc``:
     airframe.PitchAero.gyro_coefs (None: no model, no gyroscopic term)."""
+    if not flying or V < 10.0:
+        return False
     r = V_REF / V
     g = 0.0 if pc is None else gyro_elevator(pc, r_yaw, throttle, V)
     if st[LP_ON] != 0 and (t_us - st[LP_T]) * 1e-6 > RESTART_GAP_S:
         st[LP_ON] = 0             # the monitor paused: start the low-passes again
-    return lowpass_advance(lp, st, (1.0, n * r * r - 1.0, throttle * r * r, float(d_cmd), float(q), g), t_us)
+    if not lowpass_advance(lp, st, (1.0, n * r * r - 1.0, throttle * r * r, float(d_cmd), float(q), g), t_us):
+        return False
+    # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
+    lp[6] = (q - lp[4]) / BAL_TAU_S
+    return True
 
 
 class MomentBalance:
@@ -158,37 +165,32 @@ class MomentBalance:
             self.P = np.eye(self.N) * 1e4
         self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
-        self._lp = np.zeros(6)        # the signals low-passed (step), and their state
+        self._lp = np.zeros(7)        # the signals low-passed (pitch_front), and their state
         self._st = lowpass_state()
         self._pc = None if model is None else model.gyro_coefs
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)
-        preload(_pitch_front, np.zeros(6), lowpass_state(), 0, 20.0, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
 
     @property
     def ready(self) -> bool:
         return self.prior or self.n >= 300   # the model, or 30 s of fitted samples
 
-    def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
-             n: float = 1.0, q: float = 0.0, r_yaw: float = 0.0) -> tuple[float, float] | None:
-        """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
-        z the deflection the balance says the aircraft flies with. With the airframe's
-        model the pitch rate q adds its damping and, through the derivative of its
-        low-passed value ((q - q_lp) / BAL_TAU_S, exact for the first-order filter), its
-        inertia, and the yaw rate r the propeller's gyroscopic moment
-        (``PitchAero.gyro_elevator``): known terms, not fitted."""
-        if not _pitch_front(self._lp, self._st, t_us, V, throttle, d_cmd, n, q, r_yaw, self._pc):
-            return None
+    def sample(self, t_us: int, V: float) -> tuple[float, float] | None:
+        """A sample due (:func:`pitch_front` on ``_lp``, ``_st``); once fitted: (z,
+        delta_cmd) low-passed, z the deflection the balance says the aircraft flies with.
+        With the airframe's model the pitch rate q adds its damping and, through the
+        derivative of its low-passed value ((q - q_lp) / BAL_TAU_S, exact for the
+        first-order filter), its inertia, and the yaw rate r the propeller's gyroscopic
+        moment (``PitchAero.gyro_elevator``): known terms, not fitted."""
         lp = self._lp.tolist()
         phi = np.array(lp[:3])
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
-            z_dyn = self.model.dynamic_elevator(lp[4], (q - lp[4]) / BAL_TAU_S, V) + lp[5]
+            z_dyn = self.model.dynamic_elevator(lp[4], lp[6], V) + lp[5]
         if not self.frozen and not self.suspended and t_us - int(self._st[LP_T0]) >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
             q_.append((t_us, phi, d - z_dyn))
@@ -352,20 +354,27 @@ class ElevatorIdentifier:
              n_meas: float | None = None, q: float | None = None) -> bool:
         """True where ``ratio`` was renewed (its window test ran: 2 Hz)."""
         V = nav.airspeed_mps
-        if not flying or V < 10.0:
-            return False
-        d = elevator_cmd * MAX_DEFLECTION_RAD
-        if n_meas is not None:
-            n = n_meas                # the accelerometer's normal load factor
-        else:
-            # that of a coordinated turn, 1 / cos(bank) (navigation without an IMU: truth)
-            qw, qx, qy, qz = (float(c) for c in nav.q_nb)
-            c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
-            n = 1.0 / max(c_bank, 0.5)
         _p, q_b, r_b = nav.omega_b.tolist()     # body rates, bias-corrected
         if q is None:
             q = q_b                    # pitch rate
-        sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)
+        b = self.balance
+        if not pitch_front(b._lp, b._st, t_us, V, flying, throttle, elevator_cmd * MAX_DEFLECTION_RAD,
+                           self.load_factor(nav) if n_meas is None else n_meas, q, r_b, b._pc):
+            return False
+        return self.sample(t_us, V)
+
+    @staticmethod
+    def load_factor(nav) -> float:
+        """The normal load factor of a coordinated turn, 1 / cos(bank) (navigation without an
+        IMU, truth: the accelerometer's otherwise)."""
+        qw, qx, qy, qz = (float(c) for c in nav.q_nb)
+        c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
+        return 1.0 / max(c_bank, 0.5)
+
+    def sample(self, t_us: int, V: float) -> bool:
+        """The balance's sample due (:func:`pitch_front`): the residual, its window test
+        and stage 2. True where ``ratio`` was renewed."""
+        sample = self.balance.sample(t_us, V)
         if sample is None:
             return False
         z, dcmd = sample

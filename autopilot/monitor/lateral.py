@@ -327,14 +327,27 @@ LAT_MODELS = {1: AEROSONDE_LAT, 2: C172P_LAT}
 AXES = ("aileron", "rudder")
 
 
+NO_FORCE = (0.0, 0.0, 0.0)      # the specific force of a step without one (flying False)
+NO_BIAS = np.zeros(0)           # no accelerometer bias to add (lateral_front)
+
+
 @kernel
-def _lateral_front(lp, st, t_us, V, w, fy, fz, aileron, rudder, throttle, hc, two):
-    """LateralIdentifier.step's signals (the body rates ``w``, the lateral and normal
-    specific force, V, the aileron and rudder commands [rad], throttle (V_REF / V)^2 and
-    the propeller's gyroscopic yawing moment -H q, ``hc`` its numbers or None) low-passed
-    (actuator.lowpass_advance): True where a balance sample is due, with the roll and yaw
-    accelerations in ``lp[10]``, ``lp[11]``. (``two``: 2.0, the square taken by libm's
-    pow as the interpreter's ``** 2`` takes it; x * x differs in the last bit now and then.)"""
+def lateral_front(lp, st, t_us, V, flying, w, f_b, ba, aileron, rudder, throttle, hc, two):
+    """The lateral balance's signals (the body rates ``w``, the lateral and normal
+    specific force ``f_b`` (plus the accelerometer bias estimate ``ba`` where the model
+    wants it raw, LateralAero.raw_accel; empty: not), V, the aileron and rudder commands
+    [rad], throttle (V_REF / V)^2 and the propeller's gyroscopic yawing moment -H q,
+    ``hc`` its numbers or None) low-passed (actuator.lowpass_advance), flying at 10 m/s or
+    more (else they start again): True where a balance sample is due, with the roll and
+    yaw accelerations in ``lp[10]``, ``lp[11]`` (LateralIdentifier.sample). (``two``: 2.0,
+    the square taken by libm's pow as the interpreter's ``** 2`` takes it; x * x differs
+    in the last bit now and then.)"""
+    if not flying or V < 10.0:
+        st[LP_ON] = 0
+        return False
+    fy, fz = f_b[1], f_b[2]
+    if ba.shape[0]:
+        fy, fz = fy + ba[1], fz + ba[2]
     w0, w1, w2 = w[0], w[1], w[2]
     x = (w0, w1, w2, fy, V, aileron * MAX_DEFLECTION_RAD, rudder * MAX_DEFLECTION_RAD,
          throttle * (V_REF / V) ** two, 0.0 if hc is None else -prop_momentum(hc, throttle, V) * w1, fz)
@@ -433,7 +446,7 @@ class LateralIdentifier:
         # the propeller's gyroscopic yawing moment: the model's, or the pitch model's propeller
         self._hc = (model.prop_coefs if model.prop_ixx > 0.0 else None if prop is None
                     else prop.gyro_coefs)
-        self._lp = np.zeros(12)        # the signals low-passed (_lateral_front), and their state
+        self._lp = np.zeros(12)        # the signals low-passed (lateral_front), and their state
         self._st = lowpass_state()
         self._k = 0
         self.frozen = False
@@ -456,18 +469,22 @@ class LateralIdentifier:
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:
         """True where the axes' ``ratio`` were renewed (their window tests ran: 2 Hz)."""
-        V = nav.airspeed_mps
-        if not flying or V < 10.0 or f_b is None:
-            self._st[LP_ON] = 0
+        if not lateral_front(self._lp, self._st, t_us, nav.airspeed_mps, flying and f_b is not None, nav.omega_b,
+                             NO_FORCE if f_b is None else f_b, self.accel_bias(), controls[0], controls[2],
+                             controls[3], self._hc, 2.0):
             return False
-        fy, fz = f_b[1], f_b[2]
-        if self._nav is not None:
-            ba = getattr(self._nav, "accel_bias", None)
-            if ba is not None:
-                fy, fz = float(fy) + float(ba[1]), float(fz) + float(ba[2])
-        if not _lateral_front(self._lp, self._st, t_us, V, nav.omega_b, fy, fz, controls[0], controls[2],
-                              controls[3], self._hc, 2.0):
-            return False
+        return self.sample(t_us)
+
+    def accel_bias(self) -> np.ndarray:
+        """The navigation's accelerometer bias estimate where the model wants the specific
+        force raw (LateralAero.raw_accel), else (or where it has none) NO_BIAS."""
+        ba = None if self._nav is None else getattr(self._nav, "accel_bias", None)
+        return NO_BIAS if ba is None else ba
+
+    def sample(self, t_us: int) -> bool:
+        """The balance's sample due (:func:`lateral_front`): the deflections it says the
+        aircraft flies with, each axis' residual and test. True where the axes' ``ratio``
+        were renewed."""
         lp = self._lp.tolist()
         pd, rd = lp[10], lp[11]
         za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8], lp[9])

@@ -292,6 +292,9 @@ class FaultMonitor:
             if thm is not None:
                 self.throttle = ThrottleIdentifier(thm, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._act_idents = tuple(i for i in (self.lateral, self.throttle) if i is not None)
+        if self.elevator is not None:
+            from .balances import Balances
+            self._balances = Balances(self.elevator, self.lateral, self.throttle)
         self.throttle_out: dict | None = None  # a stuck throttle's reaction (_throttle_reaction)
         self.stuck_surface: dict = {}          # "aileron"/"rudder"/"throttle" -> stuck position (latched)
         self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
@@ -316,6 +319,7 @@ class FaultMonitor:
         self.failsafe: str | None = None
         self._healthy_us: int | None = None
         self._aligned_us: int | None = None
+        self._running = False                 # (update: _start)
         self._quiet_us: int | None = None
         self._gps_silent_us: int | None = None
         self._fs_done = False
@@ -362,17 +366,7 @@ class FaultMonitor:
             return
         if getattr(nav, "aligned", False) and nav.innovations:   # (most steps have none)
             self.innovation_log.add(nav.innovations)   # for the flight log (every record)
-        if not self.enabled:
-            return
-        if self._aligned_us is None:
-            if not getattr(nav, "aligned", False):
-                return
-            self._aligned_us = t_us
-        if self._healthy_us is None:
-            if not getattr(nav, "healthy", False):
-                return
-            self._healthy_us = t_us
-        if t_us - self._healthy_us < self._start_us:
+        if not self._running and not self._start(t_us):
             return
         step_max = 0.0
         okf = self.radapt.okf_sd
@@ -434,6 +428,26 @@ class FaultMonitor:
                 or t_us > self._eval_until_us):
             self._evaluate(t_us, armed)
 
+    def _start(self, t_us: int) -> bool:
+        """Whether the monitor runs from this step on: enabled, FDI_START_T after the
+        navigation is healthy (the alignment's and health's times noted here). Once it
+        runs it runs on (update asks only until then)."""
+        if not self.enabled:
+            return False
+        nav = self.nav
+        if self._aligned_us is None:
+            if not getattr(nav, "aligned", False):
+                return False
+            self._aligned_us = t_us
+        if self._healthy_us is None:
+            if not getattr(nav, "healthy", False):
+                return False
+            self._healthy_us = t_us
+        if t_us - self._healthy_us < self._start_us:
+            return False
+        self._running = True
+        return True
+
     def observe_rpm(self, sample) -> None:
         """The propeller's measured speed (an ``RpmSample``, ESC telemetry): the throttle's
         residual when FDI_THR_RPM is set (autopilot/monitor/throttle.py)."""
@@ -463,11 +477,9 @@ class FaultMonitor:
             for ident in self._act_idents:
                 if ident.suspended != sensor_fault:
                     ident.suspend(sensor_fault)
-                if ident.step(t_us, nav_state, controls, learning, f):
-                    self._act_stale = True
-        if el.step(t_us, nav_state, float(controls[1]), learning,
-                   float(controls[3]) if len(controls) > 3 else 0.0,
-                   None if f is None else -float(f[2]) / G0):
+            if self._balances.step(t_us, nav_state, controls, learning, f):
+                self._act_stale = True
+        elif el.step(t_us, nav_state, float(controls[1]), learning, 0.0, None if f is None else -float(f[2]) / G0):
             self._act_stale = True
         if not el.ready or not self.enabled or self._healthy_us is None:
             return

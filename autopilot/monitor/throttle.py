@@ -108,7 +108,7 @@ from autopilot.jit import kernel, preload
 
 from .actuator import (BAL_PERIOD_US, FIT_WARMUP_S, IDENT_WIN_S, LP_ON, LP_T, LP_T0,
                        MAX_DEFLECTION_RAD, RSS_STUCK, SETTLE_S, identify_hist, lowpass_advance, lowpass_state)
-from .lateral import TEST_DIV, V_REF, _Axis
+from .lateral import NO_FORCE, TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
 RHO0 = 1.225
@@ -396,7 +396,7 @@ class ThrustModel:
     @cached_property
     def _rotor(self) -> np.ndarray:
         """The electric rotor's numbers as its kernels take them (the indices ``_P_MAX`` ... ``_D5``),
-        then the airframe's that _throttle_front takes (``_MASS`` ... ``_TAU``)."""
+        then the airframe's that throttle_front takes (``_MASS`` ... ``_TAU``)."""
         a, b, c, d = self.rpm
         return np.array((self.p_max_w, self.q_max_nm, self.prop_ixx, self.k_idle, a, b, c, d,
                          self.prop_d_m, self.prop_d_m ** 5, self.mass_kg, self.wing_area_m2, self.CL0,
@@ -546,14 +546,14 @@ def _interp(x, xs, ys):
 
 
 _table = kernel(_interp)      # the same law, compiled (the electric rotor's kernels call it)
-_isa_rho_k = kernel(_isa_rho)   # (and _throttle_front this one)
+_isa_rho_k = kernel(_isa_rho)   # (and throttle_front this one)
 
 
 # ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
 # balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor: p_max_w, q_max_nm,
 # prop_ixx, k_idle, the rpm fit's a, b, c, d, prop_d_m and prop_d_m ** 5, at these indices
 _P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
-_MASS, _AREA, _CL0, _CLDE, _CLA, _TAU = range(10, 16)     # the airframe's (_throttle_front)
+_MASS, _AREA, _CL0, _CLDE, _CLA, _TAU = range(10, 16)     # the airframe's (throttle_front)
 
 
 @kernel
@@ -687,12 +687,18 @@ _GIVEN, _ROTOR, _LAGGED = range(3)
 
 
 @kernel
-def _throttle_front(lp, st, t_us, V, fx, fy, fz, elevator, throttle, alt_m, mode, rotor, cp_j, cp, cp_rpm,
-                    cp_rpm_k):
-    """ThrottleIdentifier.step's signals (the specific force, the elevator [rad], V, the
-    throttle the thrust asks for, the lateral and normal forces' squares) low-passed
-    (actuator.lowpass_advance), with the rotor's residual on its measured speed advanced:
-    True where a balance sample is due."""
+def throttle_front(lp, st, t_us, V, flying, f_b, elevator, throttle, alt_m, mode, rotor, cp_j, cp, cp_rpm,
+                   cp_rpm_k):
+    """The thrust balance's signals (the specific force ``f_b``, the elevator command
+    [rad], V, the throttle the thrust asks for, the lateral and normal forces' squares)
+    low-passed (actuator.lowpass_advance), with the rotor's residual on its measured speed
+    advanced, flying at 10 m/s or more (else both start again, -1): 1 where a balance
+    sample is due (ThrottleIdentifier.sample), else 0."""
+    if not flying or V < 10.0:
+        st[LP_ON] = 0
+        st[_LPR_ON] = 0
+        return -1
+    fx, fy, fz = f_b[0], f_b[1], f_b[2]
     thr = throttle
     if mode == _ROTOR:
         # the rotor's speed measured: the throttle its propeller takes, against the
@@ -742,7 +748,8 @@ def _throttle_front(lp, st, t_us, V, fx, fy, fz, elevator, throttle, alt_m, mode
         thr = lp[_LAG]
     if st[LP_ON] == 0:
         lp[_LAG] = thr
-    return lowpass_advance(lp, st, (fx, fz, elevator * MAX_DEFLECTION_RAD, V, thr, fy, fz * fz, fy * fy), t_us)
+    return 1 if lowpass_advance(lp, st, (fx, fz, elevator * MAX_DEFLECTION_RAD, V, thr, fy, fz * fz, fy * fy),
+                                t_us) else 0
 
 
 class ThrottleIdentifier:
@@ -761,7 +768,7 @@ class ThrottleIdentifier:
                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
                                  prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N, n_phi=3)
         self.axes = {"throttle": self._thrust_axis}
-        self._lp = np.zeros(14)        # the signals low-passed and the rotor's (_throttle_front)
+        self._lp = np.zeros(14)        # the signals low-passed and the rotor's (throttle_front)
         self._st = np.concatenate((lowpass_state(), (0, -1, 0)))
         self._mode = (_GIVEN if model.engine is not None else _ROTOR if model.prop_ixx > 0.0
                       else _LAGGED if model.tau_s > 0.0 else _GIVEN)
@@ -772,9 +779,17 @@ class ThrottleIdentifier:
         self.frozen = False
         self.suspended = False
         self._fault_us = None
-        # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
-        preload(_throttle_front, self._lp.copy(), self._st.copy(), 0, 20.0, 0.0, 0.0, -9.8, 0.0, 0.5, 100.0,
-                self._mode, model._rotor, *model._cp_tables)
+        self._model_arrays = (model._rotor, *model._cp_tables)     # (throttle_front's)
+        if model.engine is None and model.prop_ixx > 0.0:
+            # the electric rotor's kernels (ThrustModel's) loaded now, not in flight
+            # (autopilot.jit.preload): a speed, a command, an airspeed, a density, a step
+            w, u, V, rho, dt, rotor, cp = 500.0, 0.5, 20.0, RHO0, 0.01, model._rotor, model._cp_tables
+            preload(_rotor_speed, u, V, rotor)
+            preload(_rotor_throttle, w, V, rotor)
+            preload(_rotor_advance, w, u, V, dt, rotor)
+            preload(_prop_throttle, w, V, rho, rotor, *cp)
+            preload(_prop_advance, w, u, u, u, w, V, rho, dt, rotor, *cp)
+            preload(_rotors_advance, w, u, V, dt, w, u, u, w, V, rho, rotor, *cp)
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
@@ -807,20 +822,28 @@ class ThrottleIdentifier:
         """True where ``axes["throttle"].ratio`` may have changed: its window test ran
         (2 Hz) or the residual tested changed (the rotor's, the thrust balance's)."""
         V = nav.airspeed_mps
-        st = self._st
-        if not flying or V < 10.0 or f_b is None:
-            st[LP_ON] = st[_LPR_ON] = 0
-            return False
         tested = self.axes["throttle"]
-        fz = f_b[2]
+        flying = flying and f_b is not None
         thr = controls[3]
-        m = self.model
-        if m.engine is not None:
-            thr = self._piston(t_us, nav, controls, float(fz))
-        # (the height only for the rotor's residual: where a speed was ever measured)
-        alt = nav.alt_m if st[_RPM_US] >= 0 else 0.0
-        due = _throttle_front(self._lp, st, t_us, V, f_b[0], f_b[1], fz, controls[1], thr, alt,
-                              self._mode, m._rotor, *m._cp_tables)
+        if self.model.engine is not None and flying and not V < 10.0:
+            thr = self._piston(t_us, nav, controls, float(f_b[2]))
+        due = throttle_front(self._lp, self._st, t_us, V, flying, NO_FORCE if f_b is None else f_b, controls[1],
+                             thr, self.height(nav), self._mode, *self._model_arrays)
+        return self.sample(t_us, tested, due)
+
+    def height(self, nav) -> float:
+        """The height flown [m], for the rotor's residual (read only where a speed was
+        ever measured)."""
+        return nav.alt_m if self._st[_RPM_US] >= 0 else 0.0
+
+    def sample(self, t_us: int, tested, due: int) -> bool:
+        """After :func:`throttle_front` (``tested``: the axis tested before it, ``due`` its
+        answer): the axis tested now, and the balance's sample where due. True where
+        ``axes["throttle"].ratio`` may have changed: its window test ran (2 Hz) or the
+        residual tested changed (the rotor's, the thrust balance's)."""
+        if due < 0:
+            return False              # not flying: nothing moved
+        st = self._st
         if self._mode == _ROTOR:
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if st[_LPR_ON] and self._rotor_axis.fitting
@@ -828,6 +851,7 @@ class ThrottleIdentifier:
         switched = self.axes["throttle"] is not tested
         if not due:
             return switched
+        m = self.model
         lp = self._lp.tolist()
         # the forces' variances about their low-passed values, over the same filter
         var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
