@@ -253,6 +253,8 @@ class FaultMonitor:
         # after which a channel may fall silent (-1: evaluate at every step)
         self._eval_armed = None
         self._eval_until_us = -1
+        self._eval_at_us = 0                  # the earlier of the bias test's due time and
+                                              # _eval_until_us + 1: evaluated from then on
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
@@ -364,7 +366,7 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        if getattr(nav, "aligned", False) and nav.innovations:   # (most steps have none)
+        if nav.innovations and getattr(nav, "aligned", False):   # (most steps have none)
             self.innovation_log.add(nav.innovations)   # for the flight log (every record)
         if not self._running and not self._start(t_us):
             return
@@ -424,9 +426,9 @@ class FaultMonitor:
         # with no fault detected, no window moved, the bias test not due, armed as it
         # was and no channel able to fall silent yet, the evaluation would find what it
         # found last time: skipped
-        if (changed or self.detected or t_us >= self._bias_next_us or armed != self._eval_armed
-                or t_us > self._eval_until_us):
+        if changed or self.detected or t_us >= self._eval_at_us or armed != self._eval_armed:
             self._evaluate(t_us, armed)
+            self._eval_at_us = min(self._bias_next_us, self._eval_until_us + 1)
 
     def _start(self, t_us: int) -> bool:
         """Whether the monitor runs from this step on: enabled, FDI_START_T after the
