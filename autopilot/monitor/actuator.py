@@ -94,15 +94,18 @@ def lowpass_state() -> np.ndarray:
 
 
 @kernel
-def lowpass_advance(lp, st, x, t_us):
+def lowpass_advance(lp, st, n, t_us):
     """The balances' step (MomentBalance, lateral.LateralIdentifier,
-    throttle.ThrottleIdentifier): their signals ``x`` low-passed over BAL_TAU_S into
-    ``lp``, in place, ``lp + a (x - lp)`` with ``a = dt / (BAL_TAU_S + dt)``; where none
-    are held (``st[LP_ON]`` 0) ``lp`` starts on ``x``. True where a balance sample is due:
-    every BAL_PERIOD_US, and not within RESTART_HOLD_S of the (re)start."""
+    throttle.ThrottleIdentifier): their ``n`` signals, written in ``lp``'s last ``n``
+    places, low-passed over BAL_TAU_S into its first ``n``, in place, ``lp + a (x - lp)``
+    with ``a = dt / (BAL_TAU_S + dt)``; where none are held (``st[LP_ON]`` 0) they start on
+    the signals. True where a balance sample is due: every BAL_PERIOD_US, and not within
+    RESTART_HOLD_S of the (re)start. (One array, not a tuple of signals: one compiled
+    specialisation for the three balances.)"""
+    k = lp.shape[0] - n
     if st[LP_ON] == 0:
-        for i in range(len(x)):
-            lp[i] = x[i]
+        for i in range(n):
+            lp[i] = lp[k + i]
         st[LP_ON] = 1
         st[LP_T] = t_us
         st[LP_START] = t_us
@@ -114,8 +117,8 @@ def lowpass_advance(lp, st, x, t_us):
     if dt <= 0.0:
         return False
     a = dt / (BAL_TAU_S + dt)
-    for i in range(len(x)):
-        lp[i] = lp[i] + a * (x[i] - lp[i])
+    for i in range(n):
+        lp[i] = lp[i] + a * (lp[k + i] - lp[i])
     if t_us < st[LP_NEXT]:
         return False
     st[LP_NEXT] = t_us + BAL_PERIOD_US
@@ -135,7 +138,9 @@ def pitch_front(lp, st, t_us, V, flying, throttle, d_cmd, n, q, r_yaw, pc):
     g = 0.0 if pc is None else gyro_elevator(pc, r_yaw, throttle, V)
     if st[LP_ON] != 0 and (t_us - st[LP_T]) * 1e-6 > RESTART_GAP_S:
         st[LP_ON] = 0             # the monitor paused: start the low-passes again
-    if not lowpass_advance(lp, st, (1.0, n * r * r - 1.0, throttle * r * r, float(d_cmd), float(q), g), t_us):
+    x = lp[7:]
+    x[0], x[1], x[2], x[3], x[4], x[5] = 1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q, g
+    if not lowpass_advance(lp, st, 6, t_us):
         return False
     # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
     lp[6] = (q - lp[4]) / BAL_TAU_S
@@ -165,14 +170,17 @@ class MomentBalance:
             self.P = np.eye(self.N) * 1e4
         self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
-        self._lp = np.zeros(7)        # the signals low-passed (pitch_front), and their state
+        self._lp = np.zeros(13)       # the signals low-passed (pitch_front), the pitch
+                                      # acceleration, the signals (and their state:)
         self._st = lowpass_state()
         self._pc = None if model is None else model.gyro_coefs
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
+        # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)
+        preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property
     def ready(self) -> bool:

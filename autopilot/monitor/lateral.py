@@ -349,9 +349,13 @@ def lateral_front(lp, st, t_us, V, flying, w, f_b, ba, aileron, rudder, throttle
     if ba.shape[0]:
         fy, fz = fy + ba[1], fz + ba[2]
     w0, w1, w2 = w[0], w[1], w[2]
-    x = (w0, w1, w2, fy, V, aileron * MAX_DEFLECTION_RAD, rudder * MAX_DEFLECTION_RAD,
-         throttle * (V_REF / V) ** two, 0.0 if hc is None else -prop_momentum(hc, throttle, V) * w1, fz)
-    if not lowpass_advance(lp, st, x, t_us):
+    x = lp[12:]
+    x[0], x[1], x[2], x[3], x[4] = w0, w1, w2, fy, V
+    x[5], x[6] = aileron * MAX_DEFLECTION_RAD, rudder * MAX_DEFLECTION_RAD
+    x[7] = throttle * (V_REF / V) ** two
+    x[8] = 0.0 if hc is None else -prop_momentum(hc, throttle, V) * w1
+    x[9] = fz
+    if not lowpass_advance(lp, st, 10, t_us):
         return False
     # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
     lp[10] = (w0 - lp[0]) / BAL_TAU_S
@@ -446,12 +450,16 @@ class LateralIdentifier:
         # the propeller's gyroscopic yawing moment: the model's, or the pitch model's propeller
         self._hc = (model.prop_coefs if model.prop_ixx > 0.0 else None if prop is None
                     else prop.gyro_coefs)
-        self._lp = np.zeros(12)        # the signals low-passed (lateral_front), and their state
+        self._lp = np.zeros(22)        # the signals low-passed (lateral_front), the roll and yaw
+                                       # accelerations, the signals (and their state:)
         self._st = lowpass_state()
         self._k = 0
         self.frozen = False
         self.suspended = False
         self._fault_us = None
+        # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
+        preload(lateral_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, np.zeros(3), NO_FORCE,
+                np.zeros(3) if model.raw_accel else NO_BIAS, 0.0, 0.0, 0.5, self._hc, 2.0)
 
     def freeze(self, t_us: int) -> None:
         """A fault detected: nothing is learnt any more; identification from 1 s before."""

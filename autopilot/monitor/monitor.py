@@ -294,9 +294,6 @@ class FaultMonitor:
             if thm is not None:
                 self.throttle = ThrottleIdentifier(thm, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._act_idents = tuple(i for i in (self.lateral, self.throttle) if i is not None)
-        if self.elevator is not None:
-            from .balances import Balances
-            self._balances = Balances(self.elevator, self.lateral, self.throttle)
         self.throttle_out: dict | None = None  # a stuck throttle's reaction (_throttle_reaction)
         self.stuck_surface: dict = {}          # "aileron"/"rudder"/"throttle" -> stuck position (latched)
         self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
@@ -479,9 +476,11 @@ class FaultMonitor:
             for ident in self._act_idents:
                 if ident.suspended != sensor_fault:
                     ident.suspend(sensor_fault)
-            if self._balances.step(t_us, nav_state, controls, learning, f):
-                self._act_stale = True
-        elif el.step(t_us, nav_state, float(controls[1]), learning, 0.0, None if f is None else -float(f[2]) / G0):
+                if ident.step(t_us, nav_state, controls, learning, f):
+                    self._act_stale = True
+        if el.step(t_us, nav_state, float(controls[1]), learning,
+                   float(controls[3]) if len(controls) > 3 else 0.0,
+                   None if f is None else -float(f[2]) / G0):
             self._act_stale = True
         if not el.ready or not self.enabled or self._healthy_us is None:
             return

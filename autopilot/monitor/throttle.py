@@ -675,7 +675,7 @@ def _rotors_advance(w, throttle, V, dt, w_model, l_meas, l_model, w_meas, vt, rh
 
 
 # ThrottleIdentifier's state past the balance's low-passes (actuator.lowpass_advance): in
-# ``lp`` the rotor's speed (ThrustModel.rotor_step) and the model rotor's of the residual on
+# ``lp``, before the signals, the rotor's speed (ThrustModel.rotor_step) and the model rotor's of the residual on
 # the measured speed [rad/s], that residual's two low-passed throttles (measured, model's),
 # the command through the thrust's lag (tau_s), the measured speed [rad/s]; in ``st`` the
 # residual held (1) or not, the speed's time (-1: none yet) and the residual's start [us]
@@ -748,8 +748,10 @@ def throttle_front(lp, st, t_us, V, flying, f_b, elevator, throttle, alt_m, mode
         thr = lp[_LAG]
     if st[LP_ON] == 0:
         lp[_LAG] = thr
-    return 1 if lowpass_advance(lp, st, (fx, fz, elevator * MAX_DEFLECTION_RAD, V, thr, fy, fz * fz, fy * fy),
-                                t_us) else 0
+    x = lp[14:]
+    x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7] = (fx, fz, elevator * MAX_DEFLECTION_RAD, V, thr, fy,
+                                                      fz * fz, fy * fy)
+    return 1 if lowpass_advance(lp, st, 8, t_us) else 0
 
 
 class ThrottleIdentifier:
@@ -768,7 +770,7 @@ class ThrottleIdentifier:
                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
                                  prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N, n_phi=3)
         self.axes = {"throttle": self._thrust_axis}
-        self._lp = np.zeros(14)        # the signals low-passed and the rotor's (throttle_front)
+        self._lp = np.zeros(22)        # the signals low-passed, the rotor's, the signals (throttle_front)
         self._st = np.concatenate((lowpass_state(), (0, -1, 0)))
         self._mode = (_GIVEN if model.engine is not None else _ROTOR if model.prop_ixx > 0.0
                       else _LAGGED if model.tau_s > 0.0 else _GIVEN)
@@ -780,6 +782,9 @@ class ThrottleIdentifier:
         self.suspended = False
         self._fault_us = None
         self._model_arrays = (model._rotor, *model._cp_tables)     # (throttle_front's)
+        # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
+        preload(throttle_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, NO_FORCE, 0.0, 0.5, 100.0,
+                self._mode, *self._model_arrays)
         if model.engine is None and model.prop_ixx > 0.0:
             # the electric rotor's kernels (ThrustModel's) loaded now, not in flight
             # (autopilot.jit.preload): a speed, a command, an airspeed, a density, a step
