@@ -693,7 +693,7 @@ def throttle_front(lp, st, t_us, V, flying, f_b, elevator, throttle, alt_m, mode
     [rad], V, the throttle the thrust asks for, the lateral and normal forces' squares)
     low-passed (actuator.lowpass_advance), with the rotor's residual on its measured speed
     advanced, flying at 10 m/s or more (else both start again, -1): 1 where a balance
-    sample is due (ThrottleIdentifier.sample), else 0."""
+    sample is due (ThrottleIdentifier.step), else 0."""
     if not flying or V < 10.0:
         st[LP_ON] = 0
         st[_LPR_ON] = 0
@@ -827,28 +827,17 @@ class ThrottleIdentifier:
         """True where ``axes["throttle"].ratio`` may have changed: its window test ran
         (2 Hz) or the residual tested changed (the rotor's, the thrust balance's)."""
         V = nav.airspeed_mps
+        st = self._st
         tested = self.axes["throttle"]
         flying = flying and f_b is not None
         thr = controls[3]
         if self.model.engine is not None and flying and not V < 10.0:
             thr = self._piston(t_us, nav, controls, float(f_b[2]))
-        due = throttle_front(self._lp, self._st, t_us, V, flying, NO_FORCE if f_b is None else f_b, controls[1],
-                             thr, self.height(nav), self._mode, *self._model_arrays)
-        return self.sample(t_us, tested, due)
-
-    def height(self, nav) -> float:
-        """The height flown [m], for the rotor's residual (read only where a speed was
-        ever measured)."""
-        return nav.alt_m if self._st[_RPM_US] >= 0 else 0.0
-
-    def sample(self, t_us: int, tested, due: int) -> bool:
-        """After :func:`throttle_front` (``tested``: the axis tested before it, ``due`` its
-        answer): the axis tested now, and the balance's sample where due. True where
-        ``axes["throttle"].ratio`` may have changed: its window test ran (2 Hz) or the
-        residual tested changed (the rotor's, the thrust balance's)."""
+        # (the height only for the rotor's residual: where a speed was ever measured)
+        due = throttle_front(self._lp, st, t_us, V, flying, NO_FORCE if f_b is None else f_b, controls[1], thr,
+                             nav.alt_m if st[_RPM_US] >= 0 else 0.0, self._mode, *self._model_arrays)
         if due < 0:
             return False              # not flying: nothing moved
-        st = self._st
         if self._mode == _ROTOR:
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if st[_LPR_ON] and self._rotor_axis.fitting
