@@ -171,7 +171,7 @@ class MomentBalance:
         self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
         self._lp = np.zeros(13)       # the signals low-passed (pitch_front), the pitch
-                                      # acceleration, the signals (and their state:)
+                                      # acceleration, the signals; their state below
         self._st = lowpass_state()
         self._pc = None if model is None else model.gyro_coefs
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S

@@ -451,7 +451,7 @@ class LateralIdentifier:
         self._hc = (model.prop_coefs if model.prop_ixx > 0.0 else None if prop is None
                     else prop.gyro_coefs)
         self._lp = np.zeros(22)        # the signals low-passed (lateral_front), the roll and yaw
-                                       # accelerations, the signals (and their state:)
+                                       # accelerations, the signals; their state below
         self._st = lowpass_state()
         self._k = 0
         self.frozen = False
