@@ -27,6 +27,7 @@ import numpy as np
 
 from autopilot.jit import kernel, preload
 
+from .airframe import gyro_elevator
 from .stats import WindowChi2, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
@@ -49,6 +50,7 @@ BAL_NOISE_RAD = 0.1             # the noise each 10 Hz sample of the fit is weig
                                 # the prior [rad]: the low-passed samples are correlated and the
                                 # model's own errors systematic (with 0.01 the fit chased a
                                 # climb-out and read a steep turn as an elevator fault)
+V_REF = 25.0                    # the moment balance's reference airspeed [m/s]
 RESTART_GAP_S = 0.25            # signals missing this long (the monitor paused: a go-around's
                                 # climb, the flare): the low-passes start again [s]
 RESTART_HOLD_S = 3.0            # ... and nothing is tested or learnt for 3 BAL_TAU_S after a
@@ -80,6 +82,71 @@ def rls_update(c, P, Pp, s, e):
             P[i, j] -= g * Pp[j]
 
 
+# a balance's low-pass state (``st``, int64): signals held (0: none, start again), the latest
+# sample's time, the low-passes' latest (re)start, the next balance sample's, the first
+# sample's (-1: none yet) [us]
+LP_ON, LP_T, LP_START, LP_NEXT, LP_T0 = range(5)
+
+
+def lowpass_state() -> np.ndarray:
+    """A balance's low-pass state (:func:`lowpass_advance`) holding no signals."""
+    return np.array((0, 0, 0, 0, -1), dtype=np.int64)
+
+
+@kernel
+def lowpass_advance(lp, st, n, t_us):
+    """The balances' step (MomentBalance, lateral.LateralIdentifier,
+    throttle.ThrottleIdentifier): their ``n`` signals, written in ``lp``'s last ``n``
+    places, low-passed over BAL_TAU_S into its first ``n``, in place, ``lp + a (x - lp)``
+    with ``a = dt / (BAL_TAU_S + dt)``; where none are held (``st[LP_ON]`` 0) they start on
+    the signals. True where a balance sample is due: every BAL_PERIOD_US, and not within
+    RESTART_HOLD_S of the (re)start. (One array, not a tuple of signals: one compiled
+    specialisation for the three balances.)"""
+    k = lp.shape[0] - n
+    if st[LP_ON] == 0:
+        for i in range(n):
+            lp[i] = lp[k + i]
+        st[LP_ON] = 1
+        st[LP_T] = t_us
+        st[LP_START] = t_us
+        if st[LP_T0] < 0:
+            st[LP_T0] = t_us
+        return False
+    dt = (t_us - st[LP_T]) * 1e-6
+    st[LP_T] = t_us
+    if dt <= 0.0:
+        return False
+    a = dt / (BAL_TAU_S + dt)
+    for i in range(n):
+        lp[i] = lp[i] + a * (lp[k + i] - lp[i])
+    if t_us < st[LP_NEXT]:
+        return False
+    st[LP_NEXT] = t_us + BAL_PERIOD_US
+    return not t_us - st[LP_START] < RESTART_HOLD_S * 1e6
+
+
+@kernel
+def pitch_front(lp, st, t_us, V, flying, throttle, d_cmd, n, q, r_yaw, pc):
+    """The moment balance's signals (1, n (V_REF / V)^2 - 1, throttle (V_REF / V)^2,
+    delta_cmd, q, the propeller's gyroscopic elevator) low-passed (:func:`lowpass_advance`;
+    started again after a gap over RESTART_GAP_S), flying at 10 m/s or more: True where a
+    sample is due (MomentBalance.sample), with the pitch acceleration in ``lp[6]``. ``pc``:
+    airframe.PitchAero.gyro_coefs (None: no model, no gyroscopic term)."""
+    if not flying or V < 10.0:
+        return False
+    r = V_REF / V
+    g = 0.0 if pc is None else gyro_elevator(pc, r_yaw, throttle, V)
+    if st[LP_ON] != 0 and (t_us - st[LP_T]) * 1e-6 > RESTART_GAP_S:
+        st[LP_ON] = 0             # the monitor paused: start the low-passes again
+    x = lp[7:]
+    x[0], x[1], x[2], x[3], x[4], x[5] = 1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q, g
+    if not lowpass_advance(lp, st, 6, t_us):
+        return False
+    # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
+    lp[6] = (q - lp[4]) / BAL_TAU_S
+    return True
+
+
 class MomentBalance:
     """The quasi-steady pitch-moment balance (**) of the module docstring: recursive
     least squares of the commanded deflection on [1, n / V^2, throttle / V^2],
@@ -88,7 +155,7 @@ class MomentBalance:
     order one and the nearly uninformative prior (P = 1e4 I) shrinks none of them."""
 
     N = 3
-    V_REF = 25.0                      # [m/s]
+    V_REF = V_REF
 
     def __init__(self, prior: np.ndarray | None = None, model=None):
         # with the airframe's model (airframe.py) the fit starts from its prediction,
@@ -103,62 +170,36 @@ class MomentBalance:
             self.P = np.eye(self.N) * 1e4
         self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
-        self._lp = None
-        self._t_us = None
-        self._t0_us = None
-        self._start_us = None         # the low-passes' latest (re)start
-        self._next_us = 0
+        self._lp = np.zeros(13)       # the signals low-passed (pitch_front), the pitch
+                                      # acceleration, the signals; their state below
+        self._st = lowpass_state()
+        self._pc = None if model is None else model.gyro_coefs
         self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)   # (autopilot.jit.preload)
+        # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)
+        preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property
     def ready(self) -> bool:
         return self.prior or self.n >= 300   # the model, or 30 s of fitted samples
 
-    def step(self, t_us: int, V: float, throttle: float, d_cmd: float,
-             n: float = 1.0, q: float = 0.0, r_yaw: float = 0.0) -> tuple[float, float] | None:
-        """One vehicle step; every BAL_PERIOD_US once fitted: (z, delta_cmd) low-passed,
-        z the deflection the balance says the aircraft flies with. With the airframe's
-        model the pitch rate q adds its damping and, through the derivative of its
-        low-passed value ((q - q_lp) / BAL_TAU_S, exact for the first-order filter), its
-        inertia, and the yaw rate r the propeller's gyroscopic moment
-        (``PitchAero.gyro_elevator``): known terms, not fitted."""
-        r = self.V_REF / V
-        g = 0.0 if self.model is None else self.model.gyro_elevator(r_yaw, throttle, V)
-        x = (1.0, n * r * r - 1.0, throttle * r * r, d_cmd, q, g)
-        if self._lp is not None and (t_us - self._t_us) * 1e-6 > RESTART_GAP_S:
-            self._lp = None           # the monitor paused: start the low-passes again
-        if self._lp is None:
-            self._lp, self._t_us = list(x), t_us
-            self._start_us = t_us
-            if self._t0_us is None:
-                self._t0_us = t_us
-            return None
-        dt = (t_us - self._t_us) * 1e-6
-        self._t_us = t_us
-        if dt <= 0.0:
-            return None
-        a = dt / (BAL_TAU_S + dt)
-        # lp + a (x - lp), each signal (written out: a comprehension costs twice as much,
-        # and this runs at 50 Hz)
-        l0, l1, l2, l3, l4, l5 = self._lp
-        x0, x1, x2, x3, x4, x5 = x
-        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
-                         l4 + a * (x4 - l4), l5 + a * (x5 - l5)]
-        if t_us < self._next_us:
-            return None
-        self._next_us = t_us + BAL_PERIOD_US
-        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
-            return None               # the start's transient (RESTART_HOLD_S)
+    def sample(self, t_us: int, V: float) -> tuple[float, float] | None:
+        """A sample due (:func:`pitch_front` on ``_lp``, ``_st``); once fitted: (z,
+        delta_cmd) low-passed, z the deflection the balance says the aircraft flies with.
+        With the airframe's model the pitch rate q adds its damping and, through the
+        derivative of its low-passed value ((q - q_lp) / BAL_TAU_S, exact for the
+        first-order filter), its inertia, and the yaw rate r the propeller's gyroscopic
+        moment (``PitchAero.gyro_elevator``): known terms, not fitted."""
+        lp = self._lp.tolist()
         phi = np.array(lp[:3])
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
-            z_dyn = self.model.dynamic_elevator(lp[4], (q - lp[4]) / BAL_TAU_S, V) + lp[5]
-        if not self.frozen and not self.suspended and t_us - self._t0_us >= FIT_WARMUP_S * 1e6:
+            z_dyn = self.model.dynamic_elevator(lp[4], lp[6], V) + lp[5]
+        if not self.frozen and not self.suspended and t_us - int(self._st[LP_T0]) >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
             q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
@@ -321,20 +362,27 @@ class ElevatorIdentifier:
              n_meas: float | None = None, q: float | None = None) -> bool:
         """True where ``ratio`` was renewed (its window test ran: 2 Hz)."""
         V = nav.airspeed_mps
-        if not flying or V < 10.0:
-            return False
-        d = elevator_cmd * MAX_DEFLECTION_RAD
-        if n_meas is not None:
-            n = n_meas                # the accelerometer's normal load factor
-        else:
-            # that of a coordinated turn, 1 / cos(bank) (navigation without an IMU: truth)
-            qw, qx, qy, qz = (float(c) for c in nav.q_nb)
-            c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
-            n = 1.0 / max(c_bank, 0.5)
         _p, q_b, r_b = nav.omega_b.tolist()     # body rates, bias-corrected
         if q is None:
             q = q_b                    # pitch rate
-        sample = self.balance.step(t_us, V, throttle, d, n, q, r_b)
+        b = self.balance
+        if not pitch_front(b._lp, b._st, t_us, V, flying, throttle, elevator_cmd * MAX_DEFLECTION_RAD,
+                           self.load_factor(nav) if n_meas is None else n_meas, q, r_b, b._pc):
+            return False
+        return self.sample(t_us, V)
+
+    @staticmethod
+    def load_factor(nav) -> float:
+        """The normal load factor of a coordinated turn, 1 / cos(bank) (navigation without an
+        IMU, truth: the accelerometer's otherwise)."""
+        qw, qx, qy, qz = (float(c) for c in nav.q_nb)
+        c_bank = math.cos(math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy)))
+        return 1.0 / max(c_bank, 0.5)
+
+    def sample(self, t_us: int, V: float) -> bool:
+        """The balance's sample due (:func:`pitch_front`): the residual, its window test
+        and stage 2. True where ``ratio`` was renewed."""
+        sample = self.balance.sample(t_us, V)
         if sample is None:
             return False
         z, dcmd = sample
@@ -395,8 +443,8 @@ class ElevatorIdentifier:
             # BAL_TAU_S after the onset, and its transient biased the estimate; stuck or
             # weakened is decided on every sample since the detection
             recent = None
-            if self.balance._t_us is not None:
-                recent = self.balance._t_us - int(IDENT_WIN_S * 1e6)
+            if self.balance._st[LP_T0] >= 0:
+                recent = int(self.balance._st[LP_T]) - int(IDENT_WIN_S * 1e6)
             r = self.balance.identify(self._fault_us, stuck, recent)
             if r is not None:
                 return r

@@ -42,8 +42,42 @@ from functools import cached_property
 
 import numpy as np
 
+from autopilot.jit import kernel
+
 G0 = 9.80665          # [m/s^2]
 RHO0 = 1.225          # sea-level ISA density [kg/m^3]
+
+# a propeller's numbers as the balances' kernels take them (PitchAero.gyro_coefs,
+# lateral.LateralAero.prop_coefs): its rpm fit's a, b, c, d and e (the throttle's square),
+# prop_sense * prop_ixx, and the pitch model's wing area, chord and D
+_RPM_A, _RPM_B, _RPM_C, _RPM_D, _RPM_E, _SENSE_IXX, _AREA, _CHORD, _DEN = range(9)
+
+
+@kernel
+def prop_momentum(c, throttle, v_mps):
+    """The propeller's angular momentum H [N m s] at that throttle and airspeed,
+    ``prop_sense prop_ixx omega``, omega from the rpm fit
+    ``a + b throttle + c V + d throttle V (+ e throttle^2)``, at least 0; 0 without a
+    rotating inertia."""
+    if c[_SENSE_IXX] == 0.0:
+        return 0.0
+    rpm = c[_RPM_A] + c[_RPM_B] * throttle + c[_RPM_C] * v_mps + c[_RPM_D] * throttle * v_mps
+    if c[_RPM_E] != 0.0:
+        rpm = rpm + c[_RPM_E] * throttle * throttle
+    rpm = 0.0 if 0.0 > rpm else rpm               # max(rpm, 0) (control/pid.py)
+    return c[_SENSE_IXX] * rpm * (2.0 * math.pi / 60.0)
+
+
+@kernel
+def gyro_elevator(c, r, throttle, v_mps):
+    """The elevator the propeller's gyroscopic moment ``H r`` takes off the pitch
+    balance (PitchAero.gyro_elevator): ``H r / (qbar S cbar) / D``."""
+    if c[_SENSE_IXX] == 0.0:
+        return 0.0
+    H = prop_momentum(c, throttle, v_mps)
+    qbar = 0.5 * RHO0 * v_mps * v_mps
+    # Cm0 + Cma alpha + Cmde de = m_dyn - H r / (qbar S cbar): as dynamic_elevator
+    return (H * r / (qbar * c[_AREA] * c[_CHORD])) / c[_DEN]
 
 
 @dataclass(frozen=True)
@@ -105,16 +139,19 @@ class PitchAero:
                  - self.Cmq * self.chord_m * q / (2.0 * v_mps))
         return -m_dyn / self.D
 
+    @cached_property
+    def gyro_coefs(self) -> np.ndarray:
+        """The propeller's and the pitch balance's numbers as :func:`prop_momentum` and
+        :func:`gyro_elevator` take them."""
+        a, b, c, d = self.rpm
+        return np.array((a, b, c, d, 0.0, self.prop_sense * self.prop_ixx if self.prop_ixx > 0.0 else 0.0,
+                         self.wing_area_m2, self.chord_m, self.D))
+
     def prop_momentum(self, throttle: float, v_mps: float) -> float:
         """The propeller's angular momentum H [N m s] at that throttle and airspeed
         (``prop_ixx`` times its speed from :attr:`rpm`); its gyroscopic moments on the
         airframe are ``H r`` in pitch and ``-H q`` in yaw (:meth:`gyro_elevator`)."""
-        if self.prop_ixx <= 0.0:
-            return 0.0
-        a, b, c, d = self.rpm
-        rpm = a + b * throttle + c * v_mps + d * throttle * v_mps
-        rpm = 0.0 if 0.0 > rpm else rpm               # max(rpm, 0) (control/pid.py)
-        return self.prop_sense * self.prop_ixx * rpm * (2.0 * math.pi / 60.0)
+        return prop_momentum(self.gyro_coefs, throttle, v_mps)
 
     def gyro_elevator(self, r: float, throttle: float, v_mps: float) -> float:
         """The elevator (nose-up positive, rad) the propeller's gyroscopic moment takes
@@ -124,14 +161,8 @@ class PitchAero:
         clockwise seen from behind. ``H = prop_ixx * omega``, the speed from the rpm the
         throttle and airspeed give (:attr:`rpm`, measured on the plant). In the Aerosonde's
         turns (r 0.1-0.3 rad/s, about 7000 rpm: H 2.2 N m s) it is 0.2-0.7 N m, 0.01-0.02
-        rad of elevator: the error the stuck readings had in turns."""
-        if self.prop_ixx <= 0.0:
-            return 0.0
-        H = self.prop_momentum(throttle, v_mps)
-        qbar = 0.5 * RHO0 * v_mps * v_mps
-        D = self.D
-        # Cm0 + Cma alpha + Cmde de = m_dyn - H r / (qbar S cbar): as dynamic_elevator
-        return (H * r / (qbar * self.wing_area_m2 * self.chord_m)) / D
+        rad of elevator: the error the stuck readings had in turns (:func:`gyro_elevator`)."""
+        return gyro_elevator(self.gyro_coefs, r, throttle, v_mps)
 
     def trim_airspeed(self, delta: float, n: float = 1.0, v_ref: float = 25.0) -> float | None:
         """The equivalent airspeed at which an elevator held at ``delta`` (nose-up

@@ -58,10 +58,12 @@ from functools import cached_property
 
 import numpy as np
 
-from autopilot.jit import preload
+from autopilot.jit import kernel, preload
 
-from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S,
-                       MAX_DEFLECTION_RAD, RES_TAU_S, RESTART_HOLD_S, identify_hist, rls_update)
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S, LP_ON, LP_T,
+                       LP_T0, MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist, lowpass_advance, lowpass_state,
+                       rls_update)
+from .airframe import prop_momentum
 from .stats import WindowChi2, family_alpha
 
 RHO0 = 1.225
@@ -141,12 +143,15 @@ class LateralAero:
                                    # 0.2-0.3 m/s^2 against a true 0.03-0.07, 0.1 rad of
                                    # rudder; a stuck rudder's sideslip would be absorbed too)
 
+    @cached_property
+    def prop_coefs(self) -> np.ndarray:
+        """The propeller's numbers as :func:`.airframe.prop_momentum` takes them."""
+        return np.array((*self.rpm, self.prop_sense * self.prop_ixx if self.prop_ixx > 0.0 else 0.0))
+
     def prop_momentum(self, throttle: float, v_mps: float) -> float:
         """The propeller's angular momentum H [N m s] at that throttle and airspeed: its
-        gyroscopic yawing moment is ``-H q``."""
-        a, b, c, d, e = self.rpm
-        rpm = max(a + b * throttle + c * v_mps + d * throttle * v_mps + e * throttle * throttle, 0.0)
-        return self.prop_sense * self.prop_ixx * rpm * (2.0 * math.pi / 60.0)
+        gyroscopic yawing moment is ``-H q`` (:func:`.airframe.prop_momentum`)."""
+        return prop_momentum(self.prop_coefs, throttle, v_mps)
 
     def deflections(self, V: float, p: float, q: float, r: float, pd: float, rd: float,
                     a_y: float, n_gyro: float = 0.0, a_z: float | None = None) -> tuple[float, float]:
@@ -322,6 +327,42 @@ LAT_MODELS = {1: AEROSONDE_LAT, 2: C172P_LAT}
 AXES = ("aileron", "rudder")
 
 
+NO_FORCE = (0.0, 0.0, 0.0)      # the specific force of a step without one (flying False)
+NO_BIAS = np.zeros(0)           # no accelerometer bias to add (lateral_front)
+
+
+@kernel
+def lateral_front(lp, st, t_us, V, flying, w, f_b, ba, aileron, rudder, throttle, hc, two):
+    """The lateral balance's signals (the body rates ``w``, the lateral and normal
+    specific force ``f_b`` (plus the accelerometer bias estimate ``ba`` where the model
+    wants it raw, LateralAero.raw_accel; empty: not), V, the aileron and rudder commands
+    [rad], throttle (V_REF / V)^2 and the propeller's gyroscopic yawing moment -H q,
+    ``hc`` its numbers or None) low-passed (actuator.lowpass_advance), flying at 10 m/s or
+    more (else they start again): True where a balance sample is due, with the roll and
+    yaw accelerations in ``lp[10]``, ``lp[11]`` (LateralIdentifier.sample). (``two``: 2.0,
+    the square taken by libm's pow as the interpreter's ``** 2`` takes it; x * x differs
+    in the last bit now and then.)"""
+    if not flying or V < 10.0:
+        st[LP_ON] = 0
+        return False
+    fy, fz = f_b[1], f_b[2]
+    if ba.shape[0]:
+        fy, fz = fy + ba[1], fz + ba[2]
+    w0, w1, w2 = w[0], w[1], w[2]
+    x = lp[12:]
+    x[0], x[1], x[2], x[3], x[4] = w0, w1, w2, fy, V
+    x[5], x[6] = aileron * MAX_DEFLECTION_RAD, rudder * MAX_DEFLECTION_RAD
+    x[7] = throttle * (V_REF / V) ** two
+    x[8] = 0.0 if hc is None else -prop_momentum(hc, throttle, V) * w1
+    x[9] = fz
+    if not lowpass_advance(lp, st, 10, t_us):
+        return False
+    # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
+    lp[10] = (w0 - lp[0]) / BAL_TAU_S
+    lp[11] = (w2 - lp[2]) / BAL_TAU_S
+    return True
+
+
 class _Axis:
     """One control's residual z - delta_cmd: its offset fit, variance and window test."""
 
@@ -406,15 +447,19 @@ class LateralIdentifier:
         a_det = family_alpha(p_fa, 2 * tests_per_hour)     # two axes share the budget
         self.axes = {n: _Axis(n, window, alpha, a_det, prior=LAT_RES_PRIOR_RAD, prior_n=LAT_RES_PRIOR_N)
                      for n in AXES}
-        self._lp = None
-        self._t_us = None
-        self._start_us = None          # the low-passes' latest (re)start
-        self._next_us = 0
+        # the propeller's gyroscopic yawing moment: the model's, or the pitch model's propeller
+        self._hc = (model.prop_coefs if model.prop_ixx > 0.0 else None if prop is None
+                    else prop.gyro_coefs)
+        self._lp = np.zeros(22)        # the signals low-passed (lateral_front), the roll and yaw
+                                       # accelerations, the signals; their state below
+        self._st = lowpass_state()
         self._k = 0
-        self._t0_us = None
         self.frozen = False
         self.suspended = False
         self._fault_us = None
+        # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
+        preload(lateral_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, np.zeros(3), NO_FORCE,
+                np.zeros(3) if model.raw_accel else NO_BIAS, 0.0, 0.0, 0.5, self._hc, 2.0)
 
     def freeze(self, t_us: int) -> None:
         """A fault detected: nothing is learnt any more; identification from 1 s before."""
@@ -432,48 +477,21 @@ class LateralIdentifier:
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:
         """True where the axes' ``ratio`` were renewed (their window tests ran: 2 Hz)."""
-        V = nav.airspeed_mps
-        if not flying or V < 10.0 or f_b is None:
-            self._lp = None
+        # the navigation's accelerometer bias estimate where the model wants the specific
+        # force raw (LateralAero.raw_accel)
+        ba = None if self._nav is None else getattr(self._nav, "accel_bias", None)
+        if not lateral_front(self._lp, self._st, t_us, nav.airspeed_mps, flying and f_b is not None, nav.omega_b,
+                             NO_FORCE if f_b is None else f_b, NO_BIAS if ba is None else ba, controls[0],
+                             controls[2], controls[3], self._hc, 2.0):
             return False
-        w0, w1, w2 = nav.omega_b.tolist()
-        if self._nav is not None:
-            ba = getattr(self._nav, "accel_bias", None)
-            if ba is not None:
-                f_b = (float(f_b[0]) + float(ba[0]), float(f_b[1]) + float(ba[1]), float(f_b[2]) + float(ba[2]))
-        thr = float(controls[3])
-        x = [w0, w1, w2, float(f_b[1]), V,
-             float(controls[0]) * MAX_DEFLECTION_RAD, float(controls[2]) * MAX_DEFLECTION_RAD,
-             thr * (V_REF / V) ** 2,
-             (-self.model.prop_momentum(thr, V) * w1 if self.model.prop_ixx > 0.0
-              else 0.0 if self.prop is None else -self.prop.prop_momentum(thr, V) * w1),
-             float(f_b[2])]
-        if self._lp is None:
-            self._lp, self._t_us = list(x), t_us
-            self._start_us = t_us
-            if self._t0_us is None:
-                self._t0_us = t_us
-            return False
-        dt = (t_us - self._t_us) * 1e-6
-        self._t_us = t_us
-        if dt <= 0.0:
-            return False
-        a = dt / (BAL_TAU_S + dt)
-        # lp + a (x - lp), each signal (written out: a comprehension over the ten costs
-        # twice as much, and this runs at 50 Hz)
-        l0, l1, l2, l3, l4, l5, l6, l7, l8, l9 = self._lp
-        x0, x1, x2, x3, x4, x5, x6, x7, x8, x9 = x
-        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
-                         l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7),
-                         l8 + a * (x8 - l8), l9 + a * (x9 - l9)]
-        if t_us < self._next_us:
-            return False
-        self._next_us = t_us + BAL_PERIOD_US
-        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
-            return False      # the low-passes' start (actuator.RESTART_HOLD_S)
-        # the derivative of a first-order low-passed rate is (x - x_lp) / tau, exactly
-        pd = (x[0] - lp[0]) / BAL_TAU_S
-        rd = (x[2] - lp[2]) / BAL_TAU_S
+        return self.sample(t_us)
+
+    def sample(self, t_us: int) -> bool:
+        """The balance's sample due (:func:`lateral_front`): the deflections it says the
+        aircraft flies with, each axis' residual and test. True where the axes' ``ratio``
+        were renewed."""
+        lp = self._lp.tolist()
+        pd, rd = lp[10], lp[11]
         za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8], lp[9])
         phi = np.array((1.0, lp[7]))
         self._k += 1
@@ -485,7 +503,7 @@ class LateralIdentifier:
         # (the residual's variance is learnt from the start: with the floor alone, moderate
         # turbulence in the climb-out read 1.4 times the threshold 7 s after the launch)
         learn = (None if self.frozen or self.suspended
-                 else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
+                 else t_us - int(self._st[LP_T0]) >= FIT_WARMUP_S * 1e6)
         self.axes["aileron"].step(t_us, phi, za, lp[5], learn, k_test)
         self.axes["rudder"].step(t_us, phi, zr, lp[6], learn, k_test)
         return k_test
@@ -501,5 +519,5 @@ class LateralIdentifier:
         if self._fault_us is None:
             return None
         ax = self.axes[name]
-        recent = None if self._t_us is None else self._t_us - int(IDENT_WIN_S * 1e6)
+        recent = None if self._st[LP_T0] < 0 else int(self._st[LP_T]) - int(IDENT_WIN_S * 1e6)
         return identify_hist(ax.hist, self._fault_us, stuck, recent)

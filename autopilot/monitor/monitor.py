@@ -253,6 +253,8 @@ class FaultMonitor:
         # after which a channel may fall silent (-1: evaluate at every step)
         self._eval_armed = None
         self._eval_until_us = -1
+        self._eval_at_us = 0                  # the earlier of the bias test's due time and
+                                              # _eval_until_us + 1: evaluated from then on
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
@@ -316,6 +318,7 @@ class FaultMonitor:
         self.failsafe: str | None = None
         self._healthy_us: int | None = None
         self._aligned_us: int | None = None
+        self._running = False                 # (update: _start)
         self._quiet_us: int | None = None
         self._gps_silent_us: int | None = None
         self._fs_done = False
@@ -360,19 +363,9 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        if getattr(nav, "aligned", False) and nav.innovations:   # (most steps have none)
+        if nav.innovations and getattr(nav, "aligned", False):   # (most steps have none)
             self.innovation_log.add(nav.innovations)   # for the flight log (every record)
-        if not self.enabled:
-            return
-        if self._aligned_us is None:
-            if not getattr(nav, "aligned", False):
-                return
-            self._aligned_us = t_us
-        if self._healthy_us is None:
-            if not getattr(nav, "healthy", False):
-                return
-            self._healthy_us = t_us
-        if t_us - self._healthy_us < self._start_us:
+        if not self._running and not self._start(t_us):
             return
         step_max = 0.0
         okf = self.radapt.okf_sd
@@ -430,9 +423,29 @@ class FaultMonitor:
         # with no fault detected, no window moved, the bias test not due, armed as it
         # was and no channel able to fall silent yet, the evaluation would find what it
         # found last time: skipped
-        if (changed or self.detected or t_us >= self._bias_next_us or armed != self._eval_armed
-                or t_us > self._eval_until_us):
+        if changed or self.detected or t_us >= self._eval_at_us or armed != self._eval_armed:
             self._evaluate(t_us, armed)
+            self._eval_at_us = min(self._bias_next_us, self._eval_until_us + 1)
+
+    def _start(self, t_us: int) -> bool:
+        """Whether the monitor runs from this step on: enabled, FDI_START_T after the
+        navigation is healthy (the alignment's and health's times noted here). Once it
+        runs it runs on (update asks only until then)."""
+        if not self.enabled:
+            return False
+        nav = self.nav
+        if self._aligned_us is None:
+            if not getattr(nav, "aligned", False):
+                return False
+            self._aligned_us = t_us
+        if self._healthy_us is None:
+            if not getattr(nav, "healthy", False):
+                return False
+            self._healthy_us = t_us
+        if t_us - self._healthy_us < self._start_us:
+            return False
+        self._running = True
+        return True
 
     def observe_rpm(self, sample) -> None:
         """The propeller's measured speed (an ``RpmSample``, ESC telemetry): the throttle's

@@ -128,8 +128,9 @@ def attach(nav, adapter: RAdapter) -> bool:
     def hook(source, y, hph, r):
         out = adapter.scale(source, y, hph, r)
         if out is None:
-            okf_sd.pop(source, None)
-            last.pop(source, None)
+            if okf_sd:                    # (both hold the same sources: empty but while adapting)
+                okf_sd.pop(source, None)
+                last.pop(source, None)
         else:
             last[source] = out
             okf_sd[source] = tuple([h + q for h, q in zip(hph, r)])   # diag(S) of the optimal filter

@@ -106,9 +106,9 @@ import numpy as np
 
 from autopilot.jit import kernel, preload
 
-from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_WARMUP_S, IDENT_WIN_S, MAX_DEFLECTION_RAD,
-                       RESTART_HOLD_S, RSS_STUCK, SETTLE_S, identify_hist)
-from .lateral import TEST_DIV, V_REF, _Axis
+from .actuator import (BAL_PERIOD_US, FIT_WARMUP_S, IDENT_WIN_S, LP_ON, LP_T, LP_T0,
+                       MAX_DEFLECTION_RAD, RSS_STUCK, SETTLE_S, identify_hist, lowpass_advance, lowpass_state)
+from .lateral import NO_FORCE, TEST_DIV, V_REF, _Axis
 from .stats import family_alpha
 
 RHO0 = 1.225
@@ -395,10 +395,12 @@ class ThrustModel:
 
     @cached_property
     def _rotor(self) -> np.ndarray:
-        """The electric rotor's numbers as its kernels take them (the indices ``_P_MAX`` ... ``_D5``)."""
+        """The electric rotor's numbers as its kernels take them (the indices ``_P_MAX`` ... ``_D5``),
+        then the airframe's that throttle_front takes (``_MASS`` ... ``_TAU``)."""
         a, b, c, d = self.rpm
         return np.array((self.p_max_w, self.q_max_nm, self.prop_ixx, self.k_idle, a, b, c, d,
-                         self.prop_d_m, self.prop_d_m ** 5), dtype=float)
+                         self.prop_d_m, self.prop_d_m ** 5, self.mass_kg, self.wing_area_m2, self.CL0,
+                         self.CLde, self.CLa, self.tau_s), dtype=float)
 
     @cached_property
     def _cp_tables(self) -> tuple:
@@ -544,12 +546,14 @@ def _interp(x, xs, ys):
 
 
 _table = kernel(_interp)      # the same law, compiled (the electric rotor's kernels call it)
+_isa_rho_k = kernel(_isa_rho)   # (and throttle_front this one)
 
 
 # ---- the electric rotor's laws (ThrustModel.rotor_*, prop_*), compiled: the throttle
 # balance runs them at 50 Hz. ``rotor`` is ThrustModel._rotor: p_max_w, q_max_nm,
 # prop_ixx, k_idle, the rpm fit's a, b, c, d, prop_d_m and prop_d_m ** 5, at these indices
 _P_MAX, _Q_MAX, _IXX, _K_IDLE, _RPM_A, _RPM_B, _RPM_C, _RPM_D, _D, _D5 = range(10)
+_MASS, _AREA, _CL0, _CLDE, _CLA, _TAU = range(10, 16)     # the airframe's (throttle_front)
 
 
 @kernel
@@ -670,6 +674,86 @@ def _rotors_advance(w, throttle, V, dt, w_model, l_meas, l_model, w_meas, vt, rh
     return w, thr, w_model, l_meas, l_model
 
 
+# ThrottleIdentifier's state past the balance's low-passes (actuator.lowpass_advance): in
+# ``lp``, before the signals, the rotor's speed (ThrustModel.rotor_step) and the model rotor's of the residual on
+# the measured speed [rad/s], that residual's two low-passed throttles (measured, model's),
+# the command through the thrust's lag (tau_s), the measured speed [rad/s]; in ``st`` the
+# residual held (1) or not, the speed's time (-1: none yet) and the residual's start [us]
+_W, _WR, _LPR0, _LPR1, _LAG, _RPM = range(8, 14)
+_LPR_ON, _RPM_US, _RPM_START = range(5, 8)
+# how the throttle enters the thrust balance: as given (the command, or a piston's through
+# its lag, ThrottleIdentifier._piston), through the electric rotor, through tau_s
+_GIVEN, _ROTOR, _LAGGED = range(3)
+
+
+@kernel
+def throttle_front(lp, st, t_us, V, flying, f_b, elevator, throttle, alt_m, mode, rotor, cp_j, cp, cp_rpm,
+                   cp_rpm_k):
+    """The thrust balance's signals (the specific force ``f_b``, the elevator command
+    [rad], V, the throttle the thrust asks for, the lateral and normal forces' squares)
+    low-passed (actuator.lowpass_advance), with the rotor's residual on its measured speed
+    advanced, flying at 10 m/s or more (else both start again, -1): 1 where a balance
+    sample is due (ThrottleIdentifier.step), else 0."""
+    if not flying or V < 10.0:
+        st[LP_ON] = 0
+        st[_LPR_ON] = 0
+        return -1
+    fx, fy, fz = f_b[0], f_b[1], f_b[2]
+    thr = throttle
+    if mode == _ROTOR:
+        # the rotor's speed measured: the throttle its propeller takes, against the
+        # model rotor's (prop_step) on the command, on the true airspeed and the
+        # density of the standard atmosphere at the height flown
+        rpm_on = st[_RPM_US] >= 0 and t_us - st[_RPM_US] <= RPM_TIMEOUT_S * 1e6
+        rho = vt = 0.0
+        if not rpm_on:
+            st[_LPR_ON] = 0
+        else:
+            rho = _isa_rho_k(alt_m)
+            # the propeller's axial inflow: the true airspeed times cos(alpha), alpha
+            # from the lift the normal specific force says (as ThrustModel.thrust);
+            # in a 45 deg turn at 22 m/s (alpha about 0.2) V alone read the rotor's
+            # throttle 0.03 low
+            qS = 0.5 * RHO0 * V * V * rotor[_AREA]
+            alpha = (-rotor[_MASS] * fz / qS - rotor[_CL0] + rotor[_CLDE] * elevator * MAX_DEFLECTION_RAD) / rotor[_CLA]
+            alpha = -0.3 if -0.3 > alpha else alpha
+            vt = V * math.sqrt(RHO0 / rho) * math.cos(0.3 if 0.3 < alpha else alpha)
+        # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
+        # whose steady speed the rotor has now, as the thrust it asks for
+        if st[LP_ON] == 0:
+            lp[_W] = _rotor_speed(thr, V, rotor)
+            thr = _rotor_throttle(lp[_W], V, rotor)
+        else:
+            dt = (t_us - st[LP_T]) * 1e-6
+            if st[_LPR_ON] != 0 and dt > 0.0:
+                # and the model rotor on the same command
+                lp[_W], thr, lp[_WR], lp[_LPR0], lp[_LPR1] = _rotors_advance(
+                    lp[_W], thr, V, dt, lp[_WR], lp[_LPR0], lp[_LPR1], lp[_RPM], vt, rho, rotor,
+                    cp_j, cp, cp_rpm, cp_rpm_k)
+            else:
+                lp[_W], thr = _rotor_advance(lp[_W], thr, V, dt, rotor)
+        if rpm_on and (st[_LPR_ON] == 0 or st[LP_ON] == 0):
+            lp[_WR] = lp[_RPM]          # the model rotor starts where it is measured
+            z0 = _prop_throttle(lp[_RPM], vt, rho, rotor, cp_j, cp, cp_rpm, cp_rpm_k)
+            lp[_LPR0] = z0
+            lp[_LPR1] = z0
+            st[_LPR_ON] = 1
+            st[_RPM_START] = t_us
+    elif mode == _LAGGED and st[LP_ON] != 0:
+        # the thrust follows the command with the motor's and propeller's lag
+        # (ThrustModel.tau_s): the command through it, as the thrust it asks for
+        dt = (t_us - st[LP_T]) * 1e-6
+        if dt > 0.0:
+            lp[_LAG] += dt / (rotor[_TAU] + dt) * (thr - lp[_LAG])
+        thr = lp[_LAG]
+    if st[LP_ON] == 0:
+        lp[_LAG] = thr
+    x = lp[14:]
+    x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7] = (fx, fz, elevator * MAX_DEFLECTION_RAD, V, thr, fy,
+                                                      fz * fz, fy * fy)
+    return 1 if lowpass_advance(lp, st, 8, t_us) else 0
+
+
 class ThrottleIdentifier:
     """Throttle fault detection and identification (module docstring); the same
     interface as :class:`.lateral.LateralIdentifier` with the one axis "throttle"."""
@@ -686,26 +770,23 @@ class ThrottleIdentifier:
                                  offset_sd=THR_OFFSET_SD, fit_noise=THR_FIT_NOISE,
                                  prior=RPM_RES_PRIOR, prior_n=RPM_RES_PRIOR_N, n_phi=3)
         self.axes = {"throttle": self._thrust_axis}
-        self._rpm = None               # the latest measured rotor speed [rad/s] ...
-        self._rpm_us = None            # ... and its time
-        self._lpr = None               # low-passed (rotor's throttle, model's), RPM_TAU_S
-        self._rpm_start_us = None
-        self._wr = 0.0                 # the rotor model's speed for that residual [rad/s]
-        self._map = 0.0                # a piston model's manifold pressure [Pa]
+        self._lp = np.zeros(22)        # the signals low-passed, the rotor's, the signals (throttle_front)
+        self._st = np.concatenate((lowpass_state(), (0, -1, 0)))
+        self._mode = (_GIVEN if model.engine is not None else _ROTOR if model.prop_ixx > 0.0
+                      else _LAGGED if model.tau_s > 0.0 else _GIVEN)
+        self._thr_lag = 0.0            # a piston's command through its lag (tau_s; _piston)
+        self._map = 0.0                # ... its manifold pressure [Pa]
         self._w_lp = [0.0, 0.0]        # ... its measured and model rotor speeds, low-passed
-        self._lp = None
-        self._t_us = None
-        self._start_us = None          # the low-passes' latest (re)start
-        self._thr_lag = 0.0            # the command through the thrust's lag (tau_s)
-        self._w = 0.0                  # the rotor's speed (ThrustModel.rotor_step) [rad/s]
-        self._next_us = 0
         self._k = 0
-        self._t0_us = None
         self.frozen = False
         self.suspended = False
         self._fault_us = None
+        self._model_arrays = (model._rotor, *model._cp_tables)     # (throttle_front's)
+        # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
+        preload(throttle_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, NO_FORCE, 0.0, 0.5, 100.0,
+                self._mode, *self._model_arrays)
         if model.engine is None and model.prop_ixx > 0.0:
-            # the electric rotor's kernels (step) loaded now, not on leaving the ground
+            # the electric rotor's kernels (ThrustModel's) loaded now, not in flight
             # (autopilot.jit.preload): a speed, a command, an airspeed, a density, a step
             w, u, V, rho, dt, rotor, cp = 500.0, 0.5, 20.0, RHO0, 0.01, model._rotor, model._cp_tables
             preload(_rotor_speed, u, V, rotor)
@@ -729,8 +810,8 @@ class ThrottleIdentifier:
 
     def measure_rpm(self, t_us: int, rpm: float) -> None:
         """The rotor's speed measured at ``t_us`` [rpm] (ESC telemetry)."""
-        self._rpm = rpm * (2.0 * math.pi / 60.0)
-        self._rpm_us = t_us
+        self._lp[_RPM] = rpm * (2.0 * math.pi / 60.0)
+        self._st[_RPM_US] = t_us
 
     @property
     def first_ident_s(self) -> float:
@@ -746,88 +827,26 @@ class ThrottleIdentifier:
         """True where ``axes["throttle"].ratio`` may have changed: its window test ran
         (2 Hz) or the residual tested changed (the rotor's, the thrust balance's)."""
         V = nav.airspeed_mps
-        if not flying or V < 10.0 or f_b is None:
-            self._lp = None
-            self._lpr = None
-            return False
+        st = self._st
         tested = self.axes["throttle"]
-        fz, fy = float(f_b[2]), float(f_b[1])
-        thr = float(controls[3])
-        m = self.model
-        if m.engine is not None:
-            thr = self._piston(t_us, nav, controls, fz)
-        elif m.prop_ixx > 0.0:
-            rotor = m._rotor
-            # the rotor's speed measured: the throttle its propeller takes, against the
-            # model rotor's (prop_step) on the command, on the true airspeed and the
-            # density of the standard atmosphere at the height flown
-            rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
-            if not rpm_on:
-                self._lpr = None
-            else:
-                rho = _isa_rho(nav.alt_m)
-                # the propeller's axial inflow: the true airspeed times cos(alpha), alpha
-                # from the lift the normal specific force says (as ThrustModel.thrust);
-                # in a 45 deg turn at 22 m/s (alpha about 0.2) V alone read the rotor's
-                # throttle 0.03 low
-                qS = 0.5 * RHO0 * V * V * m.wing_area_m2
-                alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
-                alpha = -0.3 if -0.3 > alpha else alpha
-                vt = V * math.sqrt(RHO0 / rho) * math.cos(0.3 if 0.3 < alpha else alpha)
-            # the thrust follows the rotor's speed (ThrustModel.rotor_step): the throttle
-            # whose steady speed the rotor has now, as the thrust it asks for
-            if self._lp is None:
-                self._w = _rotor_speed(thr, V, rotor)
-                thr = _rotor_throttle(self._w, V, rotor)
-            else:
-                dt = (t_us - self._t_us) * 1e-6
-                if self._lpr is not None and dt > 0.0:
-                    # and the model rotor on the same command (_rotors_advance)
-                    lpr = self._lpr
-                    self._w, thr, self._wr, lpr[0], lpr[1] = _rotors_advance(
-                        self._w, thr, V, dt, self._wr, lpr[0], lpr[1], self._rpm, vt, rho, rotor, *m._cp_tables)
-                else:
-                    self._w, thr = _rotor_advance(self._w, thr, V, dt, rotor)
-            if rpm_on and (self._lpr is None or self._lp is None):
-                self._wr = self._rpm          # the model rotor starts where it is measured
-                z0 = m.prop_throttle(self._rpm, vt, rho)
-                self._lpr = [z0, z0]
-                self._rpm_start_us = t_us
+        flying = flying and f_b is not None
+        thr = controls[3]
+        if self.model.engine is not None and flying and not V < 10.0:
+            thr = self._piston(t_us, nav, controls, float(f_b[2]))
+        # (the height only for the rotor's residual: where a speed was ever measured)
+        due = throttle_front(self._lp, st, t_us, V, flying, NO_FORCE if f_b is None else f_b, controls[1], thr,
+                             nav.alt_m if st[_RPM_US] >= 0 else 0.0, self._mode, *self._model_arrays)
+        if due < 0:
+            return False              # not flying: nothing moved
+        if self._mode == _ROTOR:
             # tested once its offset is learnt (before, the thrust balance's)
-            self.axes["throttle"] = (self._rotor_axis if self._lpr is not None and self._rotor_axis.fitting
+            self.axes["throttle"] = (self._rotor_axis if st[_LPR_ON] and self._rotor_axis.fitting
                                      else self._thrust_axis)
-        elif self._lp is not None and m.tau_s > 0.0:
-            # the thrust follows the command with the motor's and propeller's lag
-            # (ThrustModel.tau_s): the command through it, as the thrust it asks for
-            dt = (t_us - self._t_us) * 1e-6
-            if dt > 0.0:
-                self._thr_lag += dt / (self.model.tau_s + dt) * (thr - self._thr_lag)
-            thr = self._thr_lag
         switched = self.axes["throttle"] is not tested
-        x = [float(f_b[0]), fz, float(controls[1]) * MAX_DEFLECTION_RAD, V,
-             thr, fy, fz * fz, fy * fy]
-        if self._lp is None:
-            self._thr_lag = thr
-            self._lp, self._t_us = list(x), t_us
-            self._start_us = t_us
-            if self._t0_us is None:
-                self._t0_us = t_us
+        if not due:
             return switched
-        dt = (t_us - self._t_us) * 1e-6
-        self._t_us = t_us
-        if dt <= 0.0:
-            return switched
-        a = dt / (BAL_TAU_S + dt)
-        # lp + a (x - lp), each signal (written out: lateral.LateralIdentifier.step)
-        l0, l1, l2, l3, l4, l5, l6, l7 = self._lp
-        x0, x1, x2, x3, x4, x5, x6, x7 = x
-        self._lp = lp = [l0 + a * (x0 - l0), l1 + a * (x1 - l1), l2 + a * (x2 - l2), l3 + a * (x3 - l3),
-                         l4 + a * (x4 - l4), l5 + a * (x5 - l5), l6 + a * (x6 - l6), l7 + a * (x7 - l7)]
-        if t_us < self._next_us:
-            return switched
-        self._next_us = t_us + BAL_PERIOD_US
-        if t_us - self._start_us < RESTART_HOLD_S * 1e6:
-            return switched   # the low-passes' start (actuator.RESTART_HOLD_S)
+        m = self.model
+        lp = self._lp.tolist()
         # the forces' variances about their low-passed values, over the same filter
         var_fz = max(lp[6] - lp[1] * lp[1], 0.0)
         var_fy = max(lp[7] - lp[5] * lp[5], 0.0)
@@ -838,15 +857,14 @@ class ThrottleIdentifier:
             self._k = 0
         phi = np.array((1.0, lp[3] / V_REF - 1.0))
         learn = (None if self.frozen or self.suspended
-                 else t_us - self._t0_us >= FIT_WARMUP_S * 1e6)
+                 else t_us - int(st[LP_T0]) >= FIT_WARMUP_S * 1e6)
         self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
-        lpr = self._lpr
-        if lpr is not None and t_us - self._rpm_start_us >= 3.0 * RPM_TAU_S * 1e6:
+        if st[_LPR_ON] and t_us - int(st[_RPM_START]) >= 3.0 * RPM_TAU_S * 1e6:
             # its offset also on the throttle (a gain): the rotor model's error grows with
             # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
             # corrections not modelled: 0.02-0.04 of full throttle low at full)
             # (a piston's: no offset learnt, the variance only; module docstring)
-            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lpr[1])), lpr[0], lpr[1],
+            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lp[_LPR1])), lp[_LPR0], lp[_LPR1],
                                   learn and m.engine is None if learn is not None else None, k_test)
         return k_test or switched
 
@@ -855,50 +873,54 @@ class ThrottleIdentifier:
         measured rpm, tested from its first second (:meth:`step`); the command through
         ``tau_s`` returned for the thrust balance."""
         m = self.model
+        lp, st = self._lp, self._st
         thr = float(controls[3])
         V = nav.airspeed_mps
-        dt = 0.0 if self._lp is None else (t_us - self._t_us) * 1e-6
-        if self._lp is None:
+        dt = 0.0 if not st[LP_ON] else (t_us - int(st[LP_T])) * 1e-6
+        if not st[LP_ON]:
             self._thr_lag = thr
         elif dt > 0.0:
             self._thr_lag += dt / (m.tau_s + dt) * (thr - self._thr_lag)
-        rpm_on = self._rpm_us is not None and t_us - self._rpm_us <= RPM_TIMEOUT_S * 1e6
+        rpm_on = st[_RPM_US] >= 0 and t_us - int(st[_RPM_US]) <= RPM_TIMEOUT_S * 1e6
         if not rpm_on:
-            self._lpr = None
+            st[_LPR_ON] = 0
         else:
             alt = nav.alt_m
             rho = _isa_rho(alt)
+            rpm = float(lp[_RPM])
             # the propeller's axial inflow, V cos(alpha) true (alpha from the lift)
             qS = 0.5 * RHO0 * V * V * m.wing_area_m2
             alpha = (-m.mass_kg * fz / qS - m.CL0 + m.CLde * float(controls[1]) * MAX_DEFLECTION_RAD) / m.CLa
             alpha = -0.3 if -0.3 > alpha else 0.3 if 0.3 < alpha else alpha
             vt = V * math.sqrt(RHO0 / rho) * math.cos(alpha)
             qbar = 0.5 * RHO0 * V * V
-            if self._lpr is None or self._lp is None:
+            if not st[_LPR_ON] or not st[LP_ON]:
                 # the model rotor starts where it is measured, its manifold pressure the
                 # one that gives the power its propeller takes there
-                self._wr = self._rpm
-                z0 = m.piston_throttle(self._rpm, vt, alt, qbar)
+                lp[_WR] = rpm
+                z0 = m.piston_throttle(rpm, vt, alt, qbar)
                 _rho, p_amb, _a, _t = _isa(alt)
-                self._map = m.engine.map_steady(z0, self._rpm * (30.0 / math.pi), p_amb + m.engine.ram * qbar)
-                self._lpr = [z0, z0]
-                self._w_lp = [self._rpm, self._rpm]
-                self._rpm_start_us = t_us
+                self._map = m.engine.map_steady(z0, rpm * (30.0 / math.pi), p_amb + m.engine.ram * qbar)
+                lp[_LPR0] = lp[_LPR1] = z0
+                st[_LPR_ON] = 1
+                self._w_lp = [rpm, rpm]
+                st[_RPM_START] = t_us
             elif dt > 0.0:
-                self._wr, self._map = m.piston_step(self._wr, self._map, thr, vt, alt, qbar, dt)
+                wr, self._map = m.piston_step(float(lp[_WR]), self._map, thr, vt, alt, qbar, dt)
+                lp[_WR] = wr
                 # the speeds low-passed before the throttle is read from them: near full
                 # throttle the manifold pressure hardly moves with the throttle, the
                 # reading's noise (0.5 % of the rpm) is 0.04 of throttle there, and its
                 # clipping at 1 read a stuck full throttle 0.02-0.04 low
                 a = dt / (RPM_TAU_S + dt)
                 wl = self._w_lp
-                wl[0] += a * (self._rpm - wl[0])
-                wl[1] += a * (self._wr - wl[1])
-                self._lpr[0] = m.piston_throttle(wl[0], vt, alt, qbar)
-                self._lpr[1] = m.piston_throttle(wl[1], vt, alt, qbar)
+                wl[0] += a * (rpm - wl[0])
+                wl[1] += a * (wr - wl[1])
+                lp[_LPR0] = m.piston_throttle(wl[0], vt, alt, qbar)
+                lp[_LPR1] = m.piston_throttle(wl[1], vt, alt, qbar)
         # the rotor's residual tested whenever the speed is measured (the engine's and the
         # propeller's model from their files, not learnt: no warm-up on the thrust balance)
-        self.axes["throttle"] = self._rotor_axis if self._lpr is not None else self._thrust_axis
+        self.axes["throttle"] = self._rotor_axis if st[_LPR_ON] else self._thrust_axis
         return self._thr_lag
 
     def worst(self) -> tuple[str, float]:
@@ -945,7 +967,7 @@ class ThrottleIdentifier:
         # the throttle within a second, over the last second
         rotor = self.rotor_measured
         win = self.model.ident_s - 1.0 if rotor else IDENT_WIN_S
-        recent = None if self._t_us is None else self._t_us - int(win * 1e6)
+        recent = None if self._st[LP_T0] < 0 else int(self._st[LP_T]) - int(win * 1e6)
         # (a piston's: the onset's transient its manifold pressure's and rotor's, ident_s
         # long, and the command's saturation counted after it, when the command has run
         # up to full: stuck at 0.3, seed 1, z flat at 0.30 from 5 s after the onset and
