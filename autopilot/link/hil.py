@@ -97,6 +97,14 @@ ESC_RPM = 12          # ESC 1's rpm in ESC_TELEMETRY_1_TO_4's wire-order values
 
 _MG_TO_MS2 = 9.80665e-3
 
+# The records' constructors under module names: Python 3.11 compiles ``Cls.make(...)`` of
+# an imported class as an attribute load it never specialises (about 180 instructions a
+# call more than a global's load).
+_imu_sample, _mag_sample, _baro_sample, _airspeed_sample, _rpm_sample, _range_sample = (
+    ImuSample.make, MagSample.make, BaroSample.make, AirspeedSample.make, RpmSample.make,
+    RangeSample.make)
+_sensor_frame, _gps_fix = SensorFrame.make, GpsFix.make
+
 
 class TruthSample:
     """Truth from HIL_STATE_QUATERNION, in SI (for logging and scoring only). The
@@ -121,7 +129,7 @@ class TruthSample:
 
 def range_sample_from(v) -> RangeSample:
     """DISTANCE_SENSOR values -> RangeSample in SI (time from ``time_boot_ms``)."""
-    return RangeSample.make(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
+    return _range_sample(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
 
 
 def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
@@ -129,23 +137,23 @@ def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
     """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
     values) -> SensorFrame in SI."""
     t_us, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, dp_hpa, alt_m, temp_c, flags, _ = v
-    imu = ImuSample.make(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
-    mag = MagSample.make(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
-    baro = BaroSample.make(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
+    imu = _imu_sample(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
+    mag = _mag_sample(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
+    baro = _baro_sample(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
     air = None
     if flags & DIFF_FLAG:
         dp_pa = dp_hpa * 100.0
         q = 2.0 * dp_pa / RHO0
-        air = AirspeedSample.make(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
-    rpm = None if esc is None else RpmSample.make(t_us, float(esc[ESC_RPM]))
-    return SensorFrame.make(t_us, imu, mag, baro, air, gps, rng, rpm)
+        air = _airspeed_sample(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
+    rpm = None if esc is None else _rpm_sample(t_us, float(esc[ESC_RPM]))
+    return _sensor_frame(t_us, imu, mag, baro, air, gps, rng, rpm)
 
 
 def gps_fix_from(v) -> GpsFix:
     """HIL_GPS values (wire order) -> GpsFix in SI."""
-    return GpsFix.make(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
-                       np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
-                       v[11], v[12])
+    return _gps_fix(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
+                    np.array((v[7] * 0.01, v[8] * 0.01, v[9] * 0.01)), v[4] * 0.01, v[5] * 0.01,
+                    v[11], v[12])
 
 
 class AutopilotHilEnd:
