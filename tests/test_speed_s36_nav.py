@@ -146,3 +146,16 @@ def test_aux_into_is_the_running_sums_written_out():
             assert s[S_MREF:S_MREF + 3].tolist() == ref
     assert 0 < n_mag < sum(1 for k in range(40) if k % 3)    # some fields refused
     assert (S_N_BARO, S_MAG, S_N_MAG, S_AIR) == (S_BARO + 1, S_BARO + 2, S_BARO + 4, S_BARO + 5)
+
+
+def test_the_nominal_state_the_step_array_and_the_history_are_views_of_one_buffer():
+    # imu_step takes the buffer alone: the views the other kernels and the Python side
+    # read must be its memory, after a reset as well
+    f = InsGpsEkf()
+    for _ in range(2):
+        b = f._buf
+        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b
+        b[:] = np.arange(b.size)
+        assert f.nom.x[0] == 0.0 and f._s[0] == f.nom.x.size
+        assert f._hist[0, 0] == f.nom.x.size + f._s.size and f._hist[-1, -1] == b.size - 1
+        f.reset()
