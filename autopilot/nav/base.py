@@ -159,9 +159,10 @@ _AUX_BARO, _AUX_MAG, _AUX_AIR = 1, 2, 4
 # history rows: t, p, v, c_p, c_v, running f_n dt, running sampling variance (_delayed)
 _H_T, _H_P, _H_V, _H_CP, _H_CV, _H_SF, _H_QS, _H_SIZE = 0, 1, 4, 7, 10, 13, 16, 19
 # The nominal state (X_SIZE), the per-step array (S_SIZE) and the history ring (_HIST
-# rows) are views of one buffer (NavFilterBase._buf), in this order: imu_step takes the
-# buffer as one argument (a kernel's array argument costs more than views taken of it
-# inside), the other kernels and the Python side take the views.
+# rows) are views of one buffer (NavFilterBase._buf), in this order: the kernels called
+# on most steps (imu_step, aux_into) take the buffer as one argument (a kernel's array
+# argument costs more than views taken of it inside), the other kernels and the Python
+# side take the views.
 _B_S, _B_H = X_SIZE, X_SIZE + S_SIZE
 _B_SIZE = _B_H + _HIST * _H_SIZE
 
@@ -309,11 +310,13 @@ def inject_into(x, s, dx):
 
 
 @kernel
-def aux_into(x, s, which, alt, mx, my, mz, tas):
+def aux_into(b, which, alt, mx, my, mz, tas):
     """Add this step's barometer altitude, magnetometer field and true airspeed (those
     ``which`` names, bits _AUX_*) to the running sums (NavFilterBase._accumulate_aux); the
     field rotated into NED, and only where its horizontal part is large enough to give a
-    heading, also into the smoothed field. Returns whether the sums hold a sample."""
+    heading, also into the smoothed field. ``b``: the buffer of the nominal state and
+    the per-step array (_B_*). Returns whether the sums hold a sample."""
+    x, s = b[:_B_S], b[_B_S:_B_H]
     if which & _AUX_BARO:
         s[S_BARO] += alt
         s[S_N_BARO] += 1.0
@@ -802,7 +805,7 @@ class NavFilterBase:
             which |= _AUX_AIR
             tas = self._true_airspeed(air)
         if which:
-            self._aux_any = aux_into(self.nom.x, self._s, which, alt, mx, my, mz, tas)
+            self._aux_any = aux_into(self._buf, which, alt, mx, my, mz, tas)
         return self._aux_any and frame.t_us - self._aux_t >= self._aux_due_us
 
     def _clear_aux(self, t: int) -> None:
