@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 
 from autopilot.geo import euler_to_quat
-from autopilot.nav.base import (_H_SIZE, _HIST, S_ACC, S_F0, S_G, S_GM, S_HI, S_QS, S_QS_HAS,
-                                S_SF, S_SIZE, S_THR, S_W0, S_WIE, imu_step, sampling_error_into)
+from autopilot.nav.base import (_B_H, _B_S, _B_SIZE, _H_SIZE, _HIST, S_ACC, S_ACC_HAS, S_F0,
+                                S_G, S_GM, S_HI, S_QS, S_QS_HAS, S_SF, S_SIZE, S_THR, S_W0,
+                                S_WIE, imu_step, sampling_error_into)
 from autopilot.nav.ekf import InsGpsEkf, joseph_update_into, predict_covariance_into
 from autopilot.nav.strapdown import X_BA, X_BG, Nominal, dcm9, mechanise
 from autopilot.nav.layout import ABIAS, ATT, GBIAS, GPSB, POS, VEL
@@ -39,13 +40,23 @@ def test_predict_covariance_into_writes_F_P_Ft_plus_Q_into_the_given_array():
         F[GPSB, GPSB] = a * np.eye(3)
         want = F @ P @ F.T + np.diag(q)
         want.flat[qs_idx] += qs
+        # the interval's sums as imu_step leaves them in the per-step array
+        s = np.zeros(S_SIZE)
+        s[S_ACC:S_ACC + 3], s[S_ACC + 3:S_ACC + 12], s[S_ACC + 12:S_ACC + 30] = S, Rs, qs
+        s[S_ACC_HAS] = s[S_QS_HAS] = 1.0
+        s0 = s.copy()
         out = np.full((n, n), np.nan)                 # every entry must be written
-        assert predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out) is None
+        assert predict_covariance_into(P, T, s, a, q, qs_idx, out) is None
         assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
         assert np.array_equal(P, P0)                  # P itself untouched
-        # the IMU sampling error lands at its indices and nowhere else
+        # the interval taken: its flags cleared, nothing else of s written
+        assert s[S_ACC_HAS] == 0.0 and s[S_QS_HAS] == 0.0
+        s0[S_ACC_HAS] = s0[S_QS_HAS] = 0.0
+        assert np.array_equal(s, s0)
+        # the IMU sampling error lands at its indices and nowhere else (an interval
+        # without one: S_QS_HAS clear)
         without = np.empty((n, n))
-        predict_covariance_into(P, T, S, Rs, a, q, np.zeros(0), qs_idx, without)
+        predict_covariance_into(P, T, s, a, q, qs_idx, without)
         d = out - without
         assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
         d.flat[qs_idx] = 0.0
@@ -145,16 +156,18 @@ def test_imu_step_is_the_mechanisation_the_sampling_error_and_the_interval_sums(
     f0, f1 = [0.5, 0.1, -9.0], [3.0, -1.0, -12.0]
     w0, w1 = [0.1, -0.2, 0.05], [0.3, 0.1, -0.2]
     dt, g, w_ie, thr, a_gm = 0.01, 9.79, (5e-5, 0.0, -4e-5), (1e-3, 1e-3), 0.999
-    s = np.zeros(S_SIZE)
+    b = np.zeros(_B_SIZE)                  # the filter's buffer of x, s and the history
+    b[:_B_S] = nom.x
+    nom = Nominal(b[:_B_S])
+    s, hist = b[_B_S:_B_H], b[_B_H:].reshape(_HIST, _H_SIZE)
     s[S_F0:S_F0 + 3], s[S_W0:S_W0 + 3] = f0, w0
     s[S_G], s[S_WIE:S_WIE + 3], s[S_THR:S_THR + 2], s[S_GM] = g, w_ie, thr, a_gm
     s[S_SF:S_SF + 3], s[S_QS:S_QS + 3] = (1.0, 2.0, 3.0), (0.1, 0.2, 0.3)
     s[S_ACC:S_ACC + 30] = np.nan
-    hist = np.zeros((_HIST, _H_SIZE))
     x0, s0 = nom.x.copy(), s.copy()
     out = np.empty(13)
     # WHEN one step is taken
-    geo = imu_step(nom.x, s, hist, out, *f1, *w1, dt, 7)
+    geo = imu_step(b, out, *f1, *w1, dt, 7)
     # THEN the mechanisation with f1 and the trapezoid of the rates, bit for bit
     wm = [0.5 * (w0[i] + w1[i]) for i in range(3)]
     o = mechanise(*x0[0:10], *x0[X_BG:X_BG + 3], *x0[X_BA:X_BA + 3], *f1, *wm, dt, g, *w_ie)
@@ -178,7 +191,7 @@ def test_imu_step_is_the_mechanisation_the_sampling_error_and_the_interval_sums(
     # AND the next step adds to the sums
     before = s.copy()
     x1 = nom.x.copy()
-    imu_step(nom.x, s, hist, out, *f0, *w0, dt, 8)
+    imu_step(b, out, *f0, *w0, dt, 8)
     o2 = mechanise(*x1[0:10], *x1[X_BG:X_BG + 3], *x1[X_BA:X_BA + 3], *f0, *wm, dt, g, *w_ie)
     assert nom.x[0:25].tolist() == list(o2)
     a = S_ACC

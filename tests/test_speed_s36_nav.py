@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from autopilot.geo import LocalFrame, euler_to_quat, wrap_pi
-from autopilot.nav.base import (_AUX_AIR, _AUX_BARO, _AUX_MAG, _BA_MAX, _HIST,
-                                _MAG_REF_GAIN, S_AIR, S_BARO, S_BB0, S_BHGT, S_CP, S_CV, S_HI,
+from autopilot.nav.base import (_AUX_AIR, _AUX_BARO, _AUX_MAG, _B_H, _B_S, _B_SIZE, _BA_MAX,
+                                _HIST, _MAG_REF_GAIN, S_AIR, S_BARO, S_BB0, S_BHGT, S_CP, S_CV, S_HI,
                                 S_MAG, S_MREF, S_MREF_SET, S_N_AIR, S_N_BARO, S_N_MAG, S_ORG,
                                 S_QS, S_SF, S_SIZE, S_W0, aux_into, inject_into, output_into,
                                 push_history)
@@ -108,8 +108,9 @@ def test_output_into_is_the_output_written_out():
 
 def test_aux_into_is_the_running_sums_written_out():
     rng = np.random.default_rng(4)
-    nom = _nominal(rng)
-    s = np.zeros(S_SIZE)
+    b = np.zeros(_B_SIZE)                       # the filter's buffer of x, s and the history
+    b[:_B_S] = _nominal(rng).x
+    nom, s = Nominal(b[:_B_S]), b[_B_S:_B_H]
     R = nom.R
     baro, n_baro, mag, n_mag, air, n_air, ref = 0.0, 0, [0.0, 0.0], 0, 0.0, 0, None
     for k in range(40):
@@ -118,7 +119,7 @@ def test_aux_into_is_the_running_sums_written_out():
         m = rng.standard_normal(3) * 0.3
         if k % 7 == 0:
             m = np.array(R).reshape(3, 3).T @ np.array((0.001, 0.0, 0.5))   # nearly vertical: no heading
-        got = aux_into(nom.x, s, which, alt, *m.tolist(), tas)
+        got = aux_into(b, which, alt, *m.tolist(), tas)
         if which & _AUX_BARO:
             baro += alt
             n_baro += 1
@@ -146,3 +147,16 @@ def test_aux_into_is_the_running_sums_written_out():
             assert s[S_MREF:S_MREF + 3].tolist() == ref
     assert 0 < n_mag < sum(1 for k in range(40) if k % 3)    # some fields refused
     assert (S_N_BARO, S_MAG, S_N_MAG, S_AIR) == (S_BARO + 1, S_BARO + 2, S_BARO + 4, S_BARO + 5)
+
+
+def test_the_nominal_state_the_step_array_and_the_history_are_views_of_one_buffer():
+    # imu_step takes the buffer alone: the views the other kernels and the Python side
+    # read must be its memory, after a reset as well
+    f = InsGpsEkf()
+    for _ in range(2):
+        b = f._buf
+        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b
+        b[:] = np.arange(b.size)
+        assert f.nom.x[0] == 0.0 and f._s[0] == f.nom.x.size
+        assert f._hist[0, 0] == f.nom.x.size + f._s.size and f._hist[-1, -1] == b.size - 1
+        f.reset()

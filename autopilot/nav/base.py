@@ -41,8 +41,8 @@ from . import config
 from .layout import (ABIAS, ATT, BBIAS, GBIAS, GPSB, N_WIND, POS, VEL, WIND,
                      error_state_size)
 from .records import InnovationRecord
-from .strapdown import (X_BA, X_BB, X_BG, X_FN, X_GB, X_P, X_Q, X_R, X_V, X_WIND, Nominal,
-                        earth_rate_ned, heading_from_mag, level_from_accel, mag_ned,
+from .strapdown import (X_BA, X_BB, X_BG, X_FN, X_GB, X_P, X_Q, X_R, X_SIZE, X_V, X_WIND,
+                        Nominal, earth_rate_ned, heading_from_mag, level_from_accel, mag_ned,
                         mechanise, rotate_global)
 
 _HIST = 128                   # history ring length [samples] (1.28 s at 100 Hz)
@@ -158,6 +158,13 @@ S_SIZE = 78
 _AUX_BARO, _AUX_MAG, _AUX_AIR = 1, 2, 4
 # history rows: t, p, v, c_p, c_v, running f_n dt, running sampling variance (_delayed)
 _H_T, _H_P, _H_V, _H_CP, _H_CV, _H_SF, _H_QS, _H_SIZE = 0, 1, 4, 7, 10, 13, 16, 19
+# The nominal state (X_SIZE), the per-step array (S_SIZE) and the history ring (_HIST
+# rows) are views of one buffer (NavFilterBase._buf), in this order: the kernels called
+# on most steps (imu_step, aux_into) take the buffer as one argument (a kernel's array
+# argument costs more than views taken of it inside), the other kernels and the Python
+# side take the views.
+_B_S, _B_H = X_SIZE, X_SIZE + S_SIZE
+_B_SIZE = _B_H + _HIST * _H_SIZE
 
 
 @kernel
@@ -217,10 +224,11 @@ def output_into(x, s, a):
 
 
 @kernel
-def imu_step(x, s, hist, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
+def imu_step(b, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
     """One IMU step of the nominal state ``x`` (Nominal.x) and the filter's per-step
     array ``s`` (offsets S_*), in place (NavFilterBase._propagate_nominal), from the
-    samples at the step's two ends (the last step's, in ``s``, and these):
+    samples at the step's two ends (the last step's, in ``s``, and these); ``b``: the
+    buffer of x, s and the history ring (_B_*):
 
     * the sampling error of the two samples, at the attitude before the step
       (:func:`sampling_error_into`), into the interval's q_s (added when one is there),
@@ -232,6 +240,7 @@ def imu_step(x, s, hist, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
       sum of f_n dt; the Gauss-Markov decay of the GPS error, b' = a b;
     * the history row of this step (:func:`push_history`) and the output
       (:func:`output_into`, into ``a``; returns lat, lon, alt)."""
+    x, s, hist = b[:_B_S], b[_B_S:_B_H], b[_B_H:].reshape((_HIST, _H_SIZE))
     f0x, f0y, f0z = s[S_F0], s[S_F0 + 1], s[S_F0 + 2]
     w0x, w0y, w0z = s[S_W0], s[S_W0 + 1], s[S_W0 + 2]
     sampled, e0, e1, e2 = sampling_error_into(
@@ -301,11 +310,13 @@ def inject_into(x, s, dx):
 
 
 @kernel
-def aux_into(x, s, which, alt, mx, my, mz, tas):
+def aux_into(b, which, alt, mx, my, mz, tas):
     """Add this step's barometer altitude, magnetometer field and true airspeed (those
     ``which`` names, bits _AUX_*) to the running sums (NavFilterBase._accumulate_aux); the
     field rotated into NED, and only where its horizontal part is large enough to give a
-    heading, also into the smoothed field. Returns whether the sums hold a sample."""
+    heading, also into the smoothed field. ``b``: the buffer of the nominal state and
+    the per-step array (_B_*). Returns whether the sums hold a sample."""
+    x, s = b[:_B_S], b[_B_S:_B_H]
     if which & _AUX_BARO:
         s[S_BARO] += alt
         s[S_N_BARO] += 1.0
@@ -399,9 +410,11 @@ class NavFilterBase:
     def reset(self) -> None:
         """Forget everything; the filter re-aligns from the next samples."""
         # the per-step array the kernels read and write in place (offsets S_*), and the
-        # history ring for the GPS latency (rows: _H_*; an empty row's t is -inf)
-        s = self._s = np.zeros(S_SIZE)
-        self._hist = np.zeros((_HIST, _H_SIZE))
+        # history ring for the GPS latency (rows: _H_*; an empty row's t is -inf): views
+        # of one buffer with the nominal state (_B_*)
+        b = self._buf = np.zeros(_B_SIZE)
+        s = self._s = b[_B_S:_B_H]
+        self._hist = b[_B_H:].reshape(_HIST, _H_SIZE)
         self._hist[:, _H_T] = -math.inf
         self.origin: LocalFrame | None = None
         self._g = G0
@@ -410,7 +423,7 @@ class NavFilterBase:
         self._declination: float | None = None
         if self._home is not None:
             self._set_origin(self._home)
-        self.nom = Nominal()
+        self.nom = Nominal(b[:_B_S])
         # the output of the nominal state as it is (imu_step's), None when it has changed since
         self._out: np.ndarray | None = None
         self._geo = (0.0, 0.0, 0.0)              # ... and its (lat, lon, alt)
@@ -425,10 +438,9 @@ class NavFilterBase:
         self.heard_us: dict[str, int] = {}
         self._t_us: int | None = None
         self._accel_prev: tuple | None = None  # the last specific-force sample [m/s^2]
-        # sums since the last covariance prediction (imu_step): f_n dt, R dt, the
-        # sampling error (18 entries), as views (_take_interval hands them out)
-        a = S_ACC
-        self._acc_S, self._acc_Rs, self._acc_qs = s[a:a + 3], s[a + 3:a + 12], s[a + 12:a + 30]
+        # the sampling error summed since the last covariance prediction (imu_step), as
+        # a view (_take_sampling_error hands it out)
+        self._acc_qs = s[S_ACC + 12:S_ACC + 30]
         s[S_THR] = (2.0 * self.params["EK_ACC_NSE"]) ** 2
         s[S_THR + 1] = (2.0 * self.params["EK_GYR_NSE"]) ** 2
         n = self.n
@@ -793,7 +805,7 @@ class NavFilterBase:
             which |= _AUX_AIR
             tas = self._true_airspeed(air)
         if which:
-            self._aux_any = aux_into(self.nom.x, self._s, which, alt, mx, my, mz, tas)
+            self._aux_any = aux_into(self._buf, which, alt, mx, my, mz, tas)
         return self._aux_any and frame.t_us - self._aux_t >= self._aux_due_us
 
     def _clear_aux(self, t: int) -> None:
@@ -903,16 +915,17 @@ class NavFilterBase:
         Hb.put(idx, hv)
         return Batch(src, start, size, reset, z, h0, R, g2, Hb[:len(z)])
 
-    def _take_interval(self) -> tuple:
-        """(sum f_n dt, sum R dt, sampling error) over the steps since the last covariance
-        prediction (imu_step; the sampling error: the entries at ``_qs_idx``, empty when
-        none), for this prediction; the next interval starts afresh."""
+    def _take_sampling_error(self) -> np.ndarray:
+        """The sampling error over the steps since the last covariance prediction
+        (imu_step; the entries at ``_qs_idx``, empty when none), for this prediction;
+        the next interval starts afresh. (The EKF's kernel takes the interval's sums
+        from the per-step array itself: ekf.predict_covariance_into.)"""
         s = self._s
         s[S_ACC_HAS] = 0.0
         if s[S_QS_HAS]:
             s[S_QS_HAS] = 0.0
-            return self._acc_S, self._acc_Rs, self._acc_qs
-        return self._acc_S, self._acc_Rs, _NO_QS
+            return self._acc_qs
+        return _NO_QS
 
     def _true_airspeed(self, air) -> float:
         """True airspeed [m/s] from the pitot's dynamic pressure and the air density of
@@ -932,18 +945,18 @@ class NavFilterBase:
 
         The sampling error of the samples: the integrals of point samples err by up to
         half the change between two samples, along that change: ``e e^T``, e = R (x1 -
-        x0) dt / 2. Added to P (:meth:`_take_interval`) where it exceeds the white noise
-        (EK_ACC_NSE / EK_GYR_NSE per sample, which covers the sampling error of ordinary
-        flight, turbulence included): a change of more than 2 EK_ACC_NSE or 2 EK_GYR_NSE
-        in one step. Through a catapult stroke's onset and end (75 m/s^2 in one step) it
-        is 0.35 m/s along the stroke, where otherwise the GPS velocity would turn the
-        error into an attitude or bias correction."""
+        x0) dt / 2. Added to P (ekf.predict_covariance_into, :meth:`_take_sampling_error`)
+        where it exceeds the white noise (EK_ACC_NSE / EK_GYR_NSE per sample, which covers
+        the sampling error of ordinary flight, turbulence included): a change of more than
+        2 EK_ACC_NSE or 2 EK_GYR_NSE in one step. Through a catapult stroke's onset and
+        end (75 m/s^2 in one step) it is 0.35 m/s along the stroke, where otherwise the
+        GPS velocity would turn the error into an attitude or bias correction."""
         tau = self.params["EK_GPSB_TAU"]
         if dt != self._gm_step[0] or tau != self._gm_step[1]:
             self._gm_step = (dt, tau, math.exp(-dt / tau))   # the same dt every step
             self._s[S_GM] = self._gm_step[2]
         self._out = a = np.empty(13)
-        self._geo = imu_step(self.nom.x, self._s, self._hist, a, *f1, *w1, dt, t)
+        self._geo = imu_step(self._buf, a, *f1, *w1, dt, t)
         return self._gm_step[2]
 
     def _tilt_aligned(self) -> bool:

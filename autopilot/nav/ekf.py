@@ -69,7 +69,7 @@ import numpy as np
 
 from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
-from .base import NavFilterBase
+from .base import S_ACC, S_ACC_HAS, S_QS_HAS, NavFilterBase
 from .config import NAV_PARAMS  # noqa: F401  (re-exported: the filter's parameters beside it)
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 
@@ -114,24 +114,30 @@ def _transition_times(X, T, S, Rs, a, Y):
 
 
 @kernel
-def predict_covariance_into(P, T, S, Rs, a, q, qs, qs_idx, out):
+def predict_covariance_into(P, T, s, a, q, qs_idx, out):
     """Covariance prediction over an interval T (module docstring; Sola 2017 eq 269):
 
-        P' = F P F^T + diag(q)   (+ the IMU sampling error ``qs`` at the flat indices
-                                  ``qs_idx``, base.py; ``qs`` empty: none)
+        P' = F P F^T + diag(q)   (+ the IMU sampling error q_s at the flat indices
+                                  ``qs_idx``, base.py, where the interval has one)
 
     computed as F (F P)^T transposed, F's blocks as in ``_transition_times``, written
     into ``out`` (n x n, not P itself: a kernel that hands back a new array costs the
-    loop more than the prediction's arithmetic)."""
+    loop more than the prediction's arithmetic). S = sum f_n dt, Rs = sum R dt and q_s
+    are the interval's sums in the filter's per-step array ``s`` (base.imu_step, S_ACC),
+    taken here: the next interval starts afresh (S_ACC_HAS, S_QS_HAS cleared)."""
     n = P.shape[0]
+    S, Rs = s[S_ACC:S_ACC + 3], s[S_ACC + 3:S_ACC + 12]
     Y = np.empty((n, n))
     _transition_times(P, T, S, Rs, a, Y)          # Y = F P
     _transition_times(Y.T, T, S, Rs, a, out.T)    # out^T = F Y^T = (F P F^T)^T
     for r in range(n):
         out[r, r] += q[r]
-    for k in range(qs.shape[0]):
-        i = qs_idx[k]
-        out[i // n, i % n] += qs[k]
+    if s[S_QS_HAS] != 0.0:
+        for k in range(qs_idx.shape[0]):
+            i = qs_idx[k]
+            out[i // n, i % n] += s[S_ACC + 12 + k]
+    s[S_ACC_HAS] = 0.0
+    s[S_QS_HAS] = 0.0
 
 
 @kernel
@@ -226,7 +232,7 @@ class InsGpsEkf(NavFilterBase):
         self._q = np.zeros(n)        # diag Q of a step of _q_dt
         self._a_gm = 1.0             # the Gauss-Markov decay over _q_dt
         self._q_dt = -1.0
-        self._interval_cache: dict = {}   # (dt, dt, ...) -> (diag Q, Gauss-Markov decay)
+        self._interval_cache: dict = {}   # (dt, dt, ...) -> (diag Q, Gauss-Markov decay, T)
         self._qs_flat = np.array(self._qs_idx, dtype=np.int64)
 
     @property
@@ -283,9 +289,8 @@ class InsGpsEkf(NavFilterBase):
             self._process_noise(dt)
         # P = F P F^T + Q (+ the sampling error of this step's IMU samples, base.py);
         # f_n dt and R dt of this step (base.imu_step)
-        S, Rs, qs = self._take_interval()
         out = self._P_spare
-        predict_covariance_into(self._P, dt, S, Rs, self._a_gm, self._noise(self._q, dt), qs,
+        predict_covariance_into(self._P, dt, self._s, self._a_gm, self._noise(self._q, dt),
                                 self._qs_flat, out)
         self._next_P(out)
 
@@ -296,8 +301,9 @@ class InsGpsEkf(NavFilterBase):
         self._pend: list[float] = []
 
     def _interval_noise(self, dts: tuple) -> tuple:
-        """(diag Q, Gauss-Markov decay) over the steps ``dts``: the per-step noises
-        summed, the Gauss-Markov part decayed exactly (b' = a b + w per step)."""
+        """(diag Q, Gauss-Markov decay, T) over the steps ``dts``: the per-step noises
+        summed, the Gauss-Markov part decayed exactly (b' = a b + w per step), the
+        interval T = sum dts."""
         key = dts
         hit = self._interval_cache.get(key)
         if hit is not None:
@@ -312,7 +318,7 @@ class InsGpsEkf(NavFilterBase):
             a_tot *= a
         if len(self._interval_cache) > 16:
             self._interval_cache.clear()
-        self._interval_cache[key] = hit = (q, a_tot)
+        self._interval_cache[key] = hit = (q, a_tot, math.fsum(dts))
         return hit
 
     def _sync_covariance(self) -> None:
@@ -321,18 +327,11 @@ class InsGpsEkf(NavFilterBase):
         if not pend:
             return
         self._pend = []
-        if len(pend) == 1:
-            dts = (pend[0],)
-            T = pend[0]
-        else:
-            dts = tuple(pend)
-            T = math.fsum(dts)
-        q, a = self._interval_noise(dts)
+        q, a, T = self._interval_noise(tuple(pend))
         # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt,
         #                 F[POS, VEL] = T I,  F[GPSB, GPSB] = (product of the decays) I
-        S, Rs, qs = self._take_interval()
         out = self._P_spare
-        predict_covariance_into(self._P, T, S, Rs, a, self._noise(q, T), qs, self._qs_flat, out)
+        predict_covariance_into(self._P, T, self._s, a, self._noise(q, T), self._qs_flat, out)
         self._next_P(out)
 
     def _gate_stats(self, batch) -> None:

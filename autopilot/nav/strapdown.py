@@ -95,8 +95,10 @@ class Nominal:
     gb = _block(X_GB, 3)          # GPS position error, NED [m]
     wind = _block(X_WIND, 2)      # wind north, east [m/s]
 
-    def __init__(self):
-        self.x = np.zeros(X_SIZE)
+    def __init__(self, x: np.ndarray | None = None):
+        """``x``: the array to hold the state in (X_SIZE zeros; the filters' is a view
+        of their buffer, base.py), else a new one."""
+        self.x = np.zeros(X_SIZE) if x is None else x
         self.set_attitude((1.0, 0.0, 0.0, 0.0))
 
     @property

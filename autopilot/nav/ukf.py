@@ -393,7 +393,7 @@ class InsGpsUkf(NavFilterBase):
         # additive (Lambda) Q: the fading matrix of seed eq 2.40 (base.py hooks) scales it
         q = self._qdiag if lam is None else self._qdiag * np.asarray(lam, dtype=float)
         # the sampling error of the IMU samples (base.py) where it exceeds Q
-        qs = self._take_interval()[2]
+        qs = self._take_sampling_error()
         ukf.predict(dt=dt, c=c, q=q, qs=qs, floor=self._floor, ceil=self._ceil, qs_idx=self._qs_idx_a)
         self._P_ver += 1
         # fold the mean error into the nominal state (the sigma points are centred on it)
