@@ -65,13 +65,16 @@ def _fly(vehicle: str, until_s: float, kernels) -> dict:
 
 @pytest.mark.parametrize("vehicle, until_s, kernels", [
     # the Aerosonde: the electric rotor's kernels (6.8 s), the elevator's stage 2 (9.8 s),
-    # the join planner's (21 s), the balances' fit (36.8 s) were loaded in flight before
-    ("plane", 40.0, ("throttle._rotor_speed", "throttle._prop_advance", "stats.stage2_update",
-                     "actuator.rls_update")),
+    # the join planner's (21 s), the balances' fit (36.8 s) were loaded in flight before;
+    # the monitor's kernels called from Python in flight (the rotor's are compiled into
+    # throttle_front)
+    ("plane", 40.0, ("throttle.throttle_front", "lateral.lateral_front", "actuator.pitch_front",
+                     "stats.stage2_update", "actuator.rls_update")),
     # the attitude loops and the mixer (4.6 s, the take-off), the motors' stage 2 (6.6 s)
-    ("quad", 10.0, ("stats.stage2_update",)),
+    ("quad", 10.0, ("stats.stage2_update", "motors.balance_residuals")),
     # the elevator's stage 2 (24.7 s), the balances' fit (51.7 s), the join planner's (53.4 s)
-    ("c172p", 55.0, ("stats.stage2_update", "actuator.rls_update")),
+    ("c172p", 55.0, ("throttle.throttle_front", "lateral.lateral_front", "actuator.pitch_front",
+                     "stats.stage2_update", "actuator.rls_update")),
 ])
 def test_no_kernel_is_loaded_in_flight(vehicle, until_s, kernels):
     r = _fly(vehicle, until_s, kernels)

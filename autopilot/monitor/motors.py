@@ -65,7 +65,8 @@ class MotorMonitor:
 
     ``motors`` are the commands the rotors flew with since the previous step (the
     previous step's output), ``f_b`` / ``omega_b`` the IMU sample less the filter's bias
-    estimates, ``thrust_of(u)`` the mixer's modelled thrust of a command [N]. Outputs:
+    estimates, ``thrust_of`` the mixer's ``thrust_of(u)``, the modelled thrust of a command
+    [N] (its curve is computed here on the mixer's numbers). Outputs:
     ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
     ``events`` (t_s, MAV_SEVERITY, text), ``failsafe`` ("LAND" or None), ``gamma``,
     ``peak`` (largest detection statistic / threshold while healthy)."""
@@ -151,10 +152,17 @@ class MotorMonitor:
             return
         T0, T1, T2, T3 = self.T
         a = self._lag
-        t1 = T0 + (thrust_of(motors[0]) - T0) * a
-        t2 = T1 + (thrust_of(motors[1]) - T1) * a
-        t3 = T2 + (thrust_of(motors[2]) - T2) * a
-        t4 = T3 + (thrust_of(motors[3]) - T3) * a
+        # the mixer's thrust curve T_max rho/rho0 ((1 - e) u + e u^2) written out on its
+        # numbers, as thrust_of writes it (four calls cost more than the curve; reading
+        # them from its array k, more again)
+        mixer = thrust_of.__self__
+        e = mixer.expo
+        full, lin = mixer.t_max * mixer.rho_ratio, 1.0 - e
+        u1, u2, u3, u4 = motors
+        t1 = T0 + (full * (lin * u1 + e * u1 * u1) - T0) * a
+        t2 = T1 + (full * (lin * u2 + e * u2 * u2) - T1) * a
+        t3 = T2 + (full * (lin * u3 + e * u3 * u3) - T2) * a
+        t4 = T3 + (full * (lin * u4 + e * u4 * u4) - T3) * a
         self.T = (t1, t2, t3, t4)
         if not flying:
             self._lp = None

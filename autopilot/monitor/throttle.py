@@ -785,16 +785,8 @@ class ThrottleIdentifier:
         # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
         preload(throttle_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, NO_FORCE, 0.0, 0.5, 100.0,
                 self._mode, *self._model_arrays)
-        if model.engine is None and model.prop_ixx > 0.0:
-            # the electric rotor's kernels (ThrustModel's) loaded now, not in flight
-            # (autopilot.jit.preload): a speed, a command, an airspeed, a density, a step
-            w, u, V, rho, dt, rotor, cp = 500.0, 0.5, 20.0, RHO0, 0.01, model._rotor, model._cp_tables
-            preload(_rotor_speed, u, V, rotor)
-            preload(_rotor_throttle, w, V, rotor)
-            preload(_rotor_advance, w, u, V, dt, rotor)
-            preload(_prop_throttle, w, V, rho, rotor, *cp)
-            preload(_prop_advance, w, u, u, u, w, V, rho, dt, rotor, *cp)
-            preload(_rotors_advance, w, u, V, dt, w, u, u, w, V, rho, rotor, *cp)
+        # (the electric rotor's kernels are compiled into throttle_front's: none of them
+        # is called from Python in flight, none preloaded)
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
