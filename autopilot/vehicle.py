@@ -36,7 +36,8 @@ import numpy as np
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
-from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .geo import LocalFrame, wrap_pi
+from .geo.rotations import euler_321
 from .guidance.l1 import G, L1Guidance
 from .guidance.landing import LAND_PARAMS
 from .guidance.rangefinder import RNGFND_PARAMS, RangefinderHeight
@@ -328,7 +329,7 @@ class PlaneVehicle(VehicleBase):
         if nav is None:
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
-        self.euler = quat_to_euler(nav.q_nb.tolist())  # (roll, pitch, yaw), once per step
+        self.euler = euler_321(*nav.q_nb.tolist())    # (roll, pitch, yaw), once per step
         vl = nav.v_ned.tolist()                         # the velocity [m/s], once per step
 
         # navigation -> fault monitor
@@ -695,7 +696,6 @@ class PlaneVehicle(VehicleBase):
             v = nav.v_ned.tolist()
             w = nav.wind_ned.tolist()
         er, ep, ey = self.euler
-        p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         rf = self.rangefinder
@@ -703,7 +703,6 @@ class PlaneVehicle(VehicleBase):
         mon = self.monitor
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
-        sig, gps_row = self._nav_rows(hf, gps)
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
         alt_dem, roll_c, pitch_c, climb_c = c.commands()
         h_rf = rf.height_m
@@ -711,7 +710,7 @@ class PlaneVehicle(VehicleBase):
         # flags, mode and counts as they are (the log converts its rows once, at the end)
         self.log.append((
             t_us * 1e-6, self.armed, self.mode, tgt.seq, tgt.leg_id, KIND_CODES[tgt.kind],
-            p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
+            *self._truth_row(hf, truth),
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
             tgt.alt_m if math.isnan(alt_dem) else alt_dem, tgt.airspeed_mps, roll_c, pitch_c, climb_c,
@@ -721,5 +720,5 @@ class PlaneVehicle(VehicleBase):
             h_rf if h_rf is not None else -1.0,
             seq.land_h_corr_m if seq is not None else 0.0,
             self.rpm,
-            *sig, nav.aligned, nav.healthy, *gps_row,
+            *self._nav_row(hf, nav, gps),
             *(mon.log_row() if mon is not None else _FDI_IDLE)))
