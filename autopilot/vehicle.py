@@ -442,20 +442,6 @@ class PlaneVehicle(VehicleBase):
         if self.log_rows.take(self.steps, truth is not None, gps):
             self._log(t_us, nav, truth, controls)
 
-    def _sequencer_requests(self, t_us: int, nav: NavState) -> None:
-        """What the mission asked of the vehicle this step: its warnings and notes to the
-        log and the ground stations (its notices), a new home (DO_SET_HOME)."""
-        seq = self._sequencer
-        if seq.notices:
-            for t_s, severity, text in seq.notices:
-                self.notice(t_s, severity, text)
-            seq.notices.clear()
-        if seq.home_request is not None:
-            req, seq.home_request = seq.home_request, None
-            if req == "here":
-                req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
-            self.set_home(*req, t_us)
-
     def _crash_check(self, nav: NavState, t_us: int, v_ned: list) -> None:
         """Crash detection (module docstring); disarms on a crash. ``v_ned``: nav.v_ned
         as a list."""
@@ -617,7 +603,17 @@ class PlaneVehicle(VehicleBase):
             if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
                 tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
-            self._sequencer_requests(t_us, nav)
+            # what the mission asked of the vehicle this step: its warnings and notes to
+            # the log and the ground stations, a new home (DO_SET_HOME)
+            if seq.notices:
+                for t_s, severity, text in seq.notices:
+                    self.notice(t_s, severity, text)
+                seq.notices.clear()
+            if seq.home_request is not None:
+                req, seq.home_request = seq.home_request, None
+                if req == "here":
+                    req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
+                self.set_home(*req, t_us)
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl

@@ -428,13 +428,15 @@ class QuadVehicle(VehicleBase):
         dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
-        if frame.gps is not None:
-            self._gps_this_step = frame.gps     # logged with the next row
-            self.gps_fix_type = frame.gps.fix_type
-        if frame.baro is not None and frame.baro.temperature_k > 150.0:
+        gps = frame.gps
+        if gps is not None:
+            self._gps_this_step = gps           # logged with the next row
+            self.gps_fix_type = gps.fix_type
+        baro = frame.baro
+        if baro is not None and baro.temperature_k > 150.0:
             # air density for the thrust model (thrust at full command ~ rho)
             self.ctrl.mixer.set_density_ratio(
-                frame.baro.pressure_pa / (R_AIR * frame.baro.temperature_k) / RHO0)
+                baro.pressure_pa / (R_AIR * baro.temperature_k) / RHO0)
 
         # sensors -> navigation
         if self.nav_source == "truth":
@@ -481,7 +483,7 @@ class QuadVehicle(VehicleBase):
         self._motors = motors
         if truth is not None and self.armed and self.home_truth_alt_m is None:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
-        if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
+        if self.log_rows.take(self.steps, truth is not None, gps is not None):
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs.make(t_us, motors, self.armed)
 
