@@ -36,7 +36,8 @@ import numpy as np
 from .control.fixed_wing import FW_PARAMS, FixedWingController
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
-from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .geo import LocalFrame, wrap_pi
+from .geo.rotations import euler_321
 from .guidance.l1 import G, L1Guidance
 from .guidance.landing import LAND_PARAMS
 from .guidance.rangefinder import RNGFND_PARAMS, RangefinderHeight
@@ -328,7 +329,7 @@ class PlaneVehicle(VehicleBase):
         if nav is None:
             return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
         self.nav_state = nav
-        self.euler = quat_to_euler(nav.q_nb.tolist())  # (roll, pitch, yaw), once per step
+        self.euler = euler_321(*nav.q_nb.tolist())    # (roll, pitch, yaw), once per step
         vl = nav.v_ned.tolist()                         # the velocity [m/s], once per step
 
         # navigation -> fault monitor
@@ -440,20 +441,6 @@ class PlaneVehicle(VehicleBase):
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
         if self.log_rows.take(self.steps, truth is not None, gps):
             self._log(t_us, nav, truth, controls)
-
-    def _sequencer_requests(self, t_us: int, nav: NavState) -> None:
-        """What the mission asked of the vehicle this step: its warnings and notes to the
-        log and the ground stations (its notices), a new home (DO_SET_HOME)."""
-        seq = self._sequencer
-        if seq.notices:
-            for t_s, severity, text in seq.notices:
-                self.notice(t_s, severity, text)
-            seq.notices.clear()
-        if seq.home_request is not None:
-            req, seq.home_request = seq.home_request, None
-            if req == "here":
-                req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
-            self.set_home(*req, t_us)
 
     def _crash_check(self, nav: NavState, t_us: int, v_ned: list) -> None:
         """Crash detection (module docstring); disarms on a crash. ``v_ned``: nav.v_ned
@@ -616,7 +603,17 @@ class PlaneVehicle(VehicleBase):
             if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
                 tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
-            self._sequencer_requests(t_us, nav)
+            # what the mission asked of the vehicle this step: its warnings and notes to
+            # the log and the ground stations, a new home (DO_SET_HOME)
+            if seq.notices:
+                for t_s, severity, text in seq.notices:
+                    self.notice(t_s, severity, text)
+                seq.notices.clear()
+            if seq.home_request is not None:
+                req, seq.home_request = seq.home_request, None
+                if req == "here":
+                    req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
+                self.set_home(*req, t_us)
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl
@@ -695,7 +692,6 @@ class PlaneVehicle(VehicleBase):
             v = nav.v_ned.tolist()
             w = nav.wind_ned.tolist()
         er, ep, ey = self.euler
-        p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         rf = self.rangefinder
@@ -703,7 +699,6 @@ class PlaneVehicle(VehicleBase):
         mon = self.monitor
         if tgt is None:
             tgt = NavTarget("idle", 0, 0, nav.alt_m, 0.0)
-        sig, gps_row = self._nav_rows(hf, gps)
         a, b, cc = tgt.a_ne, tgt.b_ne, tgt.c_ne
         alt_dem, roll_c, pitch_c, climb_c = c.commands()
         h_rf = rf.height_m
@@ -711,7 +706,7 @@ class PlaneVehicle(VehicleBase):
         # flags, mode and counts as they are (the log converts its rows once, at the end)
         self.log.append((
             t_us * 1e-6, self.armed, self.mode, tgt.seq, tgt.leg_id, KIND_CODES[tgt.kind],
-            p_tru[0], p_tru[1], t_alt, tr, tp, ty, tv[0], tv[1], tv[2], t_as,
+            *self._truth_row(hf, truth),
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],
             tgt.alt_m if math.isnan(alt_dem) else alt_dem, tgt.airspeed_mps, roll_c, pitch_c, climb_c,
@@ -721,5 +716,5 @@ class PlaneVehicle(VehicleBase):
             h_rf if h_rf is not None else -1.0,
             seq.land_h_corr_m if seq is not None else 0.0,
             self.rpm,
-            *sig, nav.aligned, nav.healthy, *gps_row,
+            *self._nav_row(hf, nav, gps),
             *(mon.log_row() if mon is not None else _FDI_IDLE)))

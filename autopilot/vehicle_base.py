@@ -27,7 +27,8 @@ import numpy as np
 
 from .fence.actions import home_ll
 from .fence.geofence import FENCE_PARAMS, rally_params
-from .geo import LocalFrame, quat_to_euler
+from .geo import LocalFrame
+from .geo.rotations import euler_321
 from .messages import NavState, SensorFrame
 from .mission.items import Mission, terrain_problem, validate_mission
 from .nav.config import NAV_PARAMS
@@ -35,6 +36,7 @@ from .params import Param
 
 _NAN3 = (math.nan, math.nan, math.nan)
 _NAN9 = (math.nan,) * 9
+_NAN10 = (math.nan,) * 10
 
 # the flight-log columns of the airframe-independent row parts, in their order: truth in
 # home's NED (``VehicleBase._truth_row``) ...
@@ -45,7 +47,7 @@ TRUTH_COLUMNS = (
 # ... and the navigation filter: 1-sigma of its errors (NaN on truth; attitude as a
 # NED-frame rotation vector, the error state of autopilot/nav), health, and the GPS fixes
 # received this step (NaN when none), for scoring the estimate and the receiver
-# (``VehicleBase._nav_rows``, then ``nav.aligned``, ``nav.healthy``, the fix)
+# (``VehicleBase._nav_row``)
 NAV_COLUMNS = (
     "sig_pn_m", "sig_pe_m", "sig_pd_m", "sig_vn_mps", "sig_ve_mps", "sig_vd_mps",
     "sig_att_n_rad", "sig_att_e_rad", "sig_att_d_rad", "nav_aligned", "nav_healthy",
@@ -245,24 +247,21 @@ class VehicleBase:
     # --------------------------------------------------------------- flight log ---
     @staticmethod
     def _truth_row(hf: LocalFrame, truth) -> tuple:
-        """Truth for a log row: position in home's NED, Euler angles, velocity, altitude
-        and airspeed; NaN on a step without truth."""
+        """Truth for a log row, in TRUTH_COLUMNS' order: position in home's NED, Euler
+        angles, velocity, altitude and airspeed; NaN on a step without truth."""
         if truth is None:
-            return _NAN3, math.nan, math.nan, math.nan, _NAN3, math.nan, math.nan
+            return _NAN10
         p_tru = hf.ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        tr, tp, ty = quat_to_euler(truth.q_nb)
-        return p_tru, tr, tp, ty, truth.v_ned, truth.alt_m, truth.airspeed_mps
+        return (p_tru[0], p_tru[1], truth.alt_m, *euler_321(*truth.q_nb), *truth.v_ned,
+                truth.airspeed_mps)
 
-    def _nav_rows(self, hf: LocalFrame, gps) -> tuple:
-        """The filter's nine 1-sigma errors (NaN on truth navigation) and this step's
-        GPS fix in home's NED (NaN when none), for a log row."""
-        sig = _NAN9
+    def _nav_row(self, hf: LocalFrame, nav: NavState, gps) -> tuple:
+        """The filter's part of a log row, in NAV_COLUMNS' order: its nine 1-sigma errors
+        (NaN on truth navigation), health, and this step's GPS fix in home's NED (NaN
+        when none)."""
         out_sig = getattr(self.nav, "output_sigmas9", None)
-        if out_sig is not None:
-            sig = out_sig()
-        if gps is not None:
-            g = hf.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
-            gps_row = (g[0], g[1], gps.alt_m)
-        else:
-            gps_row = _NAN3
-        return sig, gps_row
+        sig = out_sig() if out_sig is not None else _NAN9
+        if gps is None:
+            return (*sig, nav.aligned, nav.healthy, *_NAN3)
+        g = hf.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)
+        return (*sig, nav.aligned, nav.healthy, g[0], g[1], gps.alt_m)

@@ -37,7 +37,7 @@ import numpy as np
 from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
-from .geo import LocalFrame, quat_to_euler, wrap_pi
+from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
 from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
@@ -123,6 +123,7 @@ class DecimatedNav:
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
+        self.output_sigmas9 = filt.output_sigmas9     # the filter's own (no call around it)
         self.div = max(1, int(div))
         self._aux_us = int(1e6 / aux_hz) if aux_hz > 0 else 0
         self._k = 0
@@ -143,9 +144,6 @@ class DecimatedNav:
     @property
     def P(self):
         return self.filt.P
-
-    def output_sigmas9(self) -> tuple:
-        return self.filt.output_sigmas9()
 
     def _aux(self, t: int):
         """The averaged magnetometer and barometer samples, if due."""
@@ -217,7 +215,7 @@ class DecimatedNav:
                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], quat_to_euler(q)
+            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], euler_321(*q)
         p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
         return self.nav, p, v, q, w, euler
 
@@ -430,13 +428,15 @@ class QuadVehicle(VehicleBase):
         dt = 1e-4 if 1e-4 > dt else dt           # max(dt, 1e-4) (control/pid.py)
         self.last_t_us = t_us
         self.steps += 1
-        if frame.gps is not None:
-            self._gps_this_step = frame.gps     # logged with the next row
-            self.gps_fix_type = frame.gps.fix_type
-        if frame.baro is not None and frame.baro.temperature_k > 150.0:
+        gps = frame.gps
+        if gps is not None:
+            self._gps_this_step = gps           # logged with the next row
+            self.gps_fix_type = gps.fix_type
+        baro = frame.baro
+        if baro is not None and baro.temperature_k > 150.0:
             # air density for the thrust model (thrust at full command ~ rho)
             self.ctrl.mixer.set_density_ratio(
-                frame.baro.pressure_pa / (R_AIR * frame.baro.temperature_k) / RHO0)
+                baro.pressure_pa / (R_AIR * baro.temperature_k) / RHO0)
 
         # sensors -> navigation
         if self.nav_source == "truth":
@@ -447,7 +447,7 @@ class QuadVehicle(VehicleBase):
             v = nav.v_ned.tolist()
             q = nav.q_nb.tolist()
             omega = nav.omega_b.tolist()
-            euler = quat_to_euler(q)
+            euler = euler_321(*q)
         else:
             nav, p_nav, v, q, omega, euler = self.nav.update(frame)
         self.nav_state = nav
@@ -483,7 +483,7 @@ class QuadVehicle(VehicleBase):
         self._motors = motors
         if truth is not None and self.armed and self.home_truth_alt_m is None:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
-        if self.log_rows.take(self.steps, truth is not None, frame.gps is not None):
+        if self.log_rows.take(self.steps, truth is not None, gps is not None):
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs.make(t_us, motors, self.armed)
 
@@ -629,7 +629,6 @@ class QuadVehicle(VehicleBase):
             return
         p = self.p_home
         er, ep, ey = self.euler
-        p_tru, tr, tp, ty, tv, t_alt, t_as = self._truth_row(hf, truth)
         tgt = self.target
         c = self.ctrl
         alt0 = hf.alt0_m
@@ -642,7 +641,6 @@ class QuadVehicle(VehicleBase):
             tp_ = tgt.p_ned
             tgt_row = (tp_[0], tp_[1], alt0 - tp_[2], *tgt.v_ned, *tgt.goal_ne, *tgt.leg_a)
             hold = tgt.hold
-        sig, gps_row = self._nav_rows(hf, gps)
         seq = tgt.seq if tgt is not None else 0
         leg = tgt.leg_id if tgt is not None else 0
         # one tuple display (not a chain of tuple sums, each a copy of the row so far;
@@ -651,11 +649,11 @@ class QuadVehicle(VehicleBase):
         # (FlightLog.arrays), as the fixed-wing's log does
         self.log.append((
             t_us * 1e-6, self.armed, self.mode, seq, leg, kind, hold, self.on_ground,
-            p_tru[0], p_tru[1], t_alt, tr, tp, ty, *tv, t_as,
+            *self._truth_row(hf, truth),
             p[0], p[1], alt0 - p[2], er, ep, ey, *self.v_ned,
             *tgt_row,
             c.roll_d, c.pitch_d, c.yaw_d, *c.u, *motors,
-            *sig, nav.aligned, nav.healthy, *gps_row, *self._fdi_row()))
+            *self._nav_row(hf, nav, gps), *self._fdi_row()))
 
     def _fdi_row(self) -> tuple:
         mon = self.monitor
