@@ -91,7 +91,7 @@ def test_lateral_square_is_the_interpreters():
 
 
 def test_motor_monitor_thrust_curve_is_the_mixers():
-    """MotorMonitor.update's thrust curve, written out on the mixer's numbers,
+    """MotorMonitor.update's thrust curve, written out on the mixer's constants ``k``,
     against QuadPlusMixer.thrust_of bit for bit (expo 0, the linear curve, and the
     extremes; densities changed as the barometer changes them)."""
     from autopilot.control.mixer import QuadPlusMixer

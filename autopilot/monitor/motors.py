@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from autopilot.control.mixer import K_E2, K_FULL
 from autopilot.jit import kernel, preload
 from autopilot.params import Param
 
@@ -66,7 +67,7 @@ class MotorMonitor:
     ``motors`` are the commands the rotors flew with since the previous step (the
     previous step's output), ``f_b`` / ``omega_b`` the IMU sample less the filter's bias
     estimates, ``thrust_of`` the mixer's ``thrust_of(u)``, the modelled thrust of a command
-    [N] (its curve is computed here on the mixer's numbers). Outputs:
+    [N] (its curve is computed here from the mixer's constants ``k``). Outputs:
     ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
     ``events`` (t_s, MAV_SEVERITY, text), ``failsafe`` ("LAND" or None), ``gamma``,
     ``peak`` (largest detection statistic / threshold while healthy)."""
@@ -152,12 +153,11 @@ class MotorMonitor:
             return
         T0, T1, T2, T3 = self.T
         a = self._lag
-        # the mixer's thrust curve T_max rho/rho0 ((1 - e) u + e u^2) written out on its
-        # numbers, as thrust_of writes it (four calls cost more than the curve; reading
-        # them from its array k, more again)
-        mixer = thrust_of.__self__
-        e = mixer.expo
-        full, lin = mixer.t_max * mixer.rho_ratio, 1.0 - e
+        # the mixer's thrust_of written out on its constants (four calls cost more than
+        # the curve): T_max rho/rho0 ((1 - e) u + e u^2), 1 - e as -(e - 1), e as 2 e / 2
+        # (both exact)
+        full, _, em1, _, _, e2 = thrust_of.__self__.k[K_FULL:K_E2 + 1].tolist()
+        lin, e = -em1, e2 * 0.5
         u1, u2, u3, u4 = motors
         t1 = T0 + (full * (lin * u1 + e * u1 * u1) - T0) * a
         t2 = T1 + (full * (lin * u2 + e * u2 * u2) - T1) * a
