@@ -88,23 +88,3 @@ def test_lateral_square_is_the_interpreters():
         assert ident._lp[7] == (25.0 / V) ** 2
         differ += (25.0 / V) * (25.0 / V) != (25.0 / V) ** 2
     assert differ > 0
-
-
-def test_motor_monitor_thrust_curve_is_the_mixers():
-    """MotorMonitor.update's thrust curve, written out on the mixer's constants ``k``,
-    against QuadPlusMixer.thrust_of bit for bit (expo 0, the linear curve, and the
-    extremes; densities changed as the barometer changes them)."""
-    from autopilot.control.mixer import QuadPlusMixer
-    from autopilot.monitor.motors import MotorMonitor
-    rng = random.Random(36)
-    mon = MotorMonitor(None, 0.004)
-    for expo in (0.0, 0.05, 0.3333, 0.78, 1.0):
-        mixer = QuadPlusMixer(15.7, expo, 0.1)
-        for _ in range(500):
-            mixer.set_density_ratio(rng.uniform(0.4, 1.4))
-            motors = tuple(rng.uniform(0.0, 1.0) for _ in range(4))
-            T = list(mon.T)
-            mon.update(0, False, motors, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0), mixer.thrust_of)
-            want = [t + (mixer.thrust_of(u) - t) * mon._lag for t, u in zip(T, motors)]
-            assert list(mon.T) == want
-    assert 10.0 < sum(mon.T) < 4 * 15.7 * 1.3

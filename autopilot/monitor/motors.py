@@ -28,7 +28,6 @@ import math
 
 import numpy as np
 
-from autopilot.control.mixer import K_E2, K_FULL
 from autopilot.jit import kernel, preload
 from autopilot.params import Param
 
@@ -66,8 +65,7 @@ class MotorMonitor:
 
     ``motors`` are the commands the rotors flew with since the previous step (the
     previous step's output), ``f_b`` / ``omega_b`` the IMU sample less the filter's bias
-    estimates, ``thrust_of`` the mixer's ``thrust_of(u)``, the modelled thrust of a command
-    [N] (its curve is computed here from the mixer's constants ``k``). Outputs:
+    estimates, ``thrust_of(u)`` the mixer's modelled thrust of a command [N]. Outputs:
     ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
     ``events`` (t_s, MAV_SEVERITY, text), ``failsafe`` ("LAND" or None), ``gamma``,
     ``peak`` (largest detection statistic / threshold while healthy)."""
@@ -153,16 +151,10 @@ class MotorMonitor:
             return
         T0, T1, T2, T3 = self.T
         a = self._lag
-        # the mixer's thrust_of written out on its constants (four calls cost more than
-        # the curve): T_max rho/rho0 ((1 - e) u + e u^2), 1 - e as -(e - 1), e as 2 e / 2
-        # (both exact)
-        full, _, em1, _, _, e2 = thrust_of.__self__.k[K_FULL:K_E2 + 1].tolist()
-        lin, e = -em1, e2 * 0.5
-        u1, u2, u3, u4 = motors
-        t1 = T0 + (full * (lin * u1 + e * u1 * u1) - T0) * a
-        t2 = T1 + (full * (lin * u2 + e * u2 * u2) - T1) * a
-        t3 = T2 + (full * (lin * u3 + e * u3 * u3) - T2) * a
-        t4 = T3 + (full * (lin * u4 + e * u4 * u4) - T3) * a
+        t1 = T0 + (thrust_of(motors[0]) - T0) * a
+        t2 = T1 + (thrust_of(motors[1]) - T1) * a
+        t3 = T2 + (thrust_of(motors[2]) - T2) * a
+        t4 = T3 + (thrust_of(motors[3]) - T3) * a
         self.T = (t1, t2, t3, t4)
         if not flying:
             self._lp = None
