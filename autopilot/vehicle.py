@@ -370,10 +370,8 @@ class PlaneVehicle(VehicleBase):
                                  else "throttle out: airspeed flown on the pitch")
                 ctrl.throttle_out = to
             seq = self._sequencer
-            if seq is not None and (so is not None or to is not None or seq.bank_limit_rad is not None
-                                    or seq.reaction_airspeed_mps is not None):
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py;
-                # with no aileron, rudder or throttle out both are None, as they stay)
+            if seq is not None:
+                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
                 seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
                 seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
             if mon.terminate and not self.terminated and self.armed:
