@@ -258,6 +258,12 @@ class FaultMonitor:
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
+        # the hook on the filter only while a source is adapted (update): with none it
+        # returns None at every fusion, and the filter fuses without it as with it; the
+        # window it keeps is filled from the records meanwhile (RAdapter.observe)
+        self._r_hook_on = False
+        if self.radapt_ok:
+            nav.r_scale_hook = None
         # Q adaptation (fading of the gyro-bias process noise, seed eqs 2.35-2.40)
         self.qfade_on = False
         self._lam = None
@@ -363,8 +369,11 @@ class FaultMonitor:
         nav = self.nav
         if nav is None:
             return
-        if nav.innovations and getattr(nav, "aligned", False):   # (most steps have none)
-            self.innovation_log.add(nav.innovations)   # for the flight log (every record)
+        if nav.innovations:                   # (most steps have none)
+            if getattr(nav, "aligned", False):
+                self.innovation_log.add(nav.innovations)   # for the flight log (every record)
+            if self.radapt_ok and not self._r_hook_on:
+                self.radapt.observe(nav.innovations)
         if not self._running and not self._start(t_us):
             return
         step_max = 0.0
@@ -426,6 +435,9 @@ class FaultMonitor:
         if changed or self.detected or t_us >= self._eval_at_us or armed != self._eval_armed:
             self._evaluate(t_us, armed)
             self._eval_at_us = min(self._bias_next_us, self._eval_until_us + 1)
+            if self._r_hook_on != bool(self.radapt.active):
+                self._r_hook_on = not self._r_hook_on
+                nav.r_scale_hook = self.radapt.hook if self._r_hook_on else None
 
     def _start(self, t_us: int) -> bool:
         """Whether the monitor runs from this step on: enabled, FDI_START_T after the

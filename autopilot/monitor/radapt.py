@@ -69,7 +69,9 @@ class RAdapter:
     source -> diag(H P H^T + R) with the unscaled R (a tuple of floats, as the innovation
     records' vectors, autopilot/nav/records.py), so the monitor keeps testing the
     optimal filter's statistic while the adapted filter runs (otherwise the adaptation
-    would hide the fault from the test that switches it off).
+    would hide the fault from the test that switches it off). ``hook``: the filter's hook
+    (:func:`attach`); with no source adapted its owner may take it off the filter and
+    hand the fusions' records to :meth:`observe` instead.
     """
 
     def __init__(self, mode: int = R_MULTIPLE, window: int = 1,
@@ -84,6 +86,19 @@ class RAdapter:
         # source -> [M rows (tuples of s floats), next index, count]: kept at every fusion and
         # read only while adapting, so its rows are the cheaper tuples, made an array then
         self._ring: dict[str, list] = {}
+        self.hook = None
+
+    def observe(self, records) -> None:
+        """The filter's innovation records of a step it fused with no hook (no source
+        adapted): what the hook returns None for does with them, each innovation
+        remembered and an earlier adaptation's factors of its source forgotten."""
+        watch, okf_sd = self._watch, self.okf_sd
+        for rec in records:
+            if rec.source in watch:
+                self._remember(rec.source, rec.innovation)
+            if okf_sd:                    # (as the hook: empty but after adapting)
+                okf_sd.pop(rec.source, None)
+                self.last.pop(rec.source, None)
 
     def _remember(self, source: str, y) -> None:
         ring = self._ring.get(source)
@@ -136,6 +151,6 @@ def attach(nav, adapter: RAdapter) -> bool:
             okf_sd[source] = tuple([h + q for h, q in zip(hph, r)])   # diag(S) of the optimal filter
         return out
 
-    nav.r_scale_hook = hook
+    nav.r_scale_hook = adapter.hook = hook
     adapter.attached = True
     return True
