@@ -300,6 +300,12 @@ class FaultMonitor:
             if thm is not None:
                 self.throttle = ThrottleIdentifier(thm, alpha=p["FDI_ALPHA"], window=M, p_fa=p["FDI_PFA"])
         self._act_idents = tuple(i for i in (self.lateral, self.throttle) if i is not None)
+        # the three balances' 50 Hz step in one compiled call where they can (balances.py)
+        self._balances = None
+        if p["FDI_ACT_ID"] >= 1:
+            from .balances import Balances
+            if Balances.fits(self.elevator, self.lateral, self.throttle):
+                self._balances = Balances(self.elevator, self.lateral, self.throttle)
         self.throttle_out: dict | None = None  # a stuck throttle's reaction (_throttle_reaction)
         self.stuck_surface: dict = {}          # "aileron"/"rudder"/"throttle" -> stuck position (latched)
         self.surface_out: dict | None = None   # the reaction to it (_lateral_reaction)
@@ -488,12 +494,18 @@ class FaultMonitor:
             for ident in self._act_idents:
                 if ident.suspended != sensor_fault:
                     ident.suspend(sensor_fault)
+        if self._balances is not None and len(controls) >= 4:
+            # the three balances in one call, the elevator's with them (balances.py)
+            if self._balances.step(t_us, nav_state, controls, learning, f):
+                self._act_stale = True
+        else:
+            for ident in self._act_idents if len(controls) >= 4 else ():
                 if ident.step(t_us, nav_state, controls, learning, f):
                     self._act_stale = True
-        if el.step(t_us, nav_state, float(controls[1]), learning,
-                   float(controls[3]) if len(controls) > 3 else 0.0,
-                   None if f is None else -float(f[2]) / G0):
-            self._act_stale = True
+            if el.step(t_us, nav_state, float(controls[1]), learning,
+                       float(controls[3]) if len(controls) > 3 else 0.0,
+                       None if f is None else -float(f[2]) / G0):
+                self._act_stale = True
         if not el.ready or not self.enabled or self._healthy_us is None:
             return
         t_s = t_us * 1e-6

@@ -830,6 +830,13 @@ class ThrottleIdentifier:
                              nav.alt_m if st[_RPM_US] >= 0 else 0.0, self._mode, *self._model_arrays)
         if due < 0:
             return False              # not flying: nothing moved
+        return self.sample(t_us, tested, due > 0)
+
+    def sample(self, t_us: int, tested, due: bool) -> bool:
+        """After :func:`throttle_front` stepped, flying (``due``: a balance sample due;
+        ``tested`` the axis tested before it): the axis tested now, and the balance's
+        sample. As :meth:`step`."""
+        st = self._st
         if self._mode == _ROTOR:
             # tested once its offset is learnt (before, the thrust balance's)
             self.axes["throttle"] = (self._rotor_axis if st[_LPR_ON] and self._rotor_axis.fitting
