@@ -269,7 +269,8 @@ class PlaneVehicle(VehicleBase):
         land = self._sequencer.landing
         if land is not None and land.phase == "ground":
             return True   # (rollout: still sliding; ground stations see it land when it stops)
-        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self._sequencer.launched
+        # (launched first: from then on the height is not asked)
+        return not self._sequencer.launched and self.home_frame.alt0_m - self.nav_state.alt_m > -2.0
 
     @property
     def landing_phase(self) -> str | None:
