@@ -269,7 +269,8 @@ class PlaneVehicle(VehicleBase):
         land = self._sequencer.landing
         if land is not None and land.phase == "ground":
             return True   # (rollout: still sliding; ground stations see it land when it stops)
-        return self.home_frame.alt0_m - self.nav_state.alt_m > -2.0 and not self._sequencer.launched
+        # (launched first: from then on the height is not asked)
+        return not self._sequencer.launched and self.home_frame.alt0_m - self.nav_state.alt_m > -2.0
 
     @property
     def landing_phase(self) -> str | None:
@@ -435,7 +436,7 @@ class PlaneVehicle(VehicleBase):
         mon = self.monitor
         if mon is not None:
             mon.observe_controls(t_us, nav, controls, self._monitoring())
-        if truth is not None and self.armed and self.home_truth_alt_m is None:
+        if self.home_truth_alt_m is None and truth is not None and self.armed:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
         if self.log_rows.take(self.steps, truth is not None, gps):
             self._log(t_us, nav, truth, controls)
@@ -526,9 +527,9 @@ class PlaneVehicle(VehicleBase):
         """The fault monitor watches the flight: armed, off the ground, and not in a
         landing's flare (idle, high angle of attack, ground effect and then the skids'
         friction: outside the models its statistics test)."""
-        if not self.armed or self.landed:
-            return False
-        land = self._sequencer.landing if self._sequencer is not None else None
+        if self.landed:
+            return False                 # (disarmed is landed; armed has a sequencer)
+        land = self._sequencer.landing
         return land is None or land.phase in ("approach", "descend")
 
     def go_around(self, alt_m: float, t_us: int) -> str | None:
@@ -597,10 +598,11 @@ class PlaneVehicle(VehicleBase):
             # (no landing in the sequencer: no rangefinder landing, no correction)
             landing = seq.landing is not None and self._rf_landing() is not None
             seq.land_h_corr_m = self.rangefinder.correction_m(t_us, True) if landing else 0.0
-            tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
+            # (wind and airspeed by position: keywords cost the call a dict)
+            tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wl, nav.airspeed_mps)
             if mode == _RTL and seq.rtl_established and p["RTL_AUTOLAND"] == 1 \
                     and self._autoland(t_us):   # RTL_AUTOLAND 1: over home, now the landing
-                tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wind_ne=wl, airspeed_mps=nav.airspeed_mps)
+                tgt = seq.update(t_us, pl, vl, yaw, nav.alt_m, wl, nav.airspeed_mps)
             # what the mission asked of the vehicle this step: its warnings and notes to
             # the log and the ground stations, a new home (DO_SET_HOME)
             if seq.notices:

@@ -34,7 +34,7 @@ the last bit of about 0.4 % of the pairs.
 from __future__ import annotations
 
 import math
-
+from functools import partial
 from typing import NamedTuple
 
 from ..jit import kernel, preload
@@ -56,6 +56,11 @@ class LateralCommand(NamedTuple):
     along_m: float           # along-track distance from the leg start [m]
     eta_rad: float           # L1 angle
     l1_m: float              # L1 distance used
+
+
+# a LateralCommand of a kernel's 6-tuple, built at C speed (``_make`` is a Python call,
+# for a length check the kernels' fixed answers do not need)
+_command = partial(tuple.__new__, LateralCommand)
 
 
 @kernel
@@ -165,9 +170,9 @@ class L1Guidance:
         vn, ve = v_ne
         an, ae = a_ne
         dn, de = b_ne[0] - an, b_ne[1] - ae
-        return LateralCommand._make(_line(vn, ve, math.hypot(vn, ve), dn, de, math.hypot(dn, de),
-                                          p_ne[0] - an, p_ne[1] - ae, heading_rad, airspeed_mps,
-                                          self._zeta_t, self.k))
+        return _command(_line(vn, ve, math.hypot(vn, ve), dn, de, math.hypot(dn, de),
+                              p_ne[0] - an, p_ne[1] - ae, heading_rad, airspeed_mps,
+                              self._zeta_t, self.k))
 
     def loiter(self, p_ne, v_ne, c_ne, radius_m: float, direction: int,
                heading_rad: float = 0.0, airspeed_mps: float = 0.0) -> LateralCommand:
@@ -175,6 +180,6 @@ class L1Guidance:
         from above). ``xtrack_m`` is the radial error, + outside."""
         vn, ve = v_ne
         rn, re = p_ne[0] - c_ne[0], p_ne[1] - c_ne[1]
-        return LateralCommand._make(_loiter(vn, ve, math.hypot(vn, ve), rn, re, math.hypot(rn, re),
-                                            radius_m, direction, heading_rad, airspeed_mps,
-                                            self._zeta_t, self.k))
+        return _command(_loiter(vn, ve, math.hypot(vn, ve), rn, re, math.hypot(rn, re),
+                                radius_m, direction, heading_rad, airspeed_mps,
+                                self._zeta_t, self.k))

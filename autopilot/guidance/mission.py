@@ -110,6 +110,7 @@ THROUGH_MAX_TURN = math.radians(90.0)   # on a turn of at most this (past it the
 FILLET_CHECK_US = 1_000_000     # a leg's arc is checked against the wind this often
 ROLL_LEAD_S = 0.12               # an arc hands over to the next segment this long (per
                                 # change of its bank) before its end: the roll's lag
+ROLL_LEAD_MAX_RAD = 0.5         # ... at most this much of its course change
 TERRAIN_LEAD_S = 2.0            # terrain following: the ground this far ahead [s of flight]
 
 
@@ -766,7 +767,10 @@ class MissionSequencer:
                     self._seg_start = False
                 self._seg_angle += direction * wrap_pi(bearing - self._seg_last)
                 self._seg_last = bearing
-                if self._seg_angle >= angle - 0.02 - self._roll_lead_rad(r, direction) \
+                # (the roll's lead, at most ROLL_LEAD_MAX_RAD, worked out only that close)
+                end = angle - 0.02
+                if (self._seg_angle >= end - ROLL_LEAD_MAX_RAD
+                        and self._seg_angle >= end - self._roll_lead_rad(r, direction)) \
                         or self._seg_angle < -0.5 * math.pi:
                     self._next_segment()
                     continue
@@ -794,7 +798,7 @@ class MissionSequencer:
             return 0.0
         changes = 2.0 if nxt is not None and nxt[0] == "arc" else 1.0
         lead = changes * ROLL_LEAD_S * gs / r
-        return 0.5 if 0.5 < lead else lead
+        return ROLL_LEAD_MAX_RAD if ROLL_LEAD_MAX_RAD < lead else lead
 
     def _next_segment(self) -> None:
         self._path.pop(0)
@@ -946,17 +950,18 @@ class MissionSequencer:
     def update(self, t_us: int, p_ned: np.ndarray, v_ned: np.ndarray, heading_rad: float,
                alt_m: float, wind_ne=None, airspeed_mps: float | None = None) -> NavTarget:
         """The step's target: the current item's, after any items completed (or skipped)
-        on this step, each in turn, as the mission goes on within one step."""
-        p_ne = (float(p_ned[0]), float(p_ned[1]))
+        on this step, each in turn, as the mission goes on within one step. The vehicle
+        passes floats (a tuple, lists): nothing to convert."""
+        p_ne = (p_ned[0], p_ned[1])
         self._v_ned = v_ned
         # the ground speed, and the course (the heading when slower than 5 m/s), once a step
-        vn, ve = float(v_ned[0]), float(v_ned[1])
+        vn, ve = v_ned[0], v_ned[1]
         self._gs = gs = math.hypot(vn, ve)
         self._chi = chi = math.atan2(ve, vn) if gs > 5.0 else heading_rad
         if airspeed_mps is not None:
             self._airspeed_mps = airspeed_mps
         if wind_ne is not None:
-            self._wind_ne = (float(wind_ne[0]), float(wind_ne[1]))
+            self._wind_ne = (wind_ne[0], wind_ne[1])
         if self._prev_alt is None:
             self._prev_alt = alt_m
         self._alt_m = alt_m
@@ -1419,8 +1424,7 @@ class MissionSequencer:
         length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
         # (a leg within the acceptance radius: B would count the moment A did)
         if not self._through_tried and arc is None and length <= accept \
-                and accept < math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]) \
-                < 4.0 * self.turn_radius_m(wind=True) \
+                and accept < d < 4.0 * self.turn_radius_m(wind=True) \
                 and not (self._skip_join or dubins.on_leg(p_ne, chi, a_ne, b_ne, JOIN_XTRACK_M,
                                                           JOIN_COURSE_RAD)):
             # (once per item: from as far as 4 join radii; a join planned from further
