@@ -81,11 +81,11 @@ def gust_advance(s, noise, row, h_agl_m, speed_mps, n_steps):
 
 
 class DrydenGusts:
-    """``step(h_agl_m, speed_mps, n_steps) -> (gust_n, gust_e, gust_d)`` once per plant
-    step (``n_steps`` time steps of ``dt_s``, one draw of the noise). ``configure``
-    changes the intensity and the steady wind on the way. The state is the array ``s``
-    (a plant's own kernel may advance it with :func:`gust_advance`, taking this step's
-    row of ``noise`` from :meth:`next_row`)."""
+    """The gusts' state, the array ``s``, and their noise: once per plant step while
+    ``active``, a plant advances ``s`` with :func:`gust_advance` (``n_steps`` time steps
+    of ``dt_s``, one draw of the noise), on this step's row of ``noise`` from
+    :meth:`next_row`. ``configure`` changes the intensity and the steady wind on the
+    way."""
 
     def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
                  wind_ned=(0.0, 0.0, 0.0)):
@@ -136,9 +136,3 @@ class DrydenGusts:
             k = 0
         self._k = k + 1
         return k
-
-    def step(self, h_agl_m: float, speed_mps: float, n_steps: int = 1) -> tuple[float, float, float]:
-        if not self.active:
-            return self.gust_ned
-        row = self.next_row()                     # (before ``noise`` is read: it may draw)
-        return gust_advance(self.s, self.noise, row, h_agl_m, speed_mps, n_steps)

@@ -63,16 +63,18 @@ def test_state_readout_is_air_data_and_the_frames_geodetic_position():
             x[6:10] = q / np.linalg.norm(q)
             p._gusts.s[3:6] = rng.standard_normal(3)
             # WHEN the readout is taken
-            got = state_readout(x, p._consts, p._gusts.s)
-            # THEN it is LocalFrame.to_geodetic_fast, the state's vectors and air_data in
-            # the steady wind + gust (stored in the state as its wind)
+            got = state_readout(x, p._consts, p._gusts.s, 123_000, True)
+            # THEN it is the time, LocalFrame.to_geodetic_fast, the state's vectors,
+            # air_data in the steady wind + gust (stored in the state as its wind), the
+            # ground flag and the plant's air density
             y = x.copy()
             gn, ge, gd = p._gusts.gust_ned
             want_air = air_data(y, 1.0 + gn, 3.0 + ge, 0.0 + gd)
             want_geo = frame.to_geodetic_fast(x[0:3].tolist())
             xs = x.tolist()
-            assert got == (*want_geo, tuple(xs[3:6]), tuple(xs[6:10]), tuple(xs[10:13]),
-                           tuple(xs[13:16]), tuple(xs[16:19]), *want_air)
+            assert got == (123_000, *want_geo, tuple(xs[3:6]), tuple(xs[6:10]),
+                           tuple(xs[10:13]), tuple(xs[13:16]), tuple(xs[16:19]), *want_air,
+                           True, p.rho)
             assert xs == y.tolist()
 
 
@@ -85,14 +87,16 @@ def test_plant_step_is_the_gust_then_flight_step_then_the_readout():
         # WHEN one takes plant_step and the other the steps it composes, in Python
         row = a._gusts.next_row()
         code, readout = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, *k,
-                                   False, 0.0)
+                                   False, 0.0, 4000)
         x = b._x
         wn, we, wd = b._wind
         an, ae, ad = x[3] - wn, x[4] - we, x[5] - wd
-        gn, ge, gd = b._gusts.step(-x[2], math.sqrt(an * an + ae * ae + ad * ad))
+        row = b._gusts.next_row()
+        gn, ge, gd = gust_advance(b._gusts.s, b._gusts.noise, row, -x[2],
+                                  math.sqrt(an * an + ae * ae + ad * ad), 1)
         want = flight_step(x, b._consts, *u, *k, wn + gn, we + ge, wd + gd, False, 0.0)
         # THEN the states, gusts, readouts and codes agree bit for bit
-        assert readout == state_readout(x, b._consts, b._gusts.s)
+        assert readout == state_readout(x, b._consts, b._gusts.s, 4000, False)
         assert code == want == 0
         assert a._x.tolist() == b._x.tolist()
         assert a._gusts.s.tolist() == b._gusts.s.tolist()

@@ -70,7 +70,7 @@ import jsbsim
 import numpy as np
 
 from sim_bridge.plants.base import PlantState, PlaneControls
-from sim_bridge.wind import TURBULENCE_W20_KT, DrydenGusts
+from sim_bridge.wind import TURBULENCE_W20_KT, DrydenGusts, gust_advance
 
 AIRCRAFT_DIR = Path(__file__).resolve().parent.parent / "aircraft"
 
@@ -237,8 +237,9 @@ class JSBSimPlane:
             agl_ft, vn_fps, ve_fps, vd_fps = map(_read, self._gust_nodes)
             wn, we, wd = self._gust_wind
             du, dv, dw = vn_fps * FT_M - wn, ve_fps * FT_M - we, vd_fps * FT_M - wd
-            self._write_gust(gusts.step(agl_ft * FT_M, math.sqrt(du * du + dv * dv + dw * dw),
-                                        n_steps))
+            row = gusts.next_row()                # (before ``noise`` is read: it may draw)
+            self._write_gust(gust_advance(gusts.s, gusts.noise, row, agl_ft * FT_M,
+                                          math.sqrt(du * du + dv * dv + dw * dw), n_steps))
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])

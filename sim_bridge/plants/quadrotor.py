@@ -236,13 +236,8 @@ class QuadrotorPlant:
         self.on_ground = False
 
     def state(self) -> PlantState:
-        return self._record(state_readout(self._x, self._consts, self._gusts.s))
-
-    def _record(self, readout: tuple) -> PlantState:
-        """The state record of :func:`state_readout`'s values."""
-        lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta = readout
-        return PlantState.make(self._t_us, lat, lon, alt, v, q, w, f, wind, airspeed, alpha, beta,
-                               self.on_ground, self.rho)
+        return PlantState.make(*state_readout(self._x, self._consts, self._gusts.s, self._t_us,
+                                              self.on_ground))
 
     # ---------------------------------------------------------------- stepping ---
     def static_thrusts(self, controls) -> list[float]:
@@ -263,18 +258,18 @@ class QuadrotorPlant:
         code = _ON_GROUND                         # (no step: the readout below)
         for _ in range(n_steps):
             row = gusts.next_row() if gusts.active else -1
+            self._t_us += self._dt_us
             code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4,
-                                       k1, k2, k3, k4, self.on_ground, self._ground_d)
+                                       k1, k2, k3, k4, self.on_ground, self._ground_d, self._t_us)
             if code == _ON_GROUND:
                 self._rest(self.dt_s)
             else:
                 self.on_ground = False
                 if code == _TOUCHDOWN:
                     self._touchdown(x[_V + 2])
-            self._t_us += self._dt_us
         if code != _FLYING:                       # (the ground moved the state after its readout)
-            readout = state_readout(x, c, gusts.s)
-        return self._record(readout)
+            readout = state_readout(x, c, gusts.s, self._t_us, self.on_ground)
+        return PlantState.make(*readout)
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
@@ -361,13 +356,14 @@ def air_data(x, wn, we, wd):
 
 
 @kernel
-def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d):
+def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d, t_us):
     """One step of the plant on its state array ``x`` and constants ``c``: the Dryden gust
     (``gust``, ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no
     gust when ``row`` is negative) at the height above the ground and the speed through
     the steady wind, then :func:`flight_step` in the steady wind + gust. Returns
-    flight_step's code and the state's readout (:func:`state_readout`; out of date
-    unless the vehicle flew: the ground then moves it, in Python)."""
+    flight_step's code and the state's readout at ``t_us``, the step's end
+    (:func:`state_readout`, flying; out of date unless the vehicle flew: the ground then
+    moves it, in Python)."""
     wn, we, wd = c[19], c[20], c[21]
     if row >= 0:
         an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
@@ -375,24 +371,24 @@ def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground
                                   math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
         wn, we, wd = wn + gn, we + ge, wd + gd
     code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
-    return code, state_readout(x, c, gust)
+    return code, state_readout(x, c, gust, t_us, False)
 
 
 @kernel
-def state_readout(x, c, gust):
-    """The state record's values of the state array ``x`` (PlantState's lat_rad ...
-    beta_rad): the geodetic position of p (``LocalFrame.to_geodetic_fast`` of the frame
-    at home, the constants ``c[22:28]``), v, q, omega, f, the wind (the steady wind
-    ``c[19:22]`` + the gust ``gust[3:6]``, stored in x) and the air data in it
-    (:func:`air_data`)."""
+def state_readout(x, c, gust, t_us, on_ground):
+    """PlantState's fields, in order, at time ``t_us`` of the state array ``x``: the
+    geodetic position of p (``LocalFrame.to_geodetic_fast`` of the frame at home, the
+    constants ``c[22:28]``), v, q, omega, f, the wind (the steady wind ``c[19:22]`` + the
+    gust ``gust[3:6]``, stored in x), the air data in it (:func:`air_data`), whether the
+    vehicle rests on the ground and the air density ``c[5]``."""
     airspeed, alpha, beta = air_data(x, c[19] + gust[3], c[20] + gust[4], c[21] + gust[5])
     lat0, lon0, alt0, bend, rm, rn0 = c[22], c[23], c[24], c[25], c[26], c[27]
     e = x[1]
     lat = lat0 + (x[0] - e * e * bend) / rm
     lon = (lon0 + e / (rn0 * math.cos(lat)) + PI) % TWO_PI - PI      # wrap_pi
-    return (lat, lon, alt0 - x[2], (x[3], x[4], x[5]), (x[6], x[7], x[8], x[9]),
+    return (t_us, lat, lon, alt0 - x[2], (x[3], x[4], x[5]), (x[6], x[7], x[8], x[9]),
             (x[10], x[11], x[12]), (x[13], x[14], x[15]), (x[16], x[17], x[18]),
-            airspeed, alpha, beta)
+            airspeed, alpha, beta, on_ground, c[5])
 
 
 @kernel
