@@ -591,7 +591,6 @@ class NavFilterBase:
                 return self._output(t)
             self._push_history(t)
             if self._pos_src == "gps":   # aligned in flight on this very fix
-                self._update_health(t)
                 return self._output(t)
         elif dt > 0.0:
             # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
@@ -607,7 +606,6 @@ class NavFilterBase:
             batch = self._assemble(frame, gps, aux_due)
             if batch is not None:
                 self._fuse(batch, t)
-        self._update_health(t)
         return self._output(t)
 
     # ------------------------------------------------------------------ alignment --
@@ -1151,7 +1149,10 @@ class NavFilterBase:
         return P
 
     # --------------------------------------------------------------------- output --
-    def _update_health(self, t: int) -> None:
+    def _output(self, t: int) -> NavState:
+        """The step's NavState: the health (aligned, on GPS, P's position and attitude
+        variances finite and the horizontal within EK_HPOS_MAX, no source rejected for
+        longer than EK_REJ_TOUT) and the output of the nominal state."""
         ok = False
         if self.aligned and self._pos_src == "gps":
             hmax = self.params["EK_HPOS_MAX"]
@@ -1172,8 +1173,6 @@ class NavFilterBase:
                     ok = False
                     break
         self.healthy = ok
-
-    def _output(self, t: int) -> NavState:
         a = self._out
         x = self.nom.x
         if a is None:                 # (a step without imu_step)
@@ -1196,7 +1195,7 @@ class NavFilterBase:
             airspeed = math.sqrt((v0 - w0) ** 2 + (v1 - w1) ** 2 + v2 ** 2)
         # the vectors that change every step: views of one array (one allocation)
         return NavState.make(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                             self._wind_ned, self.aligned, self.healthy, self.SOURCE)
+                             self._wind_ned, self.aligned, ok, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:
