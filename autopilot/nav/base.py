@@ -562,8 +562,7 @@ class NavFilterBase:
     def update(self, frame: SensorFrame) -> NavState:
         """One IMU step: predict with frame.imu, then fuse what else is present."""
         t = frame.t_us
-        if self.innovations:          # (a fusion hands out a list of its own: _fuse)
-            self.innovations = []
+        self.innovations = []
         dt = 0.0 if self._t_us is None else (t - self._t_us) * 1e-6
         dt = 0.0 if 0.0 > dt else dt                # min(max(dt, 0), _MAX_DT) spelt out
         dt = _MAX_DT if _MAX_DT < dt else dt        # (the builtins' cost: control/pid.py)
@@ -1020,7 +1019,7 @@ class NavFilterBase:
         for k in resets:
             self._reset_to(src[k], batch, start[k])
         z = batch.z_tuple
-        rec = self.innovations = []
+        rec = self.innovations
         for k, name in enumerate(src):
             a = start[k]
             e = a + size[k]
