@@ -346,23 +346,31 @@ class Batch:
     ``R`` (variances), ``g2`` (gate^2, a list: the gate reads it as floats) and ``H``
     (rows of a preallocated buffer)."""
 
-    __slots__ = ("src", "start", "size", "reset", "m", "z", "h0", "R", "g2", "H",
-                 "y", "Sd", "z_tuple", "y0")
+    __slots__ = ("src", "start", "size", "reset", "m", "R", "g2", "H", "y", "Sd", "z_tuple",
+                 "y0", "_a")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
         self.g2 = g2
         self.z_tuple = tuple(z)          # (the records' observations are sliced from it)
-        # y0 = z - h0 (the EKF's innovation); one allocation, handed out as views
-        a = np.array(z + h0 + R + [zi - hi for zi, hi in zip(z, h0)])
-        self.z = a[:m]
-        self.h0 = a[m:2 * m]
-        self.R = a[2 * m:3 * m]
-        self.y0 = a[3 * m:]
+        # R and y0 = z - h0 (the EKF's innovation), then z and h0: one allocation; the
+        # first two handed out as views, the others only when asked (a reset, the UKF)
+        # (np.fromiter with the count: np.array would first discover the floats' type)
+        a = self._a = np.fromiter(R + [zi - hi for zi, hi in zip(z, h0)] + z + h0, float, 4 * m)
+        self.R = a[:m]
+        self.y0 = a[m:2 * m]
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
+
+    @property
+    def z(self) -> np.ndarray:
+        return self._a[2 * self.m:3 * self.m]
+
+    @property
+    def h0(self) -> np.ndarray:
+        return self._a[3 * self.m:]
 
 
 class NavFilterBase:
@@ -424,9 +432,10 @@ class NavFilterBase:
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal(b[:_B_S])
-        # the output of the nominal state as it is (imu_step's), None when it has changed since
+        # the output of this step's nominal state (imu_step's; None on a step without it)
+        # and its (lat, lon, alt), None when the nominal state has changed since
         self._out: np.ndarray | None = None
-        self._geo = (0.0, 0.0, 0.0)              # ... and its (lat, lon, alt)
+        self._geo: tuple | None = None
         self._wind_ned: np.ndarray | None = None   # the output's wind, None when it has changed
         self.aligned = False
         self.healthy = False
@@ -581,7 +590,6 @@ class NavFilterBase:
                 return self._output(t)
             self._push_history(t)
             if self._pos_src == "gps":   # aligned in flight on this very fix
-                self._update_health(t)
                 return self._output(t)
         elif dt > 0.0:
             # the rotation over [t - dt, t]: trapezoid of the rate samples at both ends
@@ -597,7 +605,6 @@ class NavFilterBase:
             batch = self._assemble(frame, gps, aux_due)
             if batch is not None:
                 self._fuse(batch, t)
-        self._update_health(t)
         return self._output(t)
 
     # ------------------------------------------------------------------ alignment --
@@ -819,8 +826,10 @@ class NavFilterBase:
         (as flat indices into the (rows, n) buffer, written with one ``put``); the aux
         sensors' means when ``aux_due``."""
         prm = self.params
-        nom = self.nom
         n = self.n
+        xs = self.nom.x.tolist()              # the nominal state as floats, read once
+        p, v = xs[X_P:X_P + 3], xs[X_V:X_V + 3]
+        Rm = xs[X_R:X_R + 9]
         src, start, size, reset = [], [], [], []
         z, h0, R, g2 = [], [], [], []
         hv = []
@@ -843,7 +852,7 @@ class NavFilterBase:
             L = self._gps_delay
             pd, vd, (fx, fy, fz), qs = self._delayed(frame.t_us - self._gps_delay_us)
             sh, _, sv = self._gps_white(gps)
-            gb = nom.gb
+            gb = xs[X_GB:X_GB + 3]
             forced = self._pos_src != "gps"
             # gps_pos: h = p(t-L) + b_gps,  H = [I, -L I, 0 ..., I (GPSB), 0]
             add("gps_pos", list(self.origin.ned_fast(gps.lat_rad, gps.lon_rad, gps.alt_m)),
@@ -857,17 +866,17 @@ class NavFilterBase:
             add("gps_vel", gps.v_ned.tolist(), vd, (s2 + qs[0], s2 + qs[1], _GPS_VD_SCALE2 * s2 + qs[2]),
                 prm["EK_GPS_V_GATE"],
                 (1.0, 1.0, 1.0, -fz, fy, fz, -fx, -fy, fx)
-                + tuple(L * c for c in nom.R), forced)
+                + tuple([L * c for c in Rm]), forced)
         elif self._pos_src == "fake":
             # fake_pos: h = p,  H = [I, 0 ...]
             s2 = _FAKE_POS_SD ** 2
-            add("fake_pos", self._fake_hold, nom.p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
+            add("fake_pos", self._fake_hold, p, (s2, s2, s2), 1e3, (1.0, 1.0, 1.0))
 
         if aux_due:
             baro, n_baro, mn, me, n_mag, air, n_air = self._s[S_BARO:S_N_AIR + 1].tolist()
             if n_baro and self._baro_ok:
                 # baro: h = alt0 - p_D + b_baro  (mean of the samples since the last fusion)
-                add("baro", (baro / n_baro,), (self.origin.alt0_m - nom.p[2] + nom.bb,),
+                add("baro", (baro / n_baro,), (self.origin.alt0_m - p[2] + xs[X_BB],),
                     (prm["EK_BARO_NSE"] ** 2 / n_baro,), prm["EK_BARO_GATE"], (-1.0, 1.0))
             if n_mag:
                 # mag: y = wrap(dec - atan2(m_E, m_N)) against h = yaw(q), m = the mean of the
@@ -875,14 +884,12 @@ class NavFilterBase:
                 #      about the smoothed field, not this sample (module docstring)
                 rn, re, rd = self._s[S_MREF:S_MREF + 3].tolist()
                 rh2 = rn * rn + re * re
-                Rm = nom.R
                 yaw0 = math.atan2(Rm[3], Rm[0])
                 add("mag", (yaw0 + wrap_pi(self.declination_rad - math.atan2(me, mn)),), (yaw0,),
                     (prm["EK_MAG_NSE"] ** 2 / n_mag,), prm["EK_MAG_GATE"],
                     (-rd * rn / rh2, -rd * re / rh2, 1.0))
             if n_air:
-                w = nom.wind
-                v = nom.v
+                w = xs[X_WIND:X_WIND + 2]
                 ax, ay, az = v[0] - w[0], v[1] - w[1], v[2]
                 tas = math.sqrt(ax * ax + ay * ay + az * az)
                 if tas > 1.0:
@@ -893,7 +900,6 @@ class NavFilterBase:
                         prm["EK_ARSP_GATE"], (ux, uy, uz, -ux, -uy))
                     # sideslip: h = e_y^T R^T (v - w) = c1 . (v - w)  (c1 = body y axis in NED)
                     #   H_att = (c1 x (v - w))^T, H_v = c1^T, H_w = -c1_NE^T
-                    Rm = nom.R
                     cx, cy, cz = Rm[1], Rm[4], Rm[7]
                     add("sideslip", (0.0,), (cx * ax + cy * ay + cz * az,), (prm["EK_BETA_NSE"] ** 2,),
                         prm["EK_BETA_GATE"],
@@ -1060,7 +1066,7 @@ class NavFilterBase:
         nom = self.nom
         s = self._s
         dz = (batch.z[a:a + 3] - batch.h0[a:a + 3]).tolist()
-        self._out = None
+        self._geo = None
         if source == "gps_pos":
             p, cp = nom.p, s[S_CP:S_CP + 3].tolist()
             nom.p = [p[i] + dz[i] for i in range(3)]
@@ -1130,7 +1136,7 @@ class NavFilterBase:
         """Fold an error-state estimate into the nominal state (dx is then zero;
         :func:`inject_into`)."""
         inject_into(self.nom.x, self._s, dx)
-        self._out = self._wind_ned = None
+        self._geo = self._wind_ned = None
 
     def _condition(self, P: np.ndarray) -> np.ndarray:
         """Symmetrise P and keep its diagonal inside [floor, ceiling]."""
@@ -1142,7 +1148,10 @@ class NavFilterBase:
         return P
 
     # --------------------------------------------------------------------- output --
-    def _update_health(self, t: int) -> None:
+    def _output(self, t: int) -> NavState:
+        """The step's NavState: the health (aligned, on GPS, P's position and attitude
+        variances finite and the horizontal within EK_HPOS_MAX, no source rejected for
+        longer than EK_REJ_TOUT) and the output of the nominal state."""
         ok = False
         if self.aligned and self._pos_src == "gps":
             hmax = self.params["EK_HPOS_MAX"]
@@ -1163,12 +1172,14 @@ class NavFilterBase:
                     ok = False
                     break
         self.healthy = ok
-
-    def _output(self, t: int) -> NavState:
         a = self._out
         x = self.nom.x
-        if a is None:                 # (else imu_step wrote it, and nothing changed since)
+        if a is None:                 # (a step without imu_step)
             a = np.empty(13)
+            self._geo = None
+        if self._geo is None:
+            # the nominal state changed since imu_step wrote the output (a fusion, a
+            # reset): written again, into imu_step's array (not handed out yet)
             self._geo = output_into(x, self._s, a)
         lat, lon, alt = self._geo
         if self._wind_ned is None:
@@ -1183,7 +1194,7 @@ class NavFilterBase:
             airspeed = math.sqrt((v0 - w0) ** 2 + (v1 - w1) ** 2 + v2 ** 2)
         # the vectors that change every step: views of one array (one allocation)
         return NavState.make(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                             self._wind_ned, self.aligned, self.healthy, self.SOURCE)
+                             self._wind_ned, self.aligned, ok, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:

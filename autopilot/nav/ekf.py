@@ -69,7 +69,7 @@ import numpy as np
 
 from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
-from .base import S_ACC, S_ACC_HAS, S_QS_HAS, NavFilterBase
+from .base import _B_H, _B_S, S_ACC, S_ACC_HAS, S_QS_HAS, NavFilterBase, inject_into
 from .config import NAV_PARAMS  # noqa: F401  (re-exported: the filter's parameters beside it)
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 
@@ -202,6 +202,18 @@ def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
         for c in range(n):
             out[r, c] = 0.5 * (A[r, c] + A[c, r])
         out[r, r] = min(max(out[r, r], floor[r]), ceil[r])
+    return True
+
+
+@kernel
+def fuse_into(P, H, PHt, S, R, y, floor, ceil, dx, out, b):
+    """The update (:func:`joseph_update_into`: dx and P' into ``dx`` and ``out``) with
+    dx folded into the nominal state (base.inject_into; ``b``: the filter's buffer of
+    the nominal state and the per-step array, base._B_*). Returns ok (False: S not
+    positive definite, nothing written)."""
+    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
+        return False
+    inject_into(b[:_B_S], b[_B_S:_B_H], dx)
     return True
 
 
@@ -350,9 +362,11 @@ class InsGpsEkf(NavFilterBase):
             # (one memory layout for every call: one compiled kernel)
             H, PHt, R, y = H[rows], np.ascontiguousarray(PHt[:, rows]), R[rows], y[rows]
             S = S[np.ix_(rows, rows)]
-        # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P (kernel above)
-        out, dx = self._P_spare, self._dx
-        if not joseph_update_into(self._P, H, PHt, S, R, y, self._floor, self._ceil, dx, out):
+        # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P, dx into the nominal
+        # state (kernel above)
+        out = self._P_spare
+        if not fuse_into(self._P, H, PHt, S, R, y, self._floor, self._ceil, self._dx, out,
+                         self._buf):
             return                           # S not positive definite: skip this update
         self._next_P(out)
-        self._inject(dx)
+        self._geo = self._wind_ned = None    # (the output's parts made from it: as _inject)
