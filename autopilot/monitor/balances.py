@@ -85,11 +85,9 @@ class Balances:
         hc[:len(lateral._hc)] = lateral._hc
         self._k = np.concatenate((b._pc, hc, rotor, (2.0, len(cp_j), len(cp_rpm)), cp_j, cp, cp_rpm, cp_rpm_k))
         self._mode = throttle._mode
-        self._raw = lateral._nav          # (LateralAero.raw_accel: the bias estimate added back)
-        self._piston = throttle.model.engine is not None
         # (autopilot.jit.preload: the kernel loaded now, not on leaving the ground)
         preload(balances_front, 0, 20.0, np.zeros(3), 0.0, 0.0, -9.8, True, True, 0.0, 0.0, 0.0, 0.5, 0.5, 1.0,
-                100.0, NO_BIAS if self._raw is None else np.zeros(3), self._mode, self._lp.copy(),
+                100.0, NO_BIAS if lateral._nav is None else np.zeros(3), self._mode, self._lp.copy(),
                 self._st.copy(), self._k)
 
     @staticmethod
@@ -106,16 +104,10 @@ class Balances:
         f_on = f_b is not None
         fx, fy, fz = f_b if f_on else (0.0, 0.0, 0.0)
         aileron, elevator, rudder, throttle = controls[:4]
-        thr = throttle
-        if self._piston and flying and f_on and not V < 10.0:
-            thr = th._piston(t_us, nav, controls, fz)
-        ba = NO_BIAS
-        if self._raw is not None:
-            ba = getattr(self._raw, "accel_bias", None)
-            ba = NO_BIAS if ba is None else ba
-        due = balances_front(t_us, V, nav.omega_b, fx, fy, fz, f_on, flying, aileron, elevator, rudder, throttle,
-                             thr, 0.0 if f_on else self.elevator.load_factor(nav), nav.alt_m, ba, self._mode,
-                             self._lp, self._st, self._k)
+        due = balances_front(t_us, V, nav.omega_b, fx, fy, fz, f_on, flying, aileron, elevator,
+                             rudder, throttle, th.throttle_in(t_us, nav, controls, flying and f_on, f_b),
+                             0.0 if f_on else self.elevator.load_factor(nav), nav.alt_m,
+                             self.lateral.accel_bias(), self._mode, self._lp, self._st, self._k)
         renewed = False
         if due & DUE_LATERAL and self.lateral.sample(t_us):
             renewed = True

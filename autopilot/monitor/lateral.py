@@ -477,14 +477,17 @@ class LateralIdentifier:
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:
         """True where the axes' ``ratio`` were renewed (their window tests ran: 2 Hz)."""
-        # the navigation's accelerometer bias estimate where the model wants the specific
-        # force raw (LateralAero.raw_accel)
-        ba = None if self._nav is None else getattr(self._nav, "accel_bias", None)
         if not lateral_front(self._lp, self._st, t_us, nav.airspeed_mps, flying and f_b is not None, nav.omega_b,
-                             NO_FORCE if f_b is None else f_b, NO_BIAS if ba is None else ba, controls[0],
+                             NO_FORCE if f_b is None else f_b, self.accel_bias(), controls[0],
                              controls[2], controls[3], self._hc, 2.0):
             return False
         return self.sample(t_us)
+
+    def accel_bias(self) -> np.ndarray:
+        """The navigation's accelerometer bias estimate, added back where the model wants
+        the specific force raw (LateralAero.raw_accel); NO_BIAS otherwise."""
+        ba = None if self._nav is None else getattr(self._nav, "accel_bias", None)
+        return NO_BIAS if ba is None else ba
 
     def sample(self, t_us: int) -> bool:
         """The balance's sample due (:func:`lateral_front`): the deflections it says the

@@ -822,9 +822,7 @@ class ThrottleIdentifier:
         st = self._st
         tested = self.axes["throttle"]
         flying = flying and f_b is not None
-        thr = controls[3]
-        if self.model.engine is not None and flying and not V < 10.0:
-            thr = self._piston(t_us, nav, controls, float(f_b[2]))
+        thr = self.throttle_in(t_us, nav, controls, flying, f_b)
         # (the height only for the rotor's residual: where a speed was ever measured)
         due = throttle_front(self._lp, st, t_us, V, flying, NO_FORCE if f_b is None else f_b, controls[1], thr,
                              nav.alt_m if st[_RPM_US] >= 0 else 0.0, self._mode, *self._model_arrays)
@@ -866,6 +864,14 @@ class ThrottleIdentifier:
             self._rotor_axis.step(t_us, np.array((1.0, phi[1], lp[_LPR1])), lp[_LPR0], lp[_LPR1],
                                   learn and m.engine is None if learn is not None else None, k_test)
         return k_test or switched
+
+    def throttle_in(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> float:
+        """The throttle the thrust balance takes (``flying``: with a specific force
+        ``f_b``): the command, or with a piston engine at 10 m/s or faster the engine's
+        step (:meth:`_piston`)."""
+        if self.model.engine is not None and flying and not nav.airspeed_mps < 10.0:
+            return self._piston(t_us, nav, controls, float(f_b[2]))
+        return controls[3]
 
     def _piston(self, t_us: int, nav, controls: tuple, fz: float) -> float:
         """A piston engine's step (module docstring): the rotor's residual from the
