@@ -39,7 +39,7 @@ from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
-from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
+from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .jit import kernel
 from .link.codec import MAV
@@ -270,7 +270,8 @@ class QuadVehicle(VehicleBase):
         self._home_nav_p = (0.0, 0.0, 0.0)      # home in the navigation frame
         self.sequencer: CopterMissionSequencer | None = None
         self.nav_state: NavState | None = None
-        self.target: CopterTarget | None = None
+        self._target: CopterTarget | None = None   # (the property ``target``)
+        self._target_of: tuple | None = None        # (seq, hold) it is built from
         self.on_ground = True                   # the land detector's state
         self.flying = False                     # airborne far enough for the integrators
         self.mission_landed = False             # a landing (mission, RTL or LAND) ended
@@ -497,7 +498,7 @@ class QuadVehicle(VehicleBase):
         if self.on_ground:
             self._yaw_hold = yaw
         if mode in _PILOT_MODES:
-            self.target = None
+            self._target = self._target_of = None
             pl = self.pilot
             lim = math.radians(p["ANGLE_MAX_DEG"])
             r_d = max(-lim, min(lim, pl.roll_rad))
@@ -542,20 +543,37 @@ class QuadVehicle(VehicleBase):
             nv.touchdown()
             self._landed_end(t_us)
         nv.update(dt, pos, yaw)
-        tgt = nv.target(seq, hold)
-        self.target = tgt
+        self._target, self._target_of = None, (seq, hold)
         if not self.armed:
             return (0.0, 0.0, 0.0, 0.0)
-        if self.on_ground and (tgt.kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
-            # waiting on the ground (or a hold / landing asked while landed)
+        kind = PHASE_KIND[nv.phase]
+        if self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
+            # waiting on the ground (or a hold / landing asked while landed): the target of
+            # this step, then the reference reset to where the vehicle is
+            self._target = self._make_target(seq, hold)
             nv.init(pos, yaw)
             return ctrl.idle(p["QD_SPIN_ARM"])
         hold_i = not self.flying
+        # the loops read the reference from the trajectory's array; its depth follows the
+        # ground on a terrain-frame leg (as the target's, CopterNavigator.target)
+        dz = 0.0 if nv.terrain_leg is None else nv.terrain_offset(*nv.traj.p[:2])
         # (the ground state after the loops: in these modes it changes none of their inputs)
-        motors = ctrl.track(q, omega, tgt.p_ned, tgt.v_ned, tgt.a_ned, pos, v, yaw, roll, pitch,
-                            tgt.yaw_rad, dt, hold_i, hold_i)
-        self._update_ground_state(ctrl.u[0], v, t_us, landing=tgt.kind == "land")
+        motors = ctrl.track(q, omega, nv.traj.ref, pos, v, yaw, roll, pitch, nv.yaw_ref, dt,
+                            hold_i, hold_i, dz)
+        self._update_ground_state(ctrl.u[0], v, t_us, landing=kind == "land")
         return motors
+
+    @property
+    def target(self) -> CopterTarget | None:
+        """What guidance asked of the loops at the last step (None in the pilot modes),
+        built when asked (the log's rows): the loops read the trajectory's own array."""
+        t = self._target
+        if t is None and self._target_of is not None:
+            t = self._target = self._make_target(*self._target_of)
+        return t
+
+    def _make_target(self, seq: int, hold: bool) -> CopterTarget:
+        return self.navigator.target(seq, hold)
 
     _touchdown_pending = False
 

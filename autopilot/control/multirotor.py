@@ -525,16 +525,18 @@ class ReferenceAngleGenerator:
 
 
 @kernel
-def track_mix(x, qw, qx, qy, qz, wx, wy, wz, pn_d, pe_d, pd_d, vn_d, ve_d, vd_d, an_d, ae_d,
-              ad_d, pn, pe, pd, vn, ve, vd, yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt):
+def track_mix(x, ref, dz, qw, qx, qy, qz, wx, wy, wz, pn, pe, pd, vn, ve, vd, yaw, roll, pitch,
+              yaw_d, dt, hold_pos, hold_alt):
     """The loops of Fig 3.6 end to end on the controller's array ``x``
     (:meth:`MultirotorController.track`): the reference angles (eqs 3.38-3.41) from the
-    reference's position, velocity and acceleration (_d; home NED) against the
-    estimate's, the thrust of the altitude loop (eq 3.37), then the attitude loops and
-    the mixer (:func:`attitude_mix`). Returns phi_d, theta_d and attitude_mix's."""
-    roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], pn_d - pn, pe_d - pe, vn_d - vn,
-                                       ve_d - ve, an_d, ae_d, yaw, dt, hold_pos)
-    u_z = altitude_step(x, -pd_d, -vd_d, -ad_d, -pd, -vd, roll, pitch, dt, hold_alt)
+    reference's position, velocity and acceleration (``ref``: p, v, a in home NED, its
+    depth moved by ``dz`` where that is not 0) against the estimate's, the thrust of the
+    altitude loop (eq 3.37), then the attitude loops and the mixer
+    (:func:`attitude_mix`). Returns phi_d, theta_d and attitude_mix's."""
+    pd_d = ref[2] + dz if dz != 0.0 else ref[2]
+    roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], ref[0] - pn, ref[1] - pe, ref[3] - vn,
+                                       ref[4] - ve, ref[6], ref[7], yaw, dt, hold_pos)
+    u_z = altitude_step(x, -pd_d, -ref[5], -ref[8], -pd, -vd, roll, pitch, dt, hold_alt)
     u, motors = attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z)
     return roll_d, pitch_d, u, motors
 
@@ -560,7 +562,8 @@ class MultirotorController:
         # the array, which the loops write)
         preload(attitude_mix, self.x.copy(), 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 0.0)
-        preload(track_mix, self.x.copy(), 1.0, *(0.0,) * 25, 0.004, False, False)
+        preload(track_mix, self.x.copy(), np.zeros(9), 0.0, 1.0, *(0.0,) * 16, 0.004, False,
+                False)
         preload(altitude_step, self.x.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.004, False)
 
     def configure(self) -> None:
@@ -595,15 +598,16 @@ class MultirotorController:
         return altitude_step(self.x, h_d, hdot_d, hddot_d, h, hdot, roll, pitch, dt,
                              hold_integrator)
 
-    def track(self, q, omega_b, p_d, v_d, a_d, p, v, yaw: float, roll: float, pitch: float,
-              yaw_d: float, dt: float, hold_pos: bool, hold_alt: bool) -> tuple:
-        """Position, altitude and attitude loops and the mixer for a reference (p_d, v_d,
-        a_d; home NED) and heading ``yaw_d``, the vehicle at p, v (home NED), heading
-        ``yaw``, tilt (roll, pitch): ``pos.update``, ``altitude``, then ``attitude``, in
-        one kernel call (:func:`track_mix`). Integrators held with ``hold_*``."""
+    def track(self, q, omega_b, ref, p, v, yaw: float, roll: float, pitch: float,
+              yaw_d: float, dt: float, hold_pos: bool, hold_alt: bool, dz: float = 0.0) -> tuple:
+        """Position, altitude and attitude loops and the mixer for a reference (``ref``:
+        an array of its position, velocity and acceleration in home NED, the
+        trajectory's own; its depth moved by ``dz``) and heading ``yaw_d``, the vehicle
+        at p, v (home NED), heading ``yaw``, tilt (roll, pitch): ``pos.update``,
+        ``altitude``, then ``attitude``, in one kernel call (:func:`track_mix`).
+        Integrators held with ``hold_*``."""
         self.roll_d, self.pitch_d, self.u, self.motors = track_mix(
-            self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
-            p_d[0], p_d[1], p_d[2], v_d[0], v_d[1], v_d[2], a_d[0], a_d[1], a_d[2],
+            self.x, ref, dz, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
             p[0], p[1], p[2], v[0], v[1], v[2], yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt)
         self.yaw_d = yaw_d
         return self.motors
