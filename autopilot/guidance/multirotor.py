@@ -200,6 +200,7 @@ class Trajectory:
     p = _Vector(_P, 3)                # smoothed reference (the model's output)
     v = _Vector(_V, 3)
     a = _Vector(_A, 3)
+    p_down = _Part(_P + 2)            # (p's depth alone: read at every step of a landing)
     start = _Vector(_START, 3)        # the line's start
     goal = _Part(_GOAL, 3)
     _s = _Part(_S)                    # distance along the line
@@ -671,7 +672,7 @@ class CopterNavigator:
             self._yaw_goal = None
             self.phase = ph = "land_descend"
         if ph == "land_descend":
-            low = -traj.p[2] <= prm["LAND_ALT_LOW"]
+            low = -traj.p_down <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p_vehicle[0], p_vehicle[1])
         if dz:
