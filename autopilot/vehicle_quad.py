@@ -34,7 +34,8 @@ import math
 
 import numpy as np
 
-from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
+from .control.multirotor import (G, MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
+                                 MultirotorController)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
@@ -119,7 +120,8 @@ class DecimatedNav:
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
     p, v, q, omega, euler)`` with p, v, q the predicted state as floats (lists or tuples;
     nav origin NED, q_nb), omega the bias-corrected rate of this step (likewise) and
-    euler q's (roll, pitch, yaw)."""
+    euler q's (roll, pitch, yaw); v, q, omega and euler also written in its array ``y``
+    (the loops read them there: control.multirotor.Y_*)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -140,6 +142,7 @@ class DecimatedNav:
         self._g = G
         self._last_t: int | None = None
         self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
+        self.y = np.zeros(Y_N)
 
     @property
     def P(self):
@@ -215,8 +218,11 @@ class DecimatedNav:
                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], euler_321(*q)
-        p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
+            w = (wx - bg[0], wy - bg[1], wz - bg[2])
+            euler = euler_321(*q)
+            self.y[:] = (*v, *q, *w, *euler)
+            return nav, p, v, q, w, euler
+        p, v, q, w, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
         return self.nav, p, v, q, w, euler
 
 
@@ -257,6 +263,9 @@ class QuadVehicle(VehicleBase):
         self.mission = mission
         self.nav_source = nav_source
         self.nav = make_quad_nav(nav_source, params, dt_s)
+        # the navigation output the loops read (control.multirotor.Y_*): the output
+        # predictor's own array, or (truth) one the step writes
+        self.y = self.nav.y if isinstance(self.nav, DecimatedNav) else np.zeros(Y_N)
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.dt_nominal = dt_s
@@ -449,6 +458,7 @@ class QuadVehicle(VehicleBase):
             q = nav.q_nb.tolist()
             omega = nav.omega_b.tolist()
             euler = euler_321(*q)
+            self.y[:] = (*v, *q, *omega, *euler)
         else:
             nav, p_nav, v, q, omega, euler = self.nav.update(frame)
         self.nav_state = nav
@@ -558,8 +568,7 @@ class QuadVehicle(VehicleBase):
         # ground on a terrain-frame leg (as the target's, CopterNavigator.target)
         dz = 0.0 if nv.terrain_leg is None else nv.terrain_offset(*nv.traj.p[:2])
         # (the ground state after the loops: in these modes it changes none of their inputs)
-        motors = ctrl.track(q, omega, nv.traj.ref, pos, v, yaw, roll, pitch, nv.yaw_ref, dt,
-                            hold_i, hold_i, dz)
+        motors = ctrl.track(self.y, pos, nv.traj.ref, nv.yaw_ref, dt, hold_i, hold_i, dz)
         self._update_ground_state(ctrl.u[0], v, t_us, landing=kind == "land")
         return motors
 
@@ -684,7 +693,7 @@ X_SUMS = 17                       # predict_output's x: where the sums of the sa
 
 
 @kernel
-def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
+def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
     filter's update: X_SUMS), its p, v, q and sums updated in place;
@@ -692,7 +701,8 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
     q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
     them back out of ``x`` or slicing one long tuple; the angles here rather than in a
-    call of their own)."""
+    call of their own), and writes v, q, omega and the angles in ``y`` (the loops' array,
+    Y_*)."""
     # the raw sample summed for the filter's next update (DecimatedNav.update)
     x[X_SUMS] += fx
     x[X_SUMS + 1] += fy
@@ -719,5 +729,10 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[3], x[4], x[5] = vn1, ve1, vd1
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
+    roll, pitch, yaw = euler_321(qw, qx, qy, qz)
+    y[Y_V], y[Y_V + 1], y[Y_V + 2] = vn1, ve1, vd1
+    y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = qw, qx, qy, qz
+    y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx, wy, wz
+    y[Y_EULER], y[Y_EULER + 1], y[Y_EULER + 2] = roll, pitch, yaw
     return ((x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz),
-            euler_321(qw, qx, qy, qz))
+            (roll, pitch, yaw))

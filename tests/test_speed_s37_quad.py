@@ -43,8 +43,9 @@ def test_track_depth_offset_is_the_reference_moved_down():
         moved[2] = ref[2] + dz
         q = (np.array((1.0, *rng.uniform(-0.1, 0.1, 3))) / 1.01).tolist()
         w, pos, v = (tuple(rng.uniform(-1.0, 1.0, 3).tolist()) for _ in range(3))
-        got = a.track(q, w, ref, pos, v, 0.3, 0.01, -0.02, 0.5, DT, False, False, dz)
-        want = b.track(q, w, moved, pos, v, 0.3, 0.01, -0.02, 0.5, DT, False, False)
+        y = np.array((*v, *q, *w, 0.01, -0.02, 0.3))
+        got = a.track(y, pos, ref, 0.5, DT, False, False, dz)
+        want = b.track(y, pos, moved, 0.5, DT, False, False)
         assert got == want and a.u == b.u and np.array_equal(a.x, b.x)
 
 

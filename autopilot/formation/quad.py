@@ -118,8 +118,6 @@ class FormationQuad(QuadVehicle):
         if self.mode is not _GUIDED:
             return super()._fly(dt, t_us, q, omega)
         ctrl = self.ctrl
-        roll, pitch, yaw = self.euler
-        pos, v = self.p_home, self.v_ned
         t_s = t_us * 1e-6
         if t_s < self.start_s:
             r, tv, ta = self._start, _ZERO, _ZERO
@@ -130,8 +128,7 @@ class FormationQuad(QuadVehicle):
         h = self.home_in_form
         self._ref[:] = (r[0] - h[0], r[1] - h[1], r[2] - h[2], *tv, *ta)
         self._target, self._target_of = None, ()      # (built from _ref when asked)
-        return ctrl.track(q, omega, self._ref, pos, v, yaw, roll, pitch, 0.0, dt, False,
-                          not self.flying)
+        return ctrl.track(self.y, self.p_home, self._ref, 0.0, dt, False, not self.flying)
 
     def _make_target(self) -> tuple:
         """GUIDED: the formation's reference (what ``_fly`` handed to the loops)."""
