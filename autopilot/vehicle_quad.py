@@ -465,7 +465,6 @@ class QuadVehicle(VehicleBase):
         hp = self._home_nav_p
         self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
         self.v_ned = v
-        self.q_nb = q
         self.euler = euler
 
         # modes
