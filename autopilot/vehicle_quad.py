@@ -34,12 +34,13 @@ import math
 
 import numpy as np
 
-from .control.multirotor import G, MULTIROTOR_PARAMS, MultirotorController
+from .control.multirotor import (G, MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
+                                 MultirotorController)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
-from .guidance.multirotor import (COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
+from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
                                   CopterNavigator, CopterTarget)
 from .jit import kernel
 from .link.codec import MAV
@@ -119,7 +120,8 @@ class DecimatedNav:
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
     p, v, q, omega, euler)`` with p, v, q the predicted state as floats (lists or tuples;
     nav origin NED, q_nb), omega the bias-corrected rate of this step (likewise) and
-    euler q's (roll, pitch, yaw)."""
+    euler q's (roll, pitch, yaw); v, q, omega and euler also written in its array ``y``
+    (the loops read them there: control.multirotor.Y_*)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -140,6 +142,7 @@ class DecimatedNav:
         self._g = G
         self._last_t: int | None = None
         self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
+        self.y = np.zeros(Y_N)
 
     @property
     def P(self):
@@ -215,8 +218,11 @@ class DecimatedNav:
                                 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
             # this step's rate: the raw gyro less the bias estimate
             bg = self._bg
-            return nav, p, v, q, [wx - bg[0], wy - bg[1], wz - bg[2]], euler_321(*q)
-        p, v, q, w, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
+            w = (wx - bg[0], wy - bg[1], wz - bg[2])
+            euler = euler_321(*q)
+            self.y[:] = (*v, *q, *w, *euler)
+            return nav, p, v, q, w, euler
+        p, v, q, w, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
         return self.nav, p, v, q, w, euler
 
 
@@ -257,6 +263,9 @@ class QuadVehicle(VehicleBase):
         self.mission = mission
         self.nav_source = nav_source
         self.nav = make_quad_nav(nav_source, params, dt_s)
+        # the navigation output the loops read (control.multirotor.Y_*): the output
+        # predictor's own array, or (truth) one the step writes
+        self.y = self.nav.y if isinstance(self.nav, DecimatedNav) else np.zeros(Y_N)
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.dt_nominal = dt_s
@@ -270,7 +279,8 @@ class QuadVehicle(VehicleBase):
         self._home_nav_p = (0.0, 0.0, 0.0)      # home in the navigation frame
         self.sequencer: CopterMissionSequencer | None = None
         self.nav_state: NavState | None = None
-        self.target: CopterTarget | None = None
+        self._target: CopterTarget | None = None   # (the property ``target``)
+        self._target_of: tuple | None = None        # (seq, hold) it is built from
         self.on_ground = True                   # the land detector's state
         self.flying = False                     # airborne far enough for the integrators
         self.mission_landed = False             # a landing (mission, RTL or LAND) ended
@@ -448,13 +458,13 @@ class QuadVehicle(VehicleBase):
             q = nav.q_nb.tolist()
             omega = nav.omega_b.tolist()
             euler = euler_321(*q)
+            self.y[:] = (*v, *q, *omega, *euler)
         else:
             nav, p_nav, v, q, omega, euler = self.nav.update(frame)
         self.nav_state = nav
         hp = self._home_nav_p
         self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
         self.v_ned = v
-        self.q_nb = q
         self.euler = euler
 
         # modes
@@ -497,7 +507,7 @@ class QuadVehicle(VehicleBase):
         if self.on_ground:
             self._yaw_hold = yaw
         if mode in _PILOT_MODES:
-            self.target = None
+            self._target = self._target_of = None
             pl = self.pilot
             lim = math.radians(p["ANGLE_MAX_DEG"])
             r_d = max(-lim, min(lim, pl.roll_rad))
@@ -542,20 +552,36 @@ class QuadVehicle(VehicleBase):
             nv.touchdown()
             self._landed_end(t_us)
         nv.update(dt, pos, yaw)
-        tgt = nv.target(seq, hold)
-        self.target = tgt
+        self._target, self._target_of = None, (seq, hold)
         if not self.armed:
             return (0.0, 0.0, 0.0, 0.0)
-        if self.on_ground and (tgt.kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
-            # waiting on the ground (or a hold / landing asked while landed)
+        kind = PHASE_KIND[nv.phase]
+        if self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
+            # waiting on the ground (or a hold / landing asked while landed): the target of
+            # this step, then the reference reset to where the vehicle is
+            self._target = self._make_target(seq, hold)
             nv.init(pos, yaw)
             return ctrl.idle(p["QD_SPIN_ARM"])
         hold_i = not self.flying
+        # the loops read the reference from the trajectory's array; its depth follows the
+        # ground on a terrain-frame leg (as the target's, CopterNavigator.target)
+        dz = 0.0 if nv.terrain_leg is None else nv.terrain_offset(*nv.traj.p[:2])
         # (the ground state after the loops: in these modes it changes none of their inputs)
-        motors = ctrl.track(q, omega, tgt.p_ned, tgt.v_ned, tgt.a_ned, pos, v, yaw, roll, pitch,
-                            tgt.yaw_rad, dt, hold_i, hold_i)
-        self._update_ground_state(ctrl.u[0], v, t_us, landing=tgt.kind == "land")
+        motors = ctrl.track(self.y, pos, nv.traj.ref, nv.yaw_ref, dt, hold_i, hold_i, dz)
+        self._update_ground_state(ctrl.u[0], v, t_us, landing=kind == "land")
         return motors
+
+    @property
+    def target(self) -> CopterTarget | None:
+        """What guidance asked of the loops at the last step (None in the pilot modes),
+        built when asked (the log's rows): the loops read the trajectory's own array."""
+        t = self._target
+        if t is None and self._target_of is not None:
+            t = self._target = self._make_target(*self._target_of)
+        return t
+
+    def _make_target(self, seq: int, hold: bool) -> CopterTarget:
+        return self.navigator.target(seq, hold)
 
     _touchdown_pending = False
 
@@ -666,7 +692,7 @@ X_SUMS = 17                       # predict_output's x: where the sums of the sa
 
 
 @kernel
-def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
+def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
     filter's update: X_SUMS), its p, v, q and sums updated in place;
@@ -674,7 +700,8 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
     q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
     them back out of ``x`` or slicing one long tuple; the angles here rather than in a
-    call of their own)."""
+    call of their own), and writes v, q, omega and the angles in ``y`` (the loops' array,
+    Y_*)."""
     # the raw sample summed for the filter's next update (DecimatedNav.update)
     x[X_SUMS] += fx
     x[X_SUMS + 1] += fy
@@ -701,5 +728,10 @@ def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     x[3], x[4], x[5] = vn1, ve1, vd1
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
+    roll, pitch, yaw = euler_321(qw, qx, qy, qz)
+    y[Y_V], y[Y_V + 1], y[Y_V + 2] = vn1, ve1, vd1
+    y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = qw, qx, qy, qz
+    y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx, wy, wz
+    y[Y_EULER], y[Y_EULER + 1], y[Y_EULER + 2] = roll, pitch, yaw
     return ((x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz),
-            euler_321(qw, qx, qy, qz))
+            (roll, pitch, yaw))

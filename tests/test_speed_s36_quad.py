@@ -189,7 +189,8 @@ def test_track_is_the_position_altitude_and_attitude_loops_in_turn():
         pos, v = tuple(rng.uniform(-2.0, 2.0, 3).tolist()), tuple(rng.uniform(-2.0, 2.0, 3).tolist())
         yaw, roll, pitch, yaw_d = rng.uniform(-3.0, 3.0, 4).tolist()
         hold_pos, hold_alt = bool(k % 11 == 0), bool(k % 13 == 0)
-        got = new.track(q, w, tp, tv, ta, pos, v, yaw, roll, pitch, yaw_d, DT, hold_pos, hold_alt)
+        y = np.array((*v, *q, *w, roll, pitch, yaw))                   # (Y_*)
+        got = new.track(y, pos, np.array((*tp, *tv, *ta)), yaw_d, DT, hold_pos, hold_alt)
         r_d, p_d = old.pos.update(tp[0] - pos[0], tp[1] - pos[1], tv[0] - v[0], tv[1] - v[1],
                                   ta[0], ta[1], yaw, DT, hold_pos)
         m = old.mixer

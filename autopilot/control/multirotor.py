@@ -258,6 +258,13 @@ X_N = X_REQ + 1
 P_KPP, P_KIP, P_KDP, P_KPR, P_KIR, P_KDR, P_ANG, P_ILIM, P_IN, P_IE = range(10)
 A_KD, A_KP, A_KI, A_IMAX, A_MASS, A_INTEG = range(6)
 
+# the vehicle's motion as the loops read it (MultirotorController.track): the navigation
+# output in one array, written by the navigation's output predictor (vehicle_quad.py):
+# velocity (NED), attitude q_nb, rate (body, bias-corrected), Euler angles (roll, pitch,
+# yaw). (The position is the caller's, in home's frame.)
+Y_V, Y_Q, Y_W, Y_EULER = 0, 3, 7, 10
+Y_N = 13
+
 
 @kernel
 def attitude_step(a, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d):
@@ -525,17 +532,22 @@ class ReferenceAngleGenerator:
 
 
 @kernel
-def track_mix(x, qw, qx, qy, qz, wx, wy, wz, pn_d, pe_d, pd_d, vn_d, ve_d, vd_d, an_d, ae_d,
-              ad_d, pn, pe, pd, vn, ve, vd, yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt):
+def track_mix(x, ref, y, pn, pe, pd, dz, yaw_d, dt, hold_pos, hold_alt):
     """The loops of Fig 3.6 end to end on the controller's array ``x``
     (:meth:`MultirotorController.track`): the reference angles (eqs 3.38-3.41) from the
-    reference's position, velocity and acceleration (_d; home NED) against the
-    estimate's, the thrust of the altitude loop (eq 3.37), then the attitude loops and
-    the mixer (:func:`attitude_mix`). Returns phi_d, theta_d and attitude_mix's."""
-    roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], pn_d - pn, pe_d - pe, vn_d - vn,
-                                       ve_d - ve, an_d, ae_d, yaw, dt, hold_pos)
-    u_z = altitude_step(x, -pd_d, -vd_d, -ad_d, -pd, -vd, roll, pitch, dt, hold_alt)
-    u, motors = attitude_mix(x, qw, qx, qy, qz, wx, wy, wz, roll_d, pitch_d, yaw_d, u_z)
+    reference's position, velocity and acceleration (``ref``: p, v, a in home NED, its
+    depth moved by ``dz`` where that is not 0) against the estimate's (the position
+    pn, pe, pd in home NED, the rest in ``y``: Y_*), the thrust of the altitude loop
+    (eq 3.37), then the attitude loops and the mixer (:func:`attitude_mix`). Returns
+    phi_d, theta_d and attitude_mix's."""
+    pd_d = ref[2] + dz if dz != 0.0 else ref[2]
+    vn, ve, vd = y[Y_V], y[Y_V + 1], y[Y_V + 2]
+    roll, pitch, yaw = y[Y_EULER], y[Y_EULER + 1], y[Y_EULER + 2]
+    roll_d, pitch_d = reference_angles(x[X_POS:X_ALT], ref[0] - pn, ref[1] - pe, ref[3] - vn,
+                                       ref[4] - ve, ref[6], ref[7], yaw, dt, hold_pos)
+    u_z = altitude_step(x, -pd_d, -ref[5], -ref[8], -pd, -vd, roll, pitch, dt, hold_alt)
+    u, motors = attitude_mix(x, y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3], y[Y_W], y[Y_W + 1],
+                             y[Y_W + 2], roll_d, pitch_d, yaw_d, u_z)
     return roll_d, pitch_d, u, motors
 
 
@@ -560,7 +572,10 @@ class MultirotorController:
         # the array, which the loops write)
         preload(attitude_mix, self.x.copy(), 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 0.0)
-        preload(track_mix, self.x.copy(), 1.0, *(0.0,) * 25, 0.004, False, False)
+        y = np.zeros(Y_N)
+        y[Y_Q] = 1.0
+        preload(track_mix, self.x.copy(), np.zeros(9), y, 0.0, 0.0, 0.0, 0.0, 0.0, 0.004, False,
+                False)
         preload(altitude_step, self.x.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.004, False)
 
     def configure(self) -> None:
@@ -595,16 +610,16 @@ class MultirotorController:
         return altitude_step(self.x, h_d, hdot_d, hddot_d, h, hdot, roll, pitch, dt,
                              hold_integrator)
 
-    def track(self, q, omega_b, p_d, v_d, a_d, p, v, yaw: float, roll: float, pitch: float,
-              yaw_d: float, dt: float, hold_pos: bool, hold_alt: bool) -> tuple:
-        """Position, altitude and attitude loops and the mixer for a reference (p_d, v_d,
-        a_d; home NED) and heading ``yaw_d``, the vehicle at p, v (home NED), heading
-        ``yaw``, tilt (roll, pitch): ``pos.update``, ``altitude``, then ``attitude``, in
+    def track(self, y, p, ref, yaw_d: float, dt: float, hold_pos: bool, hold_alt: bool,
+              dz: float = 0.0) -> tuple:
+        """Position, altitude and attitude loops and the mixer for a reference (``ref``:
+        an array of its position, velocity and acceleration in home NED, the
+        trajectory's own; its depth moved by ``dz``) and heading ``yaw_d``, the vehicle
+        at p (home NED), its motion as the navigation's output array ``y`` (Y_*: the
+        predictor's own) gives it: ``pos.update``, ``altitude``, then ``attitude``, in
         one kernel call (:func:`track_mix`). Integrators held with ``hold_*``."""
         self.roll_d, self.pitch_d, self.u, self.motors = track_mix(
-            self.x, q[0], q[1], q[2], q[3], omega_b[0], omega_b[1], omega_b[2],
-            p_d[0], p_d[1], p_d[2], v_d[0], v_d[1], v_d[2], a_d[0], a_d[1], a_d[2],
-            p[0], p[1], p[2], v[0], v[1], v[2], yaw, roll, pitch, yaw_d, dt, hold_pos, hold_alt)
+            self.x, ref, y, p[0], p[1], p[2], dz, yaw_d, dt, hold_pos, hold_alt)
         self.yaw_d = yaw_d
         return self.motors
 

@@ -34,6 +34,8 @@ overridden here and hands the reference to the same controller (``ctrl.track``).
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ..geo import LocalFrame
 from ..guidance.multirotor import new_target
 from ..modes.copter import CopterMode
@@ -67,6 +69,7 @@ class FormationQuad(QuadVehicle):
         self.home_in_form = (0.0, 0.0, 0.0)
         self.last_guidance = None
         self._healthy_since: int | None = None
+        self._ref = np.zeros(9)     # the loops' reference: p, v, a (home NED)
 
     # -------------------------------------------------------------- arming ---
     def _try_arm(self, t_us: int, truth) -> None:
@@ -115,8 +118,6 @@ class FormationQuad(QuadVehicle):
         if self.mode is not _GUIDED:
             return super()._fly(dt, t_us, q, omega)
         ctrl = self.ctrl
-        roll, pitch, yaw = self.euler
-        pos, v = self.p_home, self.v_ned
         t_s = t_us * 1e-6
         if t_s < self.start_s:
             r, tv, ta = self._start, _ZERO, _ZERO
@@ -125,8 +126,12 @@ class FormationQuad(QuadVehicle):
             self.last_guidance = g
             r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
         h = self.home_in_form
-        tp = (r[0] - h[0], r[1] - h[1], r[2] - h[2])
+        self._ref[:] = (r[0] - h[0], r[1] - h[1], r[2] - h[2], *tv, *ta)
+        self._target, self._target_of = None, ()      # (built from _ref when asked)
+        return ctrl.track(self.y, self.p_home, self._ref, 0.0, dt, False, not self.flying)
+
+    def _make_target(self) -> tuple:
+        """GUIDED: the formation's reference (what ``_fly`` handed to the loops)."""
+        tp, tv, ta = (tuple(self._ref[k:k + 3].tolist()) for k in (0, 3, 6))
         ne = (tp[0], tp[1])
-        self.target = new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
-        return ctrl.track(q, omega, tp, tv, ta, pos, v, yaw, roll, pitch, 0.0, dt, False,
-                          not self.flying)
+        return new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))

@@ -127,20 +127,21 @@ _GOAL_COMMANDS = frozenset((MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_C
                             MAV_CMD_NAV_SPLINE_WAYPOINT))
 
 # what the position loops are doing in each navigator phase (CopterTarget.kind)
-_PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
+PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hold",
                "rtl_climb": "move", "rtl_return": "move", "land_approach": "move",
                "land_descend": "land", "landed": "idle"}
 
 
 # Trajectory.x, the trajectory's state in one array (read and written in place by
-# trajectory_step): the raw profile's position and velocity, the reference model's p
-# and v, the direction of the line (of the curve's segment being flown), the line's
-# start, the goal; distance and speed along the path; and the leg's constants the step
-# reads, written when a leg starts or changes (length, speed and acceleration limits,
-# end speed, descent speed, open-ended descent, the model's w)
-_RAW, _VRAW, _P, _V, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18
-_S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(21, 30)
-_NX = 30
+# trajectory_step): the raw profile's position and velocity, the reference model's p,
+# v and a (the loops' reference, read by them from here: Trajectory.ref), the direction
+# of the line (of the curve's segment being flown), the line's start, the goal; distance
+# and speed along the path; and the leg's constants the step reads, written when a leg
+# starts or changes (length, speed and acceleration limits, end speed, descent speed,
+# open-ended descent, the model's w)
+_RAW, _VRAW, _P, _V, _A, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18, 21
+_S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(24, 33)
+_NX = 33
 #: a curve's rows (Trajectory.curve_to): a sample point (NED), the distance along the
 #: curve to it, the direction of the segment from it to the next point (the last row
 #: repeats the one before); a straight line has this one row
@@ -169,6 +170,18 @@ class _Part:
             tr.x[i] = value
 
 
+class _Vector(_Part):
+    """A named vector of ``Trajectory.x`` as a tuple (the reference's, as the target
+    hands them on)."""
+
+    __slots__ = ()
+
+    def __get__(self, tr, owner=None):
+        if tr is None:
+            return self
+        return tuple(tr.x[self.i:self.i + self.n].tolist())
+
+
 class Trajectory:
     """The moving reference point: a raw profile along straight lines (trapezoidal
     speed, leash) smoothed by a critically damped second-order reference model,
@@ -178,12 +191,17 @@ class Trajectory:
     so the acceleration fed forward changes smoothly (the raw profile's acceleration
     jumps between +a_max and -a_max; through the model it rises and falls within
     about 1/w s, never exceeding a_max, and the jerk stays below 2 a_max w / e).
-    ``p``, ``v``, ``a`` are the model's output: the reference of the loops. The state
-    is one array, ``x`` (stepped in place by :func:`trajectory_step`, one call a step);
-    its parts by name below."""
+    ``p``, ``v``, ``a`` are the model's output: the reference of the loops, which read
+    it from ``ref``. The state is one array, ``x`` (stepped in place by
+    :func:`trajectory_step`, one call a step); its parts by name below."""
 
     raw = _Part(_RAW, 3)              # raw profile position
     _vraw = _Part(_VRAW, 3)
+    p = _Vector(_P, 3)                # smoothed reference (the model's output)
+    v = _Vector(_V, 3)
+    a = _Vector(_A, 3)
+    p_down = _Part(_P + 2)            # (p's depth alone: read at every step of a landing)
+    start = _Vector(_START, 3)        # the line's start
     goal = _Part(_GOAL, 3)
     _s = _Part(_S)                    # distance along the line
     _vs = _Part(_VS)                  # speed along the line
@@ -197,11 +215,8 @@ class Trajectory:
     def __init__(self, smooth_rad_s: float = 4.0):
         self.x = np.zeros(_NX)
         self.x[_AMAX] = 1.0
+        self.ref = self.x[_P:_A + 3]  # (p, v, a): the loops' reference, a view of x
         self.w = smooth_rad_s
-        self.p = (0.0, 0.0, 0.0)      # smoothed reference (output; tuples, replaced
-        self.v = (0.0, 0.0, 0.0)      # at every step: the target hands them on)
-        self.a = (0.0, 0.0, 0.0)
-        self.start = (0.0, 0.0, 0.0)  # (also in x: the step reads it)
         self._poly = _NO_CURVE        # a curve (spline): its rows (_NO_CURVE: a line)
         self.curving = False          # flying one (read at every step)
         self.arrived = True           # (trajectory_arrived, kept by every change)
@@ -220,15 +235,6 @@ class Trajectory:
         """Unit direction of the line (of the curve's segment at the raw reference)."""
         return tuple(self.x[_U:_U + 3].tolist())
 
-    def _set_p(self, p, v) -> None:
-        self.p, self.v = p, v
-        self.x[_P:_P + 3] = p
-        self.x[_V:_V + 3] = v
-
-    def _set_start(self, st) -> None:
-        self.start = st
-        self.x[_START:_START + 3] = st
-
     def _settled(self) -> None:
         """``arrived`` after a change made here rather than by the step."""
         self.arrived = trajectory_arrived(self.x)
@@ -236,12 +242,8 @@ class Trajectory:
     def reset(self, p) -> None:
         """Stationary at p."""
         p = (float(p[0]), float(p[1]), float(p[2]))
-        self._set_p(p, (0.0, 0.0, 0.0))
-        self.a = (0.0, 0.0, 0.0)
-        self.raw = p
-        self._vraw = (0.0, 0.0, 0.0)
-        self.goal = p
-        self._set_start(p)
+        self.p = self.raw = self.goal = self.start = p
+        self.v = self.a = self._vraw = (0.0, 0.0, 0.0)
         self._len = self._s = self._vs = 0.0
         self.x[_DESC] = 0.0
         self._poly = _NO_CURVE
@@ -254,7 +256,7 @@ class Trajectory:
         r = self.raw
         d = [goal[0] - r[0], goal[1] - r[1], goal[2] - r[2]]
         length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        self._set_start(tuple(r))
+        self.start = r
         self.goal = (float(goal[0]), float(goal[1]), float(goal[2]))
         self.x[_DESC] = 0.0
         self._poly = _NO_CURVE
@@ -331,13 +333,9 @@ class Trajectory:
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same
         reference in a frame whose origin moved by -d (home moved)."""
-        p = self.p
-        self._set_p((p[0] + d[0], p[1] + d[1], p[2] + d[2]), self.v)
-        for part in ("raw", "goal"):
+        for part in ("p", "raw", "goal", "start"):
             v = getattr(self, part)
             setattr(self, part, (v[0] + d[0], v[1] + d[1], v[2] + d[2]))
-        st = self.start
-        self._set_start((st[0] + d[0], st[1] + d[1], st[2] + d[2]))
         if self.curving:
             q = self._poly
             q[:, 0] += d[0]
@@ -383,8 +381,8 @@ class Trajectory:
 
     def update(self, dt: float, p_vehicle, leash: float) -> None:
         """One step of the raw profile and the reference model (:func:`trajectory_step`)."""
-        self.p, self.v, self.a, self.arrived = trajectory_step(
-            self.x, self._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2], leash)
+        self.arrived = trajectory_step(self.x, self._poly, dt, p_vehicle[0], p_vehicle[1],
+                                       p_vehicle[2], leash)
 
 
 @kernel
@@ -430,8 +428,8 @@ def trajectory_arrived(x):
 @kernel
 def trajectory_step(x, poly, dt, pv_n, pv_e, pv_d, leash):
     """One step of :class:`Trajectory` on its state ``x`` (in place), ``poly`` the curve
-    flown (``_NO_CURVE``: a line), the vehicle at (pv_n, pv_e, pv_d). Returns the
-    reference's p, v, a and whether it has arrived (:func:`trajectory_arrived`).
+    flown (``_NO_CURVE``: a line), the vehicle at (pv_n, pv_e, pv_d): the reference's
+    p, v, a written in ``x``. Returns whether it has arrived (:func:`trajectory_arrived`).
     (min / max spelt out as Python's.)"""
     if x[_DESC] != 0.0:
         # open-ended descent at the descent speed, reached at the acceleration limit
@@ -489,7 +487,8 @@ def trajectory_step(x, poly, dt, pv_n, pv_e, pv_d, leash):
     p0, p1, p2 = x[_P] + v0 * dt, x[_P + 1] + v1 * dt, x[_P + 2] + v2 * dt
     x[_P], x[_P + 1], x[_P + 2] = p0, p1, p2
     x[_V], x[_V + 1], x[_V + 2] = v0, v1, v2
-    return (p0, p1, p2), (v0, v1, v2), (a0, a1, a2), trajectory_arrived(x)
+    x[_A], x[_A + 1], x[_A + 2] = a0, a1, a2
+    return trajectory_arrived(x)
 
 
 class CopterNavigator:
@@ -673,7 +672,7 @@ class CopterNavigator:
             self._yaw_goal = None
             self.phase = ph = "land_descend"
         if ph == "land_descend":
-            low = -traj.p[2] <= prm["LAND_ALT_LOW"]
+            low = -traj.p_down <= prm["LAND_ALT_LOW"]
             traj.set_descent_speed(prm["LAND_SPEED"] if low else prm["WPNAV_SPEED_DN"])
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p_vehicle[0], p_vehicle[1])
         if dz:
@@ -727,14 +726,14 @@ class CopterNavigator:
 
     def target(self, seq: int, hold: bool = False) -> CopterTarget:
         tr = self.traj
-        kind = _PHASE_KIND[self.phase]
+        kind = PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
         p = tr.p
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p[0], p[1])
         if dz:
             p = (p[0], p[1], p[2] + dz)
         return new_target((kind, seq, self.leg_id, p, tr.v, tr.a,
-                           self.yaw_ref, hold, goal, (tr.start[0], tr.start[1])))
+                           self.yaw_ref, hold, goal, tr.start[:2]))
 
 
 class CopterMissionSequencer:
