@@ -113,20 +113,25 @@ def test_sigint_stops_a_quadrotor_formation_cleanly(monkeypatch):
     out = formation.run_formation(path, seed=1, duration_s=60.0)
     assert out["sim_time_s"] == 0.0, out["sim_time_s"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    # AND flown again with SIGINT 0.5 s after its first step (the quadrotors' control is
-    #     compiled kernels, where a KeyboardInterrupt came out as a SystemError), it stops
-    #     early with its summary
+    # AND flown again with SIGINT from another thread once 100 of its steps are flown
+    #     (the quadrotors' control is compiled kernels, where a KeyboardInterrupt came out
+    #     as a SystemError), it stops early with its summary. (Counted in steps, not by
+    #     the wall clock: the formation completes 14.6 s into its flight, which a fast
+    #     loop flies in under 0.5 s, and a signal timed after that landed on the test.)
     monkeypatch.setattr(formation, "settled_heap", settled)
-    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer = threading.Timer(0.0, os.kill, (os.getpid(), signal.SIGINT))
     step = formation.QuadMember.step
+    steps = []
 
-    def first_step_starts_the_timer(member):
-        if not timer.is_alive() and not timer.finished.is_set():
+    def the_500th_member_step_starts_the_timer(member):
+        steps.append(1)
+        if len(steps) == 500:          # (five members: 100 steps of the formation)
             timer.start()
         step(member)
 
-    monkeypatch.setattr(formation.QuadMember, "step", first_step_starts_the_timer)
+    monkeypatch.setattr(formation.QuadMember, "step", the_500th_member_step_starts_the_timer)
     out = formation.run_formation(path, seed=1, duration_s=60.0)
     timer.join()
     assert 0.0 < out["sim_time_s"] < 60.0, out["sim_time_s"]
+    assert not out["completed"], out["completed_at_s"]     # (stopped, not flown to its end)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
