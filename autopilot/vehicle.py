@@ -373,8 +373,7 @@ class PlaneVehicle(VehicleBase):
             seq = self._sequencer
             if seq is not None:
                 # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
-                seq.bank_limit_rad = ctrl.reaction_bank_limit_rad()
-                seq.reaction_airspeed_mps = ctrl.reaction_airspeed_mps()
+                seq.bank_limit_rad, seq.reaction_airspeed_mps = ctrl.reaction_limits()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full
@@ -703,9 +702,12 @@ class PlaneVehicle(VehicleBase):
         alt_dem, roll_c, pitch_c, climb_c = c.commands()
         h_rf = rf.height_m
         # one tuple built from its parts at once (``*``: no intermediate tuples); the
-        # flags, mode and counts as they are (the log converts its rows once, at the end)
+        # flags and counts as they are (the log converts its rows once, at the end), the
+        # mode as its number: a row of numbers only is left alone by the cyclic garbage
+        # collector (it untracks it at its first pass), where one holding the PlaneMode
+        # member stayed tracked and was walked again at every older generation's pass
         self.log.append((
-            t_us * 1e-6, self.armed, self.mode, tgt.seq, tgt.leg_id, KIND_CODES[tgt.kind],
+            t_us * 1e-6, self.armed, int(self.mode), tgt.seq, tgt.leg_id, KIND_CODES[tgt.kind],
             *self._truth_row(hf, truth),
             p_est[0], p_est[1], nav.alt_m, er, ep, ey,
             v[0], v[1], v[2], nav.airspeed_mps, w[0], w[1],

@@ -63,9 +63,9 @@ s = clamp((TRIM_ARSPD / V)^2, 0.5, 2) because control power grows with dynamic p
 
 Every PID has explicit saturation and anti-windup (control/pid.py). The loops of a step
 are one compiled kernel (``_loops``, autopilot/jit.py): their integrators and the
-altitude demand in a state array it advances in place, the gains and the parameters it
-reads in arrays written when a parameter or a fault's reaction changes. The course loop is
-L1 guidance (guidance/l1.py), which commands the bank angle directly.
+altitude demand in a state it advances in place, the gains and the parameters it reads
+written when a parameter or a fault's reaction changes, the three in one array. The
+course loop is L1 guidance (guidance/l1.py), which commands the bank angle directly.
 
 Normalised outputs, as HIL_ACTUATOR_CONTROLS carries them: aileron +1 rolls right,
 elevator +1 pitches the nose up, rudder +1 yaws the nose right, throttle 0..1. The
@@ -149,9 +149,14 @@ ALT_DEM, ROLL_CMD, PITCH_CMD, CLIMB_CMD, V_MEAN = range(5, 10)
  C_SO, C_SO_COUNTER, C_SO_ROLL_GAIN,
  C_TOUT, C_TOUT_LEVEL, C_TOUT_V_FLY, C_TOUT_V_GLIDE) = range(34)
 SO_AILERON, SO_RUDDER = 1.0, 2.0            # c[C_SO]: which surface is out (0: none)
+# the gains (5 x 6), the state (10) and the parameters (34) in one array, the kernel's
+# first argument: numba's dispatch costs about 0.1 us an array argument, more than
+# the loops' arithmetic with each
+_X0, _C0, _BUF_N = 30, 40, 74
 # a step's optional demands (NaN: none), the kernel's array ``ovr``
 O_PITCH_MIN, O_THROTTLE, O_CLIMB, O_PITCH_MAX, O_CLIMB_KP, O_RUDDER = range(6)
 _NO_OVERRIDES = np.full(6, math.nan)
+_NO_LIMITS = (None, None)                   # ``reaction_limits`` without a reaction
 
 
 @kernel
@@ -168,12 +173,14 @@ def _roll_limit(roll_lim, eout_bank_rad, counter_rad):
 
 
 @kernel
-def _loops(gains, x, c, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
+def _loops(buf, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
            bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight):
     """One step of every loop (module docstring; ``FixedWingController.update``): the
     controls (aileron, elevator, rudder, throttle), the state ``x`` advanced in place.
-    The squares are the C library's pow (``c[C_SQUARE]`` = 2.0, which LLVM cannot fold
-    into x * x: that differs from Python's ** 2 in the last bit of 0.1 % of values)."""
+    ``buf``: the gains, the state and the parameters (``_X0``, ``_C0``). The squares
+    are the C library's pow (``c[C_SQUARE]`` = 2.0, which LLVM cannot fold into x * x:
+    that differs from Python's ** 2 in the last bit of 0.1 % of values)."""
+    gains, x, c = buf[:_X0].reshape((5, 6)), buf[_X0:_C0], buf[_C0:]
     two = c[C_SQUARE]
     v_air = max2(airspeed_mps, 5.0)
     eout_on = c[C_EOUT_ON] > 0.0
@@ -316,7 +323,7 @@ class FixedWingController:
         self.configure()
         # (the kernels flown, loaded now: autopilot.jit.preload; _roll_limit is called from
         # Python once a reaction limits the bank)
-        preload(_loops, self._gains, self._x.copy(), self._c, _NO_OVERRIDES, 0.0, 0.0, np.zeros(3),
+        preload(_loops, self._buf.copy(), _NO_OVERRIDES, 0.0, 0.0, np.zeros(3),
                 np.zeros(3), 100.0, 25.0, 0.01, 0.0, 100.0, 25.0, 1.0)
         preload(_roll_limit, 0.5, math.nan, 0.1)
 
@@ -354,10 +361,11 @@ class FixedWingController:
         c[C_SQUARE] = 2.0                      # (the squares' exponent: _loops)
 
     def configure(self) -> None:
-        self._gains = np.zeros((5, 6))
-        self._x = np.zeros(10)                  # the loops' state (ROLL .. V_MEAN)
+        self._buf = np.zeros(_BUF_N)            # (the kernel's one array: _loops)
+        self._gains = self._buf[:_X0].reshape(5, 6)
+        self._x = self._buf[_X0:_C0]            # the loops' state (ROLL .. V_MEAN)
         self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
-        self._c = np.zeros(34)
+        self._c = self._buf[_C0:]
         self.elevator_out = False
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
@@ -442,6 +450,13 @@ class FixedWingController:
         lim = self.roll_limit_rad()
         return lim if lim < self._roll_lim_rad else None
 
+    def reaction_limits(self) -> tuple[float | None, float | None]:
+        """(``reaction_bank_limit_rad()``, ``reaction_airspeed_mps()``): what the vehicle
+        hands the mission every step, in one call; (None, None) without a reaction."""
+        if self.surface_out is None and self.throttle_out is None:
+            return _NO_LIMITS
+        return self.reaction_bank_limit_rad(), self.reaction_airspeed_mps()
+
     def reaction_airspeed_mps(self) -> float | None:
         """The airspeed a fault's reaction flies instead of the commanded one [m/s], None
         where there is none: a stuck throttle whose thrust holds level flight, the speed
@@ -490,5 +505,5 @@ class FixedWingController:
                 or pitch_max_rad is not None or climb_kp is not None or rudder_override is not None:
             ovr = np.array([math.nan if v is None else v for v in (
                 pitch_min_rad, throttle_override, climb_override, pitch_max_rad, climb_kp, rudder_override)])
-        return _loops(self._gains, self._x, self._c, ovr, roll, pitch, nav.omega_b, nav.v_ned,
+        return _loops(self._buf, ovr, roll, pitch, nav.omega_b, nav.v_ned,
                       nav.alt_m, nav.airspeed_mps, dt, bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight)
