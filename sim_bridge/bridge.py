@@ -56,6 +56,7 @@ class SimBridge:
         self._hil_period_s = self.hil_period_us * 1e-6
         self.substeps = max(1, int(round(self.hil_period_us * 1e-6 / plant.dt_s)))
         self._rotors = len(plant.rotor_scale) if hasattr(plant, "rotor_scale") else 0
+        self._rotor_changes = -1           # the injector's actuator_changes at the last scales
         if hasattr(plant, "imu_mean_steps"):
             plant.imu_mean_steps = self.substeps   # IMU samples: means over the HIL period
         self.controls: tuple = (0.0, 0.0, 0.0, 0.0)
@@ -129,7 +130,8 @@ class SimBridge:
         faults = self.faults
         if faults is not None:
             c = faults.apply_controls(c)          # (a tuple)
-            if self._rotors:
+            if self._rotors and faults.actuator_changes != self._rotor_changes:
+                self._rotor_changes = faults.actuator_changes
                 self.plant.rotor_scale = faults.motor_thrust_scales(self._rotors)
         if self._plane:
             cmd = PlaneControls.make(*c)

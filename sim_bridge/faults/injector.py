@@ -119,6 +119,9 @@ class FaultInjector:
         self._sensor_faults: dict[str, ActiveFault] = {}
         self._gps_fault: ActiveFault | None = None
         self._actuator_faults: dict[int, ActiveFault] = {}  # control channel -> fault
+        # actuator faults started or cleared so far: what follows them (a plant's
+        # thrust scales, ``motor_thrust_scales``) is redone when this count moves
+        self.actuator_changes = 0
         self._last: SensorReadings | None = None
         self._last_gps: GpsReading | None = None
         self._last_controls: tuple = ()
@@ -168,6 +171,7 @@ class FaultInjector:
             if not 0 <= instance < len(self.motor_channels):
                 return False
             channel = self.motor_channels[instance]
+        self.actuator_changes += 1
         if t == "ok":
             self._actuator_faults.pop(channel, None)
             return True
@@ -199,6 +203,7 @@ class FaultInjector:
         self._sensor_faults.clear()
         self._gps_fault = None
         self._actuator_faults.clear()
+        self.actuator_changes += 1
 
     @property
     def active(self) -> list[tuple[int, int, int, dict]]:

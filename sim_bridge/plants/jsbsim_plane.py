@@ -39,7 +39,7 @@ fcs/elevator-cmd-norm -1 (JSBSim's positive elevator is stick forward, nose down
 rudder +1 (nose right) -> fcs/rudder-cmd-norm -1 (JSBSim's positive rudder deflection
 yaws the nose left in both airframes), and the nose wheel with it, rudder +1 ->
 fcs/steer-cmd-norm +1 (nose right, as the c172p's pedals steer it; the Aerosonde's
-contacts do not steer); throttle 0..1 -> fcs/throttle-cmd-norm.
+contacts do not steer, so it has none); throttle 0..1 -> fcs/throttle-cmd-norm.
 Table E.2 makes the Aerosonde's rudder a stronger roll than yaw effector
 (C_ldr 0.105, C_ndr -0.032): rudder +1 yaws the nose right but also rolls left.
 
@@ -105,16 +105,17 @@ class _Airframe:
     own_files: bool                 # shipped in sim_bridge/aircraft (else JSBSim's)
     catapult: bool                  # starts on the catapult (else on its wheels)
     brakes: tuple[str, ...]         # brake commands that hold it at the start
+    steers: bool                    # a nose wheel steered with the rudder
     bogeys: tuple[int, ...]         # gear units it rests on (front one = largest x)
     has_esc: bool                   # FCS has fcs/esc-limit-off (see aerosonde.xml)
     settle_s: float                 # time to come to rest at the start [s]
 
 
 _AIRFRAMES = {
-    "aerosonde": _Airframe("aerosonde", True, True, (),
+    "aerosonde": _Airframe("aerosonde", True, True, (), False,
                            (0, 1, 2), True, 1.0),
     "c172p": _Airframe("c172p", False, False,
-                       ("fcs/left-brake-cmd-norm", "fcs/right-brake-cmd-norm"),
+                       ("fcs/left-brake-cmd-norm", "fcs/right-brake-cmd-norm"), True,
                        (0, 1, 2), False, 6.0),
 }
 
@@ -209,17 +210,21 @@ class JSBSimPlane:
         cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
         cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
         cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
-        # q_nb: Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first
-        q_nb = (cr * cp * cy + sr * sp * sy,
-                sr * cp * cy - cr * sp * sy,
-                cr * sp * cy + sr * cp * sy,
-                cr * cp * sy - sr * sp * cy)
+        # q_nb: Euler 3-2-1 (yaw, pitch, roll) -> body->NED quaternion, scalar first:
+        # cr cp cy + sr sp sy, sr cp cy - cr sp sy, cr sp cy + sr cp sy, cr cp sy - sr sp cy
+        # (each product of three taken as its roll-pitch pair times the yaw term)
+        crcp, srsp, srcp, crsp = cr * cp, sr * sp, sr * cp, cr * sp
+        q_nb = (crcp * cy + srsp * sy, srcp * cy - crsp * sy,
+                crsp * cy + srcp * sy, crcp * sy - srsp * cy)
         lon = math.remainder(lon, _TWO_PI)       # wrapped to (-pi, pi]
         if lon == -math.pi:
             lon = math.pi
+        # kept for the next step's gust: JSBSim's velocity does not change in between
+        # (the places that set its state, the start and trim, read it again)
+        self._v_ned = v_ned = (vn * FT_M, ve * FT_M, vd * FT_M)
         return PlantState.make(                   # (positional: no keyword dict built)
             self._t_us, lat, lon, alt,
-            (vn * FT_M, ve * FT_M, vd * FT_M), q_nb, (p, q, r),        # v_ned q_nb omega_b
+            v_ned, q_nb, (p, q, r),               # v_ned q_nb omega_b
             (ax * FT_M, ay * FT_M, az * FT_M), (wn * FT_M, we * FT_M, wd * FT_M),   # f_b wind_ned
             vt * FT_M, alpha, beta,               # airspeed_mps, alpha_rad, beta_rad
             abs(fz_gear) + abs(fx_gear) > 1e-9,   # on_ground
@@ -234,11 +239,11 @@ class JSBSimPlane:
         gusts = self._gusts
         if gusts.active and not (self._phase == _HELD and self._af.catapult):
             # over the height above the terrain, at the speed through the steady wind
-            agl_ft, vn_fps, ve_fps, vd_fps = map(_read, self._gust_nodes)
+            vn, ve, vd = self._v_ned
             wn, we, wd = self._gust_wind
-            du, dv, dw = vn_fps * FT_M - wn, ve_fps * FT_M - we, vd_fps * FT_M - wd
+            du, dv, dw = vn - wn, ve - we, vd - wd
             row = gusts.next_row()                # (before ``noise`` is read: it may draw)
-            self._write_gust(gust_advance(gusts.s, gusts.noise, row, agl_ft * FT_M,
+            self._write_gust(gust_advance(gusts.s, gusts.noise, row, self._agl_ft() * FT_M,
                                           math.sqrt(du * du + dv * dv + dw * dw), n_steps))
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
@@ -375,6 +380,7 @@ class JSBSimPlane:
         fdm.run_ic()
         self._apply_wind()
         self._refresh()
+        self.state()                              # (its readout keeps the velocity: step)
         controls = PlaneControls(aileron=float(x[4]), elevator=float(-x[3]),
                                  rudder=float(-x[5]), throttle=float(x[2]))
         self._apply_controls(controls)
@@ -475,11 +481,12 @@ class JSBSimPlane:
         node = {name: get.__self__ for name, get in self._n.items()}
         self._state_nodes = tuple(node[name] for name in names)
         self._imu_nodes = tuple(node[name] for name in imu)
-        self._gust_nodes = tuple(node[name] for name in ("agl", "vn", "ve", "vd"))
+        self._agl_ft = self._n["agl"]
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
-        self._set_steer = setter("fcs/steer-cmd-norm")
+        # (none for an airframe without a steered wheel: JSBSim would ignore it)
+        self._set_steer = setter("fcs/steer-cmd-norm") if self._af.steers else None
         self._set_throttle = setter("fcs/throttle-cmd-norm")
         self._set_gust = (setter("atmosphere/gust-north-fps"),
                           setter("atmosphere/gust-east-fps"),
@@ -492,7 +499,8 @@ class JSBSimPlane:
         self._set_aileron(controls.aileron)
         self._set_elevator(-controls.elevator)
         self._set_rudder(-controls.rudder)
-        self._set_steer(controls.rudder)
+        if self._set_steer is not None:
+            self._set_steer(controls.rudder)
         self._set_throttle(controls.throttle)
 
     def _refresh(self) -> None:
@@ -596,6 +604,7 @@ class JSBSimPlane:
         for _ in range(int(round(self._af.settle_s * 1e6 / self._dt_us))):
             fdm.run()
         self._armed_us = None
+        self.state()                              # (its readout keeps the velocity: step)
 
     def _launcher_logic(self, throttle: float) -> None:
         """Automatic release on the launcher and the end of the catapult stroke."""

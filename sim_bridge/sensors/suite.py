@@ -111,6 +111,9 @@ class SensorSuite:
         self._gps_latency_us = int(round(p.gps_latency_s * 1e6))
         self._next_baro_us = self._next_mag_us = self._next_arsp_us = None
         self._next_gps_us = None
+        # the first of those and of the queued fix's delivery: before it, a step is
+        # the IMU's alone
+        self._next_due_us = -1
 
         # Baro
         self._baro_drift_pa = 0.0
@@ -197,6 +200,12 @@ class SensorSuite:
         accel = (fx + ex, fy + ey, fz + ez)
         gyro = (wx + egx, wy + egy, wz + egz)
 
+        if t_us < self._next_due_us:            # the IMU's step alone: the others held
+            return SensorReadings.make(
+                t_us, accel, gyro, self._mag_b,
+                self._pressure_pa, self._pressure_alt_m, self._temperature_k,
+                self._dp_pa, self._airspeed_mps, False, False, False, None)
+
         nxt = self._next_baro_us
         baro_updated = nxt is None or t_us >= nxt
         nxt = self._next_mag_us
@@ -267,6 +276,9 @@ class SensorSuite:
             _, t_valid, lat, lon, alt, v_ned, sats = q.popleft()
             gps = GpsReading.make(t_us, lat, lon, alt, v_ned, self.eph_m, self.epv_m,
                                   self.params.gps_fix_type, sats, t_valid)
+        nxt = min(self._next_baro_us, self._next_mag_us, self._next_arsp_us,
+                  self._next_gps_us)
+        self._next_due_us = q[0][0] if q and q[0][0] < nxt else nxt
 
         return SensorReadings.make(
             t_us, accel, gyro, self._mag_b,
