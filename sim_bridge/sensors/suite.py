@@ -178,7 +178,10 @@ class SensorSuite:
         self._bias_carry = bias[-1].copy()
         self._imu_bias = bias
         self._imu_err = block[:, _IMU_WHITE] * self._imu_white_scale + bias
-        self._imu_err_rows = self._imu_err.tolist()
+        # one flat list of floats: the cyclic garbage collector tracks every list, and
+        # the block's 512 row lists were 512 objects in its young generation (most of
+        # what its collections walked in flight); one flat list is one
+        self._imu_err_flat = self._imu_err.ravel().tolist()
         # the slower sensors' columns are read row by row at the steps where one of them
         # updates (converting the whole block cost more than the reads it spared)
         self._block = block
@@ -196,7 +199,7 @@ class SensorSuite:
         # IMU (truth + this row's white noise and bias)
         fx, fy, fz = state.f_b
         wx, wy, wz = state.omega_b
-        ex, ey, ez, egx, egy, egz = self._imu_err_rows[i]
+        ex, ey, ez, egx, egy, egz = self._imu_err_flat[6 * i:6 * i + 6]
         accel = (fx + ex, fy + ey, fz + ez)
         gyro = (wx + egx, wy + egy, wz + egz)
 
