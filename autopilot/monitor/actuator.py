@@ -28,7 +28,7 @@ import numpy as np
 from autopilot.jit import kernel, preload
 
 from .airframe import gyro_elevator
-from .stats import WindowChi2, family_alpha, stage2_update
+from .stats import WindowChi2, blas_dot, blas_matvec, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
 BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
@@ -68,18 +68,36 @@ RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
 
 
 @kernel
-def rls_update(c, P, Pp, s, e):
-    """One step of recursive least squares, in place, the products with the regressor
-    phi given (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose
-    sums this does not redo) and the prediction error ``e = y - phi^T c``: with the gain
-    ``g = Pp / s``, ``c += g e`` and ``P -= g Pp^T`` (``Pp`` not a view of ``P``; in
-    place: new arrays returned cost more than the update, at 10 Hz per balance)."""
+def rls_update(c, P, phi, y):
+    """One step of recursive least squares on the regressor ``phi`` and the measurement
+    ``y``, in place: the prediction error ``e = y - phi^T c``, ``Pp = P phi``,
+    ``s = 1 + phi^T Pp``, the gain ``g = Pp / s``, then ``c += g e`` and ``P -= g Pp^T``.
+    Returns e (the residual the fit leaves before this step). The products summed as
+    numpy's ``.dot`` sums them (stats.blas_dot, blas_matvec), which they were before."""
     n = c.shape[0]
+    e = y - blas_dot(phi, c)
+    Pp = np.empty(n)
+    blas_matvec(P, phi, Pp)
+    s = 1.0 + blas_dot(phi, Pp)
     for i in range(n):
         g = Pp[i] / s
         c[i] += g * e
         for j in range(n):
             P[i, j] -= g * Pp[j]
+    return e
+
+
+@kernel
+def stage2_scalar(gamma, P, d_cmd, e, r, q):
+    """Stage 2's step on one balance sample (ElevatorIdentifier.sample): the measurement
+    ``z = [delta_cmd, 1] gamma + v`` (2.20-2.24) with its innovation ``e`` and variance
+    ``r``, the process noise ``q`` (stats.stage2_update), gamma and P updated in place."""
+    H = np.empty((1, 2))
+    H[0, 0] = d_cmd
+    H[0, 1] = 1.0
+    g, Pn = stage2_update(gamma, P, H, np.full(1, e), np.full(1, r), q)
+    gamma[:] = g
+    P[:, :] = Pn
 
 
 # a balance's low-pass state (``st``, int64): signals held (0: none, start again), the latest
@@ -179,7 +197,7 @@ class MomentBalance:
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
         # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 0.0)
         preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property
@@ -204,13 +222,10 @@ class MomentBalance:
             q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, dd = q_.pop(0)
-                # (.dot: the BLAS call of @, without the matmul ufunc's set-up, which cost
-                # twice the product at these sizes; the same routine, the same result)
-                Pp = self.P.dot(ph)
-                rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)), float(dd - ph.dot(self.c)))
+                rls_update(self.c, self.P, ph, dd)
                 self.n += 1
         if self.ready:
-            z = float(phi.dot(self.c)) + z_dyn
+            z = blas_dot(phi, self.c) + z_dyn
             h = self.hist
             h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:
@@ -307,8 +322,7 @@ class ElevatorIdentifier:
         self.prior = None if model is None else model.balance(MomentBalance.V_REF)
         self.reset()
         # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not when the test arms)
-        preload(stage2_update, self.gamma, self.P_gamma, np.array(((0.0, 1.0),)), np.zeros(1),
-                np.ones(1), 0.0)
+        preload(stage2_scalar, self.gamma.copy(), self.P_gamma.copy(), 0.0, 0.0, 1.0, 0.0)
 
     def reset(self) -> None:
         self.suspended = False        # a sensor fault running (suspend)
@@ -414,9 +428,8 @@ class ElevatorIdentifier:
             self.ratio = self.win.ratio_det
         # ---- stage 2: gamma = [k, s], z = [delta_cmd, 1] gamma + v (2.20-2.24) ----------
         # P = P + Lambda Q (2.40), Lambda from the innovations' excess (2.35-2.39)
-        H = np.array([dcmd, 1.0])
-        Pg = self.P_gamma
-        e = z - H.dot(self.gamma)          # (.dot: MomentBalance.step)
+        g_k, g_s = self.gamma.tolist()
+        e = z - (dcmd * g_k + g_s)         # (as numpy's [delta_cmd, 1].dot(gamma) sums it)
         e2 = self._e2
         e2.append(e * e)
         if len(e2) > self.win.M:
@@ -425,11 +438,11 @@ class ElevatorIdentifier:
         if self.adapt and len(e2) >= self.win.M:
             C = sum(e2) / len(e2)
             hqh = self.q_gamma * (dcmd * dcmd + 1.0)
-            lam = min(max(1.0, (C - float(H.dot(Pg).dot(H)) - R) / hqh), 1e6)
+            H = np.array([dcmd, 1.0])
+            lam = min(max(1.0, (C - float(H.dot(self.P_gamma).dot(H)) - R) / hqh), 1e6)
         self.lam = lam
-        # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
-        self.gamma, self.P_gamma = stage2_update(self.gamma, Pg, H.reshape(1, 2), np.array((e,)),
-                                                 np.array((R,)), self.q_gamma * lam)
+        # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form
+        stage2_scalar(self.gamma, self.P_gamma, dcmd, e, R, self.q_gamma * lam)
         return renewed
 
     def identified(self, stuck_below: float = 0.25, stuck: bool = False) -> dict:
