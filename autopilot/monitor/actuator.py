@@ -198,6 +198,7 @@ class MomentBalance:
         self.suspended = False        # a sensor fault is running: nothing is learnt
         # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
         preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 0.0)
+        preload(blas_dot, self.c, self.c)
         preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property

@@ -389,6 +389,7 @@ class _Axis:
         self.ratio = 0.0
         self.residual = 0.0
         preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(n_phi), 0.0)   # (autopilot.jit.preload)
+        preload(blas_dot, self.c, self.c)
 
     def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
         """``learn``: True the offset and the variance are learnt, False the variance only
