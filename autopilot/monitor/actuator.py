@@ -213,7 +213,7 @@ class MomentBalance:
         first-order filter), its inertia, and the yaw rate r the propeller's gyroscopic
         moment (``PitchAero.gyro_elevator``): known terms, not fitted."""
         lp = self._lp.tolist()
-        phi = np.array(lp[:3])
+        phi = self._lp[:3].copy()
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
