@@ -1,15 +1,12 @@
 """Stop 38, the fault monitor's room: the 10 Hz samples' products moved from numpy into
 compiled calls give numpy's numbers bit for bit (autopilot/monitor/stats.py: ``a.dot(b)``
-and ``np.linalg.solve`` as OpenBLAS sums them, with fused multiply-adds), and the
-elevator's stage 2 on one sample (actuator.stage2_scalar) is stats.stage2_update's step
-on its one-row arrays."""
+and ``np.linalg.solve`` as OpenBLAS sums them, with fused multiply-adds)."""
 from __future__ import annotations
 
 import numpy as np
 
-from autopilot.monitor.actuator import stage2_scalar
 from autopilot.monitor.lateral import AEROSONDE_LAT
-from autopilot.monitor.stats import blas_dot, blas_matvec, solve3, stage2_update
+from autopilot.monitor.stats import blas_dot, blas_matvec, solve3
 
 
 def test_dot_and_matvec_are_numpys_bit_for_bit():
@@ -41,14 +38,3 @@ def test_solve3_is_numpys_solve_bit_for_bit():
         assert got == tuple(np.linalg.solve(A, y).tolist())
         assert all(type(v) is float for v in got)
 
-
-def test_elevator_stage2_is_stage2_update_on_one_row():
-    rng = np.random.default_rng(5)
-    for _ in range(2000):
-        A = rng.standard_normal((2, 2))
-        P = A @ A.T * 1e-4
-        gamma = np.array((rng.uniform(0.5, 1.1), rng.normal(0.0, 0.02)))
-        d, e, r, q = rng.normal(0.0, 0.1), rng.normal(0.0, 0.01), rng.uniform(1e-4, 1e-3), 1e-6
-        g_ref, P_ref = stage2_update(gamma, P, np.array(((d, 1.0),)), np.array((e,)), np.array((r,)), q)
-        stage2_scalar(gamma, P, d, e, r, q)      # (in place)
-        assert np.array_equal(gamma, g_ref) and np.array_equal(P, P_ref)

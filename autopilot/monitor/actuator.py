@@ -87,19 +87,6 @@ def rls_update(c, P, phi, y):
     return e
 
 
-@kernel
-def stage2_scalar(gamma, P, d_cmd, e, r, q):
-    """Stage 2's step on one balance sample (ElevatorIdentifier.sample): the measurement
-    ``z = [delta_cmd, 1] gamma + v`` (2.20-2.24) with its innovation ``e`` and variance
-    ``r``, the process noise ``q`` (stats.stage2_update), gamma and P updated in place."""
-    H = np.empty((1, 2))
-    H[0, 0] = d_cmd
-    H[0, 1] = 1.0
-    g, Pn = stage2_update(gamma, P, H, np.full(1, e), np.full(1, r), q)
-    gamma[:] = g
-    P[:, :] = Pn
-
-
 # a balance's low-pass state (``st``, int64): signals held (0: none, start again), the latest
 # sample's time, the low-passes' latest (re)start, the next balance sample's, the first
 # sample's (-1: none yet) [us]
@@ -323,7 +310,7 @@ class ElevatorIdentifier:
         self.prior = None if model is None else model.balance(MomentBalance.V_REF)
         self.reset()
         # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not when the test arms)
-        preload(stage2_scalar, self.gamma.copy(), self.P_gamma.copy(), 0.0, 0.0, 1.0, 0.0)
+        preload(stage2_update, self.gamma, self.P_gamma, self._H, self._e, self._r, 0.0)
 
     def reset(self) -> None:
         self.suspended = False        # a sensor fault running (suspend)
@@ -338,6 +325,11 @@ class ElevatorIdentifier:
         self._r_delay_n = int(FIT_DELAY_S * 1e6 / BAL_PERIOD_US)
         self.gamma = np.array([1.0, 0.0])
         self.P_gamma = np.eye(2) * 1e-4
+        # stage 2's measurement row [delta_cmd, 1], innovation and variance, rewritten in
+        # place at each sample (new small arrays cost more than the update's arithmetic)
+        self._H = np.array(((0.0, 1.0),))
+        self._e = np.zeros(1)
+        self._r = np.ones(1)
         self._e2 = []                 # squared innovations of stage 2 (window)
         self.frozen = False           # fault suspected: the balance and R stop learning
         self.adapt = False            # Q adaptation on
@@ -442,8 +434,12 @@ class ElevatorIdentifier:
             H = np.array([dcmd, 1.0])
             lam = min(max(1.0, (C - float(H.dot(self.P_gamma).dot(H)) - R) / hqh), 1e6)
         self.lam = lam
-        # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form
-        stage2_scalar(self.gamma, self.P_gamma, dcmd, e, R, self.q_gamma * lam)
+        # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
+        self._H[0, 0] = dcmd
+        self._e[0] = e
+        self._r[0] = R
+        self.gamma, self.P_gamma = stage2_update(self.gamma, self.P_gamma, self._H, self._e, self._r,
+                                                 self.q_gamma * lam)
         return renewed
 
     def identified(self, stuck_below: float = 0.25, stuck: bool = False) -> dict:
