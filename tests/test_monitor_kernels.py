@@ -160,7 +160,8 @@ def test_dot_is_the_matmul_of_the_balances_bit_for_bit():
 
 def test_the_least_squares_kernel_is_numpys_update_bit_for_bit():
     """actuator.rls_update (in place) against the update as it was written in numpy:
-    g = P phi / (1 + phi^T P phi), c + g (y - phi^T c), P - outer(g, P phi)."""
+    g = P phi / (1 + phi^T P phi), c + g (y - phi^T c), P - outer(g, P phi); it returns
+    the prediction error y - phi^T c."""
     from autopilot.monitor.actuator import rls_update
     rng = np.random.default_rng(4)
     for _ in range(20000):
@@ -169,8 +170,9 @@ def test_the_least_squares_kernel_is_numpys_update_bit_for_bit():
         P = A @ A.T * rng.choice((1e-4, 1.0, 1e4))
         c, ph, y = rng.standard_normal(n), rng.standard_normal(n), float(rng.standard_normal())
         Pp = P.dot(ph)
-        g = Pp / (1.0 + ph @ Pp)
-        c_ref = c + g * (y - ph @ c)
+        g = Pp / (1.0 + ph.dot(Pp))
+        e_ref = float(y - ph.dot(c))
+        c_ref = c + g * e_ref
         P_ref = P - np.outer(g, Pp)
-        rls_update(c, P, Pp, float(1.0 + ph.dot(Pp)), float(y - ph.dot(c)))   # (in place)
-        assert np.array_equal(c, c_ref) and np.array_equal(P, P_ref)
+        e = rls_update(c, P, ph, y)   # (in place)
+        assert e == e_ref and np.array_equal(c, c_ref) and np.array_equal(P, P_ref)

@@ -28,7 +28,7 @@ import numpy as np
 from autopilot.jit import kernel, preload
 
 from .airframe import gyro_elevator
-from .stats import WindowChi2, family_alpha, stage2_update
+from .stats import WindowChi2, blas_dot, blas_matvec, family_alpha, stage2_update
 
 MAX_DEFLECTION_RAD = 0.35      # elevator deflection at a normalised command of 1 [rad]
 BAL_TAU_S = 1.0                 # low-pass of the moment-balance signals [s]
@@ -68,18 +68,23 @@ RES_FLOOR_RAD = 0.01            # floor of the residual standard deviation [rad]
 
 
 @kernel
-def rls_update(c, P, Pp, s, e):
-    """One step of recursive least squares, in place, the products with the regressor
-    phi given (``Pp = P phi``, ``s = 1 + phi^T P phi``; taken by numpy's BLAS, whose
-    sums this does not redo) and the prediction error ``e = y - phi^T c``: with the gain
-    ``g = Pp / s``, ``c += g e`` and ``P -= g Pp^T`` (``Pp`` not a view of ``P``; in
-    place: new arrays returned cost more than the update, at 10 Hz per balance)."""
+def rls_update(c, P, phi, y):
+    """One step of recursive least squares on the regressor ``phi`` and the measurement
+    ``y``, in place: the prediction error ``e = y - phi^T c``, ``Pp = P phi``,
+    ``s = 1 + phi^T Pp``, the gain ``g = Pp / s``, then ``c += g e`` and ``P -= g Pp^T``.
+    Returns e (the residual the fit leaves before this step). The products summed as
+    numpy's ``.dot`` sums them (stats.blas_dot, blas_matvec), which they were before."""
     n = c.shape[0]
+    e = y - blas_dot(phi, c)
+    Pp = np.empty(n)
+    blas_matvec(P, phi, Pp)
+    s = 1.0 + blas_dot(phi, Pp)
     for i in range(n):
         g = Pp[i] / s
         c[i] += g * e
         for j in range(n):
             P[i, j] -= g * Pp[j]
+    return e
 
 
 # a balance's low-pass state (``st``, int64): signals held (0: none, start again), the latest
@@ -179,7 +184,8 @@ class MomentBalance:
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
         # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 1.0, 0.0)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 0.0)
+        preload(blas_dot, self.c, self.c)
         preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property
@@ -194,7 +200,7 @@ class MomentBalance:
         first-order filter), its inertia, and the yaw rate r the propeller's gyroscopic
         moment (``PitchAero.gyro_elevator``): known terms, not fitted."""
         lp = self._lp.tolist()
-        phi = np.array(lp[:3])
+        phi = self._lp[:3].copy()
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
@@ -204,13 +210,10 @@ class MomentBalance:
             q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, dd = q_.pop(0)
-                # (.dot: the BLAS call of @, without the matmul ufunc's set-up, which cost
-                # twice the product at these sizes; the same routine, the same result)
-                Pp = self.P.dot(ph)
-                rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)), float(dd - ph.dot(self.c)))
+                rls_update(self.c, self.P, ph, dd)
                 self.n += 1
         if self.ready:
-            z = float(phi.dot(self.c)) + z_dyn
+            z = blas_dot(phi, self.c) + z_dyn
             h = self.hist
             h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:
@@ -307,8 +310,7 @@ class ElevatorIdentifier:
         self.prior = None if model is None else model.balance(MomentBalance.V_REF)
         self.reset()
         # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not when the test arms)
-        preload(stage2_update, self.gamma, self.P_gamma, np.array(((0.0, 1.0),)), np.zeros(1),
-                np.ones(1), 0.0)
+        preload(stage2_update, self.gamma, self.P_gamma, self._H, self._e, self._r, 0.0)
 
     def reset(self) -> None:
         self.suspended = False        # a sensor fault running (suspend)
@@ -323,6 +325,11 @@ class ElevatorIdentifier:
         self._r_delay_n = int(FIT_DELAY_S * 1e6 / BAL_PERIOD_US)
         self.gamma = np.array([1.0, 0.0])
         self.P_gamma = np.eye(2) * 1e-4
+        # stage 2's measurement row [delta_cmd, 1], innovation and variance, rewritten in
+        # place at each sample (new small arrays cost more than the update's arithmetic)
+        self._H = np.array(((0.0, 1.0),))
+        self._e = np.zeros(1)
+        self._r = np.ones(1)
         self._e2 = []                 # squared innovations of stage 2 (window)
         self.frozen = False           # fault suspected: the balance and R stop learning
         self.adapt = False            # Q adaptation on
@@ -414,9 +421,8 @@ class ElevatorIdentifier:
             self.ratio = self.win.ratio_det
         # ---- stage 2: gamma = [k, s], z = [delta_cmd, 1] gamma + v (2.20-2.24) ----------
         # P = P + Lambda Q (2.40), Lambda from the innovations' excess (2.35-2.39)
-        H = np.array([dcmd, 1.0])
-        Pg = self.P_gamma
-        e = z - H.dot(self.gamma)          # (.dot: MomentBalance.step)
+        g_k, g_s = self.gamma.tolist()
+        e = z - (dcmd * g_k + g_s)         # (as numpy's [delta_cmd, 1].dot(gamma) sums it)
         e2 = self._e2
         e2.append(e * e)
         if len(e2) > self.win.M:
@@ -425,11 +431,15 @@ class ElevatorIdentifier:
         if self.adapt and len(e2) >= self.win.M:
             C = sum(e2) / len(e2)
             hqh = self.q_gamma * (dcmd * dcmd + 1.0)
-            lam = min(max(1.0, (C - float(H.dot(Pg).dot(H)) - R) / hqh), 1e6)
+            H = np.array([dcmd, 1.0])
+            lam = min(max(1.0, (C - float(H.dot(self.P_gamma).dot(H)) - R) / hqh), 1e6)
         self.lam = lam
         # P = P + Lambda Q, K = P H^T / S, gamma += K e, Joseph form (stats.stage2_update)
-        self.gamma, self.P_gamma = stage2_update(self.gamma, Pg, H.reshape(1, 2), np.array((e,)),
-                                                 np.array((R,)), self.q_gamma * lam)
+        self._H[0, 0] = dcmd
+        self._e[0] = e
+        self._r[0] = R
+        self.gamma, self.P_gamma = stage2_update(self.gamma, self.P_gamma, self._H, self._e, self._r,
+                                                 self.q_gamma * lam)
         return renewed
 
     def identified(self, stuck_below: float = 0.25, stuck: bool = False) -> dict:

@@ -64,7 +64,7 @@ from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDEN
                        LP_T0, MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist, lowpass_advance, lowpass_state,
                        rls_update)
 from .airframe import prop_momentum
-from .stats import WindowChi2, family_alpha
+from .stats import WindowChi2, blas_dot, family_alpha, solve3
 
 RHO0 = 1.225
 LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
@@ -168,10 +168,9 @@ class LateralAero:
         N = self.Jz * rd - self.Jxz * (pd - q * r) + (self.Jy - self.Jx) * p * q
         if self._simple:
             # the Aerosonde's (bit for bit as before)
-            y = np.array((self.mass_kg * a_y / qS,
-                          L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
-                          (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r))
-            _beta, da, dr = np.linalg.solve(self._A_simple, y).tolist()
+            _beta, da, dr = solve3(self._A_simple, self.mass_kg * a_y / qS,
+                                   L / qSb - self.Cl_p * k * p - self.Cl_r * k * r,
+                                   (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r)
             return da, -dr
         # the rate derivatives at the angle of attack the measured normal force gives
         al = 0.0
@@ -192,10 +191,10 @@ class LateralAero:
                       (Cl_b, self.Cl_da, Cl_dr),
                       (Cn_b, self.Cn_da, Cn_dr)))
         cy_rates = CY_p * k * p + CY_r * k * r
-        y = np.array((self.mass_kg * a_y / qS - cy_rates,
-                      L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
-                      (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates))
-        beta, sa, sr = np.linalg.solve(A, y).tolist()
+        y = (self.mass_kg * a_y / qS - cy_rates,
+             L / qSb - self.Cl_p * k * p - Cl_r * k * r - zb * cy_rates,
+             (N - n_gyro) / qSb - self.Cn_p * k * p - self.Cn_r * k * r + xb * cy_rates)
+        beta, sa, sr = solve3(A, *y)
         if self.CD_beta:
             # the sideslip's own drag (CD_beta |beta|): its side part -CD_beta |beta| beta,
             # taken at the sideslip first solved, and solved again
@@ -203,7 +202,7 @@ class LateralAero:
             A[0, 0] -= e
             A[1, 0] -= zb * e
             A[2, 0] += xb * e
-            _beta, sa, sr = np.linalg.solve(A, y).tolist()
+            _beta, sa, sr = solve3(A, *y)
         # the surfaces' deflections back to the autopilot's rad
         da = sa / (self.da_right if sa >= 0.0 else self.da_left)
         return float(da), float(-sr / self.dr_gain)
@@ -389,14 +388,14 @@ class _Axis:
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
         self.ratio = 0.0
         self.residual = 0.0
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(n_phi), 1.0, 0.0)   # (autopilot.jit.preload)
+        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(n_phi), 0.0)   # (autopilot.jit.preload)
+        preload(blas_dot, self.c, self.c)
 
     def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
         """``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
         raw = z - d
-        # (.dot: the BLAS call of @ without the matmul ufunc's set-up, actuator.MomentBalance.step)
-        zc = z - float(phi.dot(self.c))         # z with the learnt offset removed
+        zc = z - blas_dot(phi, self.c)          # z with the learnt offset removed
         r = zc - d
         self.residual = r
         h = self.hist
@@ -408,16 +407,16 @@ class _Axis:
             q.append((t_us, phi, raw, r))
             while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
                 _, ph, rw, ro = q.pop(0)
-                if self.refit:
-                    ro = rw - float(ph.dot(self.c))        # the residual the fit leaves
-                    if learn and not self.fitting:
-                        self.fitting = True             # the warm-up's variance, now a prior
-                        self.n_var = 0
+                if self.refit and learn and not self.fitting:
+                    self.fitting = True             # the warm-up's variance, now a prior
+                    self.n_var = 0
                 if learn:
-                    Pp = self.P.dot(ph)
-                    # the prediction error: with refit the residual the fit leaves, just taken
-                    rls_update(self.c, self.P, Pp, float(1.0 + ph.dot(Pp)),
-                               ro if self.refit else float(rw - ph.dot(self.c)))
+                    # (its prediction error: with refit the residual the fit leaves)
+                    e = rls_update(self.c, self.P, ph, rw)
+                    if self.refit:
+                        ro = e
+                elif self.refit:
+                    ro = rw - blas_dot(ph, self.c)     # the residual the fit leaves
                 self.n_var += 1
                 # the running mean of r^2 with the prior as prior_n samples, then
                 # exponentially weighted over RES_TAU_S
@@ -460,6 +459,7 @@ class LateralIdentifier:
         # (autopilot.jit.preload: the balance's kernel loaded now, not on leaving the ground)
         preload(lateral_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, np.zeros(3), NO_FORCE,
                 np.zeros(3) if model.raw_accel else NO_BIAS, 0.0, 0.0, 0.5, self._hc, 2.0)
+        preload(solve3, np.eye(3), 0.0, 0.0, 0.0)
 
     def freeze(self, t_us: int) -> None:
         """A fault detected: nothing is learnt any more; identification from 1 s before."""

@@ -319,6 +319,7 @@ class FaultMonitor:
         self._el_trim_said = 0        # the reaction said: 0 not yet, 1 a trim, 2 none
         self._el_notrim_n = 0
         self._el_k = 0                        # vehicle steps seen by observe_controls
+        self._suspended = False               # the identifiers suspended (observe_controls)
         self._act_stale = True                # the balances' peaks and decision not yet
                                               # taken on their latest statistics
         # decision state
@@ -482,18 +483,17 @@ class FaultMonitor:
         self._el_k += 1
         if self._el_k & 1:
             return
-        # a sensor (or inertial) fault makes its inputs suspect: it learns nothing then
+        # a sensor (or inertial) fault makes their inputs suspect: they learn nothing then
+        # (suspend(on) with the state they have changes nothing: asked on a change only)
         sensor_fault = self.detected and self.episodes[-1].kind != "actuator"
-        # (suspend(on) with the state it has changes nothing: asked on a change only)
-        if el.suspended != sensor_fault:
+        if sensor_fault != self._suspended:
+            self._suspended = sensor_fault
             el.suspend(sensor_fault)
+            for ident in self._act_idents:
+                ident.suspend(sensor_fault)
         f = getattr(self.nav, "specific_force_b", None)
         learning = flying and bool(nav_state.healthy)
         # (each step says whether it renewed its statistics: _act_stale)
-        if len(controls) >= 4:
-            for ident in self._act_idents:
-                if ident.suspended != sensor_fault:
-                    ident.suspend(sensor_fault)
         if self._balances is not None and len(controls) >= 4:
             # the three balances in one call, the elevator's with them (balances.py)
             if self._balances.step(t_us, nav_state, controls, learning, f):

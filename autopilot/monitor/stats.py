@@ -49,6 +49,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.core import types
+from numba.extending import intrinsic
 from scipy.special import gammaincinv as _gammaincinv
 
 from autopilot.jit import cholesky_gain, cholesky_lower, kernel
@@ -176,6 +178,96 @@ class WindowChi2:
     @property
     def ratio_iso(self) -> float:
         return self.gamma / self.thr_iso if self.n >= self.M else 0.0
+
+
+# ---- small products summed as numpy's BLAS sums them ------------------------------
+# numpy's ``a.dot(b)`` and ``np.linalg.solve`` run OpenBLAS, whose kernels at these sizes
+# sum with fused multiply-adds (one rounding for a product and its sum): the kernels
+# below sum in the same order with the same operation, so that moving a 10 Hz sample's
+# products from numpy into one compiled call leaves its numbers as they were, to the bit
+# (tests/test_speed_s38_mon.py checks each against numpy)
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (LLVM's fused multiply-add)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+    return sig, codegen
+
+
+@kernel
+def blas_dot(x, y):
+    """``x.dot(y)`` of two vectors: the products summed in order, each with its sum
+    (ddot)."""
+    d = 0.0
+    for i in range(x.shape[0]):
+        d = fma(x[i], y[i], d)
+    return d
+
+
+@kernel
+def blas_matvec(P, x, out):
+    """``out = P.dot(x)`` for a 2 x 2 or 3 x 3 ``P`` (the only sizes here): each row's
+    products as dgemv's short rows sum them, the first with the second's product, then
+    the third's."""
+    for i in range(P.shape[0]):
+        if P.shape[1] == 2:
+            out[i] = fma(P[i, 0], x[0], P[i, 1] * x[1])
+        else:
+            out[i] = fma(P[i, 2], x[2], fma(P[i, 0], x[0], P[i, 1] * x[1]))
+
+
+@kernel
+def solve3(A, y0, y1, y2):
+    """``np.linalg.solve(A, (y0, y1, y2))`` for a 3 x 3 ``A``, as a tuple: its LU
+    factorisation with partial pivoting, left-looking (each column brought up to date by
+    the columns before it, then its pivot, the largest magnitude, swapped up, the column
+    under it scaled by the pivot's reciprocal; dgetf2), then the forward substitution
+    with the unit lower factor and the back substitution with the upper one, each solved
+    entry taken out of those still to solve (dgetrs). (A singular: ZeroDivisionError.)"""
+    a = A.copy()
+    piv = np.empty(3, np.int64)
+    for j in range(3):
+        for i in range(j):                      # the earlier columns' swaps on this one
+            p = piv[i]
+            if p != i:
+                a[i, j], a[p, j] = a[p, j], a[i, j]
+        for i in range(1, j):                   # the unit lower factor's solve above the pivot
+            d = 0.0
+            for k in range(i):
+                d = fma(a[i, k], a[k, j], d)
+            a[i, j] = a[i, j] - d
+        for i in range(j, 3):                   # the rows from the pivot's down
+            t = 0.0
+            for k in range(j):
+                t = fma(a[i, k], a[k, j], t)
+            a[i, j] = a[i, j] - t
+        p = j
+        for i in range(j + 1, 3):
+            if abs(a[i, j]) > abs(a[p, j]):
+                p = i
+        piv[j] = p
+        r = 1.0 / a[p, j]
+        if p != j:
+            for k in range(j + 1):
+                a[j, k], a[p, k] = a[p, k], a[j, k]
+        for i in range(j + 1, 3):
+            a[i, j] = r * a[i, j]
+    x = np.array((y0, y1, y2))
+    for i in range(3):
+        p = piv[i]
+        if p != i:
+            x[i], x[p] = x[p], x[i]
+    for i in range(3):
+        for k in range(i + 1, 3):
+            x[k] = fma(-x[i], a[k, i], x[k])
+    for i in range(2, -1, -1):
+        x[i] = x[i] / a[i, i]
+        for k in range(i):
+            x[k] = fma(-x[i], a[k, i], x[k])
+    return x[0], x[1], x[2]
 
 
 @kernel

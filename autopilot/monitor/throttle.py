@@ -859,7 +859,8 @@ class ThrottleIdentifier:
         k_test = self._k >= TEST_DIV
         if k_test:
             self._k = 0
-        phi = np.array((1.0, lp[3] / V_REF - 1.0))
+        v_rel = lp[3] / V_REF - 1.0
+        phi = np.array((1.0, v_rel))
         learn = (None if self.frozen or self.suspended
                  else t_us - int(st[LP_T0]) >= FIT_WARMUP_S * 1e6)
         self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
@@ -868,7 +869,7 @@ class ThrottleIdentifier:
             # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
             # corrections not modelled: 0.02-0.04 of full throttle low at full)
             # (a piston's: no offset learnt, the variance only; module docstring)
-            self._rotor_axis.step(t_us, np.array((1.0, phi[1], lp[_LPR1])), lp[_LPR0], lp[_LPR1],
+            self._rotor_axis.step(t_us, np.array((1.0, v_rel, lp[_LPR1])), lp[_LPR0], lp[_LPR1],
                                   learn and m.engine is None if learn is not None else None, k_test)
         return k_test or switched
 
