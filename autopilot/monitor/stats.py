@@ -181,11 +181,13 @@ class WindowChi2:
 
 
 # ---- small products summed as numpy's BLAS sums them ------------------------------
-# numpy's ``a.dot(b)`` and ``np.linalg.solve`` run OpenBLAS, whose kernels at these sizes
-# sum with fused multiply-adds (one rounding for a product and its sum): the kernels
-# below sum in the same order with the same operation, so that moving a 10 Hz sample's
-# products from numpy into one compiled call leaves its numbers as they were, to the bit
-# (tests/test_speed_s38_mon.py checks each against numpy)
+# numpy's ``a.dot(b)`` and ``np.linalg.solve`` run OpenBLAS, whose x86-64 kernels (the
+# ones it picks on a CPU with FMA, as every machine this project is measured on) sum
+# these small products with fused multiply-adds (one rounding for a product and its
+# sum): the kernels below sum in the same order with the same operation, so that moving
+# a 10 Hz sample's products from numpy into one compiled call left the flights bit for
+# bit as they were there. Their results no longer depend on which kernel OpenBLAS picks
+# on a CPU (tests/test_speed_s38_mon.py checks them against numpy to rounding error)
 
 @intrinsic
 def fma(typingctx, a, b, c):
