@@ -347,30 +347,38 @@ class Batch:
     (rows of a preallocated buffer)."""
 
     __slots__ = ("src", "start", "size", "reset", "m", "R", "g2", "H", "y", "Sd", "z_tuple",
-                 "y0", "_a")
+                 "y0", "_h0", "_zh")
 
     def __init__(self, src, start, size, reset, z, h0, R, g2, H):
         self.src, self.start, self.size, self.reset = src, start, size, reset
         m = self.m = len(z)
         self.g2 = g2
         self.z_tuple = tuple(z)          # (the records' observations are sliced from it)
-        # R and y0 = z - h0 (the EKF's innovation), then z and h0: one allocation; the
-        # first two handed out as views, the others only when asked (a reset, the UKF)
+        # R and y0 = z - h0 (the EKF's innovation): one allocation, handed out as views;
+        # z and h0 as arrays only when asked (a reset, the UKF)
         # (np.fromiter with the count: np.array would first discover the floats' type)
-        a = self._a = np.fromiter(R + [zi - hi for zi, hi in zip(z, h0)] + z + h0, float, 4 * m)
+        a = np.fromiter(R + [zi - hi for zi, hi in zip(z, h0)], float, 2 * m)
         self.R = a[:m]
-        self.y0 = a[m:2 * m]
+        self.y0 = a[m:]
+        self._h0 = h0
+        self._zh = None
         self.H = H
         self.y = None         # z - h(x)
         self.Sd = None        # diag(H P H^T) + R
 
+    def _z_h0(self) -> np.ndarray:
+        zh = self._zh
+        if zh is None:
+            zh = self._zh = np.fromiter(self.z_tuple + tuple(self._h0), float, 2 * self.m)
+        return zh
+
     @property
     def z(self) -> np.ndarray:
-        return self._a[2 * self.m:3 * self.m]
+        return self._z_h0()[:self.m]
 
     @property
     def h0(self) -> np.ndarray:
-        return self._a[3 * self.m:]
+        return self._z_h0()[self.m:]
 
 
 class NavFilterBase:
@@ -985,6 +993,26 @@ class NavFilterBase:
         Sd = tuple(batch.Sd.tolist())
         # test ratio = y^2 / (gate^2 S)
         ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2, Sd)])
+        src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
+        if max(ratio) <= 1.0 and not self._rej_since and True not in forced:
+            # every row within its gate, no source rejected before, none forced (most
+            # fusions): all rows fused, nothing reset
+            self._fuse_rows(batch, None)
+            rejected = (False,) * len(src)
+        else:
+            rejected = self._gate_sources(batch, ratio, adapted, t)
+        z = batch.z_tuple
+        rec = self.innovations
+        for k, name in enumerate(src):
+            a = start[k]
+            e = a + size[k]
+            rec.append(InnovationRecord.make(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
+                                             rejected[k], forced[k] or not rejected[k]))
+
+    def _gate_sources(self, batch: Batch, ratio: tuple, adapted, t: int) -> list[bool]:
+        """The gate one source at a time: the rows of the sources within their gates
+        fused, a source rejected for EK_GPS_RST_T (GPS) or EK_ARSP_RST_T (airspeed) reset
+        (batch.reset set), the others left out. Returns whether each was rejected."""
         rst_us = self.params["EK_GPS_RST_T"] * 1e6
         arsp_rst_us = self.params["EK_ARSP_RST_T"] * 1e6
         src, start, size, forced = batch.src, batch.start, batch.size, batch.reset
@@ -1018,13 +1046,7 @@ class NavFilterBase:
             self._fuse_rows(batch, rows)
         for k in resets:
             self._reset_to(src[k], batch, start[k])
-        z = batch.z_tuple
-        rec = self.innovations
-        for k, name in enumerate(src):
-            a = start[k]
-            e = a + size[k]
-            rec.append(InnovationRecord.make(t, name, z[a:e], y[a:e], Sd[a:e], ratio[a:e],
-                                             rejected[k], forced[k] or not rejected[k]))
+        return rejected
 
     @staticmethod
     def _scale_r(batch: Batch, hook, y: tuple) -> list[str]:
