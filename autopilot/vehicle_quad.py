@@ -35,14 +35,15 @@ import math
 import numpy as np
 
 from .control.multirotor import (G, MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
-                                 MultirotorController)
+                                 MultirotorController, track_mix)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
-from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
-                                  CopterNavigator, CopterTarget)
-from .jit import kernel
+from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, REF_END, REF_START,
+                                  CopterMissionSequencer, CopterNavigator, CopterTarget,
+                                  guidance_step)
+from .jit import kernel, preload
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
@@ -303,6 +304,12 @@ class QuadVehicle(VehicleBase):
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.geofence = Geofence(params, "quad")  # fence and rally points (autopilot/fence)
         self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
+        # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
+        # copies of the arrays it writes)
+        y = np.zeros(Y_N)
+        y[Y_Q] = 1.0
+        preload(guide_track, self.ctrl.x.copy(), y, False, self.navigator.traj.x.copy(),
+                np.zeros((1, 7)), dt_s, 0.0, 0.0, 0.0, 8.0, 0.0, math.nan, 0.01, False)
 
     # ------------------------------------------------------------------ arming ---
     def _mission_needed(self) -> bool:
@@ -548,23 +555,35 @@ class QuadVehicle(VehicleBase):
         elif touchdown and nv.phase == "land_descend":
             nv.touchdown()
             self._landed_end(t_us)
-        nv.update(dt, pos, yaw)
+        # the navigator's step (nv.update in two halves: its phase, then its kernel's)
+        step = nv.step_inputs(dt, pos)
         self._target, self._target_of = None, (seq, hold)
-        if not self.armed:
-            return (0.0, 0.0, 0.0, 0.0)
         kind = PHASE_KIND[nv.phase]
-        if self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
-            # waiting on the ground (or a hold / landing asked while landed): the target of
-            # this step, then the reference reset to where the vehicle is
-            self._target = self._make_target(seq, hold)
-            nv.init(pos, yaw)
-            return ctrl.idle(p["QD_SPIN_ARM"])
-        hold_i = not self.flying
-        # the loops read the reference from the trajectory's array; its depth follows the
-        # ground on a terrain-frame leg (as the target's, CopterNavigator.target)
-        dz = 0.0 if nv.terrain_leg is None else nv.terrain_offset(*nv.traj.p[:2])
+        # waiting on the ground (or a hold / landing asked while landed)
+        idle = self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed"))
+        tr = nv.traj
+        if self.armed and not idle and nv.terrain_leg is None:
+            # the reference's step and the loops on it in one call (guide_track); the
+            # navigator's and the controller's records (ctrl.track's) kept as they give them
+            tr.arrived, nv.yaw_ref, ctrl.roll_d, ctrl.pitch_d, ctrl.u, motors = guide_track(
+                ctrl.x, self.y, not self.flying, *step)
+            ctrl.yaw_d = nv.yaw_ref
+            ctrl.motors = motors
+        else:
+            tr.arrived, nv.yaw_ref = guidance_step(*step)
+            if not self.armed:
+                return (0.0, 0.0, 0.0, 0.0)
+            if idle:
+                # the target of this step, then the reference reset to where the vehicle is
+                self._target = self._make_target(seq, hold)
+                nv.init(pos, yaw)
+                return ctrl.idle(p["QD_SPIN_ARM"])
+            # a terrain-frame leg: the loops' reference depth follows the ground (as the
+            # target's, CopterNavigator.target) under the reference after its step
+            hold_i = not self.flying
+            motors = ctrl.track(self.y, pos, tr.ref, nv.yaw_ref, dt, hold_i, hold_i,
+                                nv.terrain_offset(*tr.p[:2]))
         # (the ground state after the loops: in these modes it changes none of their inputs)
-        motors = ctrl.track(self.y, pos, nv.traj.ref, nv.yaw_ref, dt, hold_i, hold_i, dz)
         self._update_ground_state(ctrl.u[0], t_us, landing=kind == "land")
         return motors
 
@@ -689,6 +708,21 @@ class QuadVehicle(VehicleBase):
         if mon is None:
             return (0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0)
         return (mon.ratio, mon.iso_ratio, *mon.gamma.tolist(), mon.lam)
+
+
+@kernel
+def guide_track(cx, y, hold, tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
+    """The navigator's step (:func:`~.guidance.multirotor.guidance_step` on the arguments
+    ``CopterNavigator.step_inputs`` gives, from ``tx``) and the loops on the reference it
+    leaves in ``tx`` (:func:`~.control.multirotor.track_mix` on the controller's array
+    ``cx`` and the navigation output ``y``, the integrators held with ``hold``), in one
+    call where nothing comes between them (no terrain-frame leg). Returns guidance_step's
+    (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u, motors)."""
+    arrived, yaw_ref = guidance_step(tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step,
+                                     follow)
+    roll_d, pitch_d, u, motors = track_mix(cx, tx[REF_START:REF_END], y, pn, pe, pd, 0.0,
+                                           yaw_ref, dt, hold, hold)
+    return arrived, yaw_ref, roll_d, pitch_d, u, motors
 
 
 X_SUMS = 17                       # predict_output's x: where the sums of the samples start

@@ -144,6 +144,8 @@ PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hol
 _RAW, _VRAW, _P, _V, _A, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18, 21
 _S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(24, 33)
 _NX = 33
+#: where the reference (p, v, a) lies in the array (``Trajectory.ref``)
+REF_START, REF_END = _P, _A + 3
 #: a curve's rows (Trajectory.curve_to): a sample point (NED), the distance along the
 #: curve to it, the direction of the segment from it to the next point (the last row
 #: repeats the one before); a straight line has this one row
@@ -217,7 +219,7 @@ class Trajectory:
     def __init__(self, smooth_rad_s: float = 4.0):
         self.x = np.zeros(_NX)
         self.x[_AMAX] = 1.0
-        self.ref = self.x[_P:_A + 3]  # (p, v, a): the loops' reference, a view of x
+        self.ref = self.x[REF_START:REF_END]  # (p, v, a): the loops' reference, a view of x
         self.w = smooth_rad_s
         self._poly = _NO_CURVE        # a curve (spline): its rows (_NO_CURVE: a line)
         self.curving = False          # flying one (read at every step)
@@ -670,6 +672,16 @@ class CopterNavigator:
 
     # ----------------------------------------------------------------- stepping --
     def update(self, dt: float, p_vehicle, yaw: float) -> None:
+        """One step: the phase's changes, then the reference and the heading
+        (:func:`guidance_step` on :meth:`step_inputs`)."""
+        self.traj.arrived, self.yaw_ref = guidance_step(*self.step_inputs(dt, p_vehicle))
+
+    def step_inputs(self, dt: float, p_vehicle) -> tuple:
+        """The first half of :meth:`update`: the phase's changes at this step (an
+        arrival starts the next part of a return or a landing), then the arguments of
+        this step's :func:`guidance_step` (whose (arrived, yaw_ref) go to ``traj.arrived``
+        and ``yaw_ref``): the vehicle's loops may take them into their own call
+        (vehicle_quad.guide_track)."""
         prm = self.params
         traj = self.traj
         ph = self.phase
@@ -718,10 +730,9 @@ class CopterNavigator:
             self._yaw_left = 0.0 if abs(self._yaw_left - turn) < 1e-9 else self._yaw_left - turn
             self.yaw_ref = self.yaw_fix_target if self._yaw_left == 0.0 else wrap_pi(self.yaw_ref + turn)
             goal, follow = None, False
-        traj.arrived, self.yaw_ref = guidance_step(
-            traj.x, traj._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2], prm["WPNAV_LEASH"],
-            self.yaw_ref, math.nan if goal is None else goal,
-            math.radians(prm["YAW_RATE_MAX"]) * dt, follow)
+        return (traj.x, traj._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2],
+                prm["WPNAV_LEASH"], self.yaw_ref, math.nan if goal is None else goal,
+                math.radians(prm["YAW_RATE_MAX"]) * dt, follow)
 
     @property
     def arrived(self) -> bool:
