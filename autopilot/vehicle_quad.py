@@ -629,9 +629,8 @@ class QuadVehicle(VehicleBase):
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground
                   and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
-        mon.update(t_us, flying, self._motors,
-                   (f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]), self.y[Y_W:Y_W + 3].tolist(),
-                   self.ctrl.mixer.thrust_of)
+        mon.update(t_us, flying, self._motors, f[2] - ba[2], self.y[Y_W:Y_W + 3].tolist(),
+                   self.ctrl.mixer.k)
         self._forward_events(mon)
         if mon.accommodation != self.ctrl.mixer.eff:
             self.ctrl.mixer.set_effectiveness(mon.accommodation)
