@@ -560,7 +560,8 @@ class QuadVehicle(VehicleBase):
         self._target, self._target_of = None, (seq, hold)
         kind = PHASE_KIND[nv.phase]
         # waiting on the ground (or a hold / landing asked while landed)
-        idle = self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed"))
+        idle = self.on_ground and (kind in ("idle", "hold", "land")
+                                   or nv.phase in ("idle", "landed"))
         tr = nv.traj
         if self.armed and not idle and nv.terrain_leg is None:
             # the reference's step and the loops on it in one call (guide_track); the

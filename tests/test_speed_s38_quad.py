@@ -97,3 +97,24 @@ def test_quad_vehicle_velocity_is_the_predictors():
         assert vn == tuple(v.nav.y[0:3].tolist()) and all(type(c) is float for c in vn)
         moving += abs(vn[0]) + abs(vn[1]) > 1.0
     assert v.armed and not v.on_ground and moving > 100
+
+
+def test_plant_steps_of_a_hil_period_read_out_the_last_only():
+    """QuadrotorPlant.step over n steps (the earlier ones plant_advance, without a
+    readout) leaves the state and hands on the state that n single steps give, bit for
+    bit, in turbulence, resting on the ground and lifting off."""
+    from sim_bridge.plants.quadrotor import QuadrotorPlant
+    home = (-35.363262, 149.165237, 584.0, 30.0)
+    a = QuadrotorPlant(home, turbulence="moderate", rng=np.random.default_rng(2),
+                       wind_ned=(3.0, -2.0, 0.0))
+    b = QuadrotorPlant(home, turbulence="moderate", rng=np.random.default_rng(2),
+                       wind_ned=(3.0, -2.0, 0.0))
+    flew = 0
+    for k in range(600):
+        u = (0.3, 0.3, 0.3, 0.3) if k < 100 else (0.62, 0.6, 0.61, 0.6)
+        sa = a.step(u, 2)
+        b.step(u)
+        sb = b.step(u)
+        assert sa == sb and np.array_equal(a._x, b._x) and a.on_ground == b.on_ground
+        flew += not sa.on_ground
+    assert 300 < flew < 600                   # rested on the ground, then flew

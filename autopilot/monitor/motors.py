@@ -100,7 +100,6 @@ class MotorMonitor:
         self.div = max(1, int(div))
         self._n_due = 0
         dt_s = dt_s * self.div
-        self.dt = dt_s
         self._s = np.zeros(S_N)
         self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
                            1.0 - math.exp(-dt_s / LP_TAU_S), dt_s,
