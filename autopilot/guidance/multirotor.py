@@ -225,7 +225,7 @@ class Trajectory:
         self.curving = False          # flying one (read at every step)
         self.arrived = True           # (trajectory_arrived, kept by every change)
         # the kernels loaded now, not in flight (autopilot.jit.preload; on a copy of x)
-        preload(trajectory_step, self.x.copy(), _NO_CURVE, 0.004, 0.0, 0.0, 0.0, 1.0)
+        # (trajectory_step: in flight inside guidance_step's call, not one of its own)
         preload(trajectory_arrived, self.x)
         preload(curve_point, _NO_CURVE, 0.0)
         preload(guidance_step, self.x.copy(), _NO_CURVE, 0.004, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0,
