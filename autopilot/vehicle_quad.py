@@ -35,14 +35,15 @@ import math
 import numpy as np
 
 from .control.multirotor import (G, MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
-                                 MultirotorController)
+                                 MultirotorController, track_mix)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
-from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, CopterMissionSequencer,
-                                  CopterNavigator, CopterTarget)
-from .jit import kernel
+from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, REF_END, REF_START,
+                                  CopterMissionSequencer, CopterNavigator, CopterTarget,
+                                  guidance_step)
+from .jit import kernel, preload
 from .link.codec import MAV
 from .log.flightlog import FlightLog, RowSchedule
 from .messages import ActuatorOutputs, BaroSample, ImuSample, MagSample, NavState, SensorFrame
@@ -118,10 +119,10 @@ class DecimatedNav:
     (module docstring). Magnetometer and barometer samples are averaged and handed to
     the filter at most ``aux_hz`` times a second (each fusion costs several predictions;
     the average keeps the information of every sample). ``update(frame) -> (nav_state,
-    p, v, q, omega, euler)`` with p, v, q the predicted state as floats (lists or tuples;
-    nav origin NED, q_nb), omega the bias-corrected rate of this step (likewise) and
-    euler q's (roll, pitch, yaw); v, q, omega and euler also written in its array ``y``
-    (the loops read them there: control.multirotor.Y_*)."""
+    p, euler)`` with p the predicted position (floats, nav origin NED) and euler the
+    predicted attitude's (roll, pitch, yaw); the velocity, q_nb, the bias-corrected rate
+    of this step and the angles are written in its array ``y``, where the loops and the
+    vehicle read them (control.multirotor.Y_*)."""
 
     def __init__(self, filt, div: int, aux_hz: float = 25.0):
         self.filt = filt
@@ -221,9 +222,9 @@ class DecimatedNav:
             w = (wx - bg[0], wy - bg[1], wz - bg[2])
             euler = euler_321(*q)
             self.y[:] = (*v, *q, *w, *euler)
-            return nav, p, v, q, w, euler
-        p, v, q, w, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
-        return self.nav, p, v, q, w, euler
+            return nav, p, euler
+        p, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
+        return self.nav, p, euler
 
 
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
@@ -295,7 +296,6 @@ class QuadVehicle(VehicleBase):
         self._yaw_hold = 0.0
         self.euler = (0.0, 0.0, 0.0)
         self.p_home = (0.0, 0.0, 0.0)
-        self.v_ned = (0.0, 0.0, 0.0)
         # motor fault monitor on the rotor force / moment balance (none on truth nav)
         self.monitor = (MotorMonitor(params, dt_s, div=2) if params["FDI_ENABLE"] >= 1
                         and params["FDI_MOT_ENABLE"] >= 1 else None)
@@ -304,6 +304,12 @@ class QuadVehicle(VehicleBase):
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.geofence = Geofence(params, "quad")  # fence and rally points (autopilot/fence)
         self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
+        # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
+        # copies of the arrays it writes)
+        y = np.zeros(Y_N)
+        y[Y_Q] = 1.0
+        preload(guide_track, self.ctrl.x.copy(), y, False, self.navigator.traj.x.copy(),
+                np.zeros((1, 7)), dt_s, 0.0, 0.0, 0.0, 8.0, 0.0, math.nan, 0.01, False)
 
     # ------------------------------------------------------------------ arming ---
     def _mission_needed(self) -> bool:
@@ -454,17 +460,14 @@ class QuadVehicle(VehicleBase):
             if nav is None:
                 return ActuatorOutputs(t_us, (0.0, 0.0, 0.0, 0.0), False)
             p_nav = nav.p_ned.tolist()
-            v = nav.v_ned.tolist()
             q = nav.q_nb.tolist()
-            omega = nav.omega_b.tolist()
             euler = euler_321(*q)
-            self.y[:] = (*v, *q, *omega, *euler)
+            self.y[:] = (*nav.v_ned.tolist(), *q, *nav.omega_b.tolist(), *euler)
         else:
-            nav, p_nav, v, q, omega, euler = self.nav.update(frame)
+            nav, p_nav, euler = self.nav.update(frame)
         self.nav_state = nav
         hp = self._home_nav_p
         self.p_home = (p_nav[0] - hp[0], p_nav[1] - hp[1], p_nav[2] - hp[2])
-        self.v_ned = v
         self.euler = euler
 
         # modes
@@ -482,14 +485,14 @@ class QuadVehicle(VehicleBase):
         # navigation -> motor fault monitor
         mon = self.monitor
         if mon is not None and mon.due():
-            self._monitor(mon, frame, omega, t_us)
+            self._monitor(mon, frame, t_us)
 
         if fence_watching(self.geofence):        # (else no arguments worked out)
             fence_step(self, t_us, self.armed and not self.on_ground,
                        landing=self.mode is _LAND or self.navigator.phase.startswith("land"))
         motors = (0.0, 0.0, 0.0, 0.0)
         if self.armed:
-            motors = self._fly(dt, t_us, q, omega)
+            motors = self._fly(dt, t_us)
         self._motors = motors
         if truth is not None and self.armed and self.home_truth_alt_m is None:
             self.home_truth_alt_m = truth.alt_m   # armed on a step without truth (scoring)
@@ -497,17 +500,18 @@ class QuadVehicle(VehicleBase):
             self._log(t_us, nav, truth, motors)
         return ActuatorOutputs.make(t_us, motors, self.armed)
 
-    def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
+    def _fly(self, dt: float, t_us: int) -> tuple:
         p = self.params
         ctrl = self.ctrl
         mode = self.mode
         roll, pitch, yaw = self.euler
         pos = self.p_home
-        v = self.v_ned
         if self.on_ground:
             self._yaw_hold = yaw
         if mode in _PILOT_MODES:
             self._target = self._target_of = None
+            y = self.y.tolist()
+            q, omega = y[Y_Q:Y_Q + 4], y[Y_W:Y_W + 3]
             pl = self.pilot
             lim = math.radians(p["ANGLE_MAX_DEG"])
             r_d = max(-lim, min(lim, pl.roll_rad))
@@ -518,7 +522,7 @@ class QuadVehicle(VehicleBase):
                 if self.on_ground and thr <= p["QD_SPIN_ARM"] + 0.02:
                     return ctrl.idle(p["QD_SPIN_ARM"])
                 u_z = 4.0 * ctrl.mixer.thrust_of(thr)
-                self._update_ground_state(u_z, v, t_us, landing=thr < 0.3)
+                self._update_ground_state(u_z, t_us, landing=thr < 0.3)
                 return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
             stick = 0.5 if pl.throttle is None else pl.throttle
             climb = (stick - 0.5) * 2.0 * p["PILOT_SPEED_UP"] if abs(stick - 0.5) > 0.05 else 0.0
@@ -527,9 +531,9 @@ class QuadVehicle(VehicleBase):
                 self._alt_ref = h
                 return ctrl.idle(p["QD_SPIN_ARM"])
             self._alt_ref += climb * dt
-            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -v[2], roll, pitch, dt,
+            u_z = ctrl.altitude(self._alt_ref, climb, 0.0, h, -y[Y_V + 2], roll, pitch, dt,
                                 not self.flying)
-            self._update_ground_state(u_z, v, t_us, landing=climb < 0.0)
+            self._update_ground_state(u_z, t_us, landing=climb < 0.0)
             return ctrl.attitude(q, omega, r_d, p_d, self._yaw_hold, u_z)
 
         # position modes: guidance -> reference trajectory
@@ -551,25 +555,43 @@ class QuadVehicle(VehicleBase):
         elif touchdown and nv.phase == "land_descend":
             nv.touchdown()
             self._landed_end(t_us)
-        nv.update(dt, pos, yaw)
+        # the navigator's step (nv.update in two halves: its phase, then its kernel's)
+        step = nv.step_inputs(dt, pos)
         self._target, self._target_of = None, (seq, hold)
-        if not self.armed:
-            return (0.0, 0.0, 0.0, 0.0)
         kind = PHASE_KIND[nv.phase]
-        if self.on_ground and (kind in ("idle", "hold", "land") or nv.phase in ("idle", "landed")):
-            # waiting on the ground (or a hold / landing asked while landed): the target of
-            # this step, then the reference reset to where the vehicle is
-            self._target = self._make_target(seq, hold)
-            nv.init(pos, yaw)
-            return ctrl.idle(p["QD_SPIN_ARM"])
-        hold_i = not self.flying
-        # the loops read the reference from the trajectory's array; its depth follows the
-        # ground on a terrain-frame leg (as the target's, CopterNavigator.target)
-        dz = 0.0 if nv.terrain_leg is None else nv.terrain_offset(*nv.traj.p[:2])
+        # waiting on the ground (or a hold / landing asked while landed)
+        idle = self.on_ground and (kind in ("idle", "hold", "land")
+                                   or nv.phase in ("idle", "landed"))
+        tr = nv.traj
+        if self.armed and not idle and nv.terrain_leg is None:
+            # the reference's step and the loops on it in one call (guide_track); the
+            # navigator's and the controller's records (ctrl.track's) kept as they give them
+            tr.arrived, nv.yaw_ref, ctrl.roll_d, ctrl.pitch_d, ctrl.u, motors = guide_track(
+                ctrl.x, self.y, not self.flying, *step)
+            ctrl.yaw_d = nv.yaw_ref
+            ctrl.motors = motors
+        else:
+            tr.arrived, nv.yaw_ref = guidance_step(*step)
+            if not self.armed:
+                return (0.0, 0.0, 0.0, 0.0)
+            if idle:
+                # the target of this step, then the reference reset to where the vehicle is
+                self._target = self._make_target(seq, hold)
+                nv.init(pos, yaw)
+                return ctrl.idle(p["QD_SPIN_ARM"])
+            # a terrain-frame leg: the loops' reference depth follows the ground (as the
+            # target's, CopterNavigator.target) under the reference after its step
+            hold_i = not self.flying
+            motors = ctrl.track(self.y, pos, tr.ref, nv.yaw_ref, dt, hold_i, hold_i,
+                                nv.terrain_offset(*tr.p[:2]))
         # (the ground state after the loops: in these modes it changes none of their inputs)
-        motors = ctrl.track(self.y, pos, nv.traj.ref, nv.yaw_ref, dt, hold_i, hold_i, dz)
-        self._update_ground_state(ctrl.u[0], v, t_us, landing=kind == "land")
+        self._update_ground_state(ctrl.u[0], t_us, landing=kind == "land")
         return motors
+
+    @property
+    def v_ned(self) -> tuple:
+        """The velocity estimate (NED) of the last step: the navigation output's (``y``)."""
+        return tuple(self.y[Y_V:Y_V + 3].tolist())
 
     @property
     def target(self) -> CopterTarget | None:
@@ -596,7 +618,7 @@ class QuadVehicle(VehicleBase):
         self.notice(t_us * 1e-6, 6, f"Mission: home set to {math.degrees(req[0]):.7f} "
                                     f"{math.degrees(req[1]):.7f} {req[2]:.1f} m")
 
-    def _monitor(self, mon: MotorMonitor, frame: SensorFrame, omega, t_us: int) -> None:
+    def _monitor(self, mon: MotorMonitor, frame: SensorFrame, t_us: int) -> None:
         """The motor fault monitor on this step's IMU sample (less the filter's bias
         estimates) and the commands of the last step, on the steps it is due
         (``mon.due()``, asked by the caller); its events to the log, its failsafe to the
@@ -608,8 +630,8 @@ class QuadVehicle(VehicleBase):
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground
                   and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
-        mon.update(t_us, flying, self._motors,
-                   (f[0] - ba[0], f[1] - ba[1], f[2] - ba[2]), omega, self.ctrl.mixer.thrust_of)
+        mon.update(t_us, flying, self._motors, f[2] - ba[2], self.y[Y_W:Y_W + 3].tolist(),
+                   self.ctrl.mixer.k)
         self._forward_events(mon)
         if mon.accommodation != self.ctrl.mixer.eff:
             self.ctrl.mixer.set_effectiveness(mon.accommodation)
@@ -618,7 +640,7 @@ class QuadVehicle(VehicleBase):
             if self.armed and self.mode != CopterMode.LAND:
                 self.set_mode(CopterMode.LAND, t_us)
 
-    def _update_ground_state(self, u_z: float, v, t_us: int, landing: bool) -> None:
+    def _update_ground_state(self, u_z: float, t_us: int, landing: bool) -> None:
         """Leaving the ground, and the land detector (module docstring)."""
         h = -self.p_home[2]
         if self.on_ground:
@@ -628,7 +650,7 @@ class QuadVehicle(VehicleBase):
             return
         if not self.flying and h > 0.5:
             self.flying = True
-        if landing and u_z < 0.75 * self.ctrl.hover_thrust() and abs(v[2]) < 0.3:
+        if landing and u_z < 0.75 * self.ctrl.hover_thrust() and abs(self.y[Y_V + 2]) < 0.3:
             if self._land_since_us is None:
                 self._land_since_us = t_us
             elif (t_us - self._land_since_us) * 1e-6 >= self.params["LAND_DET_S"]:
@@ -688,6 +710,21 @@ class QuadVehicle(VehicleBase):
         return (mon.ratio, mon.iso_ratio, *mon.gamma.tolist(), mon.lam)
 
 
+@kernel
+def guide_track(cx, y, hold, tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
+    """The navigator's step (:func:`~.guidance.multirotor.guidance_step` on the arguments
+    ``CopterNavigator.step_inputs`` gives, from ``tx``) and the loops on the reference it
+    leaves in ``tx`` (:func:`~.control.multirotor.track_mix` on the controller's array
+    ``cx`` and the navigation output ``y``, the integrators held with ``hold``), in one
+    call where nothing comes between them (no terrain-frame leg). Returns guidance_step's
+    (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u, motors)."""
+    arrived, yaw_ref = guidance_step(tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step,
+                                     follow)
+    roll_d, pitch_d, u, motors = track_mix(cx, tx[REF_START:REF_END], y, pn, pe, pd, 0.0,
+                                           yaw_ref, dt, hold, hold)
+    return arrived, yaw_ref, roll_d, pitch_d, u, motors
+
+
 X_SUMS = 17                       # predict_output's x: where the sums of the samples start
 
 
@@ -697,11 +734,11 @@ def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
     filter's update: X_SUMS), its p, v, q and sums updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
-    omega the bias-corrected specific force and rate. Returns the new p, v, q, omega and
-    q's (roll, pitch, yaw) as five tuples of floats (the caller's values without reading
-    them back out of ``x`` or slicing one long tuple; the angles here rather than in a
-    call of their own), and writes v, q, omega and the angles in ``y`` (the loops' array,
-    Y_*)."""
+    omega the bias-corrected specific force and rate. Writes v, q, omega and q's (roll,
+    pitch, yaw) in ``y`` (the loops' array, Y_*, where the vehicle reads them too) and
+    returns the new p and the angles, two tuples of floats (the caller's values without
+    reading them back out of ``x`` or ``y``; the angles here rather than in a call of
+    their own)."""
     # the raw sample summed for the filter's next update (DecimatedNav.update)
     x[X_SUMS] += fx
     x[X_SUMS + 1] += fy
@@ -733,5 +770,4 @@ def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = qw, qx, qy, qz
     y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx, wy, wz
     y[Y_EULER], y[Y_EULER + 1], y[Y_EULER + 2] = roll, pitch, yaw
-    return ((x[0], x[1], x[2]), (vn1, ve1, vd1), (qw, qx, qy, qz), (wx, wy, wz),
-            (roll, pitch, yaw))
+    return (x[0], x[1], x[2]), (roll, pitch, yaw)

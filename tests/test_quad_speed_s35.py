@@ -5,7 +5,7 @@ import random
 
 from autopilot.control.mixer import QuadPlusMixer
 from autopilot.control.multirotor import G, ReferenceAngleGenerator
-from autopilot.monitor.motors import MotorMonitor
+from autopilot.monitor.motors import S_B, S_HAS_LP, S_KF_N, S_LAG, S_LP, S_T, MotorMonitor
 from autopilot.params import ParamStore
 from autopilot.vehicle_quad import quad_param_declarations
 
@@ -63,16 +63,17 @@ def test_motor_monitor_lowpass_bit_identical():
     rng = random.Random(7)
     mixer = QuadPlusMixer(15.7, 0.78, 0.1)
     mon = MotorMonitor(_params(), 0.004, div=2)
-    mon._kf_n = 10 ** 9                          # the balance itself is not under test here
+    mon._s[S_KF_N] = 10 ** 9                     # the balance itself is not under test here
+    lag, b = mon._s[S_LAG], mon._s[S_B]
     T, lp = [0.0] * 4, None
     for k in range(5000):
         motors = tuple(rng.uniform(0.1, 1.0) for _ in range(4))
         f_b = (rng.gauss(0, 1), rng.gauss(0, 1), rng.gauss(-9.8, 1))
         omega = tuple(rng.gauss(0, 0.5) for _ in range(3))
         flying = k % 500 > 20
-        mon.update(k * 8000, flying, motors, f_b, omega, mixer.thrust_of)
+        mon.update(k * 8000, flying, motors, f_b[2], omega, mixer.k)
         for i in range(4):
-            T[i] += (mixer.thrust_of(motors[i]) - T[i]) * mon._lag
+            T[i] += (mixer.thrust_of(motors[i]) - T[i]) * lag
         if not flying:
             lp = None
         else:
@@ -82,8 +83,9 @@ def test_motor_monitor_lowpass_bit_identical():
                 lp = list(x)
             else:
                 for i in range(11):
-                    lp[i] += (x[i] - lp[i]) * mon._b
-        assert list(mon.T) == T and mon._lp == lp
+                    lp[i] += (x[i] - lp[i]) * b
+        assert mon._s[S_T:S_LP].tolist() == T
+        assert (mon._s[S_LP:S_HAS_LP].tolist() if mon._s[S_HAS_LP] else None) == lp
     assert lp is not None
 
 

@@ -54,8 +54,7 @@ class QuadPlusMixer:
     (K_*), the constants rewritten in place when a parameter changes: ``k`` may be a
     part of the controller's array, given here."""
 
-    __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "t_lo", "t_hi", "eff", "k",
-                 "_full", "_lin")
+    __slots__ = ("t_max", "expo", "spin_min", "rho_ratio", "eff", "k")
 
     def __init__(self, t_max_n: float, expo: float, spin_min: float, k=None):
         self.k = np.zeros(K_N) if k is None else k
@@ -90,7 +89,6 @@ class QuadPlusMixer:
         # limits and T_max rho/rho0 from _density
         e = self.expo
         eff = self.eff
-        self._lin = 1.0 - e                          # thrust_of's factor, as it writes it
         self.k[:K_COLL] = ((0.0, 0.0, 0.0,
                             1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
                             0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
@@ -99,13 +97,8 @@ class QuadPlusMixer:
     def _density(self) -> None:
         """The constants that follow the air density (each barometer sample changes it
         a little): written into ``k`` in place, not a new array."""
-        self._full = self.t_max * self.rho_ratio     # thrust_of's factor, as it writes it
-        self.t_hi = self.thrust_of(1.0)
-        self.t_lo = self.thrust_of(self.spin_min)
-        k = self.k
-        k[K_LO] = self.t_lo
-        k[K_HI] = self.t_hi
-        k[K_FULL] = self._full
+        self.k[K_FULL] = self.t_max * self.rho_ratio
+        thrust_limits(self.k, self.spin_min)
 
     # ------------------------------------------------- the last mixing's record --
     @property
@@ -124,10 +117,19 @@ class QuadPlusMixer:
         return tuple(self.k[K_T:K_T + 4].tolist())
 
     # -------------------------------------------------------------- thrust curve --
+    @property
+    def t_lo(self) -> float:
+        """A rotor's thrust at the lowest spinning command [N]."""
+        return float(self.k[K_LO])
+
+    @property
+    def t_hi(self) -> float:
+        """A rotor's thrust at full command [N]."""
+        return float(self.k[K_HI])
+
     def thrust_of(self, u: float) -> float:
-        """Modelled static thrust of one rotor at command u [N]."""
-        e = self.expo
-        return self._full * (self._lin * u + e * u * u)    # T_max rho/rho0 ((1 - e) u + e u^2)
+        """Modelled static thrust of one rotor at command u [N] (:func:`rotor_thrust`)."""
+        return rotor_thrust(self.k, u)
 
     def command_of(self, thrust_n: float) -> float:
         """Inverse of :meth:`thrust_of`, clipped to [0, 1]."""
@@ -153,6 +155,22 @@ K_COLL = K_EFF + 4
 K_SAT = K_COLL + 1
 K_T = K_SAT + 3
 K_N = K_T + 4
+
+
+@kernel
+def rotor_thrust(k, u):
+    """Modelled static thrust of one rotor at command u [N], on the constants ``k`` of
+    :class:`QuadPlusMixer`: T_max rho/rho0 ((1 - e) u + e u^2), with 1 - e = -(e - 1) and
+    e = 2 e / 2 from k (both exact)."""
+    return k[K_FULL] * (-k[K_EM1] * u + 0.5 * k[K_E2] * u * u)
+
+
+@kernel
+def thrust_limits(k, spin_min):
+    """The rotor thrust limits in ``k``: at full command (K_HI) and at the lowest
+    spinning command ``spin_min`` (K_LO)."""
+    k[K_HI] = rotor_thrust(k, 1.0)
+    k[K_LO] = rotor_thrust(k, spin_min)
 
 
 @kernel

@@ -114,9 +114,9 @@ class FormationQuad(QuadVehicle):
             self.outbox.append(self.publisher.encode_target(t_us, lat, lon, alt, self.vt.v, self.vt.a))
         return out
 
-    def _fly(self, dt: float, t_us: int, q, omega) -> tuple:
+    def _fly(self, dt: float, t_us: int) -> tuple:
         if self.mode is not _GUIDED:
-            return super()._fly(dt, t_us, q, omega)
+            return super()._fly(dt, t_us)
         ctrl = self.ctrl
         t_s = t_us * 1e-6
         if t_s < self.start_s:

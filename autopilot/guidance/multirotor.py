@@ -59,7 +59,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..control.multirotor import hypot
 from ..geo import LocalFrame, wrap_pi
+from ..geo.rotations import PI, TWO_PI
 from ..geo.terrain import height_or
 from ..jit import kernel, preload
 from ..mission.items import (CONDITION_COMMANDS, MAV_CMD_CONDITION_DELAY,
@@ -142,6 +144,8 @@ PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hol
 _RAW, _VRAW, _P, _V, _A, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18, 21
 _S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(24, 33)
 _NX = 33
+#: where the reference (p, v, a) lies in the array (``Trajectory.ref``)
+REF_START, REF_END = _P, _A + 3
 #: a curve's rows (Trajectory.curve_to): a sample point (NED), the distance along the
 #: curve to it, the direction of the segment from it to the next point (the last row
 #: repeats the one before); a straight line has this one row
@@ -215,15 +219,17 @@ class Trajectory:
     def __init__(self, smooth_rad_s: float = 4.0):
         self.x = np.zeros(_NX)
         self.x[_AMAX] = 1.0
-        self.ref = self.x[_P:_A + 3]  # (p, v, a): the loops' reference, a view of x
+        self.ref = self.x[REF_START:REF_END]  # (p, v, a): the loops' reference, a view of x
         self.w = smooth_rad_s
         self._poly = _NO_CURVE        # a curve (spline): its rows (_NO_CURVE: a line)
         self.curving = False          # flying one (read at every step)
         self.arrived = True           # (trajectory_arrived, kept by every change)
         # the kernels loaded now, not in flight (autopilot.jit.preload; on a copy of x)
-        preload(trajectory_step, self.x.copy(), _NO_CURVE, 0.004, 0.0, 0.0, 0.0, 1.0)
+        # (trajectory_step: in flight inside guidance_step's call, not one of its own)
         preload(trajectory_arrived, self.x)
         preload(curve_point, _NO_CURVE, 0.0)
+        preload(guidance_step, self.x.copy(), _NO_CURVE, 0.004, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0,
+                0.01, False)
 
     @property
     def descending(self) -> bool:
@@ -322,13 +328,6 @@ class Trajectory:
         self.x[_U:_U + 3] = u
         self._vs = min(max(0.0, vr[0] * u[0] + vr[1] * u[1] + vr[2] * u[2]), self._vmax)
         self._settled()
-
-    @property
-    def course(self) -> float | None:
-        """The direction of the path at the raw reference (for the heading), or None
-        on a vertical move."""
-        u = self._u
-        return math.atan2(u[1], u[0]) if math.hypot(u[0], u[1]) > 0.2 else None
 
     def shift(self, d) -> None:
         """Move every position by ``d`` (NED) without changing the motion: the same
@@ -489,6 +488,25 @@ def trajectory_step(x, poly, dt, pv_n, pv_e, pv_d, leash):
     x[_V], x[_V + 1], x[_V + 2] = v0, v1, v2
     x[_A], x[_A + 1], x[_A + 2] = a0, a1, a2
     return trajectory_arrived(x)
+
+
+@kernel
+def guidance_step(x, poly, dt, pv_n, pv_e, pv_d, leash, yaw_ref, goal, yaw_step, follow):
+    """One step of the navigator's reference (:meth:`CopterNavigator.update`): the
+    trajectory (:func:`trajectory_step`), then the heading reference ``yaw_ref`` slewed
+    towards ``goal`` by at most ``yaw_step`` (YAW_RATE_MAX dt; ``goal`` NaN: none), or
+    with ``follow`` towards the path's course after the step (the direction of the
+    curve's segment at the raw reference) where that is not near vertical. Returns
+    (arrived, yaw_ref)."""
+    arrived = trajectory_step(x, poly, dt, pv_n, pv_e, pv_d, leash)
+    if follow and hypot(x[_U], x[_U + 1]) > 0.2:
+        goal = math.atan2(x[_U + 1], x[_U])
+    if goal == goal:
+        # max(-step, min(step, wrap_pi(goal - yaw_ref))) spelt out; wrap_pi written out
+        err = (goal - yaw_ref + PI) % TWO_PI - PI
+        err = err if err < yaw_step else yaw_step
+        yaw_ref = (yaw_ref + (err if err > -yaw_step else -yaw_step) + PI) % TWO_PI - PI
+    return arrived, yaw_ref
 
 
 class CopterNavigator:
@@ -654,6 +672,16 @@ class CopterNavigator:
 
     # ----------------------------------------------------------------- stepping --
     def update(self, dt: float, p_vehicle, yaw: float) -> None:
+        """One step: the phase's changes, then the reference and the heading
+        (:func:`guidance_step` on :meth:`step_inputs`)."""
+        self.traj.arrived, self.yaw_ref = guidance_step(*self.step_inputs(dt, p_vehicle))
+
+    def step_inputs(self, dt: float, p_vehicle) -> tuple:
+        """The first half of :meth:`update`: the phase's changes at this step (an
+        arrival starts the next part of a return or a landing), then the arguments of
+        this step's :func:`guidance_step` (whose (arrived, yaw_ref) go to ``traj.arrived``
+        and ``yaw_ref``): the vehicle's loops may take them into their own call
+        (vehicle_quad.guide_track)."""
         prm = self.params
         traj = self.traj
         ph = self.phase
@@ -679,31 +707,32 @@ class CopterNavigator:
             # the vehicle follows the ground: its leash to the straight line's reference
             # is measured without the ground's offset
             p_vehicle = (p_vehicle[0], p_vehicle[1], p_vehicle[2] - dz)
-        traj.update(dt, p_vehicle, prm["WPNAV_LEASH"])
         # heading reference slewed towards its goal: a fixed heading (CONDITION_YAW),
-        # else the region of interest, else along a curve, else towards the leg's end
+        # else the region of interest, else along a curve (its course after the step:
+        # ``follow``), else towards the leg's end; NaN for none (guidance_step)
         goal = self._yaw_goal
+        follow = False
         if self.roi_ne is not None and ph not in ("idle", "landed", "takeoff"):
             dn, de = self.roi_ne[0] - p_vehicle[0], self.roi_ne[1] - p_vehicle[1]
             goal = math.atan2(de, dn) if math.hypot(dn, de) > 1.0 else None
-        elif ph == "goto" and traj.curving and traj.course is not None:
-            goal = traj.course
+        else:
+            follow = ph == "goto" and traj.curving
         if self.roi_wpnext_deg is not None and self.roi_ne is None and ph == "goto":
             # towards the next waypoint, turned by the offset (a structure scan's camera
             # looks sideways at the structure)
             dn, de = self.goal_ne[0] - traj.start[0], self.goal_ne[1] - traj.start[1]
             if math.hypot(dn, de) > YAW_MIN_LEG_M:
                 goal = wrap_pi(math.atan2(de, dn) + math.radians(self.roi_wpnext_deg))
+                follow = False
         if self._yaw_left is not None:
             step = self._yaw_fix_rate * dt
             turn = max(-step, min(step, self._yaw_left))
             self._yaw_left = 0.0 if abs(self._yaw_left - turn) < 1e-9 else self._yaw_left - turn
             self.yaw_ref = self.yaw_fix_target if self._yaw_left == 0.0 else wrap_pi(self.yaw_ref + turn)
-        elif goal is not None:
-            err = wrap_pi(goal - self.yaw_ref)
-            step = math.radians(prm["YAW_RATE_MAX"]) * dt
-            err = err if err < step else step          # max(-step, min(step, err)),
-            self.yaw_ref = wrap_pi(self.yaw_ref + (err if err > -step else -step))  # spelt out
+            goal, follow = None, False
+        return (traj.x, traj._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2],
+                prm["WPNAV_LEASH"], self.yaw_ref, math.nan if goal is None else goal,
+                math.radians(prm["YAW_RATE_MAX"]) * dt, follow)
 
     @property
     def arrived(self) -> bool:
@@ -728,12 +757,13 @@ class CopterNavigator:
         tr = self.traj
         kind = PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
-        p = tr.p
-        dz = 0.0 if self.terrain_leg is None else self.terrain_offset(p[0], p[1])
+        # p, v, a (the reference) and the leg's start in two reads of the array
+        pn, pe, pd, vn, ve, vd, an, ae, ad = tr.ref.tolist()
+        dz = 0.0 if self.terrain_leg is None else self.terrain_offset(pn, pe)
         if dz:
-            p = (p[0], p[1], p[2] + dz)
-        return new_target((kind, seq, self.leg_id, p, tr.v, tr.a,
-                           self.yaw_ref, hold, goal, tr.start[:2]))
+            pd += dz
+        return new_target((kind, seq, self.leg_id, (pn, pe, pd), (vn, ve, vd), (an, ae, ad),
+                           self.yaw_ref, hold, goal, tuple(tr.x[_START:_START + 2].tolist())))
 
 
 class CopterMissionSequencer:

@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from autopilot.control.mixer import K_N, rotor_thrust
 from autopilot.jit import kernel, preload
 from autopilot.params import Param
 
@@ -44,6 +45,13 @@ IDENT_MIN_S = 1.0         # identification reported this long after isolation [s
 MODEL_REL = 0.15          # relative error of the modelled moments (thrust curve slope)
 MIN_THRUST_SHARE = 0.8    # balance used while the modelled thrust is this share of the weight
 _ONES4 = np.ones(4)       # (read only: np.ones is a Python function of numpy's)
+# MotorMonitor._s, the per-step part's state (motor_lowpass): the modelled rotor thrusts
+# (lagged), the low-passed balance signals (T1..T4, f_z, p, q, r, qr, pr, pq), whether
+# they have started, the seconds of flight, the steps since stage 2 ran; then its
+# constants: the rotors' lag, the low-pass factor, the step, the steps between stage 2
+S_T, S_LP, S_HAS_LP, S_FLIGHT, S_K = 0, 4, 15, 16, 17
+S_LAG, S_B, S_DT, S_KF_N = 18, 19, 20, 21
+S_N = 22
 
 MOTOR_PARAMS = (
     Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True),
@@ -61,11 +69,13 @@ MOTOR_PARAMS = (
 
 
 class MotorMonitor:
-    """``update(t_us, flying, motors, f_b, omega_b, thrust_of)`` once per step.
+    """``update(t_us, flying, motors, f_z, omega_b, k)`` on the steps it is due (``due()``).
 
     ``motors`` are the commands the rotors flew with since the previous step (the
-    previous step's output), ``f_b`` / ``omega_b`` the IMU sample less the filter's bias
-    estimates, ``thrust_of(u)`` the mixer's modelled thrust of a command [N]. Outputs:
+    previous step's output), ``f_z`` / ``omega_b`` the IMU sample (the specific force's
+    body z component, the rates) less the filter's bias estimates, ``k`` the mixer's
+    constants (``QuadPlusMixer.k``), whose thrust curve (``rotor_thrust``) gives the
+    modelled thrust of a command. Outputs:
     ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
     ``events`` (t_s, MAV_SEVERITY, text), ``failsafe`` ("LAND" or None), ``gamma``,
     ``peak`` (largest detection statistic / threshold while healthy)."""
@@ -90,10 +100,10 @@ class MotorMonitor:
         self.div = max(1, int(div))
         self._n_due = 0
         dt_s = dt_s * self.div
-        self.dt = dt_s
-        self._lag = 1.0 - math.exp(-dt_s / g("QD_TAU", 0.055))
-        self._b = 1.0 - math.exp(-dt_s / LP_TAU_S)
-        self._kf_n = max(1, int(round(KF_PERIOD_S / dt_s)))
+        self._s = np.zeros(S_N)
+        self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
+                           1.0 - math.exp(-dt_s / LP_TAU_S), dt_s,
+                           max(1, int(round(KF_PERIOD_S / dt_s))))
         self._test_n = max(1, int(round(TEST_PERIOD_S / KF_PERIOD_S)))
         # the window test runs every TEST_PERIOD_S of a whole flight: level per test from
         # the family-wise false-alarm probability per hour (stats.family_alpha)
@@ -104,13 +114,12 @@ class MotorMonitor:
         preload(stage2_update, self.gamma, self.P, np.eye(4), np.zeros(4), np.ones(4), 0.0)
         preload(balance_residuals, np.ones(4), np.ones(4), np.ones(4), 1.0, np.ones(4), True,
                 True, 0.5)
+        preload(motor_lowpass, self._s.copy(), np.zeros(K_N), 0.5, 0.5, 0.5, 0.5, -9.8, 0.0,
+                0.0, 0.0, True)
 
     def reset(self) -> None:
-        self.T = (0.0, 0.0, 0.0, 0.0)              # modelled rotor thrusts (lagged) [N]
-        self._lp = None                            # low-passed T1..T4, f_z, p, q, r, qr, pr, pq
-        self._k = 0
+        self._s[:S_LAG] = 0.0                      # (motor_lowpass's state, S_*)
         self._kt = 0
-        self.flight_s = 0.0
         self.c = 1.0                               # common thrust scale (stage 1)
         self._c_ok = False
         self.var = np.ones(4)                      # healthy residual variances
@@ -146,44 +155,14 @@ class MotorMonitor:
         return False
 
     # ------------------------------------------------------------------- step ---
-    def update(self, t_us: int, flying: bool, motors, f_b, omega_b, thrust_of) -> None:
+    def update(self, t_us: int, flying: bool, motors, f_z, omega_b, k) -> None:
         if not self.enabled:
             return
-        T0, T1, T2, T3 = self.T
-        a = self._lag
-        t1 = T0 + (thrust_of(motors[0]) - T0) * a
-        t2 = T1 + (thrust_of(motors[1]) - T1) * a
-        t3 = T2 + (thrust_of(motors[2]) - T2) * a
-        t4 = T3 + (thrust_of(motors[3]) - T3) * a
-        self.T = (t1, t2, t3, t4)
-        if not flying:
-            self._lp = None
-            self.flight_s = 0.0
-            return
-        p, q, r = omega_b
-        fz = f_b[2]
-        qr, pr, pq = q * r, p * r, p * q
-        if self._lp is None:
-            self._lp = [t1, t2, t3, t4, fz, p, q, r, qr, pr, pq]
-            return
-        # the low-pass of every balance signal, written out (a loop over the eleven
-        # costs half the monitor's step again)
-        l0, l1, l2, l3, l4, l5, l6, l7, l8, l9, l10 = self._lp
-        b = self._b
-        self._lp = [l0 + (t1 - l0) * b, l1 + (t2 - l1) * b, l2 + (t3 - l2) * b,
-                    l3 + (t4 - l3) * b, l4 + (fz - l4) * b, l5 + (p - l5) * b,
-                    l6 + (q - l6) * b, l7 + (r - l7) * b, l8 + (qr - l8) * b,
-                    l9 + (pr - l9) * b, l10 + (pq - l10) * b]
-        self.flight_s += self.dt
-        self._k += 1
-        if self._k < self._kf_n:
-            return
-        self._k = 0
-        self._stage(t_us, (p, q, r))
+        if motor_lowpass(self._s, k, *motors, f_z, *omega_b, flying):
+            self._stage(t_us, omega_b)
 
     def _stage(self, t_us: int, omega) -> None:
-        lp = self._lp
-        t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = lp
+        t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = self._s[S_LP:S_HAS_LP].tolist()
         tsum = t1 + t2 + t3 + t4
         if tsum < MIN_THRUST_SHARE * self.m * 9.80665 * (self.c if self._c_ok else 1.0):
             return
@@ -233,7 +212,7 @@ class MotorMonitor:
         self._kt += 1
         if self._kt >= self._test_n:
             self._kt = 0
-            if self.flight_s >= self.warm_s:
+            if self._s[S_FLIGHT] >= self.warm_s:
                 self.win.push((r1[1:] / sd[1:]).tolist())
                 self.ratio = self.win.ratio_det
                 if not self.detected:
@@ -326,3 +305,38 @@ def balance_residuals(y, hsum, hg, c, var, learn, first, w):
     rel[0] = 0.0
     v = np.maximum(var, 1e-6) + rel * rel
     return r1, np.sqrt(v), v / (c * c), y / c - hg
+
+
+@kernel
+def motor_lowpass(s, k, m1, m2, m3, m4, fz, p, q, r, flying):
+    """The monitor's per-step part (:meth:`MotorMonitor.update`) on its state ``s``
+    (S_*): the modelled thrusts of the commands m1..m4 flown (the mixer's thrust curve on
+    its constants ``k``) through the rotors' lag; in flight the low-pass of every balance
+    signal (T1..T4, f_z, p, q, r, qr, pr, pq), started from the first values and stopped
+    on the ground (the seconds of flight with it). True on the steps stage 2 is due
+    (every KF_PERIOD_S of flight)."""
+    a = s[S_LAG]
+    t1 = s[S_T] + (rotor_thrust(k, m1) - s[S_T]) * a
+    t2 = s[S_T + 1] + (rotor_thrust(k, m2) - s[S_T + 1]) * a
+    t3 = s[S_T + 2] + (rotor_thrust(k, m3) - s[S_T + 2]) * a
+    t4 = s[S_T + 3] + (rotor_thrust(k, m4) - s[S_T + 3]) * a
+    s[S_T], s[S_T + 1], s[S_T + 2], s[S_T + 3] = t1, t2, t3, t4
+    if not flying:
+        s[S_HAS_LP] = 0.0
+        s[S_FLIGHT] = 0.0
+        return False
+    signals = (t1, t2, t3, t4, fz, p, q, r, q * r, p * r, p * q)
+    if s[S_HAS_LP] == 0.0:
+        for i in range(11):
+            s[S_LP + i] = signals[i]
+        s[S_HAS_LP] = 1.0
+        return False
+    b = s[S_B]
+    for i in range(11):
+        s[S_LP + i] += (signals[i] - s[S_LP + i]) * b
+    s[S_FLIGHT] += s[S_DT]
+    s[S_K] += 1.0
+    if s[S_K] < s[S_KF_N]:
+        return False
+    s[S_K] = 0.0
+    return True

@@ -245,8 +245,9 @@ class QuadrotorPlant:
         return [static_thrust(u, *self._ts) for u in controls[:4]]
 
     def step(self, controls, n_steps: int = 1) -> PlantState:
-        """Hold the rotor commands for ``n_steps`` integration steps (:func:`plant_step`;
-        the ground, resting and touching down, in :meth:`_rest` / :meth:`_touchdown`)."""
+        """Hold the rotor commands for ``n_steps`` integration steps (:func:`plant_advance`,
+        the last :func:`plant_step` with its readout; the ground, resting and touching
+        down, in :meth:`_rest` / :meth:`_touchdown`)."""
         u1, u2, u3, u4 = controls[:4]
         k1, k2, k3, k4 = self.rotor_scale
         x, c = self._x, self._consts
@@ -256,11 +257,16 @@ class QuadrotorPlant:
             self._ground_d = 0.0 if h is None else self.home[2] - h
         gusts = self._gusts
         code = _ON_GROUND                         # (no step: the readout below)
-        for _ in range(n_steps):
+        last = n_steps - 1
+        for i in range(n_steps):
             row = gusts.next_row() if gusts.active else -1
             self._t_us += self._dt_us
-            code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4,
-                                       k1, k2, k3, k4, self.on_ground, self._ground_d, self._t_us)
+            if i < last:                          # (only the last step's state is handed on)
+                code = plant_advance(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3,
+                                     k4, self.on_ground, self._ground_d)
+            else:
+                code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1,
+                                           k2, k3, k4, self.on_ground, self._ground_d, self._t_us)
             if code == _ON_GROUND:
                 self._rest(self.dt_s)
             else:
@@ -356,21 +362,29 @@ def air_data(x, wn, we, wd):
 
 
 @kernel
-def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d, t_us):
+def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d):
     """One step of the plant on its state array ``x`` and constants ``c``: the Dryden gust
     (``gust``, ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no
     gust when ``row`` is negative) at the height above the ground and the speed through
     the steady wind, then :func:`flight_step` in the steady wind + gust. Returns
-    flight_step's code and the state's readout at ``t_us``, the step's end
-    (:func:`state_readout`, flying; out of date unless the vehicle flew: the ground then
-    moves it, in Python)."""
+    flight_step's code."""
     wn, we, wd = c[19], c[20], c[21]
     if row >= 0:
         an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
         gn, ge, gd = gust_advance(gust, noise, row, ground_d - x[2],
                                   math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
         wn, we, wd = wn + gn, we + ge, wd + gd
-    code = flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
+    return flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
+
+
+@kernel
+def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d, t_us):
+    """:func:`plant_advance`, then the state's readout at ``t_us``, the step's end
+    (:func:`state_readout`, flying; out of date unless the vehicle flew: the ground then
+    moves it, in Python): the last step of a HIL period. Returns the code and the
+    readout."""
+    code = plant_advance(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground,
+                         ground_d)
     return code, state_readout(x, c, gust, t_us, False)
 
 
