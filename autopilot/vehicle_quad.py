@@ -692,11 +692,13 @@ class QuadVehicle(VehicleBase):
         seq = tgt.seq if tgt is not None else 0
         leg = tgt.leg_id if tgt is not None else 0
         # one tuple display (not a chain of tuple sums, each a copy of the row so far;
-        # whole vectors starred, not element by element); flags, codes and the mode as
-        # they are: the log makes floats of its rows once, when it is saved
-        # (FlightLog.arrays), as the fixed-wing's log does
+        # whole vectors starred, not element by element); flags and codes as they are:
+        # the log makes floats of its rows once, when it is saved (FlightLog.arrays), as
+        # the fixed-wing's log does; the mode as its number (a row of numbers only is
+        # left alone by the cyclic garbage collector after its first pass, as the
+        # fixed-wing's _log says)
         self.log.append((
-            t_us * 1e-6, self.armed, self.mode, seq, leg, kind, hold, self.on_ground,
+            t_us * 1e-6, self.armed, int(self.mode), seq, leg, kind, hold, self.on_ground,
             *self._truth_row(hf, truth),
             p[0], p[1], alt0 - p[2], er, ep, ey, *self.v_ned,
             *tgt_row,
