@@ -11,6 +11,10 @@ Cache: numba writes the machine code next to the module (``__pycache__``, or its
 user cache directory when that is read-only) the first time a kernel runs, and loads it
 afterwards. Compiling is said on stderr while it happens (a fresh install's first run
 compiles every kernel once: seconds, then never again for the same source and numba).
+numba checks only the kernel's own file: a kernel that calls a kernel or reads a
+constant of another module keeps its machine code when only that module changes (a
+changed callee or layout constant then gives wrong numbers, or an error, until the
+caller is compiled again), so after such an edit clear the ``__pycache__`` folders.
 ``fastmath`` is off: the kernels keep IEEE semantics (no reassociation), so a kernel's
 result depends only on its own order of operations.
 """
