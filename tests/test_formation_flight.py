@@ -121,3 +121,38 @@ def test_seed_quad_case_with_20_percent_loss():
 def test_ten_quads():
     s = run_formation(MISSIONS / "formation_ten_quad.toml", seed=1)
     check(s, vehicles=10)
+
+
+def test_quad_member_leaving_guided_flies_and_logs_its_mode():
+    """A formation quad taken out of GUIDED (a failsafe's LAND, a ground station's mode
+    change) flies the navigator's target as any quadrotor, and its log rows keep being
+    written: the step's target is the navigator's, not the formation's reference."""
+    from autopilot.modes.copter import CopterMode
+    from tools.formation import QuadMember, VehicleNetwork
+    spec = load_formation(MISSIONS / "formation_seed_quad.toml")
+    net = VehicleNetwork([v.id for v in spec.vehicles], spec.network.latency_s, spec.network.loss,
+                         np.random.default_rng(1))
+    members = [QuadMember(spec, v.id, 1, None) for v in spec.vehicles]
+    by_id = {m.vid: m for m in members}
+    t_us = 0
+    lander = members[0]
+    alt_at_switch = rows_at_switch = None
+    while t_us < 14e6:
+        for dst, data in net.due(t_us):
+            by_id[dst].vehicle.peers.receive(data)
+        for m in members:
+            m.step()
+            for data in m.vehicle.outbox:
+                net.send(m.vid, t_us, data)
+            m.vehicle.outbox.clear()
+        t_us = members[0].bridge.t_us
+        v = lander.vehicle
+        if alt_at_switch is None and t_us > 8e6 and v.armed:
+            assert v.target.kind == "move"              # the formation's reference
+            v.set_mode(CopterMode.LAND, t_us)
+            alt_at_switch, rows_at_switch = lander.bridge.state.alt_m, len(v.log.rows)
+    v = lander.vehicle
+    assert alt_at_switch is not None and v.mode == CopterMode.LAND
+    assert v.target.kind == "land"
+    assert len(v.log.rows) >= rows_at_switch + 6          # 6 s of rows, one each 0.8 s
+    assert lander.bridge.state.alt_m < alt_at_switch - 1.0   # descending

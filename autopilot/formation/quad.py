@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geo import LocalFrame
-from ..guidance.multirotor import new_target
+from ..guidance.multirotor import CopterTarget, new_target
 from ..modes.copter import CopterMode
 from ..vehicle_quad import QuadVehicle
 from .guidance import FormationGuidance, VirtualTarget
@@ -127,11 +127,16 @@ class FormationQuad(QuadVehicle):
             r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
         h = self.home_in_form
         self._ref[:] = (r[0] - h[0], r[1] - h[1], r[2] - h[2], *tv, *ta)
-        self._target, self._target_of = None, ()      # (built from _ref when asked)
+        # (the target built from _ref when asked: _make_target)
+        self._target, self._target_of = None, (0, False, True)
         return ctrl.track(self.y, self.p_home, self._ref, 0.0, dt, False, not self.flying)
 
-    def _make_target(self) -> tuple:
-        """GUIDED: the formation's reference (what ``_fly`` handed to the loops)."""
+    def _make_target(self, seq: int, hold: bool, formation: bool = False) -> CopterTarget:
+        """The step's target: in GUIDED (``formation``) the formation's reference, what
+        ``_fly`` handed to the loops; in the other modes (a failsafe's LAND, a ground
+        station's RTL) the navigator's, as any quadrotor's."""
+        if not formation:
+            return super()._make_target(seq, hold)
         tp, tv, ta = (tuple(self._ref[k:k + 3].tolist()) for k in (0, 3, 6))
         ne = (tp[0], tp[1])
         return new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
