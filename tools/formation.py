@@ -260,7 +260,7 @@ def run_point(spec: FormationSpec, seed: int, net, duration_s: float) -> dict:
     for k, v in enumerate(spec.vehicles):
         vs.append(dict(id=v.id, model=PointVehicle(v.start_ned, dt, rngs[k], spec.point.noise_deg,
                                                     spec.point.delay_s),
-                       guid=FormationGuidance(spec, v.id), peers=PeerTable(v.id, origin),
+                       guid=FormationGuidance(spec, v.id), peers=PeerTable(v.id, origin, only=v.follows),
                        pub=PositionPublisher(v.id, spec.ground_alt_m)))
     by_id = {x["id"]: x for x in vs}
     period_us = int(round(1e6 / spec.network.rate_hz))

@@ -39,44 +39,63 @@ Degenerate geometry is handled on purpose and reported in ``status``, never a Na
   keeps the reference's own height above that plane instead (so two followers on the
   two sides of their leaders' plane are never both pulled into it).
 * ``"tangent"``: the two solutions coincide (|z| below ``EPS_M``).
+
+The functions are ``jitable``: plain Python where Python calls them (the formation's
+checks, its figures), compiled into the formation's guidance kernel (``guidance``) where
+that calls them; there, a status is its code (``STATUS`` names them).
 """
 from __future__ import annotations
 
 import math
 
+from numba.extending import register_jitable as jitable
+
 EPS_M = 1e-6          # lengths below this count as zero [m]
+
+# status codes (their names: STATUS); "waiting" is the guidance's (a followed vehicle
+# not heard yet); the first three are no degenerate event
+OK, TANGENT, WAITING, EMPTY, COLLINEAR, DEGENERATE = range(6)
+STATUS = ("ok", "tangent", "waiting", "empty", "collinear", "degenerate")
 
 Vec = tuple[float, float, float]
 
 
+@jitable
 def _sub(a, b) -> Vec:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
+@jitable
 def _add(a, b) -> Vec:
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
+@jitable
 def _scale(a, k: float) -> Vec:
     return (a[0] * k, a[1] * k, a[2] * k)
 
 
+@jitable
 def _dot(a, b) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+@jitable
 def _cross(a, b) -> Vec:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+@jitable
 def norm(a) -> float:
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
+@jitable
 def dist(a, b) -> float:
     return norm(_sub(a, b))
 
 
+@jitable
 def _any_perpendicular(u: Vec) -> Vec:
     """A unit vector normal to the unit vector ``u`` (deterministic)."""
     a = (1.0, 0.0, 0.0) if abs(u[0]) < 0.9 else (0.0, 1.0, 0.0)
@@ -87,12 +106,8 @@ def _any_perpendicular(u: Vec) -> Vec:
 def nearest_on_sphere(c, r: float, q) -> tuple[Vec, str]:
     """The point of S(c, r) nearest ``q`` (the first follower's constraint). ``q`` at
     the centre: any point (``"degenerate"``)."""
-    dn, de, dd = q[0] - c[0], q[1] - c[1], q[2] - c[2]
-    n = math.sqrt(dn * dn + de * de + dd * dd)
-    if n < EPS_M:
-        return _add(c, (r, 0.0, 0.0)), "degenerate"
-    k = r / n
-    return (c[0] + dn * k, c[1] + de * k, c[2] + dd * k), "ok"
+    p, status = on_sphere(c, r, q)
+    return p, STATUS[status]
 
 
 def nearest_on_circle(c1, r1: float, c2, r2: float, q) -> tuple[Vec, str]:
@@ -101,38 +116,71 @@ def nearest_on_circle(c1, r1: float, c2, r2: float, q) -> tuple[Vec, str]:
     sphere, nearest point of S(c1, r1)); spheres apart or nested: ``"empty"`` (the
     point of the centre line between them that splits the radii's excess); ``q`` on the
     axis of the circle: ``"degenerate"`` (a fixed point of the circle)."""
+    p, status = on_circle(c1, r1, c2, r2, q)
+    return p, STATUS[status]
+
+
+def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Vec, Vec, str]:
+    """Both intersection points of three spheres (eqs 3.1-3.12) and a status
+    (module docstring). In the degenerate cases both points are the same fallback."""
+    a, b, status = three_spheres(p1, r1, p2, r2, p3, r3)
+    return a, b, STATUS[status]
+
+
+def intersection_near(p1, r1, p2, r2, p3, r3, ref) -> tuple[Vec, str]:
+    """The three-sphere intersection nearer ``ref`` (eqs 3.1-3.12, 3.17). Collinear
+    centres: the point of the first two spheres' circle nearest ``ref``. Empty: the
+    solution of eqs 3.4 and 3.6 at ``ref``'s own height above the centres' plane."""
+    p, status = three_spheres_near(p1, r1, p2, r2, p3, r3, ref)
+    return p, STATUS[status]
+
+
+# ---------------------------------------- the same with status codes (jitable) ---
+@jitable
+def on_sphere(c, r, q):
+    """``nearest_on_sphere`` with its status code."""
+    dn, de, dd = q[0] - c[0], q[1] - c[1], q[2] - c[2]
+    n = math.sqrt(dn * dn + de * de + dd * dd)
+    if n < EPS_M:
+        return _add(c, (r, 0.0, 0.0)), DEGENERATE
+    k = r / n
+    return (c[0] + dn * k, c[1] + de * k, c[2] + dd * k), OK
+
+
+@jitable
+def on_circle(c1, r1, c2, r2, q):
+    """``nearest_on_circle`` with its status code."""
     un, ue, ud = c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]
     d = math.sqrt(un * un + ue * ue + ud * ud)
     if d < EPS_M:
-        p, _ = nearest_on_sphere(c1, r1, q)
-        return p, "collinear"
+        p, _ = on_sphere(c1, r1, q)
+        return p, COLLINEAR
     k = 1.0 / d
     un, ue, ud = un * k, ue * k, ud * k
     a = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)     # eq 3.4 with x_2 = d
     h2 = r1 * r1 - a * a                             # eq 3.5 with the circle's radius^2
     cn, ce, cd = c1[0] + un * a, c1[1] + ue * a, c1[2] + ud * a
     if h2 <= 0.0:
-        return (cn, ce, cd), ("empty" if h2 < -EPS_M * EPS_M else "tangent")
+        return (cn, ce, cd), (EMPTY if h2 < -EPS_M * EPS_M else TANGENT)
     h = math.sqrt(h2)
     wn, we, wd = q[0] - cn, q[1] - ce, q[2] - cd
     k = wn * un + we * ue + wd * ud
     wn, we, wd = wn - un * k, we - ue * k, wd - ud * k   # q's offset normal to the axis
     n = math.sqrt(wn * wn + we * we + wd * wd)
     if n < EPS_M:
-        return _add((cn, ce, cd), _scale(_any_perpendicular((un, ue, ud)), h)), "degenerate"
+        return _add((cn, ce, cd), _scale(_any_perpendicular((un, ue, ud)), h)), DEGENERATE
     k = h / n
-    return (cn + wn * k, ce + we * k, cd + wd * k), "ok"
+    return (cn + wn * k, ce + we * k, cd + wd * k), OK
 
 
-def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Vec, Vec, str]:
-    """Both intersection points of three spheres (eqs 3.1-3.12) and a status
-    (module docstring). In the degenerate cases both points are the same fallback.
-    (Written out on scalars: the formation's hot path, once per step per follower.)"""
+@jitable
+def three_spheres(p1, r1, p2, r2, p3, r3):
+    """``sphere_intersection`` with its status code. (Written out on scalars.)"""
     p1n, p1e, p1d = p1
     exn, exe, exd = p2[0] - p1n, p2[1] - p1e, p2[2] - p1d
     x2 = math.sqrt(exn * exn + exe * exe + exd * exd)           # s_2 = (x_2, 0, 0)
     if x2 < EPS_M:
-        return p1, p1, "collinear"
+        return p1, p1, COLLINEAR
     k = 1.0 / x2
     exn, exe, exd = exn * k, exe * k, exd * k
     wn, we, wd = p3[0] - p1n, p3[1] - p1e, p3[2] - p1d
@@ -140,7 +188,7 @@ def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Ve
     eyn, eye, eyd = wn - exn * x3, we - exe * x3, wd - exd * x3
     y3 = math.sqrt(eyn * eyn + eye * eye + eyd * eyd)
     if y3 < EPS_M:
-        return p1, p1, "collinear"
+        return p1, p1, COLLINEAR
     k = 1.0 / y3
     eyn, eye, eyd = eyn * k, eye * k, eyd * k
     # R = [e_x; e_y; e_z], e_z = e_x x e_y                                eqs 3.9-3.10
@@ -148,14 +196,14 @@ def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Ve
     x = (r1 * r1 - r2 * r2 + x2 * x2) / (2.0 * x2)                                   # eq 3.4
     y = (r1 * r1 - r3 * r3 + x3 * x3 + y3 * y3) / (2.0 * y3) - (x3 / y3) * x         # eq 3.6
     z2 = r1 * r1 - x * x - y * y                                                     # eq 3.5
-    status = "ok"
+    status = OK
     if z2 < 0.0:
-        status = "empty" if z2 < -1e-9 else "tangent"
+        status = EMPTY if z2 < -1e-9 else TANGENT
         z = 0.0
     else:
         z = math.sqrt(z2)                                                            # eq 3.7
         if z < EPS_M:
-            status = "tangent"
+            status = TANGENT
     # eq 3.12: P = p_1 + R^T (x, y, z)
     bn, be, bd = p1n + (exn * x + eyn * y), p1e + (exe * x + eye * y), p1d + (exd * x + eyd * y)
     mz = -z
@@ -163,6 +211,7 @@ def sphere_intersection(p1, r1: float, p2, r2: float, p3, r3: float) -> tuple[Ve
             (bn + ezn * mz, be + eze * mz, bd + ezd * mz), status)
 
 
+@jitable
 def nearer(a, b, ref) -> Vec:
     """Eq 3.17: of two candidate points, the one nearer ``ref`` (ties: ``a``)."""
     an, ae, ad = a[0] - ref[0], a[1] - ref[1], a[2] - ref[2]
@@ -172,15 +221,14 @@ def nearer(a, b, ref) -> Vec:
                  <= math.sqrt(bn * bn + be * be + bd * bd)) else b
 
 
-def intersection_near(p1, r1, p2, r2, p3, r3, ref) -> tuple[Vec, str]:
-    """The three-sphere intersection nearer ``ref`` (eqs 3.1-3.12, 3.17). Collinear
-    centres: the point of the first two spheres' circle nearest ``ref``. Empty: the
-    solution of eqs 3.4 and 3.6 at ``ref``'s own height above the centres' plane."""
-    a, b, status = sphere_intersection(p1, r1, p2, r2, p3, r3)
-    if status == "ok" or status == "tangent":
+@jitable
+def three_spheres_near(p1, r1, p2, r2, p3, r3, ref):
+    """``intersection_near`` with its status code."""
+    a, b, status = three_spheres(p1, r1, p2, r2, p3, r3)
+    if status == OK or status == TANGENT:
         return nearer(a, b, ref), status
-    if status == "collinear":
-        p, _ = nearest_on_circle(p1, r1, p2, r2, ref)
+    if status == COLLINEAR:
+        p, _ = on_circle(p1, r1, p2, r2, ref)
         return p, status
     n = _cross(_sub(p2, p1), _sub(p3, p1))                 # empty
     n = _scale(n, 1.0 / norm(n))

@@ -67,10 +67,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .geometry import intersection_near, nearest_on_circle, nearest_on_sphere
+import numpy as np
+from numba.extending import register_jitable as jitable
+
+from ..jit import kernel
+from .geometry import STATUS, WAITING, on_circle, on_sphere, three_spheres_near
+from .peers import ROW_A, ROW_KIND, ROW_P, ROW_T, ROW_V, TARGET, extrapolated
 from .spec import FormationSpec
 
 
+@jitable
 def sigma(err_m: float, eps: float) -> float:
     """Eq 3.21."""
     if err_m < eps:
@@ -90,10 +96,18 @@ class GuidanceOutput:
     status: str           # "ok" | geometry status | "waiting" (followed vehicle not heard yet)
 
 
+ROLES = ("leader", "first", "second", "ordinary")
+# FormationGuidance.g: its parameters, then its state (what update() leaves)
+(G_ROLE, G_KP, G_KI, G_VMAX, G_EPS, G_STEP, G_NF, G_LEAD, G_FINAL, G_OFFSET, G_D,
+ G_INTEG, G_PDES, G_VCMD, G_AFF, G_ERR, G_SIGMA, G_STATUS, G_EVENTS, G_PEERS,
+ G_N) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 14, 17, 20, 23, 26, 29, 30, 31, 32, 33, 42)
+
+
 class FormationGuidance:
     """Guidance of vehicle ``vid`` of ``spec`` (module docstring).
-    ``update(t_s, dt, p_own, peers) -> GuidanceOutput``; ``peers.get(j, t_s)`` gives
-    ``(p, v, age)`` of vehicle j or None."""
+    ``update(t_s, dt, p_own, peers) -> GuidanceOutput``, on the rows of ``peers``, a
+    ``peers.PeerTable`` of the vehicles this one follows (``only=follows``). Its
+    parameters and state are one array, ``g`` (G_*), where the kernel ``guide`` works."""
 
     def __init__(self, spec: FormationSpec, vid: int):
         self.spec = spec
@@ -102,97 +116,141 @@ class FormationGuidance:
         self.role = v.role
         self.follows = v.follows
         self.leader_id = spec.leader.id
-        finals = spec.final_positions()
-        self.p_final = finals[vid]
+        self.p_final = spec.final_positions()[vid]
         self.offset = spec.offsets().get(vid)
         self.d = {j: spec.d(vid, j) for j in v.follows}
         c = spec.control
-        self.k_p = c.gain_p
-        self.k_i = c.gain_i
-        self.v_max = spec.speed_mps if v.role == "leader" else c.follower_speed_factor * spec.speed_mps
-        self.eps = spec.epsilon
-        self.step_m = c.reshape_step_m
-        self.integ = [0.0, 0.0, 0.0]
-        self.degenerate_events = 0
-        self.last_status = "ok"
-        self._p_des = tuple(v.start_ned)
-        # the distances to the followed vehicles in the order of ``follows``, and for a
-        # second follower which of its two is the leader
-        self._d_follows = tuple(self.d[j] for j in v.follows)
-        self._lead_k = v.follows.index(self.leader_id) if v.role == "second" else 0
+        g = self.g = np.zeros(G_N)
+        g[G_ROLE] = ROLES.index(v.role)
+        g[G_KP], g[G_KI] = c.gain_p, c.gain_i
+        g[G_VMAX] = spec.speed_mps if v.role == "leader" else c.follower_speed_factor * spec.speed_mps
+        g[G_EPS] = spec.epsilon
+        g[G_STEP] = c.reshape_step_m
+        g[G_NF] = len(v.follows)
+        # for a second follower, which of its two is the leader
+        g[G_LEAD] = v.follows.index(self.leader_id) if v.role == "second" else 0
+        g[G_FINAL:G_FINAL + 3] = self.p_final
+        if self.offset is not None:
+            g[G_OFFSET:G_OFFSET + 3] = self.offset
+        g[G_D:G_D + len(v.follows)] = [self.d[j] for j in v.follows]   # in the order of follows
+        g[G_PDES:G_PDES + 3] = v.start_ned
+        g[G_STATUS] = -1.0                  # (no update yet)
 
-    def desired(self, t_s: float, p_own, peers):
-        """(p_id, v_ff, a_ff, status) from eqs 3.14-3.17."""
-        if self.role == "leader":
-            return self.p_final, _ZERO, _ZERO, "ok"
-        get = peers.get
-        got = [get(j, t_s) for j in self.follows]
-        if None in got:
-            return self._p_des, _ZERO, _ZERO, "waiting"
-        v_ff, a_ff = _means(got)
-        d = self._d_follows
-        if self.role == "first":
-            p1 = got[0][0]
-            p, status = nearest_on_sphere(p1, d[0], self._carrot(p1, p_own))
-        elif self.role == "second":
-            lead_k = self._lead_k
-            p1, p2 = got[lead_k][0], got[1 - lead_k][0]
-            p, status = nearest_on_circle(p1, d[lead_k], p2, d[1 - lead_k], self._carrot(p1, p_own))
-        else:
-            p, status = intersection_near(got[0][0], d[0], got[1][0], d[1], got[2][0], d[2], p_own)
-        return p, v_ff, a_ff, status
+    @property
+    def degenerate_events(self) -> int:
+        return int(self.g[G_EVENTS])
 
-    def _carrot(self, p1, p_own):
-        """p_1 + p_1i (eqs 3.15, 3.16), approached at most ``reshape_step_m`` at a time."""
-        o, step = self.offset, self.step_m
-        wn, we, wd = p1[0] + o[0] - p_own[0], p1[1] + o[1] - p_own[1], p1[2] + o[2] - p_own[2]
-        n = math.sqrt(wn * wn + we * we + wd * wd)
-        if n > step:
-            wn, we, wd = wn * step / n, we * step / n, wd * step / n
-        return (p_own[0] + wn, p_own[1] + we, p_own[2] + wd)
+    @property
+    def last_status(self) -> str:
+        s = int(self.g[G_STATUS])
+        return STATUS[s] if s >= 0 else "ok"
 
     def update(self, t_s: float, dt: float, p_own, peers) -> GuidanceOutput:
-        p_des, v_ff, a_ff, status = self.desired(t_s, p_own, peers)
-        if status not in _REGULAR:
-            self.degenerate_events += 1
-        self.last_status = status
-        self._p_des = p_des
-        pn, pe, pd = (p_des[0] - p_own[0], p_des[1] - p_own[1], p_des[2] - p_own[2])   # eq 3.13
-        e = math.sqrt(pn * pn + pe * pe + pd * pd)
-        s = sigma(e, self.eps)                                                   # eq 3.21
-        ig = self.integ
-        k_p, k_i = self.k_p, self.k_i
-        un, ue, ud = k_p * pn + k_i * ig[0], k_p * pe + k_i * ig[1], k_p * pd + k_i * ig[2]   # eq 3.22
-        u_abs = math.sqrt(un * un + ue * ue + ud * ud)
-        v_max = self.v_max
-        if u_abs > v_max:                                                        # sat, no integration
-            un, ue, ud = un * v_max / u_abs, ue * v_max / u_abs, ud * v_max / u_abs
-        elif dt > 0.0:
-            ig[0] += s * pn * dt
-            ig[1] += s * pe * dt
-            ig[2] += s * pd * dt
-        v_cmd = (v_ff[0] + s * un, v_ff[1] + s * ue, v_ff[2] + s * ud)          # eq 3.20
-        return GuidanceOutput(tuple(p_des), v_cmd, a_ff, e, s, status)
+        guide(self.g, peers.rows, t_s, dt, p_own[0], p_own[1], p_own[2])
+        return self.output()
+
+    def output(self) -> GuidanceOutput | None:
+        """What the last update left (None before the first)."""
+        g = self.g.tolist()
+        if g[G_STATUS] < 0.0:
+            return None
+        return GuidanceOutput(tuple(g[G_PDES:G_PDES + 3]), tuple(g[G_VCMD:G_VCMD + 3]),
+                              tuple(g[G_AFF:G_AFF + 3]), g[G_ERR], g[G_SIGMA],
+                              STATUS[int(g[G_STATUS])])
 
 
-_ZERO = (0.0, 0.0, 0.0)
-_REGULAR = frozenset(("ok", "waiting", "tangent"))     # statuses that are no degenerate event
-
-
-def _means(got) -> tuple:
-    """The mean reported velocity and acceleration of the followed vehicles (``got``:
-    ``peers.get``'s answers), each component summed in order from 0.0 (as ``sum`` does)."""
+@jitable
+def _desired(g, rows, t_s, p_own):
+    """(p_id, status) from eqs 3.14-3.17; the means of the followed vehicles' reported
+    velocity (v_ff) and acceleration written in G_VCMD and G_AFF, their positions
+    extrapolated to ``t_s`` in G_PEERS."""
+    role = g[G_ROLE]
+    if role == 0.0:                               # leader
+        g[G_VCMD:G_VCMD + 3] = 0.0
+        g[G_AFF:G_AFF + 3] = 0.0
+        return (g[G_FINAL], g[G_FINAL + 1], g[G_FINAL + 2]), 0
+    nf = int(g[G_NF])
+    for k in range(nf):
+        if rows[k, ROW_KIND] == 0.0:
+            g[G_VCMD:G_VCMD + 3] = 0.0
+            g[G_AFF:G_AFF + 3] = 0.0
+            return (g[G_PDES], g[G_PDES + 1], g[G_PDES + 2]), WAITING
+    # their positions now, and their mean velocity and acceleration, each component
+    # summed in order from 0.0 (as ``sum`` does)
     x = y = z = ax = ay = az = 0.0
-    for g in got:
-        v, a = g[1], g[3]
+    for k in range(nf):
+        r = rows[k]
+        a = (r[ROW_A], r[ROW_A + 1], r[ROW_A + 2])
+        p, v = extrapolated(t_s - r[ROW_T], (r[ROW_P], r[ROW_P + 1], r[ROW_P + 2]),
+                            (r[ROW_V], r[ROW_V + 1], r[ROW_V + 2]), a, r[ROW_KIND] == TARGET)
+        j = G_PEERS + 3 * k
+        g[j], g[j + 1], g[j + 2] = p
         x += v[0]
         y += v[1]
         z += v[2]
         ax += a[0]
         ay += a[1]
         az += a[2]
-    n = len(got)
-    return (x / n, y / n, z / n), (ax / n, ay / n, az / n)
+    g[G_VCMD], g[G_VCMD + 1], g[G_VCMD + 2] = x / nf, y / nf, z / nf
+    g[G_AFF], g[G_AFF + 1], g[G_AFF + 2] = ax / nf, ay / nf, az / nf
+    p0 = (g[G_PEERS], g[G_PEERS + 1], g[G_PEERS + 2])
+    p1 = (g[G_PEERS + 3], g[G_PEERS + 4], g[G_PEERS + 5])
+    d = G_D
+    if role == 1.0:                               # first follower
+        return on_sphere(p0, g[d], _carrot(g, p0, p_own))
+    if role == 2.0:                               # second follower
+        if g[G_LEAD] == 0.0:
+            return on_circle(p0, g[d], p1, g[d + 1], _carrot(g, p0, p_own))
+        return on_circle(p1, g[d + 1], p0, g[d], _carrot(g, p1, p_own))
+    p2 = (g[G_PEERS + 6], g[G_PEERS + 7], g[G_PEERS + 8])
+    return three_spheres_near(p0, g[d], p1, g[d + 1], p2, g[d + 2], p_own)
+
+
+@jitable
+def _carrot(g, p1, p_own):
+    """p_1 + p_1i (eqs 3.15, 3.16), approached at most ``reshape_step_m`` at a time."""
+    o, step = G_OFFSET, g[G_STEP]
+    wn, we, wd = p1[0] + g[o] - p_own[0], p1[1] + g[o + 1] - p_own[1], p1[2] + g[o + 2] - p_own[2]
+    n = math.sqrt(wn * wn + we * we + wd * wd)
+    if n > step:
+        wn, we, wd = wn * step / n, we * step / n, wd * step / n
+    return (p_own[0] + wn, p_own[1] + we, p_own[2] + wd)
+
+
+@kernel
+def guide(g, rows, t_s, dt, pn_own, pe_own, pd_own):
+    """FormationGuidance.update on its array ``g`` (G_*) from the rows of its
+    ``PeerTable`` and its own position: p_id, V_i (eq 3.20), the followed vehicles'
+    mean acceleration, |p_bar_i|, sigma_i and the status written in ``g``; a status
+    that is no regular one (OK, TANGENT, WAITING) counted in G_EVENTS."""
+    p_own = (pn_own, pe_own, pd_own)
+    p_des, status = _desired(g, rows, t_s, p_own)
+    g[G_STATUS] = status
+    if status > WAITING:
+        g[G_EVENTS] += 1.0
+    g[G_PDES], g[G_PDES + 1], g[G_PDES + 2] = p_des
+    pn, pe, pd = (p_des[0] - p_own[0], p_des[1] - p_own[1], p_des[2] - p_own[2])   # eq 3.13
+    e = math.sqrt(pn * pn + pe * pe + pd * pd)
+    s = sigma(e, g[G_EPS])                                                   # eq 3.21
+    g[G_ERR], g[G_SIGMA] = e, s
+    k_p, k_i, ig = g[G_KP], g[G_KI], G_INTEG
+    un, ue, ud = k_p * pn + k_i * g[ig], k_p * pe + k_i * g[ig + 1], k_p * pd + k_i * g[ig + 2]   # eq 3.22
+    u_abs = math.sqrt(un * un + ue * ue + ud * ud)
+    v_max = g[G_VMAX]
+    if u_abs > v_max:                                                        # sat, no integration
+        un, ue, ud = un * v_max / u_abs, ue * v_max / u_abs, ud * v_max / u_abs
+    elif dt > 0.0:
+        g[ig] += s * pn * dt
+        g[ig + 1] += s * pe * dt
+        g[ig + 2] += s * pd * dt
+    v = G_VCMD                                   # (v_ff there: _desired)
+    g[v], g[v + 1], g[v + 2] = g[v] + s * un, g[v + 1] + s * ue, g[v + 2] + s * ud   # eq 3.20
+
+
+# VirtualTarget.x: its state r, v, a (formation frame), with the loops' reference (r less
+# home's place in the formation frame, v, a: home NED) around v and a, then its limits
+(VT_R, VT_REF, VT_V, VT_A, VT_AMAX, VT_JMAX, VT_TAU, VT_HOME, VT_N) = (
+    0, 3, 6, 9, 12, 13, 14, 15, 18)
 
 
 class VirtualTarget:
@@ -203,35 +261,69 @@ class VirtualTarget:
     commanded velocity would ask for an instant tilt). ``a_ff``, the followed
     vehicles' reported setpoint acceleration, passes the lag by, so that in a rigid
     translation each follower's reference reproduces its leaders' and the lag does not
-    grow down the follower chain. ``step(v_cmd, dt, a_ff) -> (r, v, a)``."""
+    grow down the follower chain. Its state is the array ``x`` (VT_*), stepped by the
+    kernel ``formation_step`` (``target_step``); ``ref`` is the loops' reference in the
+    frame of ``home`` (home's place in the formation frame): p, v, a."""
 
-    def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2):
-        self.r = tuple(float(c) for c in p0)
-        self.v = (0.0, 0.0, 0.0)
-        self.a = (0.0, 0.0, 0.0)
+    def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2,
+                 home=(0.0, 0.0, 0.0)):
+        x = self.x = np.zeros(VT_N)
+        x[VT_R:VT_R + 3] = p0
+        x[VT_AMAX], x[VT_JMAX], x[VT_TAU] = a_max, j_max, tau_s
+        x[VT_HOME:VT_HOME + 3] = home
+        x[VT_REF:VT_REF + 3] = x[VT_R:VT_R + 3] - x[VT_HOME:VT_HOME + 3]
+        self.ref = x[VT_REF:VT_A + 3]            # (a view)
         self.a_max = a_max
-        self.j_max = j_max
-        self.tau = tau_s
 
-    def step(self, v_cmd, dt: float, a_ff=(0.0, 0.0, 0.0)):
-        if dt <= 0.0:
-            return tuple(self.r), tuple(self.v), tuple(self.a)
-        (vn, ve, vd), (an, ae, ad), tau = self.v, self.a, self.tau
-        xn = a_ff[0] + (v_cmd[0] - vn) / tau
-        xe = a_ff[1] + (v_cmd[1] - ve) / tau
-        xd = a_ff[2] + (v_cmd[2] - vd) / tau
-        n = math.sqrt(xn * xn + xe * xe + xd * xd)
-        a_max = self.a_max
-        if n > a_max:
-            xn, xe, xd = xn * a_max / n, xe * a_max / n, xd * a_max / n
-        dn, de, dd = xn - an, xe - ae, xd - ad
-        n = math.sqrt(dn * dn + de * de + dd * dd)
-        lim = self.j_max * dt
-        if n > lim:
-            dn, de, dd = dn * lim / n, de * lim / n, dd * lim / n
-        a = (an + dn, ae + de, ad + dd)
-        v = (vn + a[0] * dt, ve + a[1] * dt, vd + a[2] * dt)
-        r = self.r
-        r = (r[0] + 0.5 * (vn + v[0]) * dt, r[1] + 0.5 * (ve + v[1]) * dt, r[2] + 0.5 * (vd + v[2]) * dt)
-        self.r, self.v, self.a = r, v, a
-        return r, v, a
+    @property
+    def r(self) -> tuple:
+        return tuple(self.x[VT_R:VT_R + 3].tolist())
+
+    @property
+    def v(self) -> tuple:
+        return tuple(self.x[VT_V:VT_V + 3].tolist())
+
+    @property
+    def a(self) -> tuple:
+        return tuple(self.x[VT_A:VT_A + 3].tolist())
+
+
+@jitable
+def target_step(x, v_cmd, dt, a_ff):
+    """The virtual target's step on the command ``v_cmd`` (VirtualTarget), and the
+    loops' reference from it."""
+    if dt <= 0.0:
+        return
+    vn, ve, vd, an, ae, ad, tau = x[VT_V], x[VT_V + 1], x[VT_V + 2], x[VT_A], x[VT_A + 1], x[VT_A + 2], x[VT_TAU]
+    xn = a_ff[0] + (v_cmd[0] - vn) / tau
+    xe = a_ff[1] + (v_cmd[1] - ve) / tau
+    xd = a_ff[2] + (v_cmd[2] - vd) / tau
+    n = math.sqrt(xn * xn + xe * xe + xd * xd)
+    a_max = x[VT_AMAX]
+    if n > a_max:
+        xn, xe, xd = xn * a_max / n, xe * a_max / n, xd * a_max / n
+    dn, de, dd = xn - an, xe - ae, xd - ad
+    n = math.sqrt(dn * dn + de * de + dd * dd)
+    lim = x[VT_JMAX] * dt
+    if n > lim:
+        dn, de, dd = dn * lim / n, de * lim / n, dd * lim / n
+    a0, a1, a2 = an + dn, ae + de, ad + dd
+    v0, v1, v2 = vn + a0 * dt, ve + a1 * dt, vd + a2 * dt
+    r, h = VT_R, VT_HOME
+    x[r] = x[r] + 0.5 * (vn + v0) * dt
+    x[r + 1] = x[r + 1] + 0.5 * (ve + v1) * dt
+    x[r + 2] = x[r + 2] + 0.5 * (vd + v2) * dt
+    x[VT_V], x[VT_V + 1], x[VT_V + 2] = v0, v1, v2
+    x[VT_A], x[VT_A + 1], x[VT_A + 2] = a0, a1, a2
+    x[VT_REF], x[VT_REF + 1], x[VT_REF + 2] = x[r] - x[h], x[r + 1] - x[h + 1], x[r + 2] - x[h + 2]
+
+
+@kernel
+def formation_step(g, rows, x, t_s, dt):
+    """A formation quadrotor's guidance step (FormationQuad._fly): ``guide`` from the
+    virtual target's position (``x``, VirtualTarget's), then the virtual target's step on
+    V_i and the followed vehicles' acceleration, which leaves the loops' reference in
+    ``x``."""
+    guide(g, rows, t_s, dt, x[VT_R], x[VT_R + 1], x[VT_R + 2])
+    target_step(x, (g[G_VCMD], g[G_VCMD + 1], g[G_VCMD + 2]), dt,
+                (g[G_AFF], g[G_AFF + 1], g[G_AFF + 2]))

@@ -21,6 +21,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+from numba.extending import register_jitable as jitable
+
 from ..geo import LocalFrame
 from ..link.codec import MAV, Codec
 
@@ -31,6 +34,10 @@ _RAW = frozenset((MSG_ID, TARGET_ID))
 _TARGET_MASK = (MAV.POSITION_TARGET_TYPEMASK_YAW_IGNORE | MAV.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
 MAX_EXTRAPOLATION_S = 1.0
 _DEG_E7 = 1e7 * 180.0 / math.pi
+_ZERO = (0.0, 0.0, 0.0)
+# ``PeerTable.rows``, one per vehicle of ``only``: what ``get`` extrapolates, as numbers
+ROW_KIND, ROW_T, ROW_P, ROW_V, ROW_A, ROW_N = 0, 1, 2, 5, 8, 11
+NOT_HEARD, POSITION, TARGET = 0.0, 1.0, 2.0          # ROW_KIND
 
 
 class PositionPublisher:
@@ -68,7 +75,9 @@ def _cm(v: float) -> int:
 class PeerTable:
     """Latest position of every other vehicle, from received bytes; with ``only``, of
     those vehicles only (the ones a vehicle follows: a datagram from any other is
-    dropped on its MAVLink 2 header's system id, byte 5, undecoded)."""
+    dropped on its MAVLink 2 header's system id, byte 5, undecoded, and ``rows`` holds
+    what ``get`` would extrapolate for each of them, in the order of ``only``: the
+    formation guidance's kernel reads them there)."""
 
     def __init__(self, own_id: int, frame: LocalFrame, use_targets: bool = False,
                  only=None):
@@ -76,6 +85,8 @@ class PeerTable:
         self.frame = frame
         self.use_targets = use_targets
         self.only = None if only is None else frozenset(only)
+        self._row = {} if only is None else {j: k for k, j in enumerate(only)}
+        self.rows = np.zeros((len(self._row), ROW_N))    # ROW_*; all NOT_HEARD
         self.codec = Codec(own_id, MAV.MAV_COMP_ID_AUTOPILOT1)
         self.latest: dict[int, tuple[float, tuple, tuple]] = {}   # id -> (t_s, p_ned, v_ned)
         self.targets: dict[int, tuple[float, tuple, tuple, tuple]] = {}  # + a_ned
@@ -96,6 +107,8 @@ class PeerTable:
                     continue
                 p = self.frame.to_ned_fast(lat / _DEG_E7, lon / _DEG_E7, alt).tolist()
                 self.targets[m.src_system] = (t_s, tuple(p), (vx, vy, vz), (ax, ay, az))
+                if self.use_targets:
+                    self._set_row(m.src_system, TARGET, t_s, p, (vx, vy, vz), (ax, ay, az))
                 self.received += 1
                 continue
             if m.msg_id != MSG_ID or (self.use_targets and m.src_system in self.targets):
@@ -106,30 +119,44 @@ class PeerTable:
             if prev is not None and prev[0] > t_s:
                 continue                       # an older message overtaken by a newer one
             p = self.frame.to_ned_fast(lat / _DEG_E7, lon / _DEG_E7, alt * 1e-3).tolist()
-            self.latest[m.src_system] = (t_s, tuple(p), (vx * 0.01, vy * 0.01, vz * 0.01))
+            v = (vx * 0.01, vy * 0.01, vz * 0.01)
+            self.latest[m.src_system] = (t_s, tuple(p), v)
+            self._set_row(m.src_system, POSITION, t_s, p, v, _ZERO)
             self.received += 1
+
+    def _set_row(self, vid: int, kind: float, t_s: float, p, v, a) -> None:
+        k = self._row.get(vid)
+        if k is not None:
+            self.rows[k] = (kind, t_s, *p, *v, *a)
 
     def get(self, vid: int, t_s: float):
         """(p_ned extrapolated to ``t_s``, v_ned, age_s, a_ned) or None if never heard
         (a_ned is zero from GLOBAL_POSITION_INT). With
         ``use_targets``, the peer's setpoint (POSITION_TARGET_GLOBAL_INT) where one was
-        received, extrapolated with its velocity and acceleration."""
+        received, extrapolated with its velocity and acceleration (``extrapolated``)."""
         if self.use_targets:
             e = self.targets.get(vid)
             if e is not None:
                 t, p, v, a = e
-                age = t_s - t
-                h = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age   # max(0, min(age,
-                h = h if h > 0.0 else 0.0               # MAX)), spelt out: the builtins' cost
-                hh = 0.5 * h * h
-                return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh,
-                         p[2] + v[2] * h + a[2] * hh),
-                        (v[0] + a[0] * h, v[1] + a[1] * h, v[2] + a[2] * h), age, a)
+                p, v = extrapolated(t_s - t, p, v, a, True)
+                return p, v, t_s - t, a
         e = self.latest.get(vid)
         if e is None:
             return None
         t, p, v = e
-        age = t_s - t
-        a = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age
-        a = a if a > 0.0 else 0.0
-        return (p[0] + v[0] * a, p[1] + v[1] * a, p[2] + v[2] * a), v, age, (0.0, 0.0, 0.0)
+        p, _ = extrapolated(t_s - t, p, v, _ZERO, False)
+        return p, v, t_s - t, _ZERO
+
+
+@jitable
+def extrapolated(age, p, v, a, accelerated):
+    """A peer's reported position and velocity carried ``age`` seconds on (at most
+    MAX_EXTRAPOLATION_S, never back): with its acceleration ``a`` for a setpoint
+    (``accelerated``), at constant velocity for a position."""
+    h = MAX_EXTRAPOLATION_S if MAX_EXTRAPOLATION_S < age else age   # max(0, min(age, MAX)),
+    h = h if h > 0.0 else 0.0                                       # spelt out: the builtins' cost
+    if not accelerated:
+        return (p[0] + v[0] * h, p[1] + v[1] * h, p[2] + v[2] * h), v
+    hh = 0.5 * h * h
+    return ((p[0] + v[0] * h + a[0] * hh, p[1] + v[1] * h + a[1] * hh, p[2] + v[2] * h + a[2] * hh),
+            (v[0] + a[0] * h, v[1] + a[1] * h, v[2] + a[2] * h))

@@ -34,19 +34,17 @@ overridden here and hands the reference to the same controller (``ctrl.track``).
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..geo import LocalFrame
+from ..jit import preload
 from ..guidance.multirotor import CopterTarget, new_target
 from ..modes.copter import CopterMode
 from ..vehicle_quad import QuadVehicle
-from .guidance import FormationGuidance, VirtualTarget
+from .guidance import FormationGuidance, VirtualTarget, formation_step
 from .peers import PeerTable, PositionPublisher
 from .spec import FormationSpec
 
 
 _GUIDED = CopterMode.GUIDED
-_ZERO = (0.0, 0.0, 0.0)
 
 
 class FormationQuad(QuadVehicle):
@@ -58,7 +56,6 @@ class FormationQuad(QuadVehicle):
         self.start_s = start_s
         self.origin = LocalFrame.from_degrees(*spec.origin)
         self.start_ned = spec.vehicle(vid).start_ned
-        self._start = tuple(self.start_ned)
         self.guidance = FormationGuidance(spec, vid)
         self.peers = PeerTable(vid, self.origin, use_targets=True, only=self.guidance.follows)
         self.publisher = PositionPublisher(vid, spec.ground_alt_m)
@@ -67,9 +64,10 @@ class FormationQuad(QuadVehicle):
         self.outbox: list[bytes] = []
         self.vt = VirtualTarget(self.start_ned, a_max)
         self.home_in_form = (0.0, 0.0, 0.0)
-        self.last_guidance = None
         self._healthy_since: int | None = None
-        self._ref = np.zeros(9)     # the loops' reference: p, v, a (home NED)
+        # (autopilot.jit.preload: the guidance's kernel loaded now, not at the formation's
+        # start; on copies of the arrays it writes)
+        preload(formation_step, self.guidance.g.copy(), self.peers.rows, self.vt.x.copy(), 0.0, dt_s)
 
     # -------------------------------------------------------------- arming ---
     def _try_arm(self, t_us: int, truth) -> None:
@@ -89,8 +87,13 @@ class FormationQuad(QuadVehicle):
         self.flying = True
         hf = self.home_frame
         self.home_in_form = tuple(self.origin.to_ned_fast(hf.lat0_rad, hf.lon0_rad, hf.alt0_m).tolist())
-        self.vt = VirtualTarget(self.start_ned, self.vt.a_max)
+        self.vt = VirtualTarget(self.start_ned, self.vt.a_max, home=self.home_in_form)
         self.log.event(t_us * 1e-6, f"formation vehicle {self.vid} armed (GUIDED, airborne)")
+
+    @property
+    def last_guidance(self):
+        """The guidance's output at the last GUIDED step after the start (None before)."""
+        return self.guidance.output()
 
     @property
     def p_form(self) -> tuple:
@@ -117,19 +120,13 @@ class FormationQuad(QuadVehicle):
     def _fly(self, dt: float, t_us: int) -> tuple:
         if self.mode is not _GUIDED:
             return super()._fly(dt, t_us)
-        ctrl = self.ctrl
         t_s = t_us * 1e-6
-        if t_s < self.start_s:
-            r, tv, ta = self._start, _ZERO, _ZERO
-        else:
-            g = self.guidance.update(t_s, dt, self.vt.r, self.peers)
-            self.last_guidance = g
-            r, tv, ta = self.vt.step(g.v_cmd, dt, g.a_ff)
-        h = self.home_in_form
-        self._ref[:] = (r[0] - h[0], r[1] - h[1], r[2] - h[2], *tv, *ta)
-        # (the target built from _ref when asked: _make_target)
+        vt = self.vt
+        if t_s >= self.start_s:        # (before, the reference is the start, where vt is)
+            formation_step(self.guidance.g, self.peers.rows, vt.x, t_s, dt)
+        # (the target built from vt.ref when asked: _make_target)
         self._target, self._target_of = None, (0, False, True)
-        return ctrl.track(self.y, self.p_home, self._ref, 0.0, dt, False, not self.flying)
+        return self.ctrl.track(self.y, self.p_home, vt.ref, 0.0, dt, False, not self.flying)
 
     def _make_target(self, seq: int, hold: bool, formation: bool = False) -> CopterTarget:
         """The step's target: in GUIDED (``formation``) the formation's reference, what
@@ -137,6 +134,7 @@ class FormationQuad(QuadVehicle):
         station's RTL) the navigator's, as any quadrotor's."""
         if not formation:
             return super()._make_target(seq, hold)
-        tp, tv, ta = (tuple(self._ref[k:k + 3].tolist()) for k in (0, 3, 6))
+        ref = self.vt.ref
+        tp, tv, ta = (tuple(ref[k:k + 3].tolist()) for k in (0, 3, 6))
         ne = (tp[0], tp[1])
         return new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
