@@ -1,17 +1,21 @@
-"""Stop 39: the formation guidance and the virtual target in one compiled call
-(``formation_step``, ``guide``) on the guidance's array and the peer table's rows,
-against the law as Python computed it before (written out here), bit for bit."""
+"""Stop 39: the formation guidance, the virtual target and the loops in one compiled call
+(``formation_track``; the point vehicles' ``guide``) on the guidance's array and the
+peer table's rows, against the law as Python computed it before (written out here), bit
+for bit."""
 import math
 
 import numpy as np
 import pytest
 
+from autopilot.control.multirotor import Y_N, Y_Q, MultirotorController, track_mix
 from autopilot.formation import load_formation
 from autopilot.formation.geometry import intersection_near, nearest_on_circle, nearest_on_sphere
-from autopilot.formation.guidance import (FormationGuidance, VirtualTarget, formation_step,
-                                          sigma)
+from autopilot.formation.guidance import FormationGuidance, VirtualTarget, sigma
 from autopilot.formation.peers import PeerTable, PositionPublisher
+from autopilot.formation.quad import formation_track
 from autopilot.geo import LocalFrame
+from autopilot.params import ParamStore
+from autopilot.vehicle_quad import quad_param_declarations
 
 SEED = "missions/formation_seed_quad.toml"
 _REGULAR = ("ok", "waiting", "tangent")
@@ -121,12 +125,13 @@ def _fill(table, pub, origin, vid, rng, t_ms, centre, spread, target):
 
 
 @pytest.mark.parametrize("use_targets", [True, False])
-def test_formation_step_is_the_python_law(use_targets):
+def test_formation_track_is_the_python_law(use_targets):
     """Every role of the seed formation, its followed vehicles heard in random places
     (nearby, coincident, collinear: the degenerate statuses), by setpoints or by
     positions, partly not heard yet: the kernel's p_des, V_i, a_ff, |p_bar|, sigma,
     status, degenerate events, integrator and the virtual target's step (and the loops'
-    reference from it) are the Python law's, bit for bit."""
+    reference from it) are the Python law's, bit for bit, nothing stepped before the
+    start time; the loops' output and state are track_mix's on that reference."""
     spec = load_formation(SEED)
     origin = LocalFrame.from_degrees(*spec.origin)
     pub = {v.id: PositionPublisher(v.id, spec.ground_alt_m) for v in spec.vehicles}
@@ -138,7 +143,9 @@ def test_formation_step_is_the_python_law(use_targets):
         old = OldGuidance(spec, v.id)
         table = PeerTable(v.id, origin, use_targets=use_targets, only=v.follows)
         home = tuple(rng.normal(size=3).tolist())
-        vt = VirtualTarget(v.start_ned, home=home)
+        vt = VirtualTarget(v.start_ned, home=home, start_s=0.05)
+        ctrl = MultirotorController(ParamStore(quad_param_declarations()), 0.004)
+        y = np.zeros(Y_N)
         t_ms = 0
         for k in range(400):
             t_ms += 4
@@ -154,9 +161,19 @@ def test_formation_step_is_the_python_law(use_targets):
                     _fill(table, pub, origin, j, rng, t_ms, centre, spread, use_targets)
             t_s = t_ms * 1e-3 + 0.002
             dt = 0.0 if k == 30 else 0.004
+            y[:] = rng.normal(scale=0.1, size=Y_N)
+            y[Y_Q] = 1.0
+            pn, pe, pd = (np.array(old.r) - home + rng.normal(scale=0.2, size=3)).tolist()
+            cx = ctrl.x.copy()
+            hold = k % 7 == 0
+            out = formation_track(new.g, table.rows, vt.x, ctrl.x, y, pn, pe, pd, t_s, dt, hold)
+            assert out == track_mix(cx, vt.ref.copy(), y, pn, pe, pd, 0.0, 0.0, dt, False, hold)
+            assert cx.tolist() == ctrl.x.tolist()
+            if t_s < 0.05:
+                assert new.output() is None and vt.r == tuple(float(c) for c in v.start_ned)
+                continue
             p_des, v_cmd, a_ff, e, s, status = old.update(t_s, dt, old.r, table)
             old.target_step(v_cmd, dt, a_ff) if dt > 0.0 else None
-            formation_step(new.g, table.rows, vt.x, t_s, dt)
             g = new.output()
             assert (g.p_des, g.v_cmd, g.a_ff, g.err_m, g.sigma, g.status) == \
                 (p_des, v_cmd, a_ff, e, s, status)

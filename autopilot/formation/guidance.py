@@ -248,9 +248,10 @@ def guide(g, rows, t_s, dt, pn_own, pe_own, pd_own):
 
 
 # VirtualTarget.x: its state r, v, a (formation frame), with the loops' reference (r less
-# home's place in the formation frame, v, a: home NED) around v and a, then its limits
-(VT_R, VT_REF, VT_V, VT_A, VT_AMAX, VT_JMAX, VT_TAU, VT_HOME, VT_N) = (
-    0, 3, 6, 9, 12, 13, 14, 15, 18)
+# home's place in the formation frame, v, a: home NED) around v and a, then its limits,
+# home's place and the formation's start time
+(VT_R, VT_REF, VT_V, VT_A, VT_AMAX, VT_JMAX, VT_TAU, VT_HOME, VT_START, VT_N) = (
+    0, 3, 6, 9, 12, 13, 14, 15, 18, 19)
 
 
 class VirtualTarget:
@@ -261,15 +262,16 @@ class VirtualTarget:
     commanded velocity would ask for an instant tilt). ``a_ff``, the followed
     vehicles' reported setpoint acceleration, passes the lag by, so that in a rigid
     translation each follower's reference reproduces its leaders' and the lag does not
-    grow down the follower chain. Its state is the array ``x`` (VT_*), stepped by the
-    kernel ``formation_step`` (``target_step``); ``ref`` is the loops' reference in the
-    frame of ``home`` (home's place in the formation frame): p, v, a."""
+    grow down the follower chain. Its state is the array ``x`` (VT_*), stepped from the
+    formation's start time ``start_s`` on (``formation_step``), held at ``p0`` before;
+    ``ref`` is the loops' reference in the frame of ``home`` (home's place in the
+    formation frame): p, v, a."""
 
     def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2,
-                 home=(0.0, 0.0, 0.0)):
+                 home=(0.0, 0.0, 0.0), start_s: float = 0.0):
         x = self.x = np.zeros(VT_N)
         x[VT_R:VT_R + 3] = p0
-        x[VT_AMAX], x[VT_JMAX], x[VT_TAU] = a_max, j_max, tau_s
+        x[VT_AMAX], x[VT_JMAX], x[VT_TAU], x[VT_START] = a_max, j_max, tau_s, start_s
         x[VT_HOME:VT_HOME + 3] = home
         x[VT_REF:VT_REF + 3] = x[VT_R:VT_R + 3] - x[VT_HOME:VT_HOME + 3]
         self.ref = x[VT_REF:VT_A + 3]            # (a view)
@@ -318,12 +320,14 @@ def target_step(x, v_cmd, dt, a_ff):
     x[VT_REF], x[VT_REF + 1], x[VT_REF + 2] = x[r] - x[h], x[r + 1] - x[h + 1], x[r + 2] - x[h + 2]
 
 
-@kernel
+@jitable
 def formation_step(g, rows, x, t_s, dt):
-    """A formation quadrotor's guidance step (FormationQuad._fly): ``guide`` from the
-    virtual target's position (``x``, VirtualTarget's), then the virtual target's step on
-    V_i and the followed vehicles' acceleration, which leaves the loops' reference in
-    ``x``."""
+    """A formation quadrotor's guidance step (FormationQuad._fly) from the formation's
+    start on: ``guide`` from the virtual target's position (``x``, VirtualTarget's),
+    then the virtual target's step on V_i and the followed vehicles' acceleration, which
+    leaves the loops' reference in ``x``."""
+    if t_s < x[VT_START]:
+        return
     guide(g, rows, t_s, dt, x[VT_R], x[VT_R + 1], x[VT_R + 2])
     target_step(x, (g[G_VCMD], g[G_VCMD + 1], g[G_VCMD + 2]), dt,
                 (g[G_AFF], g[G_AFF + 1], g[G_AFF + 2]))

@@ -30,16 +30,20 @@ vehicle's home frame (its arming position) for its loops; they differ by a trans
 
 Hook wanted in ``QuadVehicle`` (not ours to change): a setpoint-source interface for
 GUIDED (position, velocity, acceleration, yaw per step); until then ``_fly`` is
-overridden here and hands the reference to the same controller (``ctrl.track``).
+overridden here and hands the reference to the same controller's loops (``track_mix``,
+in one compiled call with the guidance: ``formation_track``).
 """
 from __future__ import annotations
 
+import numpy as np
+
+from ..control.multirotor import Y_N, Y_Q, track_mix
 from ..geo import LocalFrame
-from ..jit import preload
 from ..guidance.multirotor import CopterTarget, new_target
+from ..jit import kernel, preload
 from ..modes.copter import CopterMode
 from ..vehicle_quad import QuadVehicle
-from .guidance import FormationGuidance, VirtualTarget, formation_step
+from .guidance import VT_A, VT_REF, FormationGuidance, VirtualTarget, formation_step
 from .peers import PeerTable, PositionPublisher
 from .spec import FormationSpec
 
@@ -62,12 +66,15 @@ class FormationQuad(QuadVehicle):
         self.period_us = int(round(1e6 / spec.network.rate_hz))
         self._next_pub_us = 0
         self.outbox: list[bytes] = []
-        self.vt = VirtualTarget(self.start_ned, a_max)
+        self.vt = VirtualTarget(self.start_ned, a_max, start_s=start_s)
         self.home_in_form = (0.0, 0.0, 0.0)
         self._healthy_since: int | None = None
-        # (autopilot.jit.preload: the guidance's kernel loaded now, not at the formation's
-        # start; on copies of the arrays it writes)
-        preload(formation_step, self.guidance.g.copy(), self.peers.rows, self.vt.x.copy(), 0.0, dt_s)
+        # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
+        # copies of the arrays it writes)
+        y = np.zeros(Y_N)
+        y[Y_Q] = 1.0
+        preload(formation_track, self.guidance.g.copy(), self.peers.rows, self.vt.x.copy(),
+                self.ctrl.x.copy(), y, 0.0, 0.0, 0.0, start_s, dt_s, False)
 
     # -------------------------------------------------------------- arming ---
     def _try_arm(self, t_us: int, truth) -> None:
@@ -87,7 +94,8 @@ class FormationQuad(QuadVehicle):
         self.flying = True
         hf = self.home_frame
         self.home_in_form = tuple(self.origin.to_ned_fast(hf.lat0_rad, hf.lon0_rad, hf.alt0_m).tolist())
-        self.vt = VirtualTarget(self.start_ned, self.vt.a_max, home=self.home_in_form)
+        self.vt = VirtualTarget(self.start_ned, self.vt.a_max, home=self.home_in_form,
+                                start_s=self.start_s)
         self.log.event(t_us * 1e-6, f"formation vehicle {self.vid} armed (GUIDED, airborne)")
 
     @property
@@ -120,13 +128,16 @@ class FormationQuad(QuadVehicle):
     def _fly(self, dt: float, t_us: int) -> tuple:
         if self.mode is not _GUIDED:
             return super()._fly(dt, t_us)
-        t_s = t_us * 1e-6
-        vt = self.vt
-        if t_s >= self.start_s:        # (before, the reference is the start, where vt is)
-            formation_step(self.guidance.g, self.peers.rows, vt.x, t_s, dt)
         # (the target built from vt.ref when asked: _make_target)
         self._target, self._target_of = None, (0, False, True)
-        return self.ctrl.track(self.y, self.p_home, vt.ref, 0.0, dt, False, not self.flying)
+        # the controller's record kept as its track() keeps it
+        c = self.ctrl
+        pn, pe, pd = self.p_home
+        c.roll_d, c.pitch_d, c.u, c.motors = formation_track(
+            self.guidance.g, self.peers.rows, self.vt.x, c.x, self.y, pn, pe, pd, t_us * 1e-6,
+            dt, not self.flying)
+        c.yaw_d = 0.0
+        return c.motors
 
     def _make_target(self, seq: int, hold: bool, formation: bool = False) -> CopterTarget:
         """The step's target: in GUIDED (``formation``) the formation's reference, what
@@ -138,3 +149,14 @@ class FormationQuad(QuadVehicle):
         tp, tv, ta = (tuple(ref[k:k + 3].tolist()) for k in (0, 3, 6))
         ne = (tp[0], tp[1])
         return new_target(("move", 0, self.vid, tp, tv, ta, 0.0, False, ne, ne))
+
+
+@kernel
+def formation_track(g, rows, x, cx, y, pn, pe, pd, t_s, dt, hold):
+    """The formation's guidance step (:func:`~.guidance.formation_step` on the guidance's
+    array ``g``, the peer table's ``rows`` and the virtual target's ``x``) and the loops
+    on the reference it leaves there (:func:`~..control.multirotor.track_mix` on the
+    controller's array ``cx`` and the navigation output ``y``, heading north, the
+    altitude integrator held with ``hold``), in one call. Returns track_mix's."""
+    formation_step(g, rows, x, t_s, dt)
+    return track_mix(cx, x[VT_REF:VT_A + 3], y, pn, pe, pd, 0.0, 0.0, dt, False, hold)
