@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from .control.multirotor import (G, MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
+from .control.multirotor import (MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
                                  MultirotorController, track_mix)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
@@ -51,6 +51,7 @@ from .mission.items import Mission
 from .modes.copter import IMPLEMENTED_COPTER_MODES, POSITION_MODES, CopterMode
 from .monitor import FDI_PARAMS
 from .monitor.motors import MOTOR_PARAMS, MotorMonitor
+from .nav.strapdown import X_BA as NOM_BA, X_BG as NOM_BG
 from .params import Param, ParamStore
 from .vehicle_base import NAV_COLUMNS, TRUTH_COLUMNS, TruthNav, VehicleBase, shared_param_declarations
 
@@ -137,12 +138,10 @@ class DecimatedNav:
         self._aux_t: int | None = None
         self._gps = self._air = None
         self.nav: NavState | None = None
-        self._x = None                  # the output predictor's state (predict_output)
-        self._ba = (0.0, 0.0, 0.0)
-        self._bg = (0.0, 0.0, 0.0)
-        self._g = G
+        self._x = np.zeros(X_N)        # the output predictor's state (predict_output)
         self._last_t: int | None = None
         self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
+        self.ba_z = 0.0                 # the accelerometer's z bias estimate (x's, as a float)
         self.y = np.zeros(Y_N)
 
     @property
@@ -206,22 +205,13 @@ class DecimatedNav:
             fr = SensorFrame.make(t, imu_f, mag, baro, self._air, self._gps)
             self._k = 0
             self._gps = self._air = None
-            nav = self.filt.update(fr)
+            filt = self.filt
+            nav = filt.update(fr)
             self.nav = nav
-            p, v, q = nav.p_ned.tolist(), nav.v_ned.tolist(), nav.q_nb.tolist()
-            nom = getattr(self.filt, "nom", None)
-            if nom is not None:
-                self._ba = tuple(nom.ba)
-                self._bg = tuple(nom.bg)
-                self._g = getattr(self.filt, "_g", G)
-            # the output predictor starts from here (its sums of the samples at zero)
-            self._x = np.array((*p, *v, *q, *self._ba, *self._bg, self._g,
-                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-            # this step's rate: the raw gyro less the bias estimate
-            bg = self._bg
-            w = (wx - bg[0], wy - bg[1], wz - bg[2])
-            euler = euler_321(*q)
-            self.y[:] = (*v, *q, *w, *euler)
+            x = self._x
+            p, euler = restart_output(x, self.y, nav.p_ned, nav.v_ned, nav.q_nb, filt.nom.x,
+                                      filt._g, wx, wy, wz)
+            self.ba_z = x.item(X_BA + 2)
             return nav, p, euler
         p, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
         return self.nav, p, euler
@@ -626,13 +616,13 @@ class QuadVehicle(VehicleBase):
         (``mon.due()``, asked by the caller); its events to the log, its failsafe to the
         modes."""
         nav = self.nav
-        ba = getattr(nav, "_ba", (0.0, 0.0, 0.0))
-        f = nav.f_raw if isinstance(nav, DecimatedNav) else frame.imu.f_b
+        # (truth navigation: no bias estimate)
+        f_z = nav.f_raw[2] - nav.ba_z if isinstance(nav, DecimatedNav) else frame.imu.f_b[2]
         # free flight only: not on the ground nor within FDI_MOT_HAGL of home's height
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground
                   and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
-        mon.update(t_us, flying, self._motors, f[2] - ba[2], self.y[Y_W:Y_W + 3].tolist(),
+        mon.update(t_us, flying, self._motors, f_z, self.y[Y_W:Y_W + 3].tolist(),
                    self.ctrl.mixer.k)
         self._forward_events(mon)
         if mon.accommodation != self.ctrl.mixer.eff:
@@ -729,7 +719,33 @@ def guide_track(cx, y, hold, tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw
     return arrived, yaw_ref, roll_d, pitch_d, u, motors
 
 
-X_SUMS = 17                       # predict_output's x: where the sums of the samples start
+# predict_output's x: p, v, q_nb, the accelerometer and gyro biases, g, then the sums of
+# the samples
+X_BA, X_BG, X_G, X_SUMS, X_N = 10, 13, 16, 17, 23
+
+
+@kernel
+def restart_output(x, y, p, v, q, nom, g, wx, wy, wz):
+    """The output predictor started from the filter's update: ``x`` from its output's
+    p, v, q, the nominal state's (``nom``: nav.strapdown's X_*) accelerometer and gyro
+    biases and g, the sums of the samples at zero; ``y`` as predict_output writes it,
+    on this step's raw rate (wx, wy, wz) less the gyro bias. Returns p and the angles,
+    as predict_output does."""
+    for i in range(3):
+        x[i] = p[i]
+        x[3 + i] = v[i]
+        x[X_BA + i] = nom[NOM_BA + i]
+        x[X_BG + i] = nom[NOM_BG + i]
+    for i in range(4):
+        x[6 + i] = q[i]
+    x[X_G] = g
+    x[X_SUMS:] = 0.0
+    roll, pitch, yaw = euler_321(q[0], q[1], q[2], q[3])
+    y[Y_V], y[Y_V + 1], y[Y_V + 2] = v[0], v[1], v[2]
+    y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = q[0], q[1], q[2], q[3]
+    y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx - x[X_BG], wy - x[X_BG + 1], wz - x[X_BG + 2]
+    y[Y_EULER], y[Y_EULER + 1], y[Y_EULER + 2] = roll, pitch, yaw
+    return (p[0], p[1], p[2]), (roll, pitch, yaw)
 
 
 @kernel
@@ -750,17 +766,17 @@ def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     x[X_SUMS + 3] += wx
     x[X_SUMS + 4] += wy
     x[X_SUMS + 5] += wz
-    wx -= x[13]
-    wy -= x[14]
-    wz -= x[15]
-    fx -= x[10]
-    fy -= x[11]
-    fz -= x[12]
+    wx -= x[X_BG]
+    wy -= x[X_BG + 1]
+    wz -= x[X_BG + 2]
+    fx -= x[X_BA]
+    fy -= x[X_BA + 1]
+    fz -= x[X_BA + 2]
     qw, qx, qy, qz = x[6], x[7], x[8], x[9]
     r = quat_dcm(qw, qx, qy, qz)
     an = r[0] * fx + r[1] * fy + r[2] * fz
     ae = r[3] * fx + r[4] * fy + r[5] * fz
-    ad = r[6] * fx + r[7] * fy + r[8] * fz + x[16]
+    ad = r[6] * fx + r[7] * fy + r[8] * fz + x[X_G]
     vn, ve, vd = x[3], x[4], x[5]
     vn1, ve1, vd1 = vn + an * dt, ve + ae * dt, vd + ad * dt
     x[0] += 0.5 * (vn + vn1) * dt

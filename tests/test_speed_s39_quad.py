@@ -223,3 +223,27 @@ def test_peer_rows_hold_what_get_extrapolates():
     assert row[0] == 2.0 and row[1] == 2.0 and row[5:] == [0.5, 0.25, 0.0, 0.0, 0.0, 1.0]
     p, v, age, a = table.get(3, 2.5)
     assert age == 0.5 and v == (0.5, 0.25, 0.5) and p[2] == pytest.approx(row[4] + 0.125)
+
+
+def test_restart_output_is_the_python_restart():
+    """The output predictor's restart after a filter update (DecimatedNav.update) in one
+    call: x and y as the Python code before wrote them (the output's p, v, q, the
+    nominal state's biases and g, the sums at zero; the rate less the gyro bias, the
+    angles), and the returned p and angles."""
+    from autopilot.geo.rotations import euler_321
+    from autopilot.nav.strapdown import X_BA, X_BG, X_SIZE
+    from autopilot.vehicle_quad import X_N, restart_output
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        p, v = rng.normal(size=3) * 50.0, rng.normal(size=3)
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        nom = rng.normal(size=X_SIZE) * 0.01
+        g, w = 9.8 + rng.normal() * 0.01, rng.normal(size=3).tolist()
+        x, y = rng.normal(size=X_N), np.zeros(Y_N)
+        pl, vl, ql = p.tolist(), v.tolist(), q.tolist()
+        ba, bg = nom[X_BA:X_BA + 3].tolist(), nom[X_BG:X_BG + 3].tolist()
+        euler = euler_321(*ql)
+        assert restart_output(x, y, p, v, q, nom, g, *w) == (tuple(pl), euler)
+        assert x.tolist() == pl + vl + ql + ba + bg + [g] + [0.0] * 6
+        assert y.tolist() == vl + ql + [w[i] - bg[i] for i in range(3)] + list(euler)
