@@ -247,3 +247,29 @@ def test_restart_output_is_the_python_restart():
         assert restart_output(x, y, p, v, q, nom, g, *w) == (tuple(pl), euler)
         assert x.tolist() == pl + vl + ql + ba + bg + [g] + [0.0] * 6
         assert y.tolist() == vl + ql + [w[i] - bg[i] for i in range(3)] + list(euler)
+
+
+def test_position_of_a_vehicle_heard_by_setpoint_is_not_decoded():
+    """With setpoints heard from a vehicle, its lone GLOBAL_POSITION_INT datagrams are
+    dropped on their header (get() would not read them); a datagram that holds more
+    than that frame, or one from a vehicle not heard by setpoint, is decoded."""
+    origin = LocalFrame.from_degrees(-35.36, 149.16, 600.0)
+    pub = PositionPublisher(3, ground_alt_m=580.0)
+    lat, lon, alt = origin.to_geodetic_fast((1.0, 2.0, -3.0))
+    table = PeerTable(1, origin, use_targets=True)
+    decoded = []
+    decode = table.codec.decode
+    table.codec.decode = lambda data, ids: decoded.append(data) or decode(data, ids)
+    pos = pub.encode(1_000_000, lat, lon, alt, (0.5, 0.0, 0.0))
+    table.receive(pos)
+    assert len(decoded) == 1 and 3 in table.latest
+    table.receive(pub.encode_target(1_000_000, lat, lon, alt, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    assert len(decoded) == 2 and 3 in table.targets
+    table.receive(pub.encode(1_100_000, lat, lon, alt, (0.5, 0.0, 0.0)))
+    assert len(decoded) == 2
+    two = pub.encode(1_200_000, lat, lon, alt, (0.5, 0.0, 0.0)) + \
+        pub.encode_target(1_200_000, lat, lon, alt, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0))
+    table.receive(two)
+    assert len(decoded) == 3 and table.targets[3][0] == 1.2
+    p, v, age, a = table.get(3, 1.2)
+    assert age == 0.0 and v == (0.5, 0.0, 0.0)

@@ -35,6 +35,9 @@ _TARGET_MASK = (MAV.POSITION_TARGET_TYPEMASK_YAW_IGNORE | MAV.POSITION_TARGET_TY
 MAX_EXTRAPOLATION_S = 1.0
 _DEG_E7 = 1e7 * 180.0 / math.pi
 _ZERO = (0.0, 0.0, 0.0)
+# a MAVLink 2 frame's bytes besides its payload (unsigned), its message id's (bytes 7-9)
+_FRAME_BYTES = 12
+_POSITION_ID = MSG_ID.to_bytes(3, "little")
 # ``PeerTable.rows``, one per vehicle of ``only``: what ``get`` extrapolates, as numbers
 ROW_KIND, ROW_T, ROW_P, ROW_V, ROW_A, ROW_N = 0, 1, 2, 5, 8, 11
 NOT_HEARD, POSITION, TARGET = 0.0, 1.0, 2.0          # ROW_KIND
@@ -93,9 +96,13 @@ class PeerTable:
         self.received = 0
 
     def receive(self, data: bytes) -> None:
-        only = self.only
-        if only is not None and len(data) > 5 and data[0] == 0xFD and data[5] not in only:
-            return
+        if len(data) > 9 and data[0] == 0xFD:              # a MAVLink 2 frame first
+            only = self.only
+            if only is not None and data[5] not in only:
+                return
+            if (self.use_targets and len(data) == data[1] + _FRAME_BYTES
+                    and data[7:10] == _POSITION_ID and data[5] in self.targets):
+                return    # one unsigned GLOBAL_POSITION_INT, which get() would not read
         for m in self.codec.decode(data, _RAW):
             if m.src_system == self.own_id:
                 continue
