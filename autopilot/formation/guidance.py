@@ -115,10 +115,7 @@ class FormationGuidance:
         v = spec.vehicle(vid)
         self.role = v.role
         self.follows = v.follows
-        self.leader_id = spec.leader.id
-        self.p_final = spec.final_positions()[vid]
-        self.offset = spec.offsets().get(vid)
-        self.d = {j: spec.d(vid, j) for j in v.follows}
+        offset = spec.offsets().get(vid)
         c = spec.control
         g = self.g = np.zeros(G_N)
         g[G_ROLE] = ROLES.index(v.role)
@@ -128,11 +125,11 @@ class FormationGuidance:
         g[G_STEP] = c.reshape_step_m
         g[G_NF] = len(v.follows)
         # for a second follower, which of its two is the leader
-        g[G_LEAD] = v.follows.index(self.leader_id) if v.role == "second" else 0
-        g[G_FINAL:G_FINAL + 3] = self.p_final
-        if self.offset is not None:
-            g[G_OFFSET:G_OFFSET + 3] = self.offset
-        g[G_D:G_D + len(v.follows)] = [self.d[j] for j in v.follows]   # in the order of follows
+        g[G_LEAD] = v.follows.index(spec.leader.id) if v.role == "second" else 0
+        g[G_FINAL:G_FINAL + 3] = spec.final_positions()[vid]
+        if offset is not None:
+            g[G_OFFSET:G_OFFSET + 3] = offset
+        g[G_D:G_D + len(v.follows)] = [spec.d(vid, j) for j in v.follows]   # in their order
         g[G_PDES:G_PDES + 3] = v.start_ned
         g[G_STATUS] = -1.0                  # (no update yet)
 
