@@ -300,6 +300,9 @@ class QuadVehicle(VehicleBase):
         y[Y_Q] = 1.0
         preload(guide_track, self.ctrl.x.copy(), y, False, self.navigator.traj.x.copy(),
                 np.zeros((1, 7)), dt_s, 0.0, 0.0, 0.0, 8.0, 0.0, math.nan, 0.01, False)
+        # (and the angles' kernel, which the log's truth rows call from Python in flight:
+        # the output predictor's restart calls it inside its own kernel)
+        preload(euler_321, 1.0, 0.0, 0.0, 0.0)
 
     # ------------------------------------------------------------------ arming ---
     def _mission_needed(self) -> bool:
