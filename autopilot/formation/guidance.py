@@ -71,8 +71,8 @@ import numpy as np
 from numba.extending import register_jitable as jitable
 
 from ..jit import kernel
-from .geometry import STATUS, WAITING, on_circle, on_sphere, three_spheres_near
-from .peers import ROW_A, ROW_KIND, ROW_P, ROW_T, ROW_V, TARGET, extrapolated
+from .geometry import OK, STATUS, WAITING, on_circle, on_sphere, three_spheres_near
+from .peers import NOT_HEARD, ROW_A, ROW_KIND, ROW_P, ROW_T, ROW_V, TARGET, extrapolated
 from .spec import FormationSpec
 
 
@@ -97,6 +97,7 @@ class GuidanceOutput:
 
 
 ROLES = ("leader", "first", "second", "ordinary")
+LEADER, FIRST, SECOND = 0, 1, 2          # G_ROLE: the index in ROLES (3: ordinary)
 # FormationGuidance.g: its parameters, then its state (what update() leaves)
 (G_ROLE, G_KP, G_KI, G_VMAX, G_EPS, G_STEP, G_NF, G_LEAD, G_FINAL, G_OFFSET, G_D,
  G_INTEG, G_PDES, G_VCMD, G_AFF, G_ERR, G_SIGMA, G_STATUS, G_EVENTS, G_PEERS,
@@ -162,13 +163,13 @@ def _desired(g, rows, t_s, p_own):
     velocity (v_ff) and acceleration written in G_VCMD and G_AFF, their positions
     extrapolated to ``t_s`` in G_PEERS."""
     role = g[G_ROLE]
-    if role == 0.0:                               # leader
+    if role == LEADER:
         g[G_VCMD:G_VCMD + 3] = 0.0
         g[G_AFF:G_AFF + 3] = 0.0
-        return (g[G_FINAL], g[G_FINAL + 1], g[G_FINAL + 2]), 0
+        return (g[G_FINAL], g[G_FINAL + 1], g[G_FINAL + 2]), OK
     nf = int(g[G_NF])
     for k in range(nf):
-        if rows[k, ROW_KIND] == 0.0:
+        if rows[k, ROW_KIND] == NOT_HEARD:
             g[G_VCMD:G_VCMD + 3] = 0.0
             g[G_AFF:G_AFF + 3] = 0.0
             return (g[G_PDES], g[G_PDES + 1], g[G_PDES + 2]), WAITING
@@ -193,13 +194,13 @@ def _desired(g, rows, t_s, p_own):
     p0 = (g[G_PEERS], g[G_PEERS + 1], g[G_PEERS + 2])
     p1 = (g[G_PEERS + 3], g[G_PEERS + 4], g[G_PEERS + 5])
     d = G_D
-    if role == 1.0:                               # first follower
+    if role == FIRST:
         return on_sphere(p0, g[d], _carrot(g, p0, p_own))
-    if role == 2.0:                               # second follower
-        if g[G_LEAD] == 0.0:
+    if role == SECOND:
+        if g[G_LEAD] == 0.0:                      # the leader first in follows
             return on_circle(p0, g[d], p1, g[d + 1], _carrot(g, p0, p_own))
         return on_circle(p1, g[d + 1], p0, g[d], _carrot(g, p1, p_own))
-    p2 = (g[G_PEERS + 6], g[G_PEERS + 7], g[G_PEERS + 8])
+    p2 = (g[G_PEERS + 6], g[G_PEERS + 7], g[G_PEERS + 8])         # ordinary
     return three_spheres_near(p0, g[d], p1, g[d + 1], p2, g[d + 2], p_own)
 
 
