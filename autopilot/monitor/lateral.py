@@ -60,11 +60,11 @@ import numpy as np
 
 from autopilot.jit import kernel, preload
 
-from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S, LP_ON, LP_T,
-                       LP_T0, MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist, lowpass_advance, lowpass_state,
-                       rls_update)
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S, LEFT, LP_ON,
+                       LP_T, LP_T0, MAX_DEFLECTION_RAD, NO_FIT, RES_TAU_S, identify_hist, lowpass_advance,
+                       lowpass_state, offset_step)
 from .airframe import prop_momentum
-from .stats import WindowChi2, blas_dot, family_alpha, solve3
+from .stats import WindowChi2, family_alpha, solve3
 
 RHO0 = 1.225
 LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
@@ -362,37 +362,6 @@ def lateral_front(lp, st, t_us, V, flying, w, f_b, ba, aileron, rudder, throttle
     return True
 
 
-# offset_step's work on the sample FIT_DELAY_S old: none, the least-squares step, the
-# residual the fit leaves
-NO_FIT, FIT, LEFT = 0, 1, 2
-
-
-@kernel
-def offset_step(fit, x1, x2, y1, y2, y, mode):
-    """An axis' offset at one balance sample (_Axis.step): ``phi^T c`` on the sample's
-    regressor ``phi = (1, x1[, x2])`` (the offset to take out of its z), then on the
-    sample FIT_DELAY_S old, ``(1, y1[, y2])`` with its measurement ``y``: with ``mode``
-    FIT the least-squares step (rls_update, in place), its prediction error returned;
-    LEFT the residual the fit leaves, ``y - phi^T c``; NO_FIT nothing (0). ``fit``: the
-    offset's n terms c (row 0), then P (rows 1..n); n is 2 or 3. (One call, not a dot
-    and an update with a new regressor array each: each compiled call costs 1-2 k
-    instructions of dispatch, each array argument 1.1 k.)"""
-    c, P = fit[0], fit[1:]
-    n = c.shape[0]
-    phi = np.empty(n)
-    phi[0], phi[1] = 1.0, x1
-    if n == 3:
-        phi[2] = x2
-    zc = blas_dot(phi, c)
-    e = 0.0
-    if mode != NO_FIT:
-        phi[1] = y1
-        if n == 3:
-            phi[2] = y2
-        e = rls_update(c, P, phi, y) if mode == FIT else y - blas_dot(phi, c)
-    return zc, e
-
-
 class _Axis:
     """One control's residual z - delta_cmd: its offset fit, variance and window test."""
 
@@ -439,8 +408,8 @@ class _Axis:
                     self.fitting = True             # the warm-up's variance, now a prior
                     self.n_var = 0
                 # (the prediction error of the fit: with refit the residual it leaves)
-                dot, e = offset_step(self._fit, x1, x2, y1, y2, rw,
-                                     FIT if learn else LEFT if self.refit else NO_FIT)
+                dot, e, _ = offset_step(self._fit, x1, x2, y1, y2, rw,
+                                        FIT if learn else LEFT if self.refit else NO_FIT)
                 if zc is None:
                     zc = z - dot
                 if self.refit:
