@@ -87,6 +87,39 @@ def rls_update(c, P, phi, y):
     return e
 
 
+# offset_step's work on the sample FIT_DELAY_S old: none, the least-squares step, the
+# residual the fit leaves
+NO_FIT, FIT, LEFT = 0, 1, 2
+
+
+@kernel
+def offset_step(fit, x1, x2, y1, y2, y, mode):
+    """A balance's fit at one sample (the moment balance's, lateral._Axis's): ``phi^T c``
+    on the sample's regressor ``phi = (1, x1[, x2])``, then on the sample FIT_DELAY_S old,
+    ``(1, y1[, y2])`` with its measurement ``y``: with ``mode`` FIT the least-squares step
+    (rls_update, in place), its prediction error e returned; LEFT the residual the fit
+    leaves, ``y - phi^T c``; NO_FIT nothing (e = 0); then ``phi^T c`` again: (before, e,
+    after) the fit (an axis takes its offset out of z before, the moment balance its z
+    after). ``fit``: the n terms c (row 0), then P (rows 1..n); n is 2 or 3. (One call,
+    not a dot and an update with a new regressor array each: each compiled call costs
+    1-2 k instructions of dispatch, each array argument 1.1 k.)"""
+    c, P = fit[0], fit[1:]
+    n = c.shape[0]
+    phi = np.empty(n)
+    phi[0], phi[1] = 1.0, x1
+    if n == 3:
+        phi[2] = x2
+    before = blas_dot(phi, c)
+    e = 0.0
+    if mode != NO_FIT:
+        ph = phi.copy()
+        ph[1] = y1
+        if n == 3:
+            ph[2] = y2
+        e = rls_update(c, P, ph, y) if mode == FIT else y - blas_dot(ph, c)
+    return before, e, blas_dot(phi, c)
+
+
 # a balance's low-pass state (``st``, int64): signals held (0: none, start again), the latest
 # sample's time, the low-passes' latest (re)start, the next balance sample's, the first
 # sample's (-1: none yet) [us]
@@ -167,25 +200,26 @@ class MomentBalance:
         # trusted to PRIOR_SD (in units of the fit's own noise, BAL_NOISE_RAD), and z is
         # available from the first sample; without it, from nothing after 30 s of fit
         self.prior = prior is not None
+        # the fit's terms c and their covariance P, one array (offset_step)
+        self._fit = np.zeros((self.N + 1, self.N))
+        self.c, self.P = self._fit[0], self._fit[1:]
         if prior is not None:
-            self.c = np.array(prior, dtype=float)
-            self.P = np.diag((np.array(PRIOR_SD) / BAL_NOISE_RAD) ** 2)
+            self.c[:] = prior
+            self.P[:] = np.diag((np.array(PRIOR_SD) / BAL_NOISE_RAD) ** 2)
         else:
-            self.c = np.zeros(self.N)
-            self.P = np.eye(self.N) * 1e4
+            self.P[:] = np.eye(self.N) * 1e4
         self.model = model            # airframe.PitchAero: the pitch rate's terms (or None)
         self.n = 0
         self._lp = np.zeros(13)       # the signals low-passed (pitch_front), the pitch
                                       # acceleration, the signals; their state below
         self._st = lowpass_state()
         self._pc = None if model is None else model.gyro_coefs
-        self._queue: list = []        # (t_us, phi, delta_cmd) waiting FIT_DELAY_S
+        self._queue: list = []        # (t_us, phi[1], phi[2], delta_cmd) waiting FIT_DELAY_S
         self.hist: list = []          # (t_us, z, delta_cmd) of the last 20 s
         self.frozen = False
         self.suspended = False        # a sensor fault is running: nothing is learnt
         # (autopilot.jit.preload: a speed, a throttle, a command, a load factor, two rates)
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(self.N), 0.0)
-        preload(blas_dot, self.c, self.c)
+        preload(offset_step, self._fit.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, FIT)
         preload(pitch_front, self._lp.copy(), self._st.copy(), 0, 20.0, True, 0.5, 0.0, 1.0, 0.0, 0.0, self._pc)
 
     @property
@@ -200,20 +234,24 @@ class MomentBalance:
         first-order filter), its inertia, and the yaw rate r the propeller's gyroscopic
         moment (``PitchAero.gyro_elevator``): known terms, not fitted."""
         lp = self._lp.tolist()
-        phi = self._lp[:3].copy()
+        # the regressor (1, lp[1], lp[2]): lp[0] is the constant 1 low-passed, which starts
+        # at 1 and stays there to the bit
         d = lp[3]
         z_dyn = 0.0
         if self.model is not None:
             z_dyn = self.model.dynamic_elevator(lp[4], lp[6], V) + lp[5]
+        fitted = None                  # phi^T c after this sample's fit
         if not self.frozen and not self.suspended and t_us - int(self._st[LP_T0]) >= FIT_WARMUP_S * 1e6:
             q_ = self._queue
-            q_.append((t_us, phi, d - z_dyn))
             while q_ and t_us - q_[0][0] >= FIT_DELAY_S * 1e6:
-                _, ph, dd = q_.pop(0)
-                rls_update(self.c, self.P, ph, dd)
+                _, y1, y2, dd = q_.pop(0)
+                _, _, fitted = offset_step(self._fit, lp[1], lp[2], y1, y2, dd, FIT)
                 self.n += 1
+            q_.append((t_us, lp[1], lp[2], d - z_dyn))
         if self.ready:
-            z = blas_dot(phi, self.c) + z_dyn
+            if fitted is None:
+                fitted = offset_step(self._fit, lp[1], lp[2], 0.0, 0.0, 0.0, NO_FIT)[0]
+            z = fitted + z_dyn
             h = self.hist
             h.append((t_us, z, d))
             while h and t_us - h[0][0] > 20e6:

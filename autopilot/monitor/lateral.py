@@ -60,11 +60,11 @@ import numpy as np
 
 from autopilot.jit import kernel, preload
 
-from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S, LP_ON, LP_T,
-                       LP_T0, MAX_DEFLECTION_RAD, RES_TAU_S, identify_hist, lowpass_advance, lowpass_state,
-                       rls_update)
+from .actuator import (BAL_PERIOD_US, BAL_TAU_S, FIT, FIT_DELAY_S, FIT_WARMUP_S, IDENT_WIN_S, LEFT, LP_ON,
+                       LP_T, LP_T0, MAX_DEFLECTION_RAD, NO_FIT, RES_TAU_S, identify_hist, lowpass_advance,
+                       lowpass_state, offset_step)
 from .airframe import prop_momentum
-from .stats import WindowChi2, blas_dot, family_alpha, solve3
+from .stats import WindowChi2, family_alpha, solve3
 
 RHO0 = 1.225
 LAT_RES_FLOOR_RAD = 0.005      # floor of each axis' residual standard deviation [rad]
@@ -380,22 +380,47 @@ class _Axis:
         self.refit = prior is not None
         self.fitting = False
         self.win = WindowChi2(1, M, alpha, alpha_det)
-        self.c = np.zeros(n_phi)       # the offset's terms (n_phi regressors, 2 but the rotor's)
-        self.P = np.eye(n_phi) * (offset_sd / fit_noise) ** 2
+        # the offset's terms c (n_phi regressors, 2 but the rotor's) and their covariance P,
+        # one array (offset_step)
+        self._fit = np.zeros((n_phi + 1, n_phi))
+        self.c, self.P = self._fit[0], self._fit[1:]
+        self.P[:] = np.eye(n_phi) * (offset_sd / fit_noise) ** 2
         self.r_var = (floor if prior is None else prior) ** 2
         self.n_var = 0
-        self.queue: list = []          # (t_us, phi, residual) waiting FIT_DELAY_S
+        self.queue: list = []          # (t_us, x1, x2, raw residual, residual) waiting FIT_DELAY_S
         self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
         self.ratio = 0.0
         self.residual = 0.0
-        preload(rls_update, self.c.copy(), self.P.copy(), np.zeros(n_phi), 0.0)   # (autopilot.jit.preload)
-        preload(blas_dot, self.c, self.c)
+        preload(offset_step, self._fit.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, FIT)   # (autopilot.jit.preload)
 
-    def step(self, t_us: int, phi: np.ndarray, z: float, d: float, learn: bool | None, k_test: bool) -> None:
-        """``learn``: True the offset and the variance are learnt, False the variance only
+    def step(self, t_us: int, x1: float, x2: float, z: float, d: float, learn: bool | None,
+             k_test: bool) -> None:
+        """``(1, x1[, x2])`` the offset's regressor (x2 where it has three terms);
+        ``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
         raw = z - d
-        zc = z - blas_dot(phi, self.c)          # z with the learnt offset removed
+        zc = None                      # z with the learnt offset removed (before this sample's fit)
+        if learn is not None:
+            q = self.queue
+            while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
+                _, y1, y2, rw, ro = q.pop(0)
+                if self.refit and learn and not self.fitting:
+                    self.fitting = True             # the warm-up's variance, now a prior
+                    self.n_var = 0
+                # (the prediction error of the fit: with refit the residual it leaves)
+                dot, e, _ = offset_step(self._fit, x1, x2, y1, y2, rw,
+                                        FIT if learn else LEFT if self.refit else NO_FIT)
+                if zc is None:
+                    zc = z - dot
+                if self.refit:
+                    ro = e
+                self.n_var += 1
+                # the running mean of r^2 with the prior as prior_n samples, then
+                # exponentially weighted over RES_TAU_S
+                a = max(1.0 / (self.n_var + self.prior_n), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
+                self.r_var += a * (ro * ro - self.r_var)
+        if zc is None:
+            zc = z - offset_step(self._fit, x1, x2, 0.0, 0.0, 0.0, NO_FIT)[0]
         r = zc - d
         self.residual = r
         h = self.hist
@@ -403,25 +428,7 @@ class _Axis:
         while h and t_us - h[0][0] > 20e6:
             h.pop(0)
         if learn is not None:
-            q = self.queue
-            q.append((t_us, phi, raw, r))
-            while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
-                _, ph, rw, ro = q.pop(0)
-                if self.refit and learn and not self.fitting:
-                    self.fitting = True             # the warm-up's variance, now a prior
-                    self.n_var = 0
-                if learn:
-                    # (its prediction error: with refit the residual the fit leaves)
-                    e = rls_update(self.c, self.P, ph, rw)
-                    if self.refit:
-                        ro = e
-                elif self.refit:
-                    ro = rw - blas_dot(ph, self.c)     # the residual the fit leaves
-                self.n_var += 1
-                # the running mean of r^2 with the prior as prior_n samples, then
-                # exponentially weighted over RES_TAU_S
-                a = max(1.0 / (self.n_var + self.prior_n), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
-                self.r_var += a * (ro * ro - self.r_var)
+            self.queue.append((t_us, x1, x2, raw, r))
         if k_test:
             R = max(self.r_var, self.floor ** 2)
             self.win.push([r / math.sqrt(R)])
@@ -496,7 +503,6 @@ class LateralIdentifier:
         lp = self._lp.tolist()
         pd, rd = lp[10], lp[11]
         za, zr = self.model.deflections(lp[4], lp[0], lp[1], lp[2], pd, rd, lp[3], lp[8], lp[9])
-        phi = np.array((1.0, lp[7]))
         self._k += 1
         k_test = self._k >= TEST_DIV
         if k_test:
@@ -507,8 +513,9 @@ class LateralIdentifier:
         # turbulence in the climb-out read 1.4 times the threshold 7 s after the launch)
         learn = (None if self.frozen or self.suspended
                  else t_us - int(self._st[LP_T0]) >= FIT_WARMUP_S * 1e6)
-        self.axes["aileron"].step(t_us, phi, za, lp[5], learn, k_test)
-        self.axes["rudder"].step(t_us, phi, zr, lp[6], learn, k_test)
+        # the offsets' regressor (1, throttle (V_REF / V)^2)
+        self.axes["aileron"].step(t_us, lp[7], 0.0, za, lp[5], learn, k_test)
+        self.axes["rudder"].step(t_us, lp[7], 0.0, zr, lp[6], learn, k_test)
         return k_test
 
     def worst(self) -> tuple[str, float]:

@@ -859,17 +859,16 @@ class ThrottleIdentifier:
         k_test = self._k >= TEST_DIV
         if k_test:
             self._k = 0
-        v_rel = lp[3] / V_REF - 1.0
-        phi = np.array((1.0, v_rel))
+        v_rel = lp[3] / V_REF - 1.0            # the offsets' regressor (1, v_rel[, z_rotor])
         learn = (None if self.frozen or self.suspended
                  else t_us - int(st[LP_T0]) >= FIT_WARMUP_S * 1e6)
-        self._thrust_axis.step(t_us, phi, z, lp[4], learn, k_test)
+        self._thrust_axis.step(t_us, v_rel, 0.0, z, lp[4], learn, k_test)
         if st[_LPR_ON] and t_us - int(st[_RPM_START]) >= 3.0 * RPM_TAU_S * 1e6:
             # its offset also on the throttle (a gain): the rotor model's error grows with
             # the power (the propeller's inflow along its axis, V cos(alpha), and JSBSim's
             # corrections not modelled: 0.02-0.04 of full throttle low at full)
             # (a piston's: no offset learnt, the variance only; module docstring)
-            self._rotor_axis.step(t_us, np.array((1.0, v_rel, lp[_LPR1])), lp[_LPR0], lp[_LPR1],
+            self._rotor_axis.step(t_us, v_rel, lp[_LPR1], lp[_LPR0], lp[_LPR1],
                                   learn and m.engine is None if learn is not None else None, k_test)
         return k_test or switched
 
