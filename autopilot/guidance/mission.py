@@ -779,7 +779,7 @@ class MissionSequencer:
                     self._next_segment()
                     continue
                 return _new_target(NavTarget, "loiter", seq, self.leg_id, alt, self.airspeed_mps,
-                                 NO_NE, NO_NE, centre, r, direction)
+                                              NO_NE, NO_NE, centre, r, direction)
             _, a, b = seg
             ln = math.hypot(b[0] - a[0], b[1] - a[1])
             along = ((p_ne[0] - a[0]) * (b[0] - a[0]) + (p_ne[1] - a[1]) * (b[1] - a[1])) / ln
@@ -1077,7 +1077,7 @@ class MissionSequencer:
             return None
         pitch = math.radians(item.param1) if item.param1 > 0 else math.radians(self.params["TKOFF_PITCH"])
         return _new_target(NavTarget, "takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
-                         pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
+                                      pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
 
     def _upcoming(self, n: int = 2) -> list:
         """The next ``n`` navigation items after the current one in flying order
@@ -1613,7 +1613,7 @@ class MissionSequencer:
                         self._skip_join = True
                     return None
         return _new_target(NavTarget, "loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
-                         NO_NE, NO_NE, c_ne, radius, direction)
+                                      NO_NE, NO_NE, c_ne, radius, direction)
 
     def _plan_loiter_exit(self, c_ne, radius: float, direction: int, bearing: float):
         """Where a finished loiter is left, as (loiter angle to leave at, arc): the
@@ -1721,7 +1721,7 @@ class MissionSequencer:
             if not land.descent_done(p_ne, chi, alt_m):
                 c, r, d = land.descent
                 return _new_target(NavTarget, "loiter", item.seq, self.leg_id, land.alt_a, land.airspeed_mps,
-                                 c_ne=c, radius_m=r, direction=d, land="descend")
+                                              c_ne=c, radius_m=r, direction=d, land="descend")
             land.phase = "approach"
             self.resume()                  # the approach line joined afresh, from A
             self._leg_start, self._leg_start_alt = land.a_ne, land.alt_a
@@ -1746,9 +1746,9 @@ class MissionSequencer:
             self.say(t_us, SEV_INFO, "Touchdown")
         if land.phase == "ground" and land.landed_us == t_us:
             self.say(t_us, SEV_INFO, "Landed")
+        spd_weight = land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0
         return _new_target(NavTarget, "line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
-                         b_ne=land.line_end(), land=land.phase, climb_mps=climb,
-                         spd_weight=land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0)
+                           b_ne=land.line_end(), land=land.phase, climb_mps=climb, spd_weight=spd_weight)
 
     def _approach_start_alt(self, item, a_ne, b_ne, alt_b: float) -> float:
         """The glide slope's start altitude (MSL): the approach's first waypoint's own
@@ -1816,7 +1816,7 @@ class MissionSequencer:
             self._collect_do_items(t_us)
             return None
         return _new_target(NavTarget, "line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
-                         a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
+                                      a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
 
     def landing_start_seq(self, p_ne, before: int | None = None) -> int | None:
         """The DO_LAND_START nearest to p_ne (NE of home) (of those before item
@@ -1918,4 +1918,4 @@ class MissionSequencer:
             self._on_circle_since_us = None
         alt = dest_alt if dest_alt is not None else self.rtl_alt_m() if self._prev_alt is not None else alt_m
         return _new_target(NavTarget, "loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
-                         NO_NE, NO_NE, c_ne, radius, 1)
+                                      NO_NE, NO_NE, c_ne, radius, 1)
