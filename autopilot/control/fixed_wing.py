@@ -149,13 +149,12 @@ ALT_DEM, ROLL_CMD, PITCH_CMD, CLIMB_CMD, V_MEAN = range(5, 10)
  C_SO, C_SO_COUNTER, C_SO_ROLL_GAIN,
  C_TOUT, C_TOUT_LEVEL, C_TOUT_V_FLY, C_TOUT_V_GLIDE) = range(34)
 SO_AILERON, SO_RUDDER = 1.0, 2.0            # c[C_SO]: which surface is out (0: none)
-# the gains (5 x 6), the state (10) and the parameters (34) in one array, the kernel's
-# first argument: numba's dispatch costs about 0.1 us an array argument, more than
-# the loops' arithmetic with each
-_X0, _C0, _BUF_N = 30, 40, 74
-# a step's optional demands (NaN: none), the kernel's array ``ovr``
+# the gains (5 x 6), the state (10), the parameters (34) and the step's optional
+# demands (6) in one array, the kernel's first argument: numba's dispatch costs about
+# 0.1 us an array argument, more than the loops' arithmetic with each
+_X0, _C0, _O0, _BUF_N = 30, 40, 74, 80
+# the step's optional demands (NaN: none), the kernel's ``ovr``
 O_PITCH_MIN, O_THROTTLE, O_CLIMB, O_PITCH_MAX, O_CLIMB_KP, O_RUDDER = range(6)
-_NO_OVERRIDES = np.full(6, math.nan)
 _NO_LIMITS = (None, None)                   # ``reaction_limits`` without a reaction
 
 
@@ -173,14 +172,15 @@ def _roll_limit(roll_lim, eout_bank_rad, counter_rad):
 
 
 @kernel
-def _loops(buf, ovr, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
+def _loops(buf, roll, pitch, omega, v_ned, alt_m, airspeed_mps, dt,
            bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight):
     """One step of every loop (module docstring; ``FixedWingController.update``): the
     controls (aileron, elevator, rudder, throttle), the state ``x`` advanced in place.
-    ``buf``: the gains, the state and the parameters (``_X0``, ``_C0``). The squares
+    ``buf``: the gains, the state, the parameters and the step's optional demands
+    (``_X0``, ``_C0``, ``_O0``). The squares
     are the C library's pow (``c[C_SQUARE]`` = 2.0, which LLVM cannot fold into x * x:
     that differs from Python's ** 2 in the last bit of 0.1 % of values)."""
-    gains, x, c = buf[:_X0].reshape((5, 6)), buf[_X0:_C0], buf[_C0:]
+    gains, x, c, ovr = buf[:_X0].reshape((5, 6)), buf[_X0:_C0], buf[_C0:_O0], buf[_O0:]
     two = c[C_SQUARE]
     v_air = max2(airspeed_mps, 5.0)
     eout_on = c[C_EOUT_ON] > 0.0
@@ -323,7 +323,7 @@ class FixedWingController:
         self.configure()
         # (the kernels flown, loaded now: autopilot.jit.preload; _roll_limit is called from
         # Python once a reaction limits the bank)
-        preload(_loops, self._buf.copy(), _NO_OVERRIDES, 0.0, 0.0, np.zeros(3),
+        preload(_loops, self._buf.copy(), 0.0, 0.0, np.zeros(3),
                 np.zeros(3), 100.0, 25.0, 0.01, 0.0, 100.0, 25.0, 1.0)
         preload(_roll_limit, 0.5, math.nan, 0.1)
 
@@ -365,7 +365,10 @@ class FixedWingController:
         self._gains = self._buf[:_X0].reshape(5, 6)
         self._x = self._buf[_X0:_C0]            # the loops' state (ROLL .. V_MEAN)
         self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
-        self._c = self._buf[_C0:]
+        self._c = self._buf[_C0:_O0]
+        self._ovr = self._buf[_O0:]             # the step's optional demands (NaN: none) ...
+        self._ovr[:] = math.nan
+        self._overriding = False                # ... and whether any is set
         self.elevator_out = False
         self.eout_trim_mps: float | None = None  # the stuck elevator's trim airspeed (model)
         self.eout_bank_max_rad: float | None = None  # its steepest level turn (model)
@@ -500,10 +503,13 @@ class FixedWingController:
         roll, pitch, _ = euler if euler is not None else quat_to_euler(nav.q_nb.tolist())
         if self.surface_out is not None or self.throttle_out is not None or self._reacting:
             self._load_reactions()
-        ovr = _NO_OVERRIDES
         if pitch_min_rad is not None or throttle_override is not None or climb_override is not None \
                 or pitch_max_rad is not None or climb_kp is not None or rudder_override is not None:
-            ovr = np.array([math.nan if v is None else v for v in (
-                pitch_min_rad, throttle_override, climb_override, pitch_max_rad, climb_kp, rudder_override)])
-        return _loops(self._buf, ovr, roll, pitch, nav.omega_b, nav.v_ned,
+            self._ovr[:] = [math.nan if v is None else v for v in (
+                pitch_min_rad, throttle_override, climb_override, pitch_max_rad, climb_kp, rudder_override)]
+            self._overriding = True
+        elif self._overriding:
+            self._ovr[:] = math.nan             # (cleared once, on the step that has none)
+            self._overriding = False
+        return _loops(self._buf, roll, pitch, nav.omega_b, nav.v_ned,
                       nav.alt_m, nav.airspeed_mps, dt, bank_cmd_rad, alt_cmd_m, airspeed_cmd_mps, spd_weight)

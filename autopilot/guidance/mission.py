@@ -139,6 +139,10 @@ class NavTarget(NamedTuple):
 
 
 NO_NE = NavTarget._field_defaults["a_ne"]   # a point a target does not use (the default)
+# the targets built by NavTarget's own __new__, without the class call around it
+# (type.__call__: about 1 k instructions of the 4 k a target costs; autopilot/frozen.py's
+# ``make`` for the same reason): ``_new_target(NavTarget, kind, ...)``
+_new_target = NavTarget.__new__
 
 
 def _path_end(path):
@@ -251,7 +255,7 @@ class MissionSequencer:
         self._carry_path = False       # the fillet flies on past the next item (_fillet's skip)
         self._through_tried = False    # a join through B onto the next leg was planned
         self._wide_tried = False       # a pass of B's finish line wide of B was flown back to B
-        self._fillet_at = None         # ((A, B), _fillet's answer) for the current leg
+        self._fillet_at = None         # ((A, B), _fillet's answer, |AB|) for the current leg
         self._fillet_check_us = 0      # when its arc was last checked against the wind
         self._join_past = False        # the join rolls out past the start of the next turn
         self._join_run, self._join_last_p = 0.0, None   # distance flown on the join
@@ -774,8 +778,8 @@ class MissionSequencer:
                         or self._seg_angle < -0.5 * math.pi:
                     self._next_segment()
                     continue
-                return NavTarget("loiter", seq, self.leg_id, alt, self.airspeed_mps,
-                                 NO_NE, NO_NE, centre, r, direction)
+                return _new_target(NavTarget, "loiter", seq, self.leg_id, alt, self.airspeed_mps,
+                                              NO_NE, NO_NE, centre, r, direction)
             _, a, b = seg
             ln = math.hypot(b[0] - a[0], b[1] - a[1])
             along = ((p_ne[0] - a[0]) * (b[0] - a[0]) + (p_ne[1] - a[1]) * (b[1] - a[1])) / ln
@@ -783,7 +787,7 @@ class MissionSequencer:
             if along >= ln - 0.5:
                 self._next_segment()
                 continue
-            return NavTarget("direct", seq, self.leg_id, alt, self.airspeed_mps, a, b)
+            return _new_target(NavTarget, "direct", seq, self.leg_id, alt, self.airspeed_mps, a, b)
         return None
 
     def _roll_lead_rad(self, r: float, direction: int) -> float:
@@ -1072,8 +1076,8 @@ class MissionSequencer:
             self._advance(t_us)
             return None
         pitch = math.radians(item.param1) if item.param1 > 0 else math.radians(self.params["TKOFF_PITCH"])
-        return NavTarget("takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
-                         pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
+        return _new_target(NavTarget, "takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
+                                      pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
 
     def _upcoming(self, n: int = 2) -> list:
         """The next ``n`` navigation items after the current one in flying order
@@ -1155,10 +1159,10 @@ class MissionSequencer:
         acc = item.param2 if item.command == MAV_CMD_NAV_WAYPOINT else 0.0
         return acc if acc > 0 else self.params["WP_RADIUS"]
 
-    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, chi, accept, s_max, alt_b, through=False):
+    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, dist, chi, accept, s_max, alt_b, through=False):
         """Fly the leg A->B: plan its join, fly the join, then the leg; None once B is
-        reached (within ``accept`` of it in any phase)."""
-        dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
+        reached (within ``accept`` of it in any phase). ``dist``: the vehicle's distance
+        to B (the callers have it)."""
         joined = self._joined
         if dist <= accept and not joined:
             return None   # already there when the item starts: counts at once
@@ -1415,13 +1419,13 @@ class MissionSequencer:
         key = (a_ne, b_ne)
         if self._fillet_at is None or self._fillet_at[0] != key:
             # planned once a leg (a fillet depends on the next items, not on the step)
-            self._fillet_at = (key, self._fillet(a_ne, b_ne, accept, p_ne))
+            self._fillet_at = (key, self._fillet(a_ne, b_ne, accept, p_ne),
+                               math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1]))
             self._fillet_check_us = t_us
         elif self._fillet_at[1][1] is not None and t_us - self._fillet_check_us >= FILLET_CHECK_US:
             self._fillet_check_us = t_us
             self._refit_fillet(key, a_ne, b_ne, accept, p_ne)
-        d_turn, arc, skip = self._fillet_at[1]
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        _, (d_turn, arc, skip), length = self._fillet_at
         # (a leg within the acceptance radius: B would count the moment A did)
         if not self._through_tried and arc is None and length <= accept \
                 and accept < d < 4.0 * self.turn_radius_m(wind=True) \
@@ -1440,7 +1444,7 @@ class MissionSequencer:
                 self._join_run, self._join_last_p = 0.0, None
                 self._join_past = True
                 self._carry_path = True
-        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, chi, accept, length - d_turn, alt_b,
+        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, d, chi, accept, length - d_turn, alt_b,
                       through=True)
         if r is None:
             alt = alt_b
@@ -1483,7 +1487,7 @@ class MissionSequencer:
                 self._skip_join = True
                 self._carry_path = skip   # onto C->D: kept when C counts at once
             return None
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
+        return _new_target(NavTarget, "line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
 
     def _refit_fillet(self, key, a_ne, b_ne, accept: float, p_ne) -> None:
         """The arc planned when the leg began, checked again while the vehicle is still
@@ -1494,8 +1498,7 @@ class MissionSequencer:
         estimate still settling: random-plane trial 234 planned a 115 m arc in 7.8 m/s
         estimated and flew it in 12 m/s (139 m the least), 75 m past the next line;
         trial 198 a 102 m arc in 6.2 m/s, flown in 8.8, 38 m."""
-        d_turn, arc, _ = self._fillet_at[1]
-        length = math.hypot(b_ne[0] - a_ne[0], b_ne[1] - a_ne[1])
+        _, (d_turn, arc, _), length = self._fillet_at
         if length < 1.0:
             return
         u1 = ((b_ne[0] - a_ne[0]) / length, (b_ne[1] - a_ne[1]) / length)
@@ -1510,9 +1513,9 @@ class MissionSequencer:
         if again[1] is None and angle > THROUGH_MAX_TURN:
             # none now: past a right angle the waypoint is flown to and the next line
             # looped onto from behind, rather than the arc run wide across it
-            self._fillet_at = (key, again)
+            self._fillet_at = (key, again, length)
         elif again[1] is not None and along < length - again[0]:
-            self._fillet_at = (key, again)   # (one that starts ahead)
+            self._fillet_at = (key, again, length)   # (one that starts ahead)
 
     def _reach(self, t_us, b_ne, alt) -> None:
         carry = self._path if self._carry_path else []
@@ -1609,8 +1612,8 @@ class MissionSequencer:
                         self._start_path([arc], "fillet", t_us)
                         self._skip_join = True
                     return None
-        return NavTarget("loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
-                         NO_NE, NO_NE, c_ne, radius, direction)
+        return _new_target(NavTarget, "loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
+                                      NO_NE, NO_NE, c_ne, radius, direction)
 
     def _plan_loiter_exit(self, c_ne, radius: float, direction: int, bearing: float):
         """Where a finished loiter is left, as (loiter angle to leave at, arc): the
@@ -1664,9 +1667,12 @@ class MissionSequencer:
         a_ne = self._leg_start
         reach = radius + LOITER_ENTRY_M
         length = math.hypot(c_ne[0] - a_ne[0], c_ne[1] - a_ne[1])
-        if length <= reach or math.hypot(c_ne[0] - p_ne[0], c_ne[1] - p_ne[1]) <= reach:
+        if length <= reach:
             return None
-        r = self._leg(t_us, item.seq, a_ne, c_ne, p_ne, chi, reach, length - reach, alt)
+        dist = math.hypot(c_ne[0] - p_ne[0], c_ne[1] - p_ne[1])
+        if dist <= reach:
+            return None
+        r = self._leg(t_us, item.seq, a_ne, c_ne, p_ne, dist, chi, reach, length - reach, alt)
         if r is None:
             return None
         if r != "leg":
@@ -1677,7 +1683,7 @@ class MissionSequencer:
             / max(length, 1e-3)
         if along >= length - reach:
             return None
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, c_ne)
+        return _new_target(NavTarget, "line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, c_ne)
 
     def _land(self, t_us, item, p_ne, chi, alt_m) -> NavTarget | None:
         """NAV_LAND (autopilot/guidance/landing.py): join the approach leg from the
@@ -1714,8 +1720,8 @@ class MissionSequencer:
         if land.phase == "descend":
             if not land.descent_done(p_ne, chi, alt_m):
                 c, r, d = land.descent
-                return NavTarget("loiter", item.seq, self.leg_id, land.alt_a, land.airspeed_mps,
-                                 c_ne=c, radius_m=r, direction=d, land="descend")
+                return _new_target(NavTarget, "loiter", item.seq, self.leg_id, land.alt_a, land.airspeed_mps,
+                                              c_ne=c, radius_m=r, direction=d, land="descend")
             land.phase = "approach"
             self.resume()                  # the approach line joined afresh, from A
             self._leg_start, self._leg_start_alt = land.a_ne, land.alt_a
@@ -1726,7 +1732,9 @@ class MissionSequencer:
                 self.auto_aborts += 1
                 self.go_around(t_us, f"unsafe approach: {why}")
                 return self._go_around_climb(t_us, item, p_ne, alt_m)
-            r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
+            lb = land.b_ne
+            r = self._leg(t_us, item.seq, land.a_ne, lb, p_ne, math.hypot(lb[0] - p_ne[0], lb[1] - p_ne[1]),
+                          chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
                 return r._replace(airspeed_mps=land.airspeed_mps, land="approach",
                                   alt_m=land.glide_demand(land.along(p_ne)))
@@ -1738,9 +1746,9 @@ class MissionSequencer:
             self.say(t_us, SEV_INFO, "Touchdown")
         if land.phase == "ground" and land.landed_us == t_us:
             self.say(t_us, SEV_INFO, "Landed")
-        return NavTarget("line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
-                         b_ne=land.line_end(), land=land.phase, climb_mps=climb,
-                         spd_weight=land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0)
+        spd_weight = land.speed_weight(land.along(p_ne)) if land.phase == "approach" else 1.0
+        return _new_target(NavTarget, "line", item.seq, self.leg_id, alt, land.airspeed_mps, a_ne=land.a_ne,
+                           b_ne=land.line_end(), land=land.phase, climb_mps=climb, spd_weight=spd_weight)
 
     def _approach_start_alt(self, item, a_ne, b_ne, alt_b: float) -> float:
         """The glide slope's start altitude (MSL): the approach's first waypoint's own
@@ -1807,8 +1815,8 @@ class MissionSequencer:
             self._start_item()
             self._collect_do_items(t_us)
             return None
-        return NavTarget("line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
-                         a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
+        return _new_target(NavTarget, "line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
+                                      a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
 
     def landing_start_seq(self, p_ne, before: int | None = None) -> int | None:
         """The DO_LAND_START nearest to p_ne (NE of home) (of those before item
@@ -1876,7 +1884,8 @@ class MissionSequencer:
         alt_b = self.rtl_alt_m() if dest_alt is None else dest_alt
         a0 = self._leg_start
         length0 = math.hypot(a0[0] - b_ne[0], a0[1] - b_ne[1])
-        r = self._leg(t_us, item.seq, a0, b_ne, p_ne, chi, 1.5 * radius, max(length0 - radius, 0.0), alt_b)
+        r = self._leg(t_us, item.seq, a0, b_ne, p_ne, math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]),
+                      chi, 1.5 * radius, max(length0 - radius, 0.0), alt_b)
         if r is not None and r != "leg":
             return r
         a_ne = self._leg_start
@@ -1891,7 +1900,7 @@ class MissionSequencer:
             self.finished = True
             return self._rtl_loiter(t_us, p_ne, alt_b)
         alt, _ = self._slope_alt(t_us, item.seq, a_ne, b_ne, along, length, radius, alt_b)
-        return NavTarget("line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
+        return _new_target(NavTarget, "line", item.seq, self.leg_id, alt, self.airspeed_mps, a_ne, b_ne)
 
     def _rtl_loiter(self, t_us, p_ne, alt_m) -> NavTarget:
         c_ne, dest_alt = self.rtl_destination(t_us, p_ne)
@@ -1908,5 +1917,5 @@ class MissionSequencer:
         elif not self.rtl_established:
             self._on_circle_since_us = None
         alt = dest_alt if dest_alt is not None else self.rtl_alt_m() if self._prev_alt is not None else alt_m
-        return NavTarget("loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
-                         NO_NE, NO_NE, c_ne, radius, 1)
+        return _new_target(NavTarget, "loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
+                                      NO_NE, NO_NE, c_ne, radius, 1)
