@@ -44,12 +44,15 @@ class InnovationLog:
     _INDEX = {name: i for i, name in enumerate(SOURCES)}
 
     def __init__(self):
-        self.rows: list[tuple] = []
+        # the records as they come (a fusion's add is one extend); their rows are worked
+        # out once, when the columns are asked for (the end of a flight)
+        self._records: list[InnovationRecord] = []
+        self.add = self._records.extend      # add(records): the list's own (no call around it)
 
-    def add(self, records) -> None:
-        rows = self.rows
+    def _rows(self) -> list[tuple]:
+        rows = []
         index = self._INDEX
-        for r in records:
+        for r in self._records:
             src = float(index.get(r.source, -1))
             rej = 1.0 if r.rejected else 0.0
             t = r.t_us * 1e-6
@@ -57,7 +60,8 @@ class InnovationLog:
                 sd = s ** 0.5 if s > 0.0 else 0.0
                 gate = abs(y) / (sd * tr ** 0.5) if sd > 0.0 and tr > 0.0 else float("nan")
                 rows.append((t, src, float(k), y, sd, gate, rej))
+        return rows
 
     def arrays(self) -> dict:
-        a = np.array(self.rows, dtype=float).reshape(-1, len(self.COLUMNS))
+        a = np.array(self._rows(), dtype=float).reshape(-1, len(self.COLUMNS))
         return {c: a[:, i] for i, c in enumerate(self.COLUMNS)}
