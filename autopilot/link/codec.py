@@ -28,6 +28,8 @@ from operator import itemgetter
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+# (called with the data alone: its start value is the MAVLink one, 0xFFFF, and a second
+# argument costs the Rust binding about 150 instructions a call to read)
 try:  # the C CRC pymavlink uses when available
     from fastcrc.crc16 import mcrf4xx as _crc16
 except ImportError:  # pragma: no cover - pure-Python fallback, same results
@@ -211,7 +213,7 @@ class Codec:
                 head = _V2_HEADER.pack(STX_V2, len(p), 0 if signing is None else 1, 0, mav.seq,
                                        mav.srcSystem, mav.srcComponent, msg_id & 0xFFFF, msg_id >> 16)
                 body = head[1:] + p
-                f = head[:1] + body + _CRC.pack(_crc16(body + bytes((crc_extra,)), 0xFFFF))
+                f = head[:1] + body + _CRC.pack(_crc16(body + bytes((crc_extra,))))
                 return f if signing is None else f + signing.signature(f, self.link_id)
 
             msg._pack = frame  # the generated pack() lays out the payload, we frame it
@@ -239,7 +241,7 @@ class Codec:
         # header after the magic byte: len, incompat 0, compat 0, seq, sysid, compid, id
         body = _V2_BODY_HEAD.pack(len(p), seq, mav.srcSystem, mav.srcComponent, f.id_low, f.id_high) + p
         # (one CRC call over body + extra byte: the same CRC, a call's cost less)
-        return b"\xfd" + body + _CRC.pack(_crc16(body + f.extra, 0xFFFF))
+        return b"\xfd" + body + _CRC.pack(_crc16(body + f.extra))
 
     # ------------------------------------------------------------------ decode ---
     def decode(self, data: bytes, raw_ids: frozenset = frozenset(), limit: int | None = None,
@@ -314,7 +316,7 @@ class Codec:
             cls = _MAP.get(msg_id)
             end = j + hlen + plen
             if cls is None or incompat & ~0x01 or \
-                    (data[end] | (data[end + 1] << 8)) != crc16(_EXTRA[msg_id], crc16(data[j + 1:end], 0xFFFF)):
+                    (data[end] | (data[end + 1] << 8)) != crc16(_EXTRA[msg_id], crc16(data[j + 1:end])):
                 self.bad_frames += 1  # unknown id, unknown flags or bad CRC: resync
                 i = j + 1
                 continue
@@ -365,7 +367,7 @@ class Codec:
             if stx != STX_V2 or plen > 255 or f is None or end + 2 > n:   # (> 255: incompat flags)
                 break
             body = data[i + 1:end]
-            if (data[end] | (data[end + 1] << 8)) != _crc16(body + f.extra, 0xFFFF):
+            if (data[end] | (data[end + 1] << 8)) != _crc16(body + f.extra):
                 break
             # the payload, its truncated zeros restored (unpack_from reads what it needs)
             t = f.unpack_from(data, i + 10) if plen == f.size else f.unpack_from(body + f.zeros, 9)
@@ -393,7 +395,7 @@ class Codec:
             return bytes(frame)
         plen = frame[1]
         body = bytes((plen, frame[2] & 0xFE)) + bytes(frame[3:10 + plen])
-        return b"\xfd" + body + _CRC.pack(_crc16(extra, _crc16(body, 0xFFFF)))
+        return b"\xfd" + body + _CRC.pack(_crc16(extra, _crc16(body)))
 
     def _message(self, cls, msg_id: int, frame: bytes, hlen: int, plen: int, incompat: int):
         plan = _PLANS.get(msg_id, False)
