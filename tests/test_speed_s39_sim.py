@@ -1,0 +1,56 @@
+"""The quadrotor plant's conditions in its arrays (stop 39): the rotor thrust scales and
+the ground's depth in its constants, the ground flag in its state, kept by the kernel;
+the noise row taken before the noise is read."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim_bridge.plants.quadrotor import QuadrotorPlant, flight_step
+from sim_bridge.wind import dryden_step
+
+HOME = (-35.363262, 149.165237, 584.0, 30.0)
+
+
+def test_the_first_turbulent_step_takes_the_generators_first_noise_row():
+    # GIVEN a plant at rest in turbulence, its gusts not yet drawn
+    p = QuadrotorPlant(HOME, turbulence="light", rng=np.random.default_rng(4),
+                       wind_ned=(0.0, 5.0, 0.0))
+    s0 = p._gusts.s.copy()
+    first = np.random.default_rng(4).standard_normal((1024, 3))[0]
+    # WHEN it steps once
+    st = p.step((0.3, 0.3, 0.3, 0.3))
+    # THEN its gust is dryden_step driven by that row, at the skids' height and the
+    # speed through the steady wind, and the state's wind is the steady wind + gust
+    want = dryden_step(s0[0], s0[1], s0[2], p.af.gear_height_m, 5.0, p.dt_s, 1, s0[6],
+                       *first, s0[7], s0[8])
+    assert p._gusts.gust_ned == (want[3], want[4], want[2])
+    assert st.wind_ned == (0.0 + want[3], 5.0 + want[4], 0.0 + want[2])
+
+
+def test_the_ground_flag_follows_the_kernels_codes_and_the_scales_reach_the_rotors():
+    # GIVEN a plant on the ground with a rotor at 80 % thrust
+    p = QuadrotorPlant(HOME, rng=np.random.default_rng(1))
+    p.rotor_scale = (1.0, 0.8, 1.0, 1.0)
+    assert p.rotor_scale == (1.0, 0.8, 1.0, 1.0) and p.on_ground
+    x0 = p._x.copy()
+    # WHEN it runs up to full thrust
+    grounded = []
+    for _ in range(200):
+        grounded.append(p.step((1.0, 1.0, 1.0, 1.0)).on_ground)
+    # THEN it rests until the thrust lifts it, then flies, the flag in the state array
+    k = grounded.index(False)
+    assert 0 < k and not any(grounded[k:]) and not p.on_ground and p._x[23] == 0.0
+    # AND its rotor 2 followed the scaled static thrust, as flight_step given the scales
+    ref = x0.copy()
+    t_ss = p.static_thrusts((1.0, 1.0, 1.0, 1.0))
+    for _ in range(200):
+        flight_step(ref, p._consts, 1.0, 1.0, 1.0, 1.0, 1.0, 0.8, 1.0, 1.0, 0.0, 0.0, 0.0,
+                    True, 0.0)
+    assert math.isclose(p.thrust[1], 0.8 * t_ss[1], rel_tol=1e-3)
+    assert ref[19:23].tolist() == p._x[19:23].tolist()
+    # AND set back on the ground, it rests again
+    p.reset()
+    assert p.on_ground and p._x[23] == 1.0
+    assert p.step((0.0, 0.0, 0.0, 0.0)).on_ground
