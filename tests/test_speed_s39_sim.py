@@ -54,3 +54,36 @@ def test_the_ground_flag_follows_the_kernels_codes_and_the_scales_reach_the_roto
     p.reset()
     assert p.on_ground and p._x[23] == 1.0
     assert p.step((0.0, 0.0, 0.0, 0.0)).on_ground
+
+
+def _dive_to_the_ground(steps=1500):
+    """A trimmed Aerosonde at 60 m, in light turbulence, nosed down into the ground: its
+    states and whether JSBSim's ground reactions ran, step by step."""
+    from sim_bridge.plants.base import PlaneControls
+    from sim_bridge.plants.jsbsim_plane import JSBSimPlane
+    p = JSBSimPlane(wind_ned=(2.0, 1.0, 0.0), turbulence="light", rng=np.random.default_rng(1))
+    p.imu_mean_steps = 2
+    c = p.trim(22.0, 60.0)
+    dive = PlaneControls(c.aileron, c.elevator - 0.3, c.rudder, 0.0)
+    states, contacts = [], []
+    for k in range(steps):
+        states.append(p.step(c if k < 100 else dive, 2))
+        contacts.append(p._fdm["simulation/models/FGGroundReactions/enabled"])
+    return states, contacts
+
+
+def test_the_ground_reactions_are_off_clear_of_the_ground_and_change_nothing(monkeypatch):
+    # GIVEN a dive into the ground with the ground reactions switched by height, and the
+    # same dive with them always on (a reach no flight leaves)
+    from sim_bridge.plants import jsbsim_plane
+    states, contacts = _dive_to_the_ground()
+    monkeypatch.setattr(jsbsim_plane, "CONTACT_REACH_M", 1e9)
+    always_states, always_contacts = _dive_to_the_ground()
+    # THEN the reactions were off in flight and back on near the ground, where it landed
+    assert set(always_contacts) == {1.0}
+    assert contacts[0] == 0.0 and contacts[-1] == 1.0
+    low = [s.alt_m for s, on in zip(states, contacts) if on]
+    assert min(s.alt_m for s, on in zip(states, contacts) if not on) > 10.0
+    assert states[-1].on_ground and min(low) < 5.0
+    # AND every state is the one the always-on reactions give, bit for bit
+    assert states == always_states
