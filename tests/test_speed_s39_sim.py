@@ -56,34 +56,61 @@ def test_the_ground_flag_follows_the_kernels_codes_and_the_scales_reach_the_roto
     assert p.step((0.0, 0.0, 0.0, 0.0)).on_ground
 
 
-def _dive_to_the_ground(steps=1500):
-    """A trimmed Aerosonde at 60 m, in light turbulence, nosed down into the ground: its
-    states and whether JSBSim's ground reactions ran, step by step."""
+
+def _fly(launch: bool, steps: int = 1500):
+    """The Aerosonde in light turbulence, catapulted at full throttle (``launch``) or trimmed
+    at 60 m and nosed down into the ground: its states and whether JSBSim's ground and
+    external reactions ran, step by step."""
     from sim_bridge.plants.base import PlaneControls
     from sim_bridge.plants.jsbsim_plane import JSBSimPlane
     p = JSBSimPlane(wind_ned=(2.0, 1.0, 0.0), turbulence="light", rng=np.random.default_rng(1))
     p.imu_mean_steps = 2
-    c = p.trim(22.0, 60.0)
-    dive = PlaneControls(c.aileron, c.elevator - 0.3, c.rudder, 0.0)
-    states, contacts = [], []
+    if launch:
+        c = first = PlaneControls(0.0, 0.25, 0.0, 1.0)
+    else:
+        first = p.trim(22.0, 60.0)
+        c = PlaneControls(first.aileron, first.elevator - 0.3, first.rudder, 0.0)
+    states, ran = [], []
     for k in range(steps):
-        states.append(p.step(c if k < 100 else dive, 2))
-        contacts.append(p._fdm["simulation/models/FGGroundReactions/enabled"])
-    return states, contacts
+        states.append(p.step(first if k < 100 else c, 2))
+        ran.append((p._fdm["simulation/models/FGGroundReactions/enabled"],
+                    p._fdm["simulation/models/FGExternalReactions/enabled"]))
+    return states, ran
+
+
+def _always_on(monkeypatch):
+    from sim_bridge.plants.jsbsim_plane import JSBSimPlane
+    switch = JSBSimPlane._set_reactions
+    monkeypatch.setattr(JSBSimPlane, "_set_reactions", lambda self, g, l: switch(self, True, True))
 
 
 def test_the_ground_reactions_are_off_clear_of_the_ground_and_change_nothing(monkeypatch):
-    # GIVEN a dive into the ground with the ground reactions switched by height, and the
-    # same dive with them always on (a reach no flight leaves)
-    from sim_bridge.plants import jsbsim_plane
-    states, contacts = _dive_to_the_ground()
-    monkeypatch.setattr(jsbsim_plane, "CONTACT_REACH_M", 1e9)
-    always_states, always_contacts = _dive_to_the_ground()
-    # THEN the reactions were off in flight and back on near the ground, where it landed
-    assert set(always_contacts) == {1.0}
-    assert contacts[0] == 0.0 and contacts[-1] == 1.0
-    low = [s.alt_m for s, on in zip(states, contacts) if on]
-    assert min(s.alt_m for s, on in zip(states, contacts) if not on) > 10.0
-    assert states[-1].on_ground and min(low) < 5.0
-    # AND every state is the one the always-on reactions give, bit for bit
+    # GIVEN a dive into the ground with the reactions switched, and the same dive with
+    # them always on
+    states, ran = _fly(launch=False)
+    _always_on(monkeypatch)
+    always_states, always_ran = _fly(launch=False)
+    # THEN the ground reactions were off in flight and back on near the ground, where
+    # it landed; the launcher's were off throughout (trimmed: no launcher)
+    assert set(always_ran) == {(1.0, 1.0)}
+    assert ran[0] == (0.0, 0.0) and ran[-1] == (1.0, 0.0)
+    assert min(s.alt_m for s, (g, _) in zip(states, ran) if not g) > 10.0
+    assert states[-1].on_ground and min(s.alt_m for s, (g, _) in zip(states, ran) if g) < 5.0
+    # AND every state is the one the reactions always on give, bit for bit
+    assert states == always_states
+
+
+def test_the_launchers_reactions_stop_after_the_release_and_change_nothing(monkeypatch):
+    # GIVEN a catapult launch, uncontrolled (it flies back into the ground), with the
+    # reactions switched, and the same with them always on
+    states, ran = _fly(launch=True, steps=1000)
+    _always_on(monkeypatch)
+    always_states, _ = _fly(launch=True, steps=1000)
+    # THEN both ran on the launcher; the launcher's stopped after the release, the
+    # ground's stayed on, near the ground
+    assert ran[0] == (1.0, 1.0) and states[0].on_ground
+    released = next(k for k, (_, l) in enumerate(ran) if not l)
+    assert 100 < released < 300 and all(not l for _, l in ran[released:])
+    assert all(g for g, _ in ran) and states[-1].on_ground
+    # AND every state is the one the reactions always on give, bit for bit
     assert states == always_states

@@ -254,9 +254,13 @@ class JSBSimPlane:
             row = gusts.next_row()                # (before ``noise`` is read: it may draw)
             self._write_gust(gust_advance(gusts.s, gusts.noise, row, self._agl_m,
                                           math.sqrt(du * du + dv * dv + dw * dw), n_steps))
-        # (a terrain model moves the ground under the aircraft: the contacts stay on)
-        self._set_contacts(self._phase != _FREE or self.terrain is not None
-                           or self._agl_m <= CONTACT_REACH_M + MAX_SPEED_MPS * n_steps * self.dt_s)
+        # (a terrain model moves the ground under the aircraft: the contacts stay on.
+        # Free of the launcher, its latch and catapult pushed nothing at the last JSBSim
+        # step, the release's, nor will again.)
+        held = self._phase != _FREE
+        self._set_reactions(held or self.terrain is not None
+                            or self._agl_m <= CONTACT_REACH_M + MAX_SPEED_MPS * n_steps * self.dt_s,
+                            held)
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
@@ -421,7 +425,7 @@ class JSBSimPlane:
         fdm["fcs/aileron-cmd-norm"] = x[4]
         fdm["fcs/rudder-cmd-norm"] = x[5]
         self._controls = None                     # the commands now differ from ours
-        self._set_contacts(True)
+        self._set_reactions(True, True)
 
     # ------------------------------------------------------------------ internals
 
@@ -494,8 +498,9 @@ class JSBSimPlane:
         node = {name: get.__self__ for name, get in self._n.items()}
         self._state_nodes = tuple(node[name] for name in names)
         self._imu_nodes = tuple(node[name] for name in imu)
-        self._contacts_node = setter("simulation/models/FGGroundReactions/enabled")
-        self._contacts = True
+        self._ground_node = setter("simulation/models/FGGroundReactions/enabled")
+        self._launcher_node = setter("simulation/models/FGExternalReactions/enabled")
+        self._ground_on = self._launcher_on = True
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
@@ -506,11 +511,15 @@ class JSBSimPlane:
                           setter("atmosphere/gust-east-fps"),
                           setter("atmosphere/gust-down-fps"))
 
-    def _set_contacts(self, on: bool) -> None:
-        """JSBSim's ground reactions on or off (CONTACT_REACH_M), written on a change."""
-        if on != self._contacts:
-            self._contacts = on
-            self._contacts_node(1.0 if on else 0.0)
+    def _set_reactions(self, ground: bool, launcher: bool) -> None:
+        """JSBSim's ground reactions (CONTACT_REACH_M) and external reactions (the
+        launcher's latch and catapult) on or off, each written on a change."""
+        if ground != self._ground_on:
+            self._ground_on = ground
+            self._ground_node(1.0 if ground else 0.0)
+        if launcher != self._launcher_on:
+            self._launcher_on = launcher
+            self._launcher_node(1.0 if launcher else 0.0)
 
     def _apply_controls(self, controls: PlaneControls) -> None:
         # written at every call: in flight the commands change every step (comparing
@@ -607,7 +616,7 @@ class JSBSimPlane:
         for name in ("ic/u-fps", "ic/v-fps", "ic/w-fps",
                      "ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
             fdm[name] = 0.0
-        self._set_contacts(True)
+        self._set_reactions(True, True)
         fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
         self._gusts.reset()
         for brake in self._af.brakes:
