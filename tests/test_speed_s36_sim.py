@@ -83,11 +83,11 @@ def test_plant_step_is_the_gust_then_flight_step_then_the_readout():
     a, b = _plant("severe"), _plant("severe")
     u = (0.52, 0.55, 0.5, 0.53)
     k = (1.0, 0.9, 1.0, 1.0)
+    a.rotor_scale = k                             # (plant_step reads the scales from its constants)
     for _ in range(300):
         # WHEN one takes plant_step and the other the steps it composes, in Python
         row = a._gusts.next_row()
-        code, readout = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, *k,
-                                   False, 0.0, 4000)
+        code, readout = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, 4000)
         x = b._x
         wn, we, wd = b._wind
         an, ae, ad = x[3] - wn, x[4] - we, x[5] - wd

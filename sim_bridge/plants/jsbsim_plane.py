@@ -89,6 +89,14 @@ CATAPULT_FORCE_N = 1000.0           # catapult push along body x [N]
 AUTO_LAUNCH_THROTTLE = 0.5          # throttle command that arms the launch
 SPIN_UP_S = 1.0                     # propeller spin-up before an automatic release [s]
 
+# JSBSim's ground reactions (every contact point's height over the terrain, each JSBSim
+# step) are a third of its step; clear of the ground their forces are zero, so they are
+# switched off while no contact can reach the ground within a step() call: above
+# CONTACT_REACH_M plus MAX_SPEED_MPS times the call's time (the contacts' distance from
+# the CG at any attitude with a margin; a speed no airframe here reaches).
+CONTACT_REACH_M = 10.0              # [m]
+MAX_SPEED_MPS = 150.0               # [m/s]
+
 _HELD, _FIRING, _FREE = "held", "firing", "free"
 _ZERO6 = (0.0,) * 6
 # a property node's value, unbound: map(_read, nodes) reads a tuple of nodes from C, no
@@ -201,7 +209,7 @@ class JSBSimPlane:
         steps: this one's and the earlier ones' sums ``imu_sums`` (p, q, r, ax, ay, az
         in JSBSim's units; with ``n_mean`` 1, this step's values as read)."""
         (lat, lon, alt, vn, ve, vd, phi, theta, psi, p, q, r, ax, ay, az, wn, we, wd,
-         vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm) = map(
+         vt, alpha, beta, fx_gear, fz_gear, rho, pressure, temperature, rpm, agl) = map(
             _read, self._state_nodes)
         if n_mean > 1:
             sum_p, sum_q, sum_r, sum_ax, sum_ay, sum_az = imu_sums
@@ -219,9 +227,10 @@ class JSBSimPlane:
         lon = math.remainder(lon, _TWO_PI)       # wrapped to (-pi, pi]
         if lon == -math.pi:
             lon = math.pi
-        # kept for the next step's gust: JSBSim's velocity does not change in between
-        # (the places that set its state, the start and trim, read it again)
+        # kept for the next step's gust and contacts: JSBSim's state does not change in
+        # between (the places that set it, the start and trim, read it again)
         self._v_ned = v_ned = (vn * FT_M, ve * FT_M, vd * FT_M)
+        self._agl_m = agl * FT_M
         return PlantState.make(                   # (positional: no keyword dict built)
             self._t_us, lat, lon, alt,
             v_ned, q_nb, (p, q, r),               # v_ned q_nb omega_b
@@ -243,8 +252,15 @@ class JSBSimPlane:
             wn, we, wd = self._gust_wind
             du, dv, dw = vn - wn, ve - we, vd - wd
             row = gusts.next_row()                # (before ``noise`` is read: it may draw)
-            self._write_gust(gust_advance(gusts.s, gusts.noise, row, self._agl_ft() * FT_M,
+            self._write_gust(gust_advance(gusts.s, gusts.noise, row, self._agl_m,
                                           math.sqrt(du * du + dv * dv + dw * dw), n_steps))
+        # (a terrain model moves the ground under the aircraft: the contacts stay on.
+        # Free of the launcher, its latch and catapult pushed nothing at the last JSBSim
+        # step, the release's, nor will again.)
+        held = self._phase != _FREE
+        self._set_reactions(held or self.terrain is not None
+                            or self._agl_m <= CONTACT_REACH_M + MAX_SPEED_MPS * n_steps * self.dt_s,
+                            held)
         if self.terrain is not None and self._phase == _FREE:
             fdm = self._fdm
             h = self.terrain(fdm["position/lat-geod-deg"], fdm["position/long-gc-deg"])
@@ -409,6 +425,7 @@ class JSBSimPlane:
         fdm["fcs/aileron-cmd-norm"] = x[4]
         fdm["fcs/rudder-cmd-norm"] = x[5]
         self._controls = None                     # the commands now differ from ours
+        self._set_reactions(True, True)
 
     # ------------------------------------------------------------------ internals
 
@@ -475,13 +492,15 @@ class JSBSimPlane:
         }
         names = ("lat", "lon", "alt", "vn", "ve", "vd", "phi", "theta", "psi", "p", "q", "r",
                  "ax", "ay", "az", "wn", "we", "wd", "vt", "alpha", "beta", "fx_gear",
-                 "fz_gear", "rho", "pressure", "temperature", "rpm")
+                 "fz_gear", "rho", "pressure", "temperature", "rpm", "agl")
         imu = ("p", "q", "r", "ax", "ay", "az")
         # the nodes read together every step (map(_read, ...))
         node = {name: get.__self__ for name, get in self._n.items()}
         self._state_nodes = tuple(node[name] for name in names)
         self._imu_nodes = tuple(node[name] for name in imu)
-        self._agl_ft = self._n["agl"]
+        self._ground_node = setter("simulation/models/FGGroundReactions/enabled")
+        self._launcher_node = setter("simulation/models/FGExternalReactions/enabled")
+        self._ground_on = self._launcher_on = True
         self._set_aileron = setter("fcs/aileron-cmd-norm")
         self._set_elevator = setter("fcs/elevator-cmd-norm")
         self._set_rudder = setter("fcs/rudder-cmd-norm")
@@ -491,6 +510,16 @@ class JSBSimPlane:
         self._set_gust = (setter("atmosphere/gust-north-fps"),
                           setter("atmosphere/gust-east-fps"),
                           setter("atmosphere/gust-down-fps"))
+
+    def _set_reactions(self, ground: bool, launcher: bool) -> None:
+        """JSBSim's ground reactions (CONTACT_REACH_M) and external reactions (the
+        launcher's latch and catapult) on or off, each written on a change."""
+        if ground != self._ground_on:
+            self._ground_on = ground
+            self._ground_node(1.0 if ground else 0.0)
+        if launcher != self._launcher_on:
+            self._launcher_on = launcher
+            self._launcher_node(1.0 if launcher else 0.0)
 
     def _apply_controls(self, controls: PlaneControls) -> None:
         # written at every call: in flight the commands change every step (comparing
@@ -587,6 +616,7 @@ class JSBSimPlane:
         for name in ("ic/u-fps", "ic/v-fps", "ic/w-fps",
                      "ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
             fdm[name] = 0.0
+        self._set_reactions(True, True)
         fdm.reset_to_initial_conditions(0)        # every model afresh, then run_ic()
         self._gusts.reset()
         for brake in self._af.brakes:

@@ -132,9 +132,14 @@ AIRFRAMES = {"f450": F450}
 
 # The plant's state, one array (``QuadrotorPlant._x``) that flight_step updates in place:
 # p (NED from home's ground point), v, q_nb, omega_b, the specific force f_b, the wind
-# of the last state() (steady + gust, NED), the rotor thrusts T.
-_P, _V, _Q, _W, _F, _WIND, _T = 0, 3, 6, 10, 13, 16, 19
-_NX = 23
+# of the last state() (steady + gust, NED), the rotor thrusts T; then whether it rests
+# on the ground (1.0, else 0.0), which plant_advance keeps.
+_P, _V, _Q, _W, _F, _WIND, _T, _GROUNDED = 0, 3, 6, 10, 13, 16, 19, 23
+_NX = 24
+# the conditions in the constants (``QuadrotorPlant._consts``) that change on an event,
+# after its 28 constants: the rotor thrust scales (rotor_scale), the ground's depth below
+# home's ground point under the vehicle (NED down; a terrain model moves it every step)
+_K, _GROUND_D = 28, 32
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
 
 
@@ -177,22 +182,22 @@ class QuadrotorPlant:
                     4.0 * a * kt * af.motor_i0_a, b, 0.5 / a, self._ct)
         self.crashed = False
         self.touchdown_speed_mps: float | None = None
-        # thrust of each rotor as a share of its model's (motor faults: thrust reduced)
-        self.rotor_scale: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
         # flight_step's constants: the step's, then static_thrust's; then (from 19)
         # plant_step's and state_readout's: the steady wind NED, the local frame at home
-        # (lat0, lon0, alt0 and LocalFrame.to_geodetic_fast's bend and radii)
+        # (lat0, lon0, alt0 and LocalFrame.to_geodetic_fast's bend and radii); then the
+        # conditions (_K, _GROUND_D), set where they change
         f = self._frame
         self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
                                  af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
                                  af.gear_height_m) + self._ts + self._wind
-                                + (f.lat0_rad, f.lon0_rad, f.alt0_m, f._bend, f._rm, f._rn0))
+                                + (f.lat0_rad, f.lon0_rad, f.alt0_m, f._bend, f._rm, f._rn0)
+                                + (1.0, 1.0, 1.0, 1.0, 0.0))
+        self._rotor_scale = (1.0, 1.0, 1.0, 1.0)
         self._x = np.zeros(_NX)
         # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
-        # height [m MSL] or None (autopilot.geo.terrain); ``_ground_d`` is its depth
-        # below home's ground point under the vehicle (NED down), updated every step()
+        # height [m MSL] or None (autopilot.geo.terrain), its depth under the vehicle
+        # (_GROUND_D) updated every step()
         self.terrain = None
-        self._ground_d = 0.0
         self.reset()
 
     # ------------------------------------------------------------------- state ---
@@ -205,8 +210,27 @@ class QuadrotorPlant:
                  lambda self, val: self._x.__setitem__(slice(_Q, _W), val))
     w = property(lambda self: self._x[_W:_F].tolist(),
                  lambda self, val: self._x.__setitem__(slice(_W, _F), val))
-    thrust = property(lambda self: self._x[_T:_NX].tolist(),
-                      lambda self, val: self._x.__setitem__(slice(_T, _NX), val))
+    thrust = property(lambda self: self._x[_T:_GROUNDED].tolist(),
+                      lambda self, val: self._x.__setitem__(slice(_T, _GROUNDED), val))
+
+    @property
+    def on_ground(self) -> bool:
+        """Resting on the ground (on its skids)."""
+        return bool(self._x[_GROUNDED])
+
+    @on_ground.setter
+    def on_ground(self, value: bool) -> None:
+        self._x[_GROUNDED] = 1.0 if value else 0.0
+
+    @property
+    def rotor_scale(self) -> tuple[float, ...]:
+        """Thrust of each rotor as a share of its model's (motor faults: thrust reduced)."""
+        return self._rotor_scale
+
+    @rotor_scale.setter
+    def rotor_scale(self, scales) -> None:
+        self._rotor_scale = tuple(float(k) for k in scales)
+        self._consts[_K:_GROUND_D] = self._rotor_scale
 
     def reset(self) -> None:
         """At rest on the ground at home, heading as home's, motors stopped."""
@@ -227,13 +251,16 @@ class QuadrotorPlant:
     def set_airborne(self, height_m: float, yaw_rad: float = 0.0) -> None:
         """Put the vehicle in hover ``height_m`` above home (tests): level, still, each
         rotor at the hover thrust, its command held at the hover command."""
+        # (element stores: a formation holds its members here every step until armed,
+        # and numpy converts a sequence of floats slowly)
         x = self._x
-        t = self.af.mass_kg * self.g / 4.0
-        x[_P:_WIND] = (0.0, 0.0, -height_m, 0.0, 0.0, 0.0,                      # p, v
-                       math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad),  # q
-                       0.0, 0.0, 0.0, 0.0, 0.0, -self.g)                          # omega, f_b
-        x[_T:_NX] = (t, t, t, t)
-        self.on_ground = False
+        x[_P:_WIND] = 0.0                                   # p, v, q, omega, f_b
+        x[_P + 2] = -height_m
+        x[_Q] = math.cos(0.5 * yaw_rad)
+        x[_Q + 3] = math.sin(0.5 * yaw_rad)
+        x[_F + 2] = -self.g
+        x[_T:_GROUNDED] = self.af.mass_kg * self.g / 4.0
+        x[_GROUNDED] = 0.0
 
     def state(self) -> PlantState:
         return PlantState.make(*state_readout(self._x, self._consts, self._gusts.s, self._t_us,
@@ -245,37 +272,36 @@ class QuadrotorPlant:
         return [static_thrust(u, *self._ts) for u in controls[:4]]
 
     def step(self, controls, n_steps: int = 1) -> PlantState:
-        """Hold the rotor commands for ``n_steps`` integration steps (:func:`plant_advance`,
-        the last :func:`plant_step` with its readout; the ground, resting and touching
-        down, in :meth:`_rest` / :meth:`_touchdown`)."""
+        """Hold the rotor commands for ``n_steps`` (at least 1) integration steps
+        (:func:`plant_advance`, the last :func:`plant_step` with its readout; the ground,
+        resting and touching down, in :meth:`_grounded`)."""
         u1, u2, u3, u4 = controls[:4]
-        k1, k2, k3, k4 = self.rotor_scale
         x, c = self._x, self._consts
         if self.terrain is not None:
             lat, lon, _ = self._frame.to_geodetic_fast(x[_P:_V].tolist())
             h = self.terrain(math.degrees(lat), math.degrees(lon))
-            self._ground_d = 0.0 if h is None else self.home[2] - h
+            c[_GROUND_D] = 0.0 if h is None else self.home[2] - h
         gusts = self._gusts
-        code = _ON_GROUND                         # (no step: the readout below)
-        last = n_steps - 1
-        for i in range(n_steps):
-            row = gusts.next_row() if gusts.active else -1
+        for _ in range(n_steps - 1):              # (only the last step's state is handed on)
+            row = gusts.next_row() if gusts.active else -1    # (before ``noise``: it may draw)
             self._t_us += self._dt_us
-            if i < last:                          # (only the last step's state is handed on)
-                code = plant_advance(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1, k2, k3,
-                                     k4, self.on_ground, self._ground_d)
-            else:
-                code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, k1,
-                                           k2, k3, k4, self.on_ground, self._ground_d, self._t_us)
-            if code == _ON_GROUND:
-                self._rest(self.dt_s)
-            else:
-                self.on_ground = False
-                if code == _TOUCHDOWN:
-                    self._touchdown(x[_V + 2])
+            code = plant_advance(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4)
+            if code != _FLYING:
+                self._grounded(code)
+        row = gusts.next_row() if gusts.active else -1
+        self._t_us += self._dt_us
+        code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, self._t_us)
         if code != _FLYING:                       # (the ground moved the state after its readout)
-            readout = state_readout(x, c, gusts.s, self._t_us, self.on_ground)
+            self._grounded(code)
+            readout = state_readout(x, c, gusts.s, self._t_us, True)
         return PlantState.make(*readout)
+
+    def _grounded(self, code: int) -> None:
+        """A step that ended on the ground (plant_advance's code): resting or touching down."""
+        if code == _ON_GROUND:
+            self._rest(self.dt_s)
+        else:
+            self._touchdown(self._x[_V + 2])
 
     def _touchdown(self, v_down: float) -> None:
         """The skids reach the ground: the vehicle stops within the step (no sinking, no
@@ -288,7 +314,6 @@ class QuadrotorPlant:
         self.touchdown_speed_mps = v_down
         if v_down > CRASH_SPEED_MPS or tilt > CRASH_TILT_RAD:
             self.crashed = True
-        self.on_ground = True
         dt = self.dt_s
         vn, ve, vd = x[_V:_Q].tolist()
         # specific force over the step: (dv/dt - g_vec), dv = -v
@@ -297,7 +322,7 @@ class QuadrotorPlant:
         x[_F:_WIND] = (r[0] * fn + r[3] * fe + r[6] * fd,
                        r[1] * fn + r[4] * fe + r[7] * fd,
                        r[2] * fn + r[5] * fe + r[8] * fd)
-        x[_P + 2] = self._ground_d - self.af.gear_height_m
+        x[_P + 2] = self._consts[_GROUND_D] - self.af.gear_height_m
         x[_V:_Q] = 0.0
         x[_W:_F] = 0.0
 
@@ -323,7 +348,7 @@ class QuadrotorPlant:
             r = quat_dcm(*qn)
         else:
             x[_W:_F] = 0.0
-        x[_P + 2] = self._ground_d - self.af.gear_height_m
+        x[_P + 2] = self._consts[_GROUND_D] - self.af.gear_height_m
         x[_V:_Q] = 0.0
         g = self.g
         x[_F:_WIND] = (-r[6] * g, -r[7] * g, -r[8] * g)
@@ -362,29 +387,34 @@ def air_data(x, wn, we, wd):
 
 
 @kernel
-def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d):
-    """One step of the plant on its state array ``x`` and constants ``c``: the Dryden gust
-    (``gust``, ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no
-    gust when ``row`` is negative) at the height above the ground and the speed through
-    the steady wind, then :func:`flight_step` in the steady wind + gust. Returns
-    flight_step's code."""
+def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4):
+    """One step of the plant on its state array ``x`` and constants ``c`` (with the
+    conditions: the rotor thrust scales, the ground's depth): the Dryden gust (``gust``,
+    ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no gust when
+    ``row`` is negative) at the height above the ground and the speed through the steady
+    wind, then :func:`flight_step` in the steady wind + gust, from the ground if the
+    state rests on it; the state's ground flag follows the step. Returns flight_step's
+    code."""
     wn, we, wd = c[19], c[20], c[21]
+    ground_d = c[_GROUND_D]
     if row >= 0:
         an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
         gn, ge, gd = gust_advance(gust, noise, row, ground_d - x[2],
                                   math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
         wn, we, wd = wn + gn, we + ge, wd + gd
-    return flight_step(x, c, u1, u2, u3, u4, k1, k2, k3, k4, wn, we, wd, on_ground, ground_d)
+    code = flight_step(x, c, u1, u2, u3, u4, c[_K], c[_K + 1], c[_K + 2], c[_K + 3], wn, we, wd,
+                       x[_GROUNDED] != 0.0, ground_d)
+    x[_GROUNDED] = 0.0 if code == _FLYING else 1.0      # (resting, or touched down)
+    return code
 
 
 @kernel
-def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground, ground_d, t_us):
+def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, t_us):
     """:func:`plant_advance`, then the state's readout at ``t_us``, the step's end
     (:func:`state_readout`, flying; out of date unless the vehicle flew: the ground then
     moves it, in Python): the last step of a HIL period. Returns the code and the
     readout."""
-    code = plant_advance(x, c, gust, noise, row, u1, u2, u3, u4, k1, k2, k3, k4, on_ground,
-                         ground_d)
+    code = plant_advance(x, c, gust, noise, row, u1, u2, u3, u4)
     return code, state_readout(x, c, gust, t_us, False)
 
 
