@@ -114,3 +114,22 @@ def test_the_launchers_reactions_stop_after_the_release_and_change_nothing(monke
     assert all(g for g, _ in ran) and states[-1].on_ground
     # AND every state is the one the reactions always on give, bit for bit
     assert states == always_states
+
+
+def test_holding_a_vehicle_airborne_is_set_airborne_then_its_state():
+    # GIVEN two plants alike, flown 0.4 s in turbulence and wind on the same commands
+    p, q = (QuadrotorPlant(HOME, turbulence="moderate", rng=np.random.default_rng(9),
+                           wind_ned=(2.0, -3.0, 0.0)) for _ in range(2))
+    for k in range(100):
+        u = (0.62, 0.6, 0.61 + 0.001 * k, 0.6)
+        p.step(u)
+        q.step(u)
+    # WHEN one is set airborne and read, and the other held in one call
+    p.set_airborne(12.5)
+    st_p = p.state()
+    st_q = q.hold_airborne(12.5)
+    # THEN both hold the same state, bit for bit, hovering 12.5 m above home
+    assert st_q == st_p
+    assert np.array_equal(q._x, p._x) and not q.on_ground
+    assert st_q.alt_m == HOME[2] + 12.5 and st_q.v_ned == (0.0, 0.0, 0.0) and st_q.wind_ned != (2.0, -3.0, 0.0)
+    assert q.thrust == [q.af.mass_kg * q.g / 4.0] * 4

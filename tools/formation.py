@@ -381,8 +381,7 @@ class QuadMember:
             if self.vehicle.armed:
                 self.released = True
             else:
-                self.plant.set_airborne(self.height_m)   # held by the simulator until armed
-                br.state = self.plant.state()
+                br.state = self.plant.hold_airborne(self.height_m)   # held by the simulator until armed
         if gcs is not None:
             gcs.step(br.t_us)
 

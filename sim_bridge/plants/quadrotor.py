@@ -36,6 +36,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba.extending import register_jitable as jitable
 
 from autopilot.geo import LocalFrame, gravity_m_s2
 from autopilot.geo.rotations import PI, TWO_PI, quat_dcm, quat_step
@@ -251,16 +252,13 @@ class QuadrotorPlant:
     def set_airborne(self, height_m: float, yaw_rad: float = 0.0) -> None:
         """Put the vehicle in hover ``height_m`` above home (tests): level, still, each
         rotor at the hover thrust, its command held at the hover command."""
-        # (element stores: a formation holds its members here every step until armed,
-        # and numpy converts a sequence of floats slowly)
-        x = self._x
-        x[_P:_WIND] = 0.0                                   # p, v, q, omega, f_b
-        x[_P + 2] = -height_m
-        x[_Q] = math.cos(0.5 * yaw_rad)
-        x[_Q + 3] = math.sin(0.5 * yaw_rad)
-        x[_F + 2] = -self.g
-        x[_T:_GROUNDED] = self.af.mass_kg * self.g / 4.0
-        x[_GROUNDED] = 0.0
+        airborne(self._x, height_m, yaw_rad, self.g, self.af.mass_kg * self.g / 4.0)
+
+    def hold_airborne(self, height_m: float) -> PlantState:
+        """``set_airborne(height_m)`` and the state it leaves, in one compiled call: where
+        a formation holds its members every step until they are armed."""
+        return PlantState.make(*airborne_readout(self._x, self._consts, self._gusts.s, self._t_us,
+                                                 height_m, self.g, self.af.mass_kg * self.g / 4.0))
 
     def state(self) -> PlantState:
         return PlantState.make(*state_readout(self._x, self._consts, self._gusts.s, self._t_us,
@@ -416,6 +414,27 @@ def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, t_us):
     readout."""
     code = plant_advance(x, c, gust, noise, row, u1, u2, u3, u4)
     return code, state_readout(x, c, gust, t_us, False)
+
+
+@jitable
+def airborne(x, height_m, yaw_rad, g, hover_thrust):
+    """``x`` in hover ``height_m`` above home at heading ``yaw_rad``: level, still, the
+    specific force -g, each rotor's thrust ``hover_thrust``, not on the ground.
+    (Element stores where Python calls it: numpy converts a sequence of floats slowly.)"""
+    x[_P:_WIND] = 0.0                                   # p, v, q, omega, f_b
+    x[_P + 2] = -height_m
+    x[_Q] = math.cos(0.5 * yaw_rad)
+    x[_Q + 3] = math.sin(0.5 * yaw_rad)
+    x[_F + 2] = -g
+    x[_T:_GROUNDED] = hover_thrust
+    x[_GROUNDED] = 0.0
+
+
+@kernel
+def airborne_readout(x, c, gust, t_us, height_m, g, hover_thrust):
+    """:func:`airborne` at heading north, then :func:`state_readout` (airborne)."""
+    airborne(x, height_m, 0.0, g, hover_thrust)
+    return state_readout(x, c, gust, t_us, False)
 
 
 @kernel
