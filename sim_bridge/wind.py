@@ -62,47 +62,53 @@ def dryden_step(x_u, x_v, x_w, h_agl_m, speed_mps, dt_s, n_steps, sigma_w, nu_u,
 
 # The gusts' state array (``DrydenGusts.s``), which :func:`gust_advance` updates in
 # place: the filters x_u, x_v, x_w, the gust (NED), the law's sigma_w, the u axis (north,
-# east components) and the time step.
-_X, _GUST, _SIGMA_W, _AXIS, _DT = 0, 3, 6, 7, 9
-_NS = 10
+# east components) and the time step; then the block of standard normals that drives
+# them, ``_BLOCK`` rows of three (``DrydenGusts.noise``: in the one array, so that a
+# kernel takes the gusts whole)
+_X, _GUST, _SIGMA_W, _AXIS, _DT, _NOISE = 0, 3, 6, 7, 9, 10
+_NS = _NOISE + 3 * _BLOCK
 
 
 @kernel
-def gust_advance(s, noise, row, h_agl_m, speed_mps, n_steps):
+def gust_advance(s, row, h_agl_m, speed_mps, n_steps):
     """:func:`dryden_step` on the state array ``s`` (``_X`` ... ``_DT``), driven by row
-    ``row`` of the block of standard normals ``noise``; the new filters and gust are
+    ``row`` of its block of standard normals (``_NOISE``); the new filters and gust are
     written into ``s`` and the gust (north, east, down) [m/s] returned."""
+    k = _NOISE + 3 * row
     x_u, x_v, x_w, gust_n, gust_e = dryden_step(
         s[0], s[1], s[2], h_agl_m, speed_mps, s[9], n_steps, s[6],
-        noise[row, 0], noise[row, 1], noise[row, 2], s[7], s[8])
+        s[k], s[k + 1], s[k + 2], s[7], s[8])
     s[0], s[1], s[2] = x_u, x_v, x_w
     s[3], s[4], s[5] = gust_n, gust_e, x_w
     return gust_n, gust_e, x_w
 
 
 class DrydenGusts:
-    """The gusts' state, the array ``s``, and their noise: once per plant step while
+    """The gusts' state and their noise, the array ``s``: once per plant step while
     ``active``, a plant advances ``s`` with :func:`gust_advance` (``n_steps`` time steps
     of ``dt_s``, one draw of the noise), on this step's row of ``noise`` from
     :meth:`next_row`. ``configure`` changes the intensity and the steady wind on the
-    way."""
+    way. ``s``: where to keep them (``_NS`` floats: a plant's own array, whose kernels
+    then take one array), else a new array."""
 
     def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
-                 wind_ned=(0.0, 0.0, 0.0)):
+                 wind_ned=(0.0, 0.0, 0.0), s: np.ndarray | None = None):
         if turbulence not in TURBULENCE_W20_KT:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_W20_KT)}")
         self._rng = rng
-        self.s = np.zeros(_NS)
+        self.s = np.zeros(_NS) if s is None else s
         self.s[_DT] = float(dt_s)
         sigma_w = 0.1 * TURBULENCE_W20_KT[turbulence] * KT_MPS
         self.s[_SIGMA_W] = sigma_w
         self.active = sigma_w > 0.0
         h = math.hypot(wind_ned[0], wind_ned[1])
         self.s[_AXIS:_DT] = (wind_ned[0] / h, wind_ned[1] / h) if h > 0.1 else (1.0, 0.0)
-        self.noise = np.zeros((0, 3))             # standard normals, one row per step
-        self._k = 0
+        # standard normals, one row per step, drawn in place a block at a time (the first
+        # at the first row taken)
+        self.noise = self.s[_NOISE:].reshape(_BLOCK, 3)
+        self._k = _BLOCK
         # the kernel loaded now, not at the take-off (autopilot.jit.preload)
-        preload(gust_advance, self.s.copy(), np.zeros((1, 3)), 0, 10.0, 5.0, 1)
+        preload(gust_advance, self.s.copy(), 0, 10.0, 5.0, 1)
 
     @property
     def gust_ned(self) -> tuple[float, float, float]:
@@ -131,8 +137,8 @@ class DrydenGusts:
     def next_row(self) -> int:
         """The row of ``noise`` for this step (a new block drawn when the last is used up)."""
         k = self._k
-        if k >= len(self.noise):
-            self.noise = self._rng.standard_normal((_BLOCK, 3))
+        if k == _BLOCK:
+            self._rng.standard_normal(out=self.noise)
             k = 0
         self._k = k + 1
         return k

@@ -17,10 +17,11 @@ def test_gust_advance_is_dryden_step_on_the_state_array():
     # GIVEN turbulent gusts with some filter state and a block of noise
     g = DrydenGusts(np.random.default_rng(2), 0.005, "moderate", (3.0, -4.0, 0.0))
     g.s[0:3] = (0.4, -1.2, 0.3)
-    s0 = g.s.copy()
     noise = np.random.default_rng(3).standard_normal((4, 3))
+    g.noise[:4] = noise
+    s0 = g.s.copy()
     # WHEN one step is taken on row 2
-    got = gust_advance(g.s, noise, 2, 37.5, 18.0, 2)
+    got = gust_advance(g.s, 2, 37.5, 18.0, 2)
     # THEN it is dryden_step on the same numbers, written into the state array
     want = dryden_step(s0[0], s0[1], s0[2], 37.5, 18.0, 0.005, 2, s0[6], *noise[2], s0[7], s0[8])
     assert got == (want[3], want[4], want[2])
@@ -87,12 +88,12 @@ def test_plant_step_is_the_gust_then_flight_step_then_the_readout():
     for _ in range(300):
         # WHEN one takes plant_step and the other the steps it composes, in Python
         row = a._gusts.next_row()
-        code, readout = plant_step(a._x, a._consts, a._gusts.s, a._gusts.noise, row, *u, 4000)
+        code, readout = plant_step(a._a, row, *u, 4000)
         x = b._x
         wn, we, wd = b._wind
         an, ae, ad = x[3] - wn, x[4] - we, x[5] - wd
         row = b._gusts.next_row()
-        gn, ge, gd = gust_advance(b._gusts.s, b._gusts.noise, row, -x[2],
+        gn, ge, gd = gust_advance(b._gusts.s, row, -x[2],
                                   math.sqrt(an * an + ae * ae + ad * ad), 1)
         want = flight_step(x, b._consts, *u, *k, wn + gn, we + ge, wd + gd, False, 0.0)
         # THEN the states, gusts, readouts and codes agree bit for bit

@@ -54,9 +54,8 @@ def _gust_from_jsbsim(plant: JSBSimPlane, n_steps: int) -> tuple:
     v = [fdm[f"velocities/v-{a}-fps"] * FT_M for a in ("north", "east", "down")]
     du, dv, dw = (v[i] - plant._gust_wind[i] for i in range(3))
     s, k = gusts.s.copy(), gusts._k
-    noise = gusts.noise if k < len(gusts.noise) else None
-    assert noise is not None                      # (this row is in the current block)
-    return gust_advance(s, noise, k, fdm["position/h-agl-ft"] * FT_M,
+    assert k < len(gusts.noise)                   # (this row is in the current block)
+    return gust_advance(s, k, fdm["position/h-agl-ft"] * FT_M,
                         math.sqrt(du * du + dv * dv + dw * dw), n_steps)
 
 

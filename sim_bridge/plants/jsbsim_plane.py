@@ -251,8 +251,8 @@ class JSBSimPlane:
             vn, ve, vd = self._v_ned
             wn, we, wd = self._gust_wind
             du, dv, dw = vn - wn, ve - we, vd - wd
-            row = gusts.next_row()                # (before ``noise`` is read: it may draw)
-            self._write_gust(gust_advance(gusts.s, gusts.noise, row, self._agl_m,
+            row = gusts.next_row()                # (before the noise is read: it may draw)
+            self._write_gust(gust_advance(gusts.s, row, self._agl_m,
                                           math.sqrt(du * du + dv * dv + dw * dw), n_steps))
         # (a terrain model moves the ground under the aircraft: the contacts stay on.
         # Free of the launcher, its latch and catapult pushed nothing at the last JSBSim

@@ -43,7 +43,7 @@ from autopilot.geo.rotations import PI, TWO_PI, quat_dcm, quat_step
 from autopilot.jit import kernel
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import isa
-from sim_bridge.wind import DrydenGusts, gust_advance
+from sim_bridge.wind import _NS, DrydenGusts, gust_advance
 
 CRASH_SPEED_MPS = 3.0     # touchdown faster than this counts as a crash [m/s]
 CRASH_TILT_RAD = math.radians(35.0)
@@ -141,6 +141,12 @@ _NX = 24
 # after its 28 constants: the rotor thrust scales (rotor_scale), the ground's depth below
 # home's ground point under the vehicle (NED down; a terrain model moves it every step)
 _K, _GROUND_D = 28, 32
+_NC = 33
+# The plant's one array (``QuadrotorPlant._a``), which the kernels called every step take
+# whole (an array argument costs a compiled call about as much as its arithmetic): the
+# state (``_x``), the constants (``_consts``) and the gusts' state and noise
+# (``DrydenGusts.s``), each a view of its part
+_C0, _S0 = _NX, _NX + _NC
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
 
 
@@ -174,7 +180,9 @@ class QuadrotorPlant:
         self._ct = af.c_thrust(self.rho)
         self._km = af.k_m
         self._wind = tuple(float(w) for w in wind_ned)
-        self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind)
+        self._a = np.zeros(_S0 + _NS)
+        self._x, self._consts = self._a[:_C0], self._a[_C0:_S0]
+        self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind, self._a[_S0:])
         # T_ss(u) in closed form (QuadAirframe.rotor_speed): omega = (sqrt(b^2 + k1 u - k0) - b) / 2a
         a = af.c_torque(self.rho)
         kt = 1.0 / af.kv_rad
@@ -188,13 +196,12 @@ class QuadrotorPlant:
         # (lat0, lon0, alt0 and LocalFrame.to_geodetic_fast's bend and radii); then the
         # conditions (_K, _GROUND_D), set where they change
         f = self._frame
-        self._consts = np.array((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
-                                 af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
-                                 af.gear_height_m) + self._ts + self._wind
-                                + (f.lat0_rad, f.lon0_rad, f.alt0_m, f._bend, f._rm, f._rn0)
-                                + (1.0, 1.0, 1.0, 1.0, 0.0))
+        self._consts[:] = ((self.dt_s, self._lag, af.mass_kg, self.g, af.drag_lin, self.rho,
+                            af.drag_area_m2, af.arm_m, self._km, af.ixx, af.iyy, af.izz,
+                            af.gear_height_m) + self._ts + self._wind
+                           + (f.lat0_rad, f.lon0_rad, f.alt0_m, f._bend, f._rm, f._rn0)
+                           + (1.0, 1.0, 1.0, 1.0, 0.0))
         self._rotor_scale = (1.0, 1.0, 1.0, 1.0)
-        self._x = np.zeros(_NX)
         # the ground: flat at home, or a terrain model, a callable (lat_deg, lon_deg) ->
         # height [m MSL] or None (autopilot.geo.terrain), its depth under the vehicle
         # (_GROUND_D) updated every step()
@@ -257,8 +264,8 @@ class QuadrotorPlant:
     def hold_airborne(self, height_m: float) -> PlantState:
         """``set_airborne(height_m)`` and the state it leaves, in one compiled call: where
         a formation holds its members every step until they are armed."""
-        return PlantState.make(*airborne_readout(self._x, self._consts, self._gusts.s, self._t_us,
-                                                 height_m, self.g, self.af.mass_kg * self.g / 4.0))
+        return PlantState.make(*airborne_readout(self._a, self._t_us, height_m, self.g,
+                                                 self.af.mass_kg * self.g / 4.0))
 
     def state(self) -> PlantState:
         return PlantState.make(*state_readout(self._x, self._consts, self._gusts.s, self._t_us,
@@ -281,14 +288,14 @@ class QuadrotorPlant:
             c[_GROUND_D] = 0.0 if h is None else self.home[2] - h
         gusts = self._gusts
         for _ in range(n_steps - 1):              # (only the last step's state is handed on)
-            row = gusts.next_row() if gusts.active else -1    # (before ``noise``: it may draw)
+            row = gusts.next_row() if gusts.active else -1    # (before the noise: it may draw)
             self._t_us += self._dt_us
-            code = plant_advance(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4)
+            code = plant_advance(x, c, gusts.s, row, u1, u2, u3, u4)
             if code != _FLYING:
                 self._grounded(code)
         row = gusts.next_row() if gusts.active else -1
         self._t_us += self._dt_us
-        code, readout = plant_step(x, c, gusts.s, gusts.noise, row, u1, u2, u3, u4, self._t_us)
+        code, readout = plant_step(self._a, row, u1, u2, u3, u4, self._t_us)
         if code != _FLYING:                       # (the ground moved the state after its readout)
             self._grounded(code)
             readout = state_readout(x, c, gusts.s, self._t_us, True)
@@ -385,10 +392,10 @@ def air_data(x, wn, we, wd):
 
 
 @kernel
-def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4):
+def plant_advance(x, c, gust, row, u1, u2, u3, u4):
     """One step of the plant on its state array ``x`` and constants ``c`` (with the
     conditions: the rotor thrust scales, the ground's depth): the Dryden gust (``gust``,
-    ``sim_bridge.wind.gust_advance``, driven by row ``row`` of ``noise``; no gust when
+    ``sim_bridge.wind.gust_advance``, driven by row ``row`` of its noise; no gust when
     ``row`` is negative) at the height above the ground and the speed through the steady
     wind, then :func:`flight_step` in the steady wind + gust, from the ground if the
     state rests on it; the state's ground flag follows the step. Returns flight_step's
@@ -397,7 +404,7 @@ def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4):
     ground_d = c[_GROUND_D]
     if row >= 0:
         an0, ae0, ad0 = x[3] - wn, x[4] - we, x[5] - wd
-        gn, ge, gd = gust_advance(gust, noise, row, ground_d - x[2],
+        gn, ge, gd = gust_advance(gust, row, ground_d - x[2],
                                   math.sqrt(an0 * an0 + ae0 * ae0 + ad0 * ad0), 1)
         wn, we, wd = wn + gn, we + ge, wd + gd
     code = flight_step(x, c, u1, u2, u3, u4, c[_K], c[_K + 1], c[_K + 2], c[_K + 3], wn, we, wd,
@@ -407,12 +414,13 @@ def plant_advance(x, c, gust, noise, row, u1, u2, u3, u4):
 
 
 @kernel
-def plant_step(x, c, gust, noise, row, u1, u2, u3, u4, t_us):
-    """:func:`plant_advance`, then the state's readout at ``t_us``, the step's end
-    (:func:`state_readout`, flying; out of date unless the vehicle flew: the ground then
-    moves it, in Python): the last step of a HIL period. Returns the code and the
-    readout."""
-    code = plant_advance(x, c, gust, noise, row, u1, u2, u3, u4)
+def plant_step(a, row, u1, u2, u3, u4, t_us):
+    """:func:`plant_advance` on the plant's one array ``a``, then the state's readout at
+    ``t_us``, the step's end (:func:`state_readout`, flying; out of date unless the
+    vehicle flew: the ground then moves it, in Python): the last step of a HIL period.
+    Returns the code and the readout."""
+    x, c, gust = a[:_C0], a[_C0:_S0], a[_S0:]
+    code = plant_advance(x, c, gust, row, u1, u2, u3, u4)
     return code, state_readout(x, c, gust, t_us, False)
 
 
@@ -431,10 +439,12 @@ def airborne(x, height_m, yaw_rad, g, hover_thrust):
 
 
 @kernel
-def airborne_readout(x, c, gust, t_us, height_m, g, hover_thrust):
-    """:func:`airborne` at heading north, then :func:`state_readout` (airborne)."""
+def airborne_readout(a, t_us, height_m, g, hover_thrust):
+    """:func:`airborne` at heading north on the plant's one array ``a``, then
+    :func:`state_readout` (airborne)."""
+    x = a[:_C0]
     airborne(x, height_m, 0.0, g, hover_thrust)
-    return state_readout(x, c, gust, t_us, False)
+    return state_readout(x, a[_C0:_S0], a[_S0:], t_us, False)
 
 
 @kernel
