@@ -143,9 +143,9 @@ _NX = 24
 _K, _GROUND_D = 28, 32
 _NC = 33
 # The plant's one array (``QuadrotorPlant._a``), which the kernels called every step take
-# whole (an array argument costs a compiled call about as much as its arithmetic): the
-# state (``_x``), the constants (``_consts``) and the gusts' state and noise
-# (``DrydenGusts.s``), each a view of its part
+# whole (each array argument costs a compiled call 0.6-1.1 k instructions): the state
+# (``_x``), the constants (``_consts``) and the gusts' state and noise (``DrydenGusts.s``),
+# each a view of its part, from these offsets
 _C0, _S0 = _NX, _NX + _NC
 _FLYING, _ON_GROUND, _TOUCHDOWN = 0, 1, 2      # flight_step's codes
 
