@@ -155,11 +155,15 @@ class MotorMonitor:
         return False
 
     # ------------------------------------------------------------------- step ---
-    def update(self, t_us: int, flying: bool, motors, f_z, omega_b, k) -> None:
+    def update(self, t_us: int, flying: bool, motors, f_z, omega_b, k) -> bool:
+        """True on the steps its stage ran: the only ones that change its events,
+        ``accommodation`` and ``failsafe``."""
         if not self.enabled:
-            return
+            return False
         if motor_lowpass(self._s, k, *motors, f_z, *omega_b, flying):
             self._stage(t_us, omega_b)
+            return True
+        return False
 
     def _stage(self, t_us: int, omega) -> None:
         t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = self._s[S_LP:S_HAS_LP].tolist()
