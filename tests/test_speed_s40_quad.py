@@ -6,6 +6,7 @@ import random
 import numpy as np
 
 from autopilot.control.mixer import QuadPlusMixer
+from autopilot.control.multirotor import Y_N, Y_W
 from autopilot.formation import load_formation
 from autopilot.formation.guidance import G_N, VT_N, VT_R, VT_START
 from autopilot.formation.peers import ROW_N, ROW_T
@@ -27,14 +28,15 @@ def test_motor_monitor_update_is_true_exactly_when_its_stage_ran():
     stage = mon._stage
     mon._stage = lambda t_us, omega: (staged.append(t_us), stage(t_us, omega))
     ran = 0
+    y = np.zeros(Y_N)                    # the navigation output (its rates, Y_W)
     for k in range(20000):
         t_us = k * 8000
         motors = tuple(rng.uniform(0.4, 0.6) for _ in range(4))
         f_z = rng.gauss(-9.8, 0.5)
-        omega = tuple(rng.gauss(0.0, 0.1) for _ in range(3))
+        y[Y_W:Y_W + 3] = [rng.gauss(0.0, 0.1) for _ in range(3)]
         before = (len(mon.events), mon.accommodation, mon.failsafe)
         n = len(staged)
-        if mon.update(t_us, k % 5000 > 100, motors, f_z, omega, mixer.k):
+        if mon.update(t_us, k % 5000 > 100, motors, f_z, y, mixer.k):
             ran += 1
             assert staged[n:] == [t_us]
         else:
