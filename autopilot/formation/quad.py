@@ -117,7 +117,7 @@ class FormationQuad(QuadVehicle):
 
     # ---------------------------------------------------------------- loop ---
     def step(self, frame, truth=None):
-        out = super().step(frame, truth)
+        out = QuadVehicle.step(self, frame, truth)    # (not super(): an object every step)
         t_us = frame.t_us
         if not self.armed:
             self._try_arm(t_us, truth)
