@@ -64,3 +64,10 @@ def test_formation_quad_arrays_are_views_of_one():
     while not v.armed:
         member.step()
     assert np.shares_memory(v.vt.x, fs) and fs[FS_VT + VT_START] == v.start_s
+
+
+def test_motor_monitor_due_every_div_th_step():
+    """due(): True on every div-th call from the first (the div-th, 2 div-th, ...)."""
+    for div in (1, 2, 3):
+        mon = MotorMonitor(ParamStore(quad_param_declarations()), 0.004, div=div)
+        assert [mon.due() for _ in range(12)] == [(k + 1) % div == 0 for k in range(12)]

@@ -24,6 +24,7 @@ quadrotor's rotors". How well it works: docs/status.md, "Faults and the monitor"
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -100,7 +101,9 @@ class MotorMonitor:
         self.km = g("QD_KM", 0.0197)
         # the balance runs every ``div``-th vehicle step (``due()``), dt_s apart each
         self.div = max(1, int(div))
-        self._n_due = 0
+        # due(), called once per vehicle step: True on the steps the monitor runs (a C
+        # iterator's step, not a Python call at every vehicle step)
+        self.due = itertools.cycle((False,) * (self.div - 1) + (self.enabled,)).__next__
         dt_s = dt_s * self.div
         self._s = np.zeros(S_N)
         self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
@@ -147,14 +150,6 @@ class MotorMonitor:
     def peaks(self) -> dict[str, float]:
         """Largest detection statistic / threshold while no fault was detected."""
         return {"motors": self.peak}
-
-    def due(self) -> bool:
-        """Call once per vehicle step: True on the steps the monitor runs."""
-        self._n_due += 1
-        if self._n_due >= self.div:
-            self._n_due = 0
-            return self.enabled
-        return False
 
     # ------------------------------------------------------------------- step ---
     def update(self, t_us: int, flying: bool, motors, f_z, y, k) -> bool:
