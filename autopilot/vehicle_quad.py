@@ -625,8 +625,8 @@ class QuadVehicle(VehicleBase):
         # (ground contact and ground effect; the estimated height drifts by decimetres)
         flying = (self.armed and self.flying and not self.on_ground
                   and self.p_home[2] < -self.params["FDI_MOT_HAGL"])
-        mon.update(t_us, flying, self._motors, f_z, self.y[Y_W:Y_W + 3].tolist(),
-                   self.ctrl.mixer.k)
+        if not mon.update(t_us, flying, self._motors, f_z, self.y, self.ctrl.mixer.k):
+            return                      # (its stage did not run: nothing of it changed)
         self._forward_events(mon)
         if mon.accommodation != self.ctrl.mixer.eff:
             self.ctrl.mixer.set_effectiveness(mon.accommodation)

@@ -3,8 +3,10 @@ the code they replaced (written out here as it was)."""
 import math
 import random
 
+import numpy as np
+
 from autopilot.control.mixer import QuadPlusMixer
-from autopilot.control.multirotor import G, ReferenceAngleGenerator
+from autopilot.control.multirotor import G, Y_N, Y_W, ReferenceAngleGenerator
 from autopilot.monitor.motors import S_B, S_HAS_LP, S_KF_N, S_LAG, S_LP, S_T, MotorMonitor
 from autopilot.params import ParamStore
 from autopilot.vehicle_quad import quad_param_declarations
@@ -66,12 +68,14 @@ def test_motor_monitor_lowpass_bit_identical():
     mon._s[S_KF_N] = 10 ** 9                     # the balance itself is not under test here
     lag, b = mon._s[S_LAG], mon._s[S_B]
     T, lp = [0.0] * 4, None
+    y = np.zeros(Y_N)                            # (the navigation output: its rates)
     for k in range(5000):
         motors = tuple(rng.uniform(0.1, 1.0) for _ in range(4))
         f_b = (rng.gauss(0, 1), rng.gauss(0, 1), rng.gauss(-9.8, 1))
         omega = tuple(rng.gauss(0, 0.5) for _ in range(3))
         flying = k % 500 > 20
-        mon.update(k * 8000, flying, motors, f_b[2], omega, mixer.k)
+        y[Y_W:Y_W + 3] = omega
+        mon.update(k * 8000, flying, motors, f_b[2], y, mixer.k)
         for i in range(4):
             T[i] += (mixer.thrust_of(motors[i]) - T[i]) * lag
         if not flying:

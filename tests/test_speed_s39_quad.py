@@ -11,8 +11,8 @@ from autopilot.control.multirotor import Y_N, Y_Q, MultirotorController, track_m
 from autopilot.formation import load_formation
 from autopilot.formation.geometry import intersection_near, nearest_on_circle, nearest_on_sphere
 from autopilot.formation.guidance import FormationGuidance, VirtualTarget, sigma
-from autopilot.formation.peers import PeerTable, PositionPublisher
-from autopilot.formation.quad import formation_track
+from autopilot.formation.peers import ROW_N, PeerTable, PositionPublisher
+from autopilot.formation.quad import FS_ROWS, FS_VT, formation_track
 from autopilot.geo import LocalFrame
 from autopilot.params import ParamStore
 from autopilot.vehicle_quad import quad_param_declarations
@@ -139,11 +139,14 @@ def test_formation_track_is_the_python_law(use_targets):
     statuses = set()
     events = 0
     for v in spec.vehicles:
-        new = FormationGuidance(spec, v.id)
+        # (the three arrays in one, as FormationQuad.fs)
+        fs = np.zeros(FS_ROWS + len(v.follows) * ROW_N)
+        new = FormationGuidance(spec, v.id, g=fs[:FS_VT])
         old = OldGuidance(spec, v.id)
-        table = PeerTable(v.id, origin, use_targets=use_targets, only=v.follows)
+        table = PeerTable(v.id, origin, use_targets=use_targets, only=v.follows,
+                          rows=fs[FS_ROWS:].reshape(len(v.follows), ROW_N))
         home = tuple(rng.normal(size=3).tolist())
-        vt = VirtualTarget(v.start_ned, home=home, start_s=0.05)
+        vt = VirtualTarget(v.start_ned, home=home, start_s=0.05, x=fs[FS_VT:FS_ROWS])
         ctrl = MultirotorController(ParamStore(quad_param_declarations()), 0.004)
         y = np.zeros(Y_N)
         t_ms = 0
@@ -166,7 +169,7 @@ def test_formation_track_is_the_python_law(use_targets):
             pn, pe, pd = (np.array(old.r) - home + rng.normal(scale=0.2, size=3)).tolist()
             cx = ctrl.x.copy()
             hold = k % 7 == 0
-            out = formation_track(new.g, table.rows, vt.x, ctrl.x, y, pn, pe, pd, t_s, dt, hold)
+            out = formation_track(fs, ctrl.x, y, pn, pe, pd, t_s, dt, hold)
             assert out == track_mix(cx, vt.ref.copy(), y, pn, pe, pd, 0.0, 0.0, dt, False, hold)
             assert cx.tolist() == ctrl.x.tolist()
             if t_s < 0.05:

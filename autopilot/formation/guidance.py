@@ -110,7 +110,9 @@ class FormationGuidance:
     ``peers.PeerTable`` of the vehicles this one follows (``only=follows``). Its
     parameters and state are one array, ``g`` (G_*), where the kernel ``guide`` works."""
 
-    def __init__(self, spec: FormationSpec, vid: int):
+    def __init__(self, spec: FormationSpec, vid: int, g=None):
+        """``g``: where its array lives (zeros of G_N; a formation quadrotor's state
+        array, ``autopilot.formation.quad``), else its own."""
         self.spec = spec
         self.vid = vid
         v = spec.vehicle(vid)
@@ -118,7 +120,7 @@ class FormationGuidance:
         self.follows = v.follows
         offset = spec.offsets().get(vid)
         c = spec.control
-        g = self.g = np.zeros(G_N)
+        g = self.g = np.zeros(G_N) if g is None else g
         g[G_ROLE] = ROLES.index(v.role)
         g[G_KP], g[G_KI] = c.gain_p, c.gain_i
         g[G_VMAX] = spec.speed_mps if v.role == "leader" else c.follower_speed_factor * spec.speed_mps
@@ -266,8 +268,10 @@ class VirtualTarget:
     formation frame): p, v, a."""
 
     def __init__(self, p0, a_max: float = 4.0, j_max: float = 20.0, tau_s: float = 0.2,
-                 home=(0.0, 0.0, 0.0), start_s: float = 0.0):
-        x = self.x = np.zeros(VT_N)
+                 home=(0.0, 0.0, 0.0), start_s: float = 0.0, x=None):
+        # (``x``: where its array lives, VT_N long, a formation quadrotor's; started afresh)
+        x = self.x = np.zeros(VT_N) if x is None else x
+        x[:] = 0.0
         x[VT_R:VT_R + 3] = p0
         x[VT_AMAX], x[VT_JMAX], x[VT_TAU], x[VT_START] = a_max, j_max, tau_s, start_s
         x[VT_HOME:VT_HOME + 3] = home

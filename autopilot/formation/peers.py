@@ -80,16 +80,17 @@ class PeerTable:
     those vehicles only (the ones a vehicle follows: a datagram from any other is
     dropped on its MAVLink 2 header's system id, byte 5, undecoded, and ``rows`` holds
     what ``get`` would extrapolate for each of them, in the order of ``only``: the
-    formation guidance's kernel reads them there)."""
+    formation guidance's kernel reads them there; ``rows``: where that array lives, if
+    not its own: zeros, one row of ROW_N per vehicle of ``only``)."""
 
     def __init__(self, own_id: int, frame: LocalFrame, use_targets: bool = False,
-                 only=None):
+                 only=None, rows=None):
         self.own_id = own_id
         self.frame = frame
         self.use_targets = use_targets
         self.only = None if only is None else frozenset(only)
         self._row = {} if only is None else {j: k for k, j in enumerate(only)}
-        self.rows = np.zeros((len(self._row), ROW_N))    # ROW_*; all NOT_HEARD
+        self.rows = np.zeros((len(self._row), ROW_N)) if rows is None else rows   # ROW_*; all NOT_HEARD
         self.codec = Codec(own_id, MAV.MAV_COMP_ID_AUTOPILOT1)
         self.latest: dict[int, tuple[float, tuple, tuple]] = {}   # id -> (t_s, p_ned, v_ned)
         self.targets: dict[int, tuple[float, tuple, tuple, tuple]] = {}  # + a_ned

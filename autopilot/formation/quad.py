@@ -43,12 +43,15 @@ from ..guidance.multirotor import CopterTarget, new_target
 from ..jit import kernel, preload
 from ..modes.copter import CopterMode
 from ..vehicle_quad import QuadVehicle
-from .guidance import VT_A, VT_REF, FormationGuidance, VirtualTarget, formation_step
-from .peers import PeerTable, PositionPublisher
+from .guidance import G_N, G_NF, VT_A, VT_N, VT_REF, FormationGuidance, VirtualTarget, formation_step
+from .peers import ROW_N, PeerTable, PositionPublisher
 from .spec import FormationSpec
 
 
 _GUIDED = CopterMode.GUIDED
+# FormationQuad.fs: the guidance's array (G_*), the virtual target's (VT_*), then the
+# peer table's rows (ROW_N each, one per followed vehicle): one argument of the kernel
+FS_VT, FS_ROWS = G_N, G_N + VT_N
 
 
 class FormationQuad(QuadVehicle):
@@ -60,21 +63,24 @@ class FormationQuad(QuadVehicle):
         self.start_s = start_s
         self.origin = LocalFrame.from_degrees(*spec.origin)
         self.start_ned = spec.vehicle(vid).start_ned
-        self.guidance = FormationGuidance(spec, vid)
-        self.peers = PeerTable(vid, self.origin, use_targets=True, only=self.guidance.follows)
+        follows = spec.vehicle(vid).follows
+        fs = self.fs = np.zeros(FS_ROWS + len(follows) * ROW_N)
+        self.guidance = FormationGuidance(spec, vid, g=fs[:FS_VT])
+        self.peers = PeerTable(vid, self.origin, use_targets=True, only=follows,
+                               rows=fs[FS_ROWS:].reshape(len(follows), ROW_N))
         self.publisher = PositionPublisher(vid, spec.ground_alt_m)
         self.period_us = int(round(1e6 / spec.network.rate_hz))
         self._next_pub_us = 0
         self.outbox: list[bytes] = []
-        self.vt = VirtualTarget(self.start_ned, a_max, start_s=start_s)
+        self.vt = VirtualTarget(self.start_ned, a_max, start_s=start_s, x=fs[FS_VT:FS_ROWS])
         self.home_in_form = (0.0, 0.0, 0.0)
         self._healthy_since: int | None = None
         # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
         # copies of the arrays it writes)
         y = np.zeros(Y_N)
         y[Y_Q] = 1.0
-        preload(formation_track, self.guidance.g.copy(), self.peers.rows, self.vt.x.copy(),
-                self.ctrl.x.copy(), y, 0.0, 0.0, 0.0, start_s, dt_s, False)
+        preload(formation_track, fs.copy(), self.ctrl.x.copy(), y, 0.0, 0.0, 0.0, start_s, dt_s,
+                False)
 
     # -------------------------------------------------------------- arming ---
     def _try_arm(self, t_us: int, truth) -> None:
@@ -95,7 +101,7 @@ class FormationQuad(QuadVehicle):
         hf = self.home_frame
         self.home_in_form = tuple(self.origin.to_ned_fast(hf.lat0_rad, hf.lon0_rad, hf.alt0_m).tolist())
         self.vt = VirtualTarget(self.start_ned, self.vt.a_max, home=self.home_in_form,
-                                start_s=self.start_s)
+                                start_s=self.start_s, x=self.vt.x)
         self.log.event(t_us * 1e-6, f"formation vehicle {self.vid} armed (GUIDED, airborne)")
 
     @property
@@ -111,7 +117,7 @@ class FormationQuad(QuadVehicle):
 
     # ---------------------------------------------------------------- loop ---
     def step(self, frame, truth=None):
-        out = super().step(frame, truth)
+        out = QuadVehicle.step(self, frame, truth)    # (not super(): an object every step)
         t_us = frame.t_us
         if not self.armed:
             self._try_arm(t_us, truth)
@@ -134,8 +140,7 @@ class FormationQuad(QuadVehicle):
         c = self.ctrl
         pn, pe, pd = self.p_home
         c.roll_d, c.pitch_d, c.u, c.motors = formation_track(
-            self.guidance.g, self.peers.rows, self.vt.x, c.x, self.y, pn, pe, pd, t_us * 1e-6,
-            dt, not self.flying)
+            self.fs, c.x, self.y, pn, pe, pd, t_us * 1e-6, dt, not self.flying)
         c.yaw_d = 0.0
         return c.motors
 
@@ -152,11 +157,13 @@ class FormationQuad(QuadVehicle):
 
 
 @kernel
-def formation_track(g, rows, x, cx, y, pn, pe, pd, t_s, dt, hold):
+def formation_track(fs, cx, y, pn, pe, pd, t_s, dt, hold):
     """The formation's guidance step (:func:`~.guidance.formation_step` on the guidance's
-    array ``g``, the peer table's ``rows`` and the virtual target's ``x``) and the loops
-    on the reference it leaves there (:func:`~..control.multirotor.track_mix` on the
-    controller's array ``cx`` and the navigation output ``y``, heading north, the
-    altitude integrator held with ``hold``), in one call. Returns track_mix's."""
-    formation_step(g, rows, x, t_s, dt)
+    array ``g``, the peer table's ``rows`` and the virtual target's ``x``, all three in
+    ``fs``: FormationQuad.fs) and the loops on the reference it leaves there
+    (:func:`~..control.multirotor.track_mix` on the controller's array ``cx`` and the
+    navigation output ``y``, heading north, the altitude integrator held with ``hold``),
+    in one call. Returns track_mix's."""
+    g, x = fs[:FS_VT], fs[FS_VT:FS_ROWS]
+    formation_step(g, fs[FS_ROWS:].reshape((int(g[G_NF]), ROW_N)), x, t_s, dt)
     return track_mix(cx, x[VT_REF:VT_A + 3], y, pn, pe, pd, 0.0, 0.0, dt, False, hold)

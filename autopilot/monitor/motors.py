@@ -24,11 +24,13 @@ quadrotor's rotors". How well it works: docs/status.md, "Faults and the monitor"
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 
 from autopilot.control.mixer import K_N, rotor_thrust
+from autopilot.control.multirotor import Y_N, Y_W
 from autopilot.jit import kernel, preload
 from autopilot.params import Param
 
@@ -69,11 +71,12 @@ MOTOR_PARAMS = (
 
 
 class MotorMonitor:
-    """``update(t_us, flying, motors, f_z, omega_b, k)`` on the steps it is due (``due()``).
+    """``update(t_us, flying, motors, f_z, y, k)`` on the steps it is due (``due()``).
 
     ``motors`` are the commands the rotors flew with since the previous step (the
-    previous step's output), ``f_z`` / ``omega_b`` the IMU sample (the specific force's
-    body z component, the rates) less the filter's bias estimates, ``k`` the mixer's
+    previous step's output), ``f_z`` the IMU's specific force (body z) less the filter's
+    bias estimate, ``y`` the navigation output the loops read (control.multirotor.Y_*:
+    its rates, Y_W, are the IMU's less the filter's gyro bias), ``k`` the mixer's
     constants (``QuadPlusMixer.k``), whose thrust curve (``rotor_thrust``) gives the
     modelled thrust of a command. Outputs:
     ``episodes`` (the monitor's :class:`~.monitor.Episode` records, kind "actuator"),
@@ -98,7 +101,9 @@ class MotorMonitor:
         self.km = g("QD_KM", 0.0197)
         # the balance runs every ``div``-th vehicle step (``due()``), dt_s apart each
         self.div = max(1, int(div))
-        self._n_due = 0
+        # due(), called once per vehicle step: True on the steps the monitor runs (a C
+        # iterator's step, not a Python call at every vehicle step)
+        self.due = itertools.cycle((False,) * (self.div - 1) + (self.enabled,)).__next__
         dt_s = dt_s * self.div
         self._s = np.zeros(S_N)
         self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
@@ -114,8 +119,8 @@ class MotorMonitor:
         preload(stage2_update, self.gamma, self.P, np.eye(4), np.zeros(4), np.ones(4), 0.0)
         preload(balance_residuals, np.ones(4), np.ones(4), np.ones(4), 1.0, np.ones(4), True,
                 True, 0.5)
-        preload(motor_lowpass, self._s.copy(), np.zeros(K_N), 0.5, 0.5, 0.5, 0.5, -9.8, 0.0,
-                0.0, 0.0, True)
+        preload(motor_lowpass, self._s.copy(), np.zeros(K_N), 0.5, 0.5, 0.5, 0.5, -9.8,
+                np.zeros(Y_N), True)
 
     def reset(self) -> None:
         self._s[:S_LAG] = 0.0                      # (motor_lowpass's state, S_*)
@@ -146,20 +151,16 @@ class MotorMonitor:
         """Largest detection statistic / threshold while no fault was detected."""
         return {"motors": self.peak}
 
-    def due(self) -> bool:
-        """Call once per vehicle step: True on the steps the monitor runs."""
-        self._n_due += 1
-        if self._n_due >= self.div:
-            self._n_due = 0
-            return self.enabled
-        return False
-
     # ------------------------------------------------------------------- step ---
-    def update(self, t_us: int, flying: bool, motors, f_z, omega_b, k) -> None:
+    def update(self, t_us: int, flying: bool, motors, f_z, y, k) -> bool:
+        """True on the steps its stage ran: the only ones that change its events,
+        ``accommodation`` and ``failsafe``."""
         if not self.enabled:
-            return
-        if motor_lowpass(self._s, k, *motors, f_z, *omega_b, flying):
-            self._stage(t_us, omega_b)
+            return False
+        if motor_lowpass(self._s, k, *motors, f_z, y, flying):
+            self._stage(t_us, y[Y_W:Y_W + 3].tolist())
+            return True
+        return False
 
     def _stage(self, t_us: int, omega) -> None:
         t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = self._s[S_LP:S_HAS_LP].tolist()
@@ -308,13 +309,13 @@ def balance_residuals(y, hsum, hg, c, var, learn, first, w):
 
 
 @kernel
-def motor_lowpass(s, k, m1, m2, m3, m4, fz, p, q, r, flying):
+def motor_lowpass(s, k, m1, m2, m3, m4, fz, y, flying):
     """The monitor's per-step part (:meth:`MotorMonitor.update`) on its state ``s``
     (S_*): the modelled thrusts of the commands m1..m4 flown (the mixer's thrust curve on
     its constants ``k``) through the rotors' lag; in flight the low-pass of every balance
-    signal (T1..T4, f_z, p, q, r, qr, pr, pq), started from the first values and stopped
-    on the ground (the seconds of flight with it). True on the steps stage 2 is due
-    (every KF_PERIOD_S of flight)."""
+    signal (T1..T4, f_z, p, q, r, qr, pr, pq; the rates from the navigation output ``y``),
+    started from the first values and stopped on the ground (the seconds of flight with
+    it). True on the steps stage 2 is due (every KF_PERIOD_S of flight)."""
     a = s[S_LAG]
     t1 = s[S_T] + (rotor_thrust(k, m1) - s[S_T]) * a
     t2 = s[S_T + 1] + (rotor_thrust(k, m2) - s[S_T + 1]) * a
@@ -325,6 +326,7 @@ def motor_lowpass(s, k, m1, m2, m3, m4, fz, p, q, r, flying):
         s[S_HAS_LP] = 0.0
         s[S_FLIGHT] = 0.0
         return False
+    p, q, r = y[Y_W], y[Y_W + 1], y[Y_W + 2]
     signals = (t1, t2, t3, t4, fz, p, q, r, q * r, p * r, p * q)
     if s[S_HAS_LP] == 0.0:
         for i in range(11):
