@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import lru_cache
 from math import ceil, floor
 
 from autopilot.jit import kernel
@@ -71,16 +72,22 @@ def truth_ints(lat_rad, lon_rad, alt_m, vn, ve, vd, airspeed_mps, rho_kgm3, fx, 
             round_sat(fz * MG_PER_MS2, -32767.0, 32767.0))
 
 
+@lru_cache(maxsize=4)
+def _range_fields(min_m: float, max_m: float, noise_sigma_m: float) -> tuple:
+    """DISTANCE_SENSOR's fields a sensor fixes (min_distance, max_distance [cm], the
+    variance [cm^2]): the same at every reading, worked out once per sensor."""
+    return (_round_sat(min_m * 100.0, 0.0, 65534.0), _round_sat(max_m * 100.0, 0.0, 65534.0),
+            _round_sat((noise_sigma_m * 100.0) ** 2, 0.0, 254.0))
+
+
 def distance_sensor_values(reading) -> tuple:
     """DISTANCE_SENSOR's flat values (autopilot/link/hil.py: the field order and the
     out-of-range convention) of a ``sim_bridge.sensors.rangefinder.RangeReading``."""
-    lo = _round_sat(reading.min_m * 100.0, 0.0, 65534.0)
-    hi = _round_sat(reading.max_m * 100.0, 0.0, 65534.0)
+    lo, hi, var = _range_fields(reading.min_m, reading.max_m, reading.noise_sigma_m)
     if reading.distance_m is None:
         cur, quality = hi + 1, 1                    # no return: over range, invalid signal
     else:
         cur, quality = _round_sat(reading.distance_m * 100.0, 0.0, hi), 100
-    var = _round_sat((reading.noise_sigma_m * 100.0) ** 2, 0.0, 254.0)
     return (reading.t_us // 1000, lo, hi, cur, MAV.MAV_DISTANCE_SENSOR_LASER, 0,
             MAV.MAV_SENSOR_ROTATION_PITCH_270, var, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, quality)
 

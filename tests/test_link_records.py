@@ -1,6 +1,6 @@
 """The @message records' constructors (autopilot/frozen.py): ``Record(...)`` and
 ``Record.make(...)`` build the same immutable record; copy and pickle rebuild it; and
-the HIL link's builders hand the same SensorFrame as the class calls would."""
+the HIL link's end builds the same SensorFrame as the class calls would."""
 import copy
 import dataclasses
 import math
@@ -11,7 +11,7 @@ import pytest
 
 from autopilot.frozen import message
 from autopilot.link.hil import (AutopilotHilEnd, BARO_FLAGS, DIFF_FLAG, ESC_RPM, MAG_FLAGS,
-                                RHO0, gps_fix_from, range_sample_from, sensor_frame_from)
+                                RHO0, gps_fix_from, range_sample_from)
 from autopilot.messages import (AirspeedSample, ActuatorOutputs, BaroSample, GpsFix, ImuSample,
                                 MagSample, NavState, RangeSample, RpmSample, SensorFrame)
 
@@ -51,8 +51,19 @@ def test_records_copy_and_pickle_through_their_constructor():
     assert dataclasses.replace(a, armed=False) == ActuatorOutputs(7, (0.5, -0.25), False)
 
 
+def _end_frame(v, gps=None, rng=None, esc=None):
+    """The SensorFrame the autopilot's end builds of HIL_SENSOR's values ``v`` with a
+    pending fix, range and ESC telemetry."""
+    end = AutopilotHilEnd(None)
+    end._gps, end._range, end._esc = gps, rng, esc
+    end._on_sensor(v)
+    (frame, truth), = end._steps
+    assert truth is None and (end._gps, end._range, end._esc) == (None, None, None)
+    return frame
+
+
 def _class_call_frame(v, gps=None, rng=None, esc=None):
-    """sensor_frame_from spelt with class calls (the reference): the vectors are tuples of
+    """The end's SensorFrame spelt with class calls (the reference): the vectors are tuples of
     floats."""
     t_us, flags = v[0], v[14]
     q = 2.0 * (v[11] * 100.0) / RHO0
@@ -81,7 +92,7 @@ def _same(a, b):
             assert type(x) is type(y) and x == y, f.name
 
 
-def test_sensor_frame_from_matches_the_class_calls_bit_for_bit():
+def test_the_ends_sensor_frame_matches_the_class_calls_bit_for_bit():
     rng = np.random.default_rng(4)
     esc = (0,) * 12 + (5321, 0, 0, 0) + (0,) * 8
     for k in range(50):
@@ -92,7 +103,7 @@ def test_sensor_frame_from_matches_the_class_calls_bit_for_bit():
                           9000, 3, 12, 0, 0))
         r = range_sample_from((k, 20, 4000, 1234, 0, 0, 25, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 100))
         for args in ((v, None), (v, g, r, esc)):
-            _same(sensor_frame_from(*args), _class_call_frame(*args))
+            _same(_end_frame(*args), _class_call_frame(*args))
     assert type(g) is GpsFix and type(r) is RangeSample and r.distance_m == 12.34
 
 

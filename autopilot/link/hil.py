@@ -132,23 +132,6 @@ def range_sample_from(v) -> RangeSample:
     return _range_sample(v[0] * 1000, v[3] * 0.01, v[1] * 0.01, v[2] * 0.01, v[6], v[14])
 
 
-def sensor_frame_from(v, gps: GpsFix | None, rng: RangeSample | None = None,
-                      esc=None) -> SensorFrame:
-    """HIL_SENSOR values (+ a pending HIL_GPS, DISTANCE_SENSOR, ESC_TELEMETRY_1_TO_4's
-    values) -> SensorFrame in SI."""
-    t_us, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, dp_hpa, alt_m, temp_c, flags, _ = v
-    imu = _imu_sample(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
-    mag = _mag_sample(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
-    baro = _baro_sample(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
-    air = None
-    if flags & DIFF_FLAG:
-        dp_pa = dp_hpa * 100.0
-        q = 2.0 * dp_pa / RHO0
-        air = _airspeed_sample(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
-    rpm = None if esc is None else _rpm_sample(t_us, float(esc[ESC_RPM]))
-    return _sensor_frame(t_us, imu, mag, baro, air, gps, rng, rpm)
-
-
 def gps_fix_from(v) -> GpsFix:
     """HIL_GPS values (wire order) -> GpsFix in SI."""
     return _gps_fix(v[0], v[1] / RAD_TO_E7, v[2] / RAD_TO_E7, v[3] * 1e-3,
@@ -202,7 +185,10 @@ class AutopilotHilEnd:
 
     # --- the lockstep messages' handlers (values in the payload's own order) ----------
     def _on_sensor(self, v) -> None:
-        t_us = v[0]
+        """HIL_SENSOR's values (+ the pending HIL_GPS, DISTANCE_SENSOR and
+        ESC_TELEMETRY_1_TO_4) -> the step's SensorFrame in SI, built here (not by a
+        function this one would only pass the values to)."""
+        t_us, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, dp_hpa, alt_m, temp_c, flags, _ = v
         last = self._last_t_us
         if t_us == last:
             # the simulator did not get our answer: repeat it, do not re-run
@@ -215,7 +201,17 @@ class AutopilotHilEnd:
         truth = self._truth
         if truth is not None and truth.t_us != t_us:
             truth = None
-        self._steps.append((sensor_frame_from(v, self._gps, self._range, self._esc), truth))
+        imu = _imu_sample(t_us, (ax, ay, az), (gx, gy, gz))   # (the readers take the vectors' floats)
+        mag = _mag_sample(t_us, (mx, my, mz)) if flags & MAG_FLAGS else None
+        baro = _baro_sample(t_us, p_hpa * 100.0, alt_m, temp_c + 273.15) if flags & BARO_FLAGS else None
+        air = None
+        if flags & DIFF_FLAG:
+            dp_pa = dp_hpa * 100.0
+            q = 2.0 * dp_pa / RHO0
+            air = _airspeed_sample(t_us, dp_pa, math.sqrt(q if q > 0.0 else 0.0))   # (max(0, q) spelt out)
+        esc = self._esc
+        rpm = None if esc is None else _rpm_sample(t_us, float(esc[ESC_RPM]))
+        self._steps.append((_sensor_frame(t_us, imu, mag, baro, air, self._gps, self._range, rpm), truth))
         self._gps = None
         self._range = None
         self._esc = None
