@@ -351,7 +351,9 @@ class PlaneVehicle(VehicleBase):
                 # the model's trim speed, steepest level turn, and full throttle if no trim
                 ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
                                        mon.elevator_full_throttle)
-            so = mon.surface_out if p["LOUT_ENABLE"] > 0 else None
+            so = mon.surface_out
+            if so is not None and not p["LOUT_ENABLE"] > 0:
+                so = None                        # (the parameter read only on a reaction)
             if so is not ctrl.surface_out:
                 # a stuck aileron or rudder: countered with the other (control/fixed_wing.py)
                 new = ctrl.surface_out is None
@@ -360,7 +362,9 @@ class PlaneVehicle(VehicleBase):
                     mon.announce(t_us * 1e-6, SEV_WARNING,
                                  f"{so['surface']} out: roll flown on the "
                                  f"{'rudder' if so['surface'] == 'aileron' else 'aileron'}")
-            to = mon.throttle_out if p["TOUT_ENABLE"] > 0 else None
+            to = mon.throttle_out
+            if to is not None and not p["TOUT_ENABLE"] > 0:
+                to = None
             if to is not ctrl.throttle_out:
                 # a stuck throttle: where it holds level flight the height held and the
                 # airspeed free, else the airspeed on the pitch (control/fixed_wing.py)
@@ -590,6 +594,7 @@ class PlaneVehicle(VehicleBase):
             if hold is None or self.landed:
                 return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
             tgt = hold
+            gs = math.hypot(vl[0], vl[1])
         else:
             seq = self._sequencer
             if mode == _RTL and not seq.finished:
@@ -613,6 +618,7 @@ class PlaneVehicle(VehicleBase):
                 if req == "here":
                     req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
                 self.set_home(*req, t_us)
+            gs = seq._gs                         # the ground speed, worked out by update
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl
@@ -656,13 +662,12 @@ class PlaneVehicle(VehicleBase):
                 rudder = p["GSTEER_KP"] * err - p["GSTEER_KD"] * float(nav.omega_b[2])
                 rudder = max(min(rudder, 1.0), -1.0)
         elif kind == "line" or kind == "direct":
-            cmd = l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
-            bank = cmd.bank_rad
-            self.xtrack_m = cmd.xtrack_m
+            # (LateralCommand's fields: accel, bank, xtrack, ...)
+            _, bank, self.xtrack_m, _, _, _ = l1.steer_line(p_ne, v_ne, gs, tgt.a_ne, tgt.b_ne, yaw,
+                                                            nav.airspeed_mps)
         elif kind == "loiter":
-            cmd = l1.loiter(p_ne, v_ne, tgt.c_ne, tgt.radius_m, tgt.direction, yaw, nav.airspeed_mps)
-            bank = cmd.bank_rad
-            self.xtrack_m = cmd.xtrack_m
+            _, bank, self.xtrack_m, _, _, _ = l1.steer_loiter(p_ne, v_ne, gs, tgt.c_ne, tgt.radius_m,
+                                                              tgt.direction, yaw, nav.airspeed_mps)
         else:
             bank = 0.0
         if kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
