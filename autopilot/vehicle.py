@@ -168,6 +168,7 @@ class PlaneVehicle(VehicleBase):
         self.steps = 0
         self._gps_this_step = None              # the GPS fix for the next log row
         self._p_home = None                     # (nav state, its position in home's NED)
+        self._wind_of = self._wind_l = None     # the wind array and its list (_fly)
         self.log_rows = RowSchedule(LOG_DIV)
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.crash: str | None = None           # why crash detection disarmed the vehicle
@@ -598,7 +599,12 @@ class PlaneVehicle(VehicleBase):
         # the position in home's frame and the velocities as tuples / lists: the guidance
         # reads them element by element, and a numpy element costs more than its arithmetic
         pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        wl = nav.wind_ned.tolist()
+        w = nav.wind_ned
+        if w is not self._wind_of:
+            # a new wind estimate: the filter hands the same array on until it has one
+            # (a fusion), and never writes into it (autopilot/nav/base.py, _output)
+            self._wind_of, self._wind_l = w, w.tolist()
+        wl = self._wind_l
         yaw = self.euler[2]
         mode = self.mode
         if mode in _HOLD_MODES or (mode == _RTL and self.rtl_hold is not None):
