@@ -168,6 +168,7 @@ class PlaneVehicle(VehicleBase):
         self.steps = 0
         self._gps_this_step = None              # the GPS fix for the next log row
         self._p_home = None                     # (nav state, its position in home's NED)
+        self._wind_of = self._wind_l = None     # the wind array and its list (_fly)
         self.log_rows = RowSchedule(LOG_DIV)
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.crash: str | None = None           # why crash detection disarmed the vehicle
@@ -184,6 +185,17 @@ class PlaneVehicle(VehicleBase):
         self.land_done = False                  # landed (NAV_LAND) and disarmed: no re-arming
         self.rangefinder = RangefinderHeight(params)   # RNGFND1_*, RNGFND_LANDING
         self.rpm = -1.0                 # the propeller's last reported speed [rpm] (-1 none)
+        self._read_step_params()
+
+    def _read_step_params(self) -> None:
+        """The parameters the loop reads every step (crash detection's, the bank limit's
+        near the ground), read at the start and again at every change
+        (``_param_changed``): a read from the ParamStore costs about 0.4 k instructions."""
+        p = self.params
+        self._crash_detect = p["CRASH_DETECT"] >= 1
+        self._moving_air_mps = 0.75 * p["ARSPD_FBW_MIN"]   # ArduPlane's "moving through the air"
+        self._crash_gnd_alt_m = p["CRASH_GND_ALT"]
+        self._level_alt_m = p["TKOFF_LVL_ALT"]
 
     # ------------------------------------------------------------------ arming ---
     def _arming(self, nav: NavState) -> None:
@@ -294,6 +306,7 @@ class PlaneVehicle(VehicleBase):
         return None
 
     def _param_changed(self, name: str) -> None:
+        self._read_step_params()
         if name in ("NAVL1_PERIOD", "NAVL1_DAMPING"):
             self.l1.set_design(self.params["NAVL1_PERIOD"], self.params["NAVL1_DAMPING"])
         else:
@@ -351,7 +364,9 @@ class PlaneVehicle(VehicleBase):
                 # the model's trim speed, steepest level turn, and full throttle if no trim
                 ctrl.set_elevator_trim(mon.elevator_trim_mps, mon.elevator_bank_max_rad,
                                        mon.elevator_full_throttle)
-            so = mon.surface_out if p["LOUT_ENABLE"] > 0 else None
+            so = mon.surface_out
+            if so is not None and not p["LOUT_ENABLE"] > 0:
+                so = None                        # (the parameter read only on a reaction)
             if so is not ctrl.surface_out:
                 # a stuck aileron or rudder: countered with the other (control/fixed_wing.py)
                 new = ctrl.surface_out is None
@@ -360,7 +375,9 @@ class PlaneVehicle(VehicleBase):
                     mon.announce(t_us * 1e-6, SEV_WARNING,
                                  f"{so['surface']} out: roll flown on the "
                                  f"{'rudder' if so['surface'] == 'aileron' else 'aileron'}")
-            to = mon.throttle_out if p["TOUT_ENABLE"] > 0 else None
+            to = mon.throttle_out
+            if to is not None and not p["TOUT_ENABLE"] > 0:
+                to = None
             if to is not ctrl.throttle_out:
                 # a stuck throttle: where it holds level flight the height held and the
                 # airspeed free, else the airspeed on the pitch (control/fixed_wing.py)
@@ -408,7 +425,7 @@ class PlaneVehicle(VehicleBase):
                                            land is not None, self._rf_terrain(nav, land))
             if note is not None:
                 self.notice(t_us * 1e-6, SEV_INFO, note)
-        if self.armed and self.mode == _AUTO and p["CRASH_DETECT"] >= 1:
+        if self.armed and self.mode == _AUTO and self._crash_detect:
             self._crash_check(nav, t_us, vl)
         if fence_watching(self.geofence):
             fence_step(self, t_us, self.armed and not self.landed, landing=self._landing())
@@ -456,7 +473,7 @@ class PlaneVehicle(VehicleBase):
                 # over known terrain: the height above the ground under the aircraft (less
                 # the launcher's height above it at arming), not above the launch point
                 h = nav.alt_m - ground - (self._launch_alt_m - self._launch_ground_m)
-        moving_air = nav.airspeed_mps >= 0.75 * p["ARSPD_FBW_MIN"]
+        moving_air = nav.airspeed_mps >= self._moving_air_mps
         if self._launch_us is None:
             if moving_air:
                 self._launch_us = t_us
@@ -474,7 +491,7 @@ class PlaneVehicle(VehicleBase):
                                     f"(height {h:.1f} m, climbing {self._launch_climb:.1f} m/s)")
             return
         vn, ve, vd = v_ned
-        on_ground = h < p["CRASH_GND_ALT"] and vd > -CRASH_CLIMB
+        on_ground = h < self._crash_gnd_alt_m and vd > -CRASH_CLIMB
         stopped = not moving_air and math.hypot(vn, ve) < CRASH_STOP_GSPD
         if not (on_ground or stopped) or self._landing():
             # flying, or down where a landing means to be (the landing asked only then)
@@ -582,7 +599,12 @@ class PlaneVehicle(VehicleBase):
         # the position in home's frame and the velocities as tuples / lists: the guidance
         # reads them element by element, and a numpy element costs more than its arithmetic
         pl = self.home_frame.ned_fast(nav.lat_rad, nav.lon_rad, nav.alt_m)
-        wl = nav.wind_ned.tolist()
+        w = nav.wind_ned
+        if w is not self._wind_of:
+            # a new wind estimate: the filter hands the same array on until it has one
+            # (a fusion), and never writes into it (autopilot/nav/base.py, _output)
+            self._wind_of, self._wind_l = w, w.tolist()
+        wl = self._wind_l
         yaw = self.euler[2]
         mode = self.mode
         if mode in _HOLD_MODES or (mode == _RTL and self.rtl_hold is not None):
@@ -590,6 +612,7 @@ class PlaneVehicle(VehicleBase):
             if hold is None or self.landed:
                 return (0.0, 0.0, 0.0, 0.0)  # not launched: stay on the launcher
             tgt = hold
+            gs = math.hypot(vl[0], vl[1])
         else:
             seq = self._sequencer
             if mode == _RTL and not seq.finished:
@@ -613,6 +636,7 @@ class PlaneVehicle(VehicleBase):
                 if req == "here":
                     req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
                 self.set_home(*req, t_us)
+            gs = seq._gs                         # the ground speed, worked out by update
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl
@@ -656,16 +680,15 @@ class PlaneVehicle(VehicleBase):
                 rudder = p["GSTEER_KP"] * err - p["GSTEER_KD"] * float(nav.omega_b[2])
                 rudder = max(min(rudder, 1.0), -1.0)
         elif kind == "line" or kind == "direct":
-            cmd = l1.line(p_ne, v_ne, tgt.a_ne, tgt.b_ne, yaw, nav.airspeed_mps)
-            bank = cmd.bank_rad
-            self.xtrack_m = cmd.xtrack_m
+            # (LateralCommand's fields: accel, bank, xtrack, ...)
+            _, bank, self.xtrack_m, _, _, _ = l1.steer_line(p_ne, v_ne, gs, tgt.a_ne, tgt.b_ne, yaw,
+                                                            nav.airspeed_mps)
         elif kind == "loiter":
-            cmd = l1.loiter(p_ne, v_ne, tgt.c_ne, tgt.radius_m, tgt.direction, yaw, nav.airspeed_mps)
-            bank = cmd.bank_rad
-            self.xtrack_m = cmd.xtrack_m
+            _, bank, self.xtrack_m, _, _, _ = l1.steer_loiter(p_ne, v_ne, gs, tgt.c_ne, tgt.radius_m,
+                                                              tgt.direction, yaw, nav.airspeed_mps)
         else:
             bank = 0.0
-        if kind != "takeoff" and -pd < p["TKOFF_LVL_ALT"]:
+        if kind != "takeoff" and -pd < self._level_alt_m:
             lim = math.radians(p["TKOFF_LVL_BANK"])
             bank = max(min(bank, lim), -lim)
         if land == "rollout" or land == "ground":

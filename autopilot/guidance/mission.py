@@ -980,7 +980,8 @@ class MissionSequencer:
                 break
             item = self.items[self.current]
             cmd = item.command
-            self._track_next(item, p_ne)
+            if self._next_wp is not False:       # (False: no waypoint to track this item)
+                self._track_next(item, p_ne)
             if self._do_pending:
                 # the DO items before this navigation item run first (a condition holds back
                 # those after it): CONDITION_DISTANCE measures to this item's place
@@ -1044,7 +1045,7 @@ class MissionSequencer:
         while the take-off flies, or an item whose point lies within that waypoint's
         acceptance radius (a cluster: a loiter's centre, a waypoint, the two passed on
         the same turn): a waypoint so passed within its radius is not flown back to
-        (``_fly_back_to``)."""
+        (``_fly_back_to``). Called while that waypoint is not known to be none."""
         if self._next_wp is None:
             nxt = self._upcoming(1)
             it = nxt[0] if nxt else None
