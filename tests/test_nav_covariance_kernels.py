@@ -46,7 +46,7 @@ def test_predict_covariance_into_writes_F_P_Ft_plus_Q_into_the_given_array():
         s[S_ACC_HAS] = s[S_QS_HAS] = 1.0
         s0 = s.copy()
         out = np.full((n, n), np.nan)                 # every entry must be written
-        assert predict_covariance_into(P, T, s, a, q, qs_idx, out) is None
+        assert predict_covariance_into(P, T, s, a, q, out) is None
         assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
         assert np.array_equal(P, P0)                  # P itself untouched
         # the interval taken: its flags cleared, nothing else of s written
@@ -56,7 +56,7 @@ def test_predict_covariance_into_writes_F_P_Ft_plus_Q_into_the_given_array():
         # the IMU sampling error lands at its indices and nowhere else (an interval
         # without one: S_QS_HAS clear)
         without = np.empty((n, n))
-        predict_covariance_into(P, T, s, a, q, qs_idx, without)
+        predict_covariance_into(P, T, s, a, q, without)
         d = out - without
         assert np.allclose(d.flat[qs_idx], qs, rtol=0, atol=1e-12 * np.abs(want).max())
         d.flat[qs_idx] = 0.0

@@ -69,7 +69,8 @@ import numpy as np
 
 from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
-from .base import _B_H, _B_S, S_ACC, S_ACC_HAS, S_QS_HAS, NavFilterBase, inject_into
+from .base import (_B_H, _B_S, _IA, _IV, _P_CEIL, _P_FLOOR, S_ACC, S_ACC_HAS, S_QS_HAS,
+                   NavFilterBase, inject_into)
 from .config import NAV_PARAMS  # noqa: F401  (re-exported: the filter's parameters beside it)
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 
@@ -114,11 +115,11 @@ def _transition_times(X, T, S, Rs, a, Y):
 
 
 @kernel
-def predict_covariance_into(P, T, s, a, q, qs_idx, out):
+def predict_covariance_into(P, T, s, a, q, out):
     """Covariance prediction over an interval T (module docstring; Sola 2017 eq 269):
 
-        P' = F P F^T + diag(q)   (+ the IMU sampling error q_s at the flat indices
-                                  ``qs_idx``, base.py, where the interval has one)
+        P' = F P F^T + diag(q)   (+ the IMU sampling error q_s on the velocity and
+                                  attitude blocks, base.py, where the interval has one)
 
     computed as F (F P)^T transposed, F's blocks as in ``_transition_times``, written
     into ``out`` (n x n, not P itself: a kernel that hands back a new array costs the
@@ -133,9 +134,13 @@ def predict_covariance_into(P, T, s, a, q, qs_idx, out):
     for r in range(n):
         out[r, r] += q[r]
     if s[S_QS_HAS] != 0.0:
-        for k in range(qs_idx.shape[0]):
-            i = qs_idx[k]
-            out[i // n, i % n] += s[S_ACC + 12 + k]
+        # q_s: the velocity block's 3 x 3 (row-major), then the attitude block's
+        k = S_ACC + 12
+        for b0 in (_IV, _IA):
+            for i in range(3):
+                for j in range(3):
+                    out[b0 + i, b0 + j] += s[k]
+                    k += 1
     s[S_ACC_HAS] = 0.0
     s[S_QS_HAS] = 0.0
 
@@ -206,12 +211,14 @@ def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
 
 
 @kernel
-def fuse_into(P, H, PHt, S, R, y, floor, ceil, dx, out, b):
-    """The update (:func:`joseph_update_into`: dx and P' into ``dx`` and ``out``) with
-    dx folded into the nominal state (base.inject_into; ``b``: the filter's buffer of
-    the nominal state and the per-step array, base._B_*). Returns ok (False: S not
-    positive definite, nothing written)."""
-    if not joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
+def fuse_into(P, H, PHt, S, R, y, out, b):
+    """The update (:func:`joseph_update_into`: P' into ``out``, P's diagonal kept within
+    base.py's floor and ceiling) with dx folded into the nominal state (base.inject_into;
+    ``b``: the filter's buffer of the nominal state and the per-step array, base._B_*).
+    Returns ok (False: S not positive definite, nothing written)."""
+    n = P.shape[0]
+    dx = np.empty(n)
+    if not joseph_update_into(P, H, PHt, S, R, y, _P_FLOOR[:n], _P_CEIL[:n], dx, out):
         return False
     inject_into(b[:_B_S], b[_B_S:_B_H], dx)
     return True
@@ -240,12 +247,10 @@ class InsGpsEkf(NavFilterBase):
         # the kernels write the next P here; the P they read becomes the next spare
         # (two arrays in turn: no allocation per prediction or update)
         self._P_spare = np.empty((n, n))
-        self._dx = np.empty(n)       # the update's dx, written by the kernel
         self._q = np.zeros(n)        # diag Q of a step of _q_dt
         self._a_gm = 1.0             # the Gauss-Markov decay over _q_dt
         self._q_dt = -1.0
         self._interval_cache: dict = {}   # (dt, dt, ...) -> (diag Q, Gauss-Markov decay, T)
-        self._qs_flat = np.array(self._qs_idx, dtype=np.int64)
 
     @property
     def P(self) -> np.ndarray:
@@ -302,8 +307,7 @@ class InsGpsEkf(NavFilterBase):
         # P = F P F^T + Q (+ the sampling error of this step's IMU samples, base.py);
         # f_n dt and R dt of this step (base.imu_step)
         out = self._P_spare
-        predict_covariance_into(self._P, dt, self._s, self._a_gm, self._noise(self._q, dt),
-                                self._qs_flat, out)
+        predict_covariance_into(self._P, dt, self._s, self._a_gm, self._noise(self._q, dt), out)
         self._next_P(out)
 
     # ------------------------------------------- covariance every cov_div steps --
@@ -343,14 +347,15 @@ class InsGpsEkf(NavFilterBase):
         # F = I + F_c T:  F[VEL, ATT] = -[sum f_n dt x],  F[VEL, ABIAS] = F[ATT, GBIAS] = -sum R dt,
         #                 F[POS, VEL] = T I,  F[GPSB, GPSB] = (product of the decays) I
         out = self._P_spare
-        predict_covariance_into(self._P, T, self._s, a, self._noise(q, T), self._qs_flat, out)
+        predict_covariance_into(self._P, T, self._s, a, self._noise(q, T), out)
         self._next_P(out)
 
     def _gate_stats(self, batch) -> None:
         H = batch.H
-        # P H^T, S = H P H^T (+ R below)
-        PHt = self._P @ H.T
-        S = H @ PHt
+        # P H^T, S = H P H^T (+ R below); np.dot: the same BLAS product as @ without the
+        # generalised ufunc's set-up (a few k instructions a call)
+        PHt = np.dot(self._P, H.T)
+        S = np.dot(H, PHt)
         # y = z - h(x)
         batch.y = batch.y0
         batch.Sd = S.diagonal() + batch.R
@@ -365,8 +370,7 @@ class InsGpsEkf(NavFilterBase):
         # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P, dx into the nominal
         # state (kernel above)
         out = self._P_spare
-        if not fuse_into(self._P, H, PHt, S, R, y, self._floor, self._ceil, self._dx, out,
-                         self._buf):
+        if not fuse_into(self._P, H, PHt, S, R, y, out, self._buf):
             return                           # S not positive definite: skip this update
         self._next_P(out)
         self._geo = self._wind_ned = None    # (the output's parts made from it: as _inject)
