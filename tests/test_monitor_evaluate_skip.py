@@ -1,7 +1,7 @@
 """The fault monitor skips its evaluation on steps where nothing it reads has changed
 (autopilot/monitor/monitor.py, ``FaultMonitor.update``: no window pushed or reset, no
 fault detected, the bias test not due, armed as before, no channel able to fall silent
-yet). The skip must change nothing: a monitor that evaluates at every step, fed the same
+yet), and its scan of the aiding channels where only the bias test is due. The skip must change nothing: a monitor that evaluates at every step, fed the same
 records, gives the same statistics, peaks, episodes and messages at every step, through
 a silence, a detection, its clearance and a change of the armed state. A filter
 stand-in replays the records, so the test is the monitor's alone."""
@@ -60,12 +60,13 @@ def test_the_skipped_evaluation_changes_nothing():
         nav.position_ned = np.array((0.0, 0.0, -100.0))
     skip = FaultMonitor({"FDI_START_T": 0.0}, navs[0])
     every = _EveryStep({"FDI_START_T": 0.0}, navs[1])
-    evaluated = {"n": 0}
+    evaluated = {"n": 0, "scans": 0}
     evaluate = skip._evaluate
 
-    def counted(t_us, armed):
+    def counted(t_us, armed, scan):
         evaluated["n"] += 1
-        evaluate(t_us, armed)
+        evaluated["scans"] += scan
+        evaluate(t_us, armed, scan)
 
     skip._evaluate = counted
     steps = 0
@@ -83,3 +84,5 @@ def test_the_skipped_evaluation_changes_nothing():
     assert all(e.end_s is not None for e in every.episodes), every.events
     # and the skip skipped: most steps brought nothing new
     assert evaluated["n"] < 0.6 * steps, (evaluated["n"], steps)
+    # and where only the bias test was due, the aiding channels' scan was not repeated
+    assert evaluated["scans"] < evaluated["n"], evaluated

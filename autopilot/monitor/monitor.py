@@ -249,12 +249,11 @@ class FaultMonitor:
         self._anchor = None                   # the ring's oldest entry at detection
         self._bias_next_us = 0
         self.bias_ratio = [0.0, 0.0, 0.0]
-        # the evaluation's inputs unchanged since (update): armed then, and the time
-        # after which a channel may fall silent (-1: evaluate at every step)
+        # the aiding channels' scan's inputs unchanged since (update): armed then, and the
+        # time after which a channel may fall silent (-1: scan at every step); its findings
         self._eval_armed = None
         self._eval_until_us = -1
-        self._eval_at_us = 0                  # the earlier of the bias test's due time and
-                                              # _eval_until_us + 1: evaluated from then on
+        self._scan: tuple = ()
         # R adaptation
         self.radapt = RAdapter(int(p["FDI_RADAPT"]), int(p["FDI_RWIN"]))
         self.radapt_ok = nav is not None and int(p["FDI_RADAPT"]) != 0 and attach(nav, self.radapt)
@@ -436,12 +435,12 @@ class FaultMonitor:
             if rs > step_max:
                 step_max = rs
         self._step_max = step_max
-        # with no fault detected, no window moved, the bias test not due, armed as it
-        # was and no channel able to fall silent yet, the evaluation would find what it
-        # found last time: skipped
-        if changed or self.detected or t_us >= self._eval_at_us or armed != self._eval_armed:
-            self._evaluate(t_us, armed)
-            self._eval_at_us = min(self._bias_next_us, self._eval_until_us + 1)
+        # with no fault detected, no window moved, armed as it was and no channel able to
+        # fall silent yet, the aiding channels' scan would find what it found last time;
+        # the evaluation then runs only where the bias test is due, on that scan
+        scan = changed or self.detected or armed != self._eval_armed or t_us > self._eval_until_us
+        if scan or t_us >= self._bias_next_us:
+            self._evaluate(t_us, armed, scan)
             if self._r_hook_on != bool(self.radapt.active):
                 self._r_hook_on = not self._r_hook_on
                 nav.r_scale_hook = self.radapt.hook if self._r_hook_on else None
@@ -878,68 +877,17 @@ class FaultMonitor:
         self.bias_ratio = ratios[:3]
         self.accel_ratio = ratios[3:6] if acc else [0.0, 0.0, 0.0]
 
-    def _evaluate(self, t_us: int, armed: bool) -> None:
+    def _evaluate(self, t_us: int, armed: bool, scan: bool) -> None:
+        """The decisions (detection, isolation, adaptation, failsafe, clearance) on the
+        statistics: the aiding channels' scanned again where ``scan`` (update), the bias
+        test's where due."""
         self._bias_stats(t_us)
-        tout = self.tout_us
-        over = None
-        over_ratio = 0.0
-        busy = False
-        iso = None
-        iso_ratio = 1.0
-        iso_max = 0.0
-        iso_over = []                  # (ratio, channel) over the isolation threshold
-        det_over = []                  # (ratio, channel) over the detection threshold
-        heard = getattr(self.nav, "heard_us", None)
-        until = 1 << 62                # the earliest time a channel may fall silent
+        if scan:
+            self._scan = self._scan_aiding(t_us, armed)
+        over, over_ratio, busy, iso, iso_ratio, iso_max, iso_over, det_over = self._scan
+        iso_over, det_over = list(iso_over), list(det_over)     # (the bias channels join below)
         # the largest statistic per channel while no fault is detected (self.peaks)
         peaks = None if self.detected else self.peaks
-        for ch in self._aiding_list:
-            last = ch.last_us
-            # silent: it had been updating regularly (SILENT_RUN updates in a row) and
-            # stopped; a source the filter fuses only now and then (the magnetometer
-            # where the field is nearly vertical: heading fusion needs B_h^2 / |B|^2 over
-            # 0.05) has no rate to fall silent from. A sensor the filter still hears
-            # (its samples arriving, fused or not: nav.heard_us) is not silent: where
-            # the field's horizontal share hovers about that limit for minutes, runs of
-            # fusions longer than SILENT_RUN alternate with gaps over FDI_TOUT (random
-            # plane trials 327 and 454, inclination 77.5 deg: 16 `mag` alarms in 2 flights)
-            if heard is not None and last is not None:
-                h = heard.get(ch.name)
-                if h is not None and h > last:
-                    last = h
-            if last is not None and last + tout < until:
-                until = last + tout
-            if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
-                if not ch.silent:
-                    ch.silent = True
-                    ch.win.reset()
-                    ch.rdet = ch.riso = 0.0
-                ratio = ir = (t_us - last) / tout
-            else:
-                if ch.silent:
-                    ch.silent = False
-                    ch.refill = True
-                if ch.refill and ch.win.n >= ch.win.M:
-                    ch.refill = False
-                ratio = ch.rdet
-                ir = ch.riso
-            ch.ratio = ratio
-            if peaks is not None and ratio > peaks.get(ch.name, 0.0):
-                peaks[ch.name] = ratio
-            if ch.silent or ch.refill:
-                busy = True
-            if ratio > 1.0 and ratio > over_ratio:
-                over, over_ratio = ch.name, ratio
-            if ratio > 1.0:
-                det_over.append((ratio, ch.name))
-            if ir > iso_max:
-                iso_max = ir
-            if ir > 1.0:
-                iso_over.append((ir, ch.name))
-            if ir > iso_ratio:
-                iso, iso_ratio = ch.name, ir
-        self._eval_armed = armed
-        self._eval_until_us = -1 if busy else until
         for name, r in zip(_BIASED, self.bias_ratio + self.accel_ratio):
             if peaks is not None and r > peaks.get(name, 0.0):
                 peaks[name] = r
@@ -1053,6 +1001,74 @@ class FaultMonitor:
                 self._clear(t_s)
         else:
             self._quiet_us = None
+
+    def _scan_aiding(self, t_us: int, armed: bool) -> tuple:
+        """The aiding channels' silences and statistics against their thresholds: (the
+        channel most over its detection threshold or None, its ratio, any channel silent
+        or refilling its window, the one most over its isolation threshold or None, its
+        ratio, the largest isolation ratio, [(ratio, channel)] over the isolation
+        threshold, [(ratio, channel)] over the detection threshold); the peaks renewed
+        while no fault is detected."""
+        tout = self.tout_us
+        over = None
+        over_ratio = 0.0
+        busy = False
+        iso = None
+        iso_ratio = 1.0
+        iso_max = 0.0
+        iso_over = []                  # (ratio, channel) over the isolation threshold
+        det_over = []                  # (ratio, channel) over the detection threshold
+        heard = getattr(self.nav, "heard_us", None)
+        until = 1 << 62                # the earliest time a channel may fall silent
+        peaks = None if self.detected else self.peaks
+        for ch in self._aiding_list:
+            last = ch.last_us
+            # silent: it had been updating regularly (SILENT_RUN updates in a row) and
+            # stopped; a source the filter fuses only now and then (the magnetometer
+            # where the field is nearly vertical: heading fusion needs B_h^2 / |B|^2 over
+            # 0.05) has no rate to fall silent from. A sensor the filter still hears
+            # (its samples arriving, fused or not: nav.heard_us) is not silent: where
+            # the field's horizontal share hovers about that limit for minutes, runs of
+            # fusions longer than SILENT_RUN alternate with gaps over FDI_TOUT (random
+            # plane trials 327 and 454, inclination 77.5 deg: 16 `mag` alarms in 2 flights)
+            if heard is not None and last is not None:
+                h = heard.get(ch.name)
+                if h is not None and h > last:
+                    last = h
+            if last is not None and last + tout < until:
+                until = last + tout
+            if armed and last is not None and t_us - last > tout and (ch.run >= SILENT_RUN or ch.silent):
+                if not ch.silent:
+                    ch.silent = True
+                    ch.win.reset()
+                    ch.rdet = ch.riso = 0.0
+                ratio = ir = (t_us - last) / tout
+            else:
+                if ch.silent:
+                    ch.silent = False
+                    ch.refill = True
+                if ch.refill and ch.win.n >= ch.win.M:
+                    ch.refill = False
+                ratio = ch.rdet
+                ir = ch.riso
+            ch.ratio = ratio
+            if peaks is not None and ratio > peaks.get(ch.name, 0.0):
+                peaks[ch.name] = ratio
+            if ch.silent or ch.refill:
+                busy = True
+            if ratio > 1.0 and ratio > over_ratio:
+                over, over_ratio = ch.name, ratio
+            if ratio > 1.0:
+                det_over.append((ratio, ch.name))
+            if ir > iso_max:
+                iso_max = ir
+            if ir > 1.0:
+                iso_over.append((ir, ch.name))
+            if ir > iso_ratio:
+                iso, iso_ratio = ch.name, ir
+        self._eval_armed = armed
+        self._eval_until_us = -1 if busy else until
+        return over, over_ratio, busy, iso, iso_ratio, iso_max, iso_over, det_over
 
     def _discriminate(self, t_s: float) -> None:
         """Sensor vs inertial fault (module docstring): Q fading on the gyro-bias
