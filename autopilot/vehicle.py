@@ -636,7 +636,7 @@ class PlaneVehicle(VehicleBase):
                 if req == "here":
                     req = (nav.lat_rad, nav.lon_rad, nav.alt_m)
                 self.set_home(*req, t_us)
-            gs = seq._gs                         # the ground speed, worked out by update
+            gs = seq.ground_speed_mps            # (worked out by its update this step)
         self.target = tgt
         vn, ve, _ = vl
         pn, pe, pd = pl

@@ -47,9 +47,9 @@ def test_the_roll_lead_is_capped_where_the_arc_check_assumes():
     s = seq_for(_square())
     arc = ("arc", (0.0, 0.0), 50.0, 1, 1.0, (50.0, 0.0))
     s._path = [arc]
-    s._gs = 1e6                       # as fast as can be: the lead at its cap
+    s.ground_speed_mps = 1e6           # as fast as can be: the lead at its cap
     assert s._roll_lead_rad(50.0, 1) == ROLL_LEAD_MAX_RAD
-    s._gs = 20.0
+    s.ground_speed_mps = 20.0
     assert 0.0 < s._roll_lead_rad(50.0, 1) < ROLL_LEAD_MAX_RAD
 
 

@@ -220,7 +220,7 @@ class MissionSequencer:
         self._takeoff_heading: float | None = None
         self._takeoff_start_ne: tuple | None = None
         self._v_ned = np.zeros(3)
-        self._gs = 0.0                 # the ground speed and course of the step (update)
+        self.ground_speed_mps = 0.0    # the ground speed and course of the step (update)
         self._chi = 0.0
         self._slope_leg = (None, None, (1.0, 0.0))   # (A, B, unit A->B) of _steepest_slope
         self._airspeed_mps = 0.0
@@ -796,7 +796,7 @@ class MissionSequencer:
         next arc of an S-turn) ROLL_LEAD_S per bank change of the arc's bank before
         the arc's end, half the roll's transition flown on each side of the tangent
         point, so the vehicle neither runs on past it nor under-turns the next arc."""
-        gs = self._gs
+        gs = self.ground_speed_mps
         nxt = self._path[1] if len(self._path) > 1 else None
         if nxt is not None and nxt[0] == "arc" and nxt[3] == direction:
             return 0.0
@@ -960,7 +960,7 @@ class MissionSequencer:
         self._v_ned = v_ned
         # the ground speed, and the course (the heading when slower than 5 m/s), once a step
         vn, ve = v_ned[0], v_ned[1]
-        self._gs = gs = math.hypot(vn, ve)
+        self.ground_speed_mps = gs = math.hypot(vn, ve)
         self._chi = chi = math.atan2(ve, vn) if gs > 5.0 else heading_rad
         if airspeed_mps is not None:
             self._airspeed_mps = airspeed_mps
