@@ -66,7 +66,7 @@ def dryden_step(x_u, x_v, x_w, h_agl_m, speed_mps, dt_s, n_steps, sigma_w, nu_u,
 # them, ``_BLOCK`` rows of three (``DrydenGusts.noise``: in the one array, so that a
 # kernel takes the gusts whole)
 _X, _GUST, _SIGMA_W, _AXIS, _DT, _NOISE = 0, 3, 6, 7, 9, 10
-_NS = _NOISE + 3 * _BLOCK
+GUST_STATE_N = _NOISE + 3 * _BLOCK
 
 
 @kernel
@@ -88,15 +88,15 @@ class DrydenGusts:
     ``active``, a plant advances ``s`` with :func:`gust_advance` (``n_steps`` time steps
     of ``dt_s``, one draw of the noise), on this step's row of ``noise`` from
     :meth:`next_row`. ``configure`` changes the intensity and the steady wind on the
-    way. ``s``: where to keep them (``_NS`` floats: a plant's own array, whose kernels
-    then take one array), else a new array."""
+    way. ``s``: where to keep them (``GUST_STATE_N`` floats: a plant's own array, whose
+    kernels then take one array), else a new array."""
 
     def __init__(self, rng: np.random.Generator, dt_s: float, turbulence: str = "none",
                  wind_ned=(0.0, 0.0, 0.0), s: np.ndarray | None = None):
         if turbulence not in TURBULENCE_W20_KT:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_W20_KT)}")
         self._rng = rng
-        self.s = np.zeros(_NS) if s is None else s
+        self.s = np.zeros(GUST_STATE_N) if s is None else s
         self.s[_DT] = float(dt_s)
         sigma_w = 0.1 * TURBULENCE_W20_KT[turbulence] * KT_MPS
         self.s[_SIGMA_W] = sigma_w

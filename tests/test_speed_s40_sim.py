@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim_bridge.plants.quadrotor import QuadrotorPlant, plant_step
-from sim_bridge.wind import _NS, DrydenGusts
+from sim_bridge.wind import GUST_STATE_N, DrydenGusts
 
 HOME = (-35.363262, 149.165237, 584.0, 30.0)
 
@@ -27,7 +27,7 @@ def test_the_noise_blocks_are_drawn_in_place_in_the_state_array():
 
 def test_gusts_given_an_array_keep_their_state_in_it():
     # GIVEN an array, WHEN gusts are made on it
-    buf = np.zeros(_NS)
+    buf = np.zeros(GUST_STATE_N)
     g = DrydenGusts(np.random.default_rng(1), 0.005, "light", (0.0, 4.0, 0.0), buf)
     # THEN their state is that array, set as a new array's would be
     h = DrydenGusts(np.random.default_rng(1), 0.005, "light", (0.0, 4.0, 0.0))

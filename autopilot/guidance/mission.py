@@ -779,7 +779,7 @@ class MissionSequencer:
                     self._next_segment()
                     continue
                 return _new_target(NavTarget, "loiter", seq, self.leg_id, alt, self.airspeed_mps,
-                                              NO_NE, NO_NE, centre, r, direction)
+                                   NO_NE, NO_NE, centre, r, direction)
             _, a, b = seg
             ln = math.hypot(b[0] - a[0], b[1] - a[1])
             along = ((p_ne[0] - a[0]) * (b[0] - a[0]) + (p_ne[1] - a[1]) * (b[1] - a[1])) / ln
@@ -1078,7 +1078,7 @@ class MissionSequencer:
             return None
         pitch = math.radians(item.param1) if item.param1 > 0 else math.radians(self.params["TKOFF_PITCH"])
         return _new_target(NavTarget, "takeoff", item.seq, self.leg_id, target, self.airspeed_mps,
-                                      pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
+                           pitch_min_rad=pitch, heading_rad=self._takeoff_heading)
 
     def _upcoming(self, n: int = 2) -> list:
         """The next ``n`` navigation items after the current one in flying order
@@ -1160,10 +1160,13 @@ class MissionSequencer:
         acc = item.param2 if item.command == MAV_CMD_NAV_WAYPOINT else 0.0
         return acc if acc > 0 else self.params["WP_RADIUS"]
 
-    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, dist, chi, accept, s_max, alt_b, through=False):
+    def _leg(self, t_us, seq, a_ne, b_ne, p_ne, chi, accept, s_max, alt_b, through=False,
+             dist=None):
         """Fly the leg A->B: plan its join, fly the join, then the leg; None once B is
         reached (within ``accept`` of it in any phase). ``dist``: the vehicle's distance
-        to B (the callers have it)."""
+        to B where the caller has it already."""
+        if dist is None:
+            dist = math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1])
         joined = self._joined
         if dist <= accept and not joined:
             return None   # already there when the item starts: counts at once
@@ -1445,8 +1448,8 @@ class MissionSequencer:
                 self._join_run, self._join_last_p = 0.0, None
                 self._join_past = True
                 self._carry_path = True
-        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, d, chi, accept, length - d_turn, alt_b,
-                      through=True)
+        r = self._leg(t_us, item.seq, a_ne, b_ne, p_ne, chi, accept, length - d_turn, alt_b,
+                      through=True, dist=d)
         if r is None:
             alt = alt_b
             if self._join_alt_now is not None and abs(alt_b - self._join_alt_now) > 0.5:
@@ -1614,7 +1617,7 @@ class MissionSequencer:
                         self._skip_join = True
                     return None
         return _new_target(NavTarget, "loiter", item.seq, self.leg_id, alt, self.airspeed_mps,
-                                      NO_NE, NO_NE, c_ne, radius, direction)
+                           NO_NE, NO_NE, c_ne, radius, direction)
 
     def _plan_loiter_exit(self, c_ne, radius: float, direction: int, bearing: float):
         """Where a finished loiter is left, as (loiter angle to leave at, arc): the
@@ -1673,7 +1676,7 @@ class MissionSequencer:
         dist = math.hypot(c_ne[0] - p_ne[0], c_ne[1] - p_ne[1])
         if dist <= reach:
             return None
-        r = self._leg(t_us, item.seq, a_ne, c_ne, p_ne, dist, chi, reach, length - reach, alt)
+        r = self._leg(t_us, item.seq, a_ne, c_ne, p_ne, chi, reach, length - reach, alt, dist=dist)
         if r is None:
             return None
         if r != "leg":
@@ -1722,7 +1725,7 @@ class MissionSequencer:
             if not land.descent_done(p_ne, chi, alt_m):
                 c, r, d = land.descent
                 return _new_target(NavTarget, "loiter", item.seq, self.leg_id, land.alt_a, land.airspeed_mps,
-                                              c_ne=c, radius_m=r, direction=d, land="descend")
+                                   c_ne=c, radius_m=r, direction=d, land="descend")
             land.phase = "approach"
             self.resume()                  # the approach line joined afresh, from A
             self._leg_start, self._leg_start_alt = land.a_ne, land.alt_a
@@ -1733,9 +1736,7 @@ class MissionSequencer:
                 self.auto_aborts += 1
                 self.go_around(t_us, f"unsafe approach: {why}")
                 return self._go_around_climb(t_us, item, p_ne, alt_m)
-            lb = land.b_ne
-            r = self._leg(t_us, item.seq, land.a_ne, lb, p_ne, math.hypot(lb[0] - p_ne[0], lb[1] - p_ne[1]),
-                          chi, 0.0, land.length, alt_b)
+            r = self._leg(t_us, item.seq, land.a_ne, land.b_ne, p_ne, chi, 0.0, land.length, alt_b)
             if r is not None and r != "leg":   # joining the approach: at the glide slope's height
                 return r._replace(airspeed_mps=land.airspeed_mps, land="approach",
                                   alt_m=land.glide_demand(land.along(p_ne)))
@@ -1817,7 +1818,7 @@ class MissionSequencer:
             self._collect_do_items(t_us)
             return None
         return _new_target(NavTarget, "line", item.seq, self.leg_id, land.ga_alt, self.params["TRIM_ARSPD"],
-                                      a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
+                           a_ne=land.a_ne, b_ne=land.line_end(), land="go_around")
 
     def landing_start_seq(self, p_ne, before: int | None = None) -> int | None:
         """The DO_LAND_START nearest to p_ne (NE of home) (of those before item
@@ -1885,8 +1886,7 @@ class MissionSequencer:
         alt_b = self.rtl_alt_m() if dest_alt is None else dest_alt
         a0 = self._leg_start
         length0 = math.hypot(a0[0] - b_ne[0], a0[1] - b_ne[1])
-        r = self._leg(t_us, item.seq, a0, b_ne, p_ne, math.hypot(b_ne[0] - p_ne[0], b_ne[1] - p_ne[1]),
-                      chi, 1.5 * radius, max(length0 - radius, 0.0), alt_b)
+        r = self._leg(t_us, item.seq, a0, b_ne, p_ne, chi, 1.5 * radius, max(length0 - radius, 0.0), alt_b)
         if r is not None and r != "leg":
             return r
         a_ne = self._leg_start
@@ -1919,4 +1919,4 @@ class MissionSequencer:
             self._on_circle_since_us = None
         alt = dest_alt if dest_alt is not None else self.rtl_alt_m() if self._prev_alt is not None else alt_m
         return _new_target(NavTarget, "loiter", len(self.items), self.leg_id, alt, self.airspeed_mps,
-                                      NO_NE, NO_NE, c_ne, radius, 1)
+                           NO_NE, NO_NE, c_ne, radius, 1)

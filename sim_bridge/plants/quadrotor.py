@@ -43,7 +43,7 @@ from autopilot.geo.rotations import PI, TWO_PI, quat_dcm, quat_step
 from autopilot.jit import kernel
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import isa
-from sim_bridge.wind import _NS, DrydenGusts, gust_advance
+from sim_bridge.wind import GUST_STATE_N, DrydenGusts, gust_advance
 
 CRASH_SPEED_MPS = 3.0     # touchdown faster than this counts as a crash [m/s]
 CRASH_TILT_RAD = math.radians(35.0)
@@ -180,7 +180,7 @@ class QuadrotorPlant:
         self._ct = af.c_thrust(self.rho)
         self._km = af.k_m
         self._wind = tuple(float(w) for w in wind_ned)
-        self._a = np.zeros(_S0 + _NS)
+        self._a = np.zeros(_S0 + GUST_STATE_N)
         self._x, self._consts = self._a[:_C0], self._a[_C0:_S0]
         self._gusts = DrydenGusts(rng, self.dt_s, turbulence, self._wind, self._a[_S0:])
         # T_ss(u) in closed form (QuadAirframe.rotor_speed): omega = (sqrt(b^2 + k1 u - k0) - b) / 2a
