@@ -138,11 +138,12 @@ class DecimatedNav:
         self._aux_t: int | None = None
         self._gps = self._air = None
         self.nav: NavState | None = None
-        self._x = np.zeros(X_N)        # the output predictor's state (predict_output)
+        # the output predictor's state (predict_output), its output y the part from X_Y
+        self._x = np.zeros(X_N)
         self._last_t: int | None = None
         self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
         self.ba_z = 0.0                 # the accelerometer's z bias estimate (x's, as a float)
-        self.y = np.zeros(Y_N)
+        self.y = self._x[X_Y:]
 
     @property
     def P(self):
@@ -198,7 +199,7 @@ class DecimatedNav:
             else:
                 # the samples of the predictor's steps since the last update, summed in
                 # x by predict_output, and this one
-                f0, f1, f2, w0, w1, w2 = self._x[X_SUMS:].tolist()
+                f0, f1, f2, w0, w1, w2 = self._x[X_SUMS:X_Y].tolist()
                 n = 1.0 / self._k
                 imu_f = ImuSample.make(t, ((f0 + fx) * n, (f1 + fy) * n, (f2 + fz) * n),
                                        ((w0 + wx) * n, (w1 + wy) * n, (w2 + wz) * n))
@@ -209,11 +210,11 @@ class DecimatedNav:
             nav = filt.update(fr)
             self.nav = nav
             x = self._x
-            p, euler = restart_output(x, self.y, nav.p_ned, nav.v_ned, nav.q_nb, filt.nom.x,
-                                      filt._g, wx, wy, wz)
+            p, euler = restart_output(x, nav.p_ned, nav.v_ned, nav.q_nb, filt.nom.x, filt._g,
+                                      wx, wy, wz)
             self.ba_z = x.item(X_BA + 2)
             return nav, p, euler
-        p, euler = predict_output(self._x, self.y, fx, fy, fz, wx, wy, wz, dt)
+        p, euler = predict_output(self._x, fx, fy, fz, wx, wy, wz, dt)
         return self.nav, p, euler
 
 
@@ -722,18 +723,20 @@ def guide_track(cx, y, hold, tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw
     return arrived, yaw_ref, roll_d, pitch_d, u, motors
 
 
-# predict_output's x: p, v, q_nb, the accelerometer and gyro biases, g, then the sums of
-# the samples
-X_BA, X_BG, X_G, X_SUMS, X_N = 10, 13, 16, 17, 23
+# predict_output's x: p, v, q_nb, the accelerometer and gyro biases, g, the sums of the
+# samples, then its output y (the loops' array: DecimatedNav.y, a view; one array, one
+# argument)
+X_BA, X_BG, X_G, X_SUMS, X_Y = 10, 13, 16, 17, 23
+X_N = X_Y + Y_N
 
 
 @kernel
-def restart_output(x, y, p, v, q, nom, g, wx, wy, wz):
+def restart_output(x, p, v, q, nom, g, wx, wy, wz):
     """The output predictor started from the filter's update: ``x`` from its output's
     p, v, q, the nominal state's (``nom``: nav.strapdown's X_*) accelerometer and gyro
-    biases and g, the sums of the samples at zero; ``y`` as predict_output writes it,
-    on this step's raw rate (wx, wy, wz) less the gyro bias. Returns p and the angles,
-    as predict_output does."""
+    biases and g, the sums of the samples at zero; its ``y`` (from X_Y) as
+    predict_output writes it, on this step's raw rate (wx, wy, wz) less the gyro bias.
+    Returns p and the angles, as predict_output does."""
     for i in range(3):
         x[i] = p[i]
         x[3 + i] = v[i]
@@ -742,8 +745,9 @@ def restart_output(x, y, p, v, q, nom, g, wx, wy, wz):
     for i in range(4):
         x[6 + i] = q[i]
     x[X_G] = g
-    x[X_SUMS:] = 0.0
+    x[X_SUMS:X_Y] = 0.0
     roll, pitch, yaw = euler_321(q[0], q[1], q[2], q[3])
+    y = x[X_Y:]
     y[Y_V], y[Y_V + 1], y[Y_V + 2] = v[0], v[1], v[2]
     y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = q[0], q[1], q[2], q[3]
     y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx - x[X_BG], wy - x[X_BG + 1], wz - x[X_BG + 2]
@@ -752,13 +756,13 @@ def restart_output(x, y, p, v, q, nom, g, wx, wy, wz):
 
 
 @kernel
-def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
+def predict_output(x, fx, fy, fz, wx, wy, wz, dt):
     """The output predictor (module docstring) over one IMU sample: ``x`` = (p, v, q_nb,
     accelerometer bias, gyro bias, g, the sums of the samples f and omega since the
-    filter's update: X_SUMS), its p, v, q and sums updated in place;
+    filter's update: X_SUMS, y: X_Y), its p, v, q and sums updated in place;
     q <- q (x) Exp(omega dt), v <- v + (R f + g) dt, p <- p + (v + v') dt / 2 with f and
     omega the bias-corrected specific force and rate. Writes v, q, omega and q's (roll,
-    pitch, yaw) in ``y`` (the loops' array, Y_*, where the vehicle reads them too) and
+    pitch, yaw) in its ``y`` (the loops' array, Y_*, where the vehicle reads them too) and
     returns the new p and the angles, two tuples of floats (the caller's values without
     reading them back out of ``x`` or ``y``; the angles here rather than in a call of
     their own)."""
@@ -789,6 +793,7 @@ def predict_output(x, y, fx, fy, fz, wx, wy, wz, dt):
     qw, qx, qy, qz = quat_step(qw, qx, qy, qz, wx * dt, wy * dt, wz * dt)
     x[6], x[7], x[8], x[9] = qw, qx, qy, qz
     roll, pitch, yaw = euler_321(qw, qx, qy, qz)
+    y = x[X_Y:]
     y[Y_V], y[Y_V + 1], y[Y_V + 2] = vn1, ve1, vd1
     y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3] = qw, qx, qy, qz
     y[Y_W], y[Y_W + 1], y[Y_W + 2] = wx, wy, wz

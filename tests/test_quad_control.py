@@ -282,9 +282,9 @@ def test_output_predictor_kernel_is_the_strapdown_step():
     ba, bg, g = np.array([0.02, -0.01, 0.05]), np.array([0.001, -0.002, 0.003]), 9.79
     f, w, dt = np.array([0.4, -0.3, -9.9]), np.array([0.3, -0.2, 0.1]), 0.004
     sums = np.array([1.0, 2.0, 3.0, 0.1, 0.2, 0.3])               # of earlier samples
-    x = np.concatenate((p, v, q, ba, bg, [g], sums))
-    y = np.zeros(13)
-    p_out, euler = predict_output(x, y, *f, *w, dt)
+    x = np.concatenate((p, v, q, ba, bg, [g], sums, np.zeros(13)))
+    y = x[23:]                                                     # its output, a part of x
+    p_out, euler = predict_output(x, *f, *w, dt)
     v_out, q_out, w_out = (tuple(y[i:j].tolist()) for i, j in ((0, 3), (3, 7), (7, 10)))
     assert tuple(y[10:].tolist()) == euler                         # the loops' copy (Y_*)
     a = quat_to_dcm(q) @ (f - ba) + np.array([0.0, 0.0, g])
@@ -295,7 +295,7 @@ def test_output_predictor_kernel_is_the_strapdown_step():
     assert np.max(np.abs(x[0:3] - (p + 0.5 * (v + v1) * dt))) < 1e-12
     assert np.max(np.abs(x[6:10] - quat_integrate(q, w - bg, dt))) < 1e-12
     assert np.all(x[10:17] == np.concatenate((ba, bg, [g])))        # biases untouched
-    assert x[17:].tolist() == (sums + np.concatenate((f, w))).tolist()   # the raw sample summed
+    assert x[17:23].tolist() == (sums + np.concatenate((f, w))).tolist()   # the raw sample summed
     assert euler == quat_to_euler(q_out)                            # the new q's angles
 
 
@@ -341,7 +341,7 @@ def test_controller_attitude_is_the_attitude_loops_then_the_mixer(eff):
 
 
 def test_mixer_density_update_is_the_full_rebuild():
-    """A density change rewrites the limits in place (QuadPlusMixer._density): the
+    """A density change rewrites the constants in place (set_density_ratio): the
     kernels' constants equal those of a mixer built at that density, bit for bit, and
     the array is the same object (the attitude kernel's argument)."""
     m = QuadPlusMixer(15.7, 0.78, 0.10)
@@ -354,4 +354,4 @@ def test_mixer_density_update_is_the_full_rebuild():
     assert (m.t_lo, m.t_hi) == (ref.t_lo, ref.t_hi) and m.k[0] > 0.0
     m.set_effectiveness((1.0, 0.5, 1.0, 1.0))
     m.set_density_ratio(1.1)
-    assert m.k[K_EFF + 1] == 0.5 and m.k[1] == m.thrust_of(1.0)
+    assert m.k[K_EFF + 1] == 0.5 and m.t_hi == m.thrust_of(1.0)

@@ -81,24 +81,19 @@ class QuadPlusMixer:
         # min(max(rho_ratio, 0.5), 1.3), spelt out (the builtins' cost: control/pid.py)
         r = 0.5 if rho_ratio < 0.5 else 1.3 if rho_ratio > 1.3 else rho_ratio
         if r != self.rho_ratio:
+            # the one constant that follows the air density (each barometer sample
+            # changes it a little), in place; the thrust limits follow from it in the
+            # mixing (thrust_limits), not at every sample
             self.rho_ratio = r
-            self._density()
+            self.k[K_FULL] = self.t_max * r
 
     def _limits(self) -> None:
-        # the kernels' constants (K_* below), each as its formula writes it; the thrust
-        # limits and T_max rho/rho0 from _density
+        # the kernels' constants (K_* below), each as its formula writes it
         e = self.expo
         eff = self.eff
-        self.k[:K_COLL] = ((0.0, 0.0, 0.0,
+        self.k[:K_COLL] = ((self.spin_min, self.t_max * self.rho_ratio,
                             1.0 if e < 1e-6 else 0.0, e - 1.0, (1.0 - e) ** 2, 4.0 * e, 2.0 * e,
                             0.0 if eff is None else 1.0) + (eff if eff is not None else (1.0,) * 4))
-        self._density()
-
-    def _density(self) -> None:
-        """The constants that follow the air density (each barometer sample changes it
-        a little): written into ``k`` in place, not a new array."""
-        self.k[K_FULL] = self.t_max * self.rho_ratio
-        thrust_limits(self.k, self.spin_min)
 
     # ------------------------------------------------- the last mixing's record --
     @property
@@ -120,12 +115,12 @@ class QuadPlusMixer:
     @property
     def t_lo(self) -> float:
         """A rotor's thrust at the lowest spinning command [N]."""
-        return float(self.k[K_LO])
+        return thrust_limits(self.k)[0]
 
     @property
     def t_hi(self) -> float:
         """A rotor's thrust at full command [N]."""
-        return float(self.k[K_HI])
+        return thrust_limits(self.k)[1]
 
     def thrust_of(self, u: float) -> float:
         """Modelled static thrust of one rotor at command u [N] (:func:`rotor_thrust`)."""
@@ -146,11 +141,10 @@ class QuadPlusMixer:
         return mix_rotors(u_z, u_phi, u_theta, u_psi, self.k)
 
 
-# QuadPlusMixer.k: the thrust limits, T_max rho/rho0, the thrust curve's inverse (linear
-# flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and k_1..k_4; then the last
-# mixing's record (mix_rotors writes it): the collective, the three saturation flags
-# (1.0 or 0.0), the rotor thrusts
-K_LO, K_HI, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(10)
+# QuadPlusMixer.k: the lowest spinning command, T_max rho/rho0, the thrust curve's inverse (linear flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness
+# flag and k_1..k_4; then the last mixing's record (mix_rotors writes it): the
+# collective, the three saturation flags (1.0 or 0.0), the rotor thrusts
+K_SPIN, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(9)
 K_COLL = K_EFF + 4
 K_SAT = K_COLL + 1
 K_T = K_SAT + 3
@@ -166,11 +160,10 @@ def rotor_thrust(k, u):
 
 
 @kernel
-def thrust_limits(k, spin_min):
-    """The rotor thrust limits in ``k``: at full command (K_HI) and at the lowest
-    spinning command ``spin_min`` (K_LO)."""
-    k[K_HI] = rotor_thrust(k, 1.0)
-    k[K_LO] = rotor_thrust(k, spin_min)
+def thrust_limits(k):
+    """A rotor's thrust limits on the constants ``k``: (at the lowest spinning command
+    K_SPIN, at full command)."""
+    return rotor_thrust(k, k[K_SPIN]), rotor_thrust(k, 1.0)
 
 
 @kernel
@@ -206,15 +199,16 @@ def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
     docstring): the commands c_1..c_4; the thrusts T_1..T_4 [N], the collective 4 c [N]
     and which of roll/pitch, yaw, collective saturated recorded in ``k``. (min / max
     spelt out as Python's: the first of equal values.)"""
-    lo, hi = k[K_LO], k[K_HI]
+    t_lo, t_hi = thrust_limits(k)
+    lo, hi = t_lo, t_hi
     healthy = k[K_HAS_EFF] == 0.0
     e1, e2, e3, e4 = k[K_EFF], k[K_EFF + 1], k[K_EFF + 2], k[K_EFF + 3]
     if not healthy:
         # a weak rotor's limits shrink to k_j [T_lo, T_hi]: the differential has to fit
         # the narrowest span, the collective the tightest rotor (below)
         e_min, e_max = _low_high(e1, e2, e3, e4)
-        hi = e_min * k[K_HI]
-        lo = e_max * k[K_LO]
+        hi = e_min * t_hi
+        lo = e_max * t_lo
     span = hi - lo
     sat_rp = sat_y = sat_c = False
     # roll / pitch differential: rotor pairs (2, 4) and (3, 1)
@@ -245,7 +239,7 @@ def mix_rotors(u_z, u_phi, u_theta, u_psi, k):
             c = lo - d_min
             sat_c = True
     else:
-        th, tl = k[K_HI], k[K_LO]
+        th, tl = t_hi, t_lo
         c_hi = e1 * th - d1
         c_lo = e1 * tl - d1
         for e, d in ((e2, d2), (e3, d3), (e4, d4)):
