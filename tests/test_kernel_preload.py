@@ -71,7 +71,7 @@ def _fly(vehicle: str, until_s: float, kernels) -> dict:
     ("plane", 40.0, ("throttle.throttle_front", "lateral.lateral_front", "actuator.pitch_front",
                      "stats.stage2_update", "actuator.offset_step", "stats.solve3")),
     # the attitude loops and the mixer (4.6 s, the take-off), the motors' stage 2 (6.6 s)
-    ("quad", 10.0, ("stats.stage2_update", "motors.balance_residuals")),
+    ("quad", 10.0, ("stats.stage2_update", "motors.balance_step", "motors.isolation")),
     # the elevator's stage 2 (24.7 s), the balances' fit (51.7 s), the join planner's (53.4 s)
     ("c172p", 55.0, ("throttle.throttle_front", "lateral.lateral_front", "actuator.pitch_front",
                      "stats.stage2_update", "actuator.offset_step", "stats.solve3")),

@@ -46,14 +46,16 @@ Q_RATE = 0.005            # gamma random walk [1/sqrt(s)]
 IDENT_MIN_S = 1.0         # identification reported this long after isolation [s]
 MODEL_REL = 0.15          # relative error of the modelled moments (thrust curve slope)
 MIN_THRUST_SHARE = 0.8    # balance used while the modelled thrust is this share of the weight
-_ONES4 = np.ones(4)       # (read only: np.ones is a Python function of numpy's)
 # MotorMonitor._s, the per-step part's state (motor_lowpass): the modelled rotor thrusts
 # (lagged), the low-passed balance signals (T1..T4, f_z, p, q, r, qr, pr, pq), whether
 # they have started, the seconds of flight, the steps since stage 2 ran; then its
-# constants: the rotors' lag, the low-pass factor, the step, the steps between stage 2
+# constants: the rotors' lag, the low-pass factor, the step, the steps between stage 2;
+# then stage 1's (balance_step): the mass, the moments of inertia, the arm, the reaction
+# moment coefficient, the weights of the scale c and of the residual variances
 S_T, S_LP, S_HAS_LP, S_FLIGHT, S_K = 0, 4, 15, 16, 17
 S_LAG, S_B, S_DT, S_KF_N = 18, 19, 20, 21
-S_N = 22
+S_M, S_IXX, S_IYY, S_IZZ, S_L, S_KM, S_CW, S_VW = range(22, 30)
+S_N = 30
 
 MOTOR_PARAMS = (
     Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True),
@@ -95,10 +97,6 @@ class MotorMonitor:
         p_fa = g("FDI_PFA", p_fa)
         window = int(g("FDI_WIN", window))
         self.clear_s = g("FDI_CLR_T", clear_s)
-        self.m = g("QD_MASS", 1.4)
-        self.l = g("QD_ARM", 0.2335)
-        self.ixx, self.iyy, self.izz = g("QD_IXX", 0.019), g("QD_IYY", 0.019), g("QD_IZZ", 0.0252)
-        self.km = g("QD_KM", 0.0197)
         # the balance runs every ``div``-th vehicle step (``due()``), dt_s apart each
         self.div = max(1, int(div))
         # due(), called once per vehicle step: True on the steps the monitor runs (a C
@@ -108,7 +106,11 @@ class MotorMonitor:
         self._s = np.zeros(S_N)
         self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
                            1.0 - math.exp(-dt_s / LP_TAU_S), dt_s,
-                           max(1, int(round(KF_PERIOD_S / dt_s))))
+                           max(1, int(round(KF_PERIOD_S / dt_s))),
+                           g("QD_MASS", 1.4), g("QD_IXX", 0.019), g("QD_IYY", 0.019),
+                           g("QD_IZZ", 0.0252), g("QD_ARM", 0.2335), g("QD_KM", 0.0197),
+                           1.0 - math.exp(-KF_PERIOD_S / SCALE_TAU_S),
+                           1.0 - math.exp(-KF_PERIOD_S / VAR_TAU_S))
         self._test_n = max(1, int(round(TEST_PERIOD_S / KF_PERIOD_S)))
         # the window test runs every TEST_PERIOD_S of a whole flight: level per test from
         # the family-wise false-alarm probability per hour (stats.family_alpha)
@@ -117,8 +119,9 @@ class MotorMonitor:
         self.reset()
         # (autopilot.jit.preload: the stage-2 step's kernel loaded now, not at the first balance)
         preload(stage2_update, self.gamma, self.P, np.eye(4), np.zeros(4), np.ones(4), 0.0)
-        preload(balance_residuals, np.ones(4), np.ones(4), np.ones(4), 1.0, np.ones(4), True,
-                True, 0.5)
+        preload(balance_step, self._s.copy(), np.zeros(Y_N), 1.0, False, np.ones(4), np.ones(4),
+                True, True)
+        preload(isolation, np.ones(4), np.eye(4), 1.0)
         preload(motor_lowpass, self._s.copy(), np.zeros(K_N), 0.5, 0.5, 0.5, 0.5, -9.8,
                 np.zeros(Y_N), True)
 
@@ -158,39 +161,25 @@ class MotorMonitor:
         if not self.enabled:
             return False
         if motor_lowpass(self._s, k, *motors, f_z, y, flying):
-            self._stage(t_us, y[Y_W:Y_W + 3].tolist())
+            self._stage(t_us, y)
             return True
         return False
 
-    def _stage(self, t_us: int, omega) -> None:
-        t1, t2, t3, t4, fz, pf, qf, rf, qr, pr, pq = self._s[S_LP:S_HAS_LP].tolist()
-        tsum = t1 + t2 + t3 + t4
-        if tsum < MIN_THRUST_SHARE * self.m * 9.80665 * (self.c if self._c_ok else 1.0):
-            return
-        inv = 1.0 / LP_TAU_S
-        pd, qd, rd = (omega[0] - pf) * inv, (omega[1] - qf) * inv, (omega[2] - rf) * inv
-        thrust = -self.m * fz
-        y = np.array((thrust,
-                      (self.ixx * pd + (self.izz - self.iyy) * qr) / self.l,
-                      (self.iyy * qd + (self.ixx - self.izz) * pr) / self.l,
-                      (self.izz * rd + (self.iyy - self.ixx) * pq) / self.km))
-        H = np.array(((t1, t2, t3, t4), (0.0, t2, 0.0, -t4), (-t1, 0.0, t3, 0.0),
-                      (t1, -t2, t3, -t4)))
-        t_s = t_us * 1e-6
+    def _stage(self, t_us: int, y) -> None:
+        """Stages 1 and 2 on the low-passed signals, the rates of the navigation output
+        ``y`` (Y_W) with them."""
         healthy = not self.detected
-        # stage 1: common scale and the no-fault residual
-        kf = KF_PERIOD_S
+        # stage 1: common scale and the no-fault residual, its variances, stage 2's
+        # innovation (nothing while the rotors carry too little of the weight)
+        ran, self.c, H, z, r, e = balance_step(self._s, y, self.c, self._c_ok, self.gamma,
+                                                self.var, healthy, self._var_n == 0)
+        if not ran:
+            return
         if healthy:
-            w = 1.0 - math.exp(-kf / SCALE_TAU_S) if self._c_ok else 1.0
-            self.c += (thrust / tsum - self.c) * w     # (a float: not y[0], numpy's scalar)
             self._c_ok = True
-        # the no-fault residual and its variances; stage 2's innovation (the matrix
-        # products numpy's, as the filter's own)
-        r1, sd, r, e = balance_residuals(y, H @ _ONES4, H @ self.gamma, self.c, self.var,
-                                         healthy, self._var_n == 0,
-                                         1.0 - math.exp(-kf / VAR_TAU_S))
-        if healthy:
             self._var_n += 1
+        t_s = t_us * 1e-6
+        kf = KF_PERIOD_S
         # stage 2: Kalman filter over gamma, measurement y / c = H gamma, R = diag(r)
         q = Q_RATE * Q_RATE * kf                  # Q = q I
         lam = 1.0
@@ -214,7 +203,7 @@ class MotorMonitor:
         if self._kt >= self._test_n:
             self._kt = 0
             if self._s[S_FLIGHT] >= self.warm_s:
-                self.win.push((r1[1:] / sd[1:]).tolist())
+                self.win.push(z.tolist())
                 self.ratio = self.win.ratio_det
                 if not self.detected:
                     self.peak = max(self.peak, self.ratio)
@@ -224,16 +213,7 @@ class MotorMonitor:
     def _decide(self, t_s: float) -> None:
         # each rotor against the mean of the other three (the common-mode model error,
         # which moves them all, cancels), in its own standard deviations
-        # (g - others)^2 / (max(P_ii, 1e-12) 4/3) / thr on floats: four numbers each, where
-        # numpy's operations cost more than their arithmetic (max() spelt out, NaN kept)
-        g = self.gamma.tolist()
-        total = float(self.gamma.sum())
-        others = [(total - gi) / 3.0 for gi in g]
-        thr = self.thr_iso
-        dev = [(gi - oi) * (gi - oi) / ((pii if not pii < 1e-12 else 1e-12) * (4.0 / 3.0)) / thr
-               for gi, oi, pii in zip(g, others, self.P.diagonal().tolist())]
-        j = dev.index(max(dev))
-        self.iso_ratio = dev[j]
+        j, self.iso_ratio, weak = isolation(self.gamma, self.P, self.thr_iso)
         if not self.detected:
             if self.ratio > 1.0:
                 self.detected = True
@@ -242,7 +222,7 @@ class MotorMonitor:
                 self.events.append((t_s, SEV_WARNING, "FDI: fault detected on the motors"))
             return
         ep = self.episodes[-1]
-        if self.isolated is None and self.iso_ratio > 1.0 and g[j] < others[j]:
+        if self.isolated is None and self.iso_ratio > 1.0 and weak:
             self.isolated = f"motor_{j + 1}"
             ep.isolated, ep.isolated_s = self.isolated, t_s
             ep.isolated_all = [self.isolated]
@@ -281,6 +261,80 @@ class MotorMonitor:
                 self.accommodation = None
         else:
             self._quiet_s = None
+
+
+@kernel
+def matvec4(H, v):
+    """``H @ v`` for a 4 x 4 ``H`` as numpy sums it on this build (checked against numpy
+    in the tests): each row's products of the even columns and of the odd ones, then
+    the two."""
+    out = np.empty(4)
+    for i in range(4):
+        out[i] = (H[i, 0] * v[0] + H[i, 2] * v[2]) + (H[i, 1] * v[1] + H[i, 3] * v[3])
+    return out
+
+
+@kernel
+def balance_step(s, y, c, c_ok, gamma, var, learn, first):
+    """Stage 1 of :meth:`MotorMonitor._stage` in one call, on the low-passed balance
+    signals in ``s`` (S_LP: T_1..T_4, f_z, p, q, r, qr, pr, pq; the airframe's constants
+    from S_M) and the rates of the navigation output ``y`` (Y_W), nothing while the
+    modelled thrust sum T_i is under MIN_THRUST_SHARE of the weight (c m g once c is
+    learnt):
+
+        p' = (p - p_lp) / LP_TAU_S  (q', r' alike)
+        y_b = (-m f_z, (I_xx p' + (I_zz - I_yy) q r) / l,
+               (I_yy q' + (I_xx - I_zz) p r) / l, (I_zz r' + (I_yy - I_xx) p q) / k_M)
+        H = ((T1, T2, T3, T4), (0, T2, 0, -T4), (-T1, 0, T3, 0), (T1, -T2, T3, -T4))
+        c <- c + (-m f_z / sum T_i - c) w     (healthy: ``learn``; w = 1 the first time)
+
+    then :func:`balance_residuals` on H 1 and H gamma (``var`` updated in place).
+    Returns (ran, c, H, the moment rows of the no-fault residual over their standard
+    deviations, R's diagonal, e)."""
+    t1, t2, t3, t4 = s[S_LP], s[S_LP + 1], s[S_LP + 2], s[S_LP + 3]
+    fz, pf, qf, rf = s[S_LP + 4], s[S_LP + 5], s[S_LP + 6], s[S_LP + 7]
+    qr, pr, pq = s[S_LP + 8], s[S_LP + 9], s[S_LP + 10]
+    m, ixx, iyy, izz, arm, km = s[S_M], s[S_IXX], s[S_IYY], s[S_IZZ], s[S_L], s[S_KM]
+    tsum = t1 + t2 + t3 + t4
+    if tsum < MIN_THRUST_SHARE * m * 9.80665 * (c if c_ok else 1.0):
+        return False, c, np.empty((4, 4)), np.empty(3), np.empty(4), np.empty(4)
+    inv = 1.0 / LP_TAU_S
+    pd, qd, rd = (y[Y_W] - pf) * inv, (y[Y_W + 1] - qf) * inv, (y[Y_W + 2] - rf) * inv
+    thrust = -m * fz
+    yb = np.empty(4)
+    yb[0] = thrust
+    yb[1] = (ixx * pd + (izz - iyy) * qr) / arm
+    yb[2] = (iyy * qd + (ixx - izz) * pr) / arm
+    yb[3] = (izz * rd + (iyy - ixx) * pq) / km
+    H = np.empty((4, 4))
+    H[0, 0], H[0, 1], H[0, 2], H[0, 3] = t1, t2, t3, t4
+    H[1, 0], H[1, 1], H[1, 2], H[1, 3] = 0.0, t2, 0.0, -t4
+    H[2, 0], H[2, 1], H[2, 2], H[2, 3] = -t1, 0.0, t3, 0.0
+    H[3, 0], H[3, 1], H[3, 2], H[3, 3] = t1, -t2, t3, -t4
+    if learn:
+        c += (thrust / tsum - c) * (s[S_CW] if c_ok else 1.0)
+    r1, sd, r, e = balance_residuals(yb, matvec4(H, np.ones(4)), matvec4(H, gamma), c, var,
+                                     learn, first, s[S_VW])
+    return True, c, H, r1[1:] / sd[1:], r, e
+
+
+@kernel
+def isolation(gamma, P, thr):
+    """Each rotor against the mean of the other three (:meth:`MotorMonitor._decide`), in
+    its own standard deviations: dev_j = (g_j - o_j)^2 / (max(P_jj, 1e-12) 4/3) / thr
+    with o_j = (sum g - g_j) / 3 (the sum in order, as numpy's of four). Returns (j, dev_j,
+    g_j < o_j) for the largest dev_j (the first of equal ones; a NaN first one kept, as
+    Python's max())."""
+    total = ((gamma[0] + gamma[1]) + gamma[2]) + gamma[3]
+    j, best, weak = 0, 0.0, False
+    for i in range(4):
+        gi = gamma[i]
+        oi = (total - gi) / 3.0
+        pii = P[i, i]
+        dev = (gi - oi) * (gi - oi) / ((pii if not pii < 1e-12 else 1e-12) * (4.0 / 3.0)) / thr
+        if i == 0 or dev > best:
+            j, best, weak = i, dev, gi < oi
+    return j, best, weak
 
 
 @kernel
