@@ -163,7 +163,7 @@ class DecimatedNav:
         if self._nb:
             n = 1.0 / self._nb
             b = self._b
-            baro = BaroSample(t, b[0] * n, b[1] * n, b[2] * n)
+            baro = BaroSample.make(t, b[0] * n, b[1] * n, b[2] * n)
             b[0] = b[1] = b[2] = 0.0
             self._nb = 0
         if mag is not None or baro is not None:
@@ -696,7 +696,7 @@ class QuadVehicle(VehicleBase):
         self.log.append((
             t_us * 1e-6, self.armed, int(self.mode), seq, leg, kind, hold, self.on_ground,
             *self._truth_row(hf, truth),
-            p[0], p[1], alt0 - p[2], er, ep, ey, *self.v_ned,
+            p[0], p[1], alt0 - p[2], er, ep, ey, *self.y[Y_V:Y_V + 3].tolist(),
             *tgt_row,
             c.roll_d, c.pitch_d, c.yaw_d, *c.u, *motors,
             *self._nav_row(hf, nav, gps), *self._fdi_row()))

@@ -757,13 +757,14 @@ class CopterNavigator:
         tr = self.traj
         kind = PHASE_KIND[self.phase]
         goal = self.land_ne if self.phase in ("land_descend", "landed") else self.goal_ne
-        # p, v, a (the reference) and the leg's start in two reads of the array
-        pn, pe, pd, vn, ve, vd, an, ae, ad = tr.ref.tolist()
+        # p, v, a (the reference) and the leg's start in one read of the array (the
+        # line's direction between them)
+        pn, pe, pd, vn, ve, vd, an, ae, ad, _, _, _, sn, se = tr.x[_P:_START + 2].tolist()
         dz = 0.0 if self.terrain_leg is None else self.terrain_offset(pn, pe)
         if dz:
             pd += dz
         return new_target((kind, seq, self.leg_id, (pn, pe, pd), (vn, ve, vd), (an, ae, ad),
-                           self.yaw_ref, hold, goal, tuple(tr.x[_START:_START + 2].tolist())))
+                           self.yaw_ref, hold, goal, (sn, se)))
 
 
 class CopterMissionSequencer:
