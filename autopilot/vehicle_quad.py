@@ -34,14 +34,14 @@ import math
 
 import numpy as np
 
-from .control.multirotor import (MULTIROTOR_PARAMS, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
+from .control.multirotor import (MULTIROTOR_PARAMS, X_N as CTRL_N, Y_EULER, Y_N, Y_Q, Y_V, Y_W,
                                  MultirotorController, track_mix)
 from .fence.actions import fence_step, fence_watching, home_ll
 from .fence.geofence import Geofence
 from .geo import LocalFrame, wrap_pi
 from .geo.rotations import euler_321, quat_dcm, quat_step
 from .guidance.multirotor import (PHASE_KIND, COPTER_GUIDANCE_PARAMS, REF_END, REF_START,
-                                  CopterMissionSequencer, CopterNavigator, CopterTarget,
+                                  TRAJ_N, CopterMissionSequencer, CopterNavigator, CopterTarget,
                                   guidance_step)
 from .jit import kernel, preload
 from .link.codec import MAV
@@ -261,8 +261,11 @@ class QuadVehicle(VehicleBase):
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.dt_nominal = dt_s
-        self.ctrl = MultirotorController(params, dt_s)
-        self.navigator = CopterNavigator(params)
+        # the loops' array and the reference trajectory's, parts of one (guide_track's
+        # one argument for both)
+        self._loops = np.zeros(CTRL_N + TRAJ_N)
+        self.ctrl = MultirotorController(params, dt_s, self._loops[:CTRL_N])
+        self.navigator = CopterNavigator(params, self._loops[CTRL_N:])
         self.pilot = PilotInput()
         self.mode = CopterMode.STABILIZE
         self.armed = False
@@ -299,8 +302,8 @@ class QuadVehicle(VehicleBase):
         # copies of the arrays it writes)
         y = np.zeros(Y_N)
         y[Y_Q] = 1.0
-        preload(guide_track, self.ctrl.x.copy(), y, False, self.navigator.traj.x.copy(),
-                np.zeros((1, 7)), dt_s, 0.0, 0.0, 0.0, 8.0, 0.0, math.nan, 0.01, False)
+        preload(guide_track, self._loops.copy(), y, False, np.zeros((1, 7)), dt_s, 0.0, 0.0,
+                0.0, 8.0, 0.0, math.nan, 0.01, False)
         # (and the angles' kernel, which the log's truth rows call from Python in flight:
         # the output predictor's restart calls it inside its own kernel)
         preload(euler_321, 1.0, 0.0, 0.0, 0.0)
@@ -563,11 +566,11 @@ class QuadVehicle(VehicleBase):
             # track() does (a method to share that would cost the formation's loops,
             # which call track() every quad-step, 0.3 % of their instructions)
             tr.arrived, nv.yaw_ref, ctrl.roll_d, ctrl.pitch_d, ctrl.u, motors = guide_track(
-                ctrl.x, self.y, not self.flying, *step)
+                self._loops, self.y, not self.flying, *step)
             ctrl.yaw_d = nv.yaw_ref
             ctrl.motors = motors
         else:
-            tr.arrived, nv.yaw_ref = guidance_step(*step)
+            tr.arrived, nv.yaw_ref = guidance_step(tr.x, *step)
             if not self.armed:
                 return (0.0, 0.0, 0.0, 0.0)
             if idle:
@@ -709,13 +712,15 @@ class QuadVehicle(VehicleBase):
 
 
 @kernel
-def guide_track(cx, y, hold, tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
-    """The navigator's step (:func:`~.guidance.multirotor.guidance_step` on the arguments
-    ``CopterNavigator.step_inputs`` gives, from ``tx``) and the loops on the reference it
-    leaves in ``tx`` (:func:`~.control.multirotor.track_mix` on the controller's array
-    ``cx`` and the navigation output ``y``, the integrators held with ``hold``), in one
-    call where nothing comes between them (no terrain-frame leg). Returns guidance_step's
-    (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u, motors)."""
+def guide_track(loops, y, hold, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
+    """The navigator's step (:func:`~.guidance.multirotor.guidance_step` on the
+    trajectory's array ``tx`` and the arguments ``CopterNavigator.step_inputs`` gives) and
+    the loops on the reference it leaves in ``tx`` (:func:`~.control.multirotor.track_mix`
+    on the controller's array ``cx`` and the navigation output ``y``, the integrators
+    held with ``hold``), in one call where nothing comes between them (no terrain-frame
+    leg); ``cx`` and ``tx`` are the two parts of ``loops`` (QuadVehicle._loops). Returns
+    guidance_step's (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u, motors)."""
+    cx, tx = loops[:CTRL_N], loops[CTRL_N:]
     arrived, yaw_ref = guidance_step(tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step,
                                      follow)
     roll_d, pitch_d, u, motors = track_mix(cx, tx[REF_START:REF_END], y, pn, pe, pd, 0.0,

@@ -5,9 +5,9 @@ import math
 
 import numpy as np
 
-from autopilot.control.multirotor import MultirotorController
+from autopilot.control.multirotor import X_N as CTRL_N, MultirotorController
 from autopilot.geo import wrap_pi
-from autopilot.guidance.multirotor import CopterNavigator, Trajectory, guidance_step
+from autopilot.guidance.multirotor import TRAJ_N, CopterNavigator, Trajectory, guidance_step
 from autopilot.params import ParamStore
 from autopilot.vehicle_quad import guide_track, quad_param_declarations
 
@@ -57,10 +57,12 @@ def test_guidance_step_heading_is_the_python_slew():
 
 def test_guide_track_is_the_navigator_step_then_track():
     """guide_track: the navigator's step (its step_inputs into guidance_step) and then
-    ctrl.track on the reference it left, bit for bit, states and records alike."""
+    ctrl.track on the reference it left, bit for bit, states and records alike; the
+    controller's and the trajectory's arrays the two parts of its one (as the vehicle's)."""
     p = ParamStore(quad_param_declarations())
-    a, b = CopterNavigator(p), CopterNavigator(p)
-    ca, cb = MultirotorController(p, DT), MultirotorController(p, DT)
+    loops = np.zeros(CTRL_N + TRAJ_N)
+    a, b = CopterNavigator(p, loops[CTRL_N:]), CopterNavigator(p)
+    ca, cb = MultirotorController(p, DT, loops[:CTRL_N]), MultirotorController(p, DT)
     for nv in (a, b):
         nv.init((0.0, 0.0, -5.0), 0.2)
         nv.goto((40.0, -30.0, -12.0))
@@ -71,7 +73,7 @@ def test_guide_track_is_the_navigator_step_then_track():
         y = np.array((*rng.uniform(-2.0, 2.0, 3), *q, *rng.uniform(-0.5, 0.5, 3),
                       *rng.uniform(-0.3, 0.3, 3)))
         hold = k % 7 == 0
-        arrived, yaw_ref, roll_d, pitch_d, u, motors = guide_track(ca.x, y, hold,
+        arrived, yaw_ref, roll_d, pitch_d, u, motors = guide_track(loops, y, hold,
                                                                    *a.step_inputs(DT, pos))
         b.update(DT, pos, 0.0)
         want = cb.track(y, pos, b.traj.ref, b.yaw_ref, DT, hold, hold)

@@ -554,12 +554,13 @@ def track_mix(x, ref, y, pn, pe, pd, dz, yaw_d, dt, hold_pos, hold_alt):
 class MultirotorController:
     """The loops of Fig 3.6 end to end: reference angles or a thrust, the attitude and
     altitude loops, the mixer. Outputs are the four motor commands 0..1. The loops'
-    coefficients and states are parts of one array, ``x`` (X_*)."""
+    coefficients and states are parts of one array, ``x`` (X_*; where it lives, if not
+    its own: X_N floats, zeros)."""
 
-    def __init__(self, params, dt: float):
+    def __init__(self, params, dt: float, x=None):
         self.params = params
         self.dt = dt
-        self.x = np.zeros(X_N)
+        self.x = np.zeros(X_N) if x is None else x
         self.att = AttitudeController(params, dt, self.x[X_ATT:X_MIX])
         self.alt = AltitudeController(params, self.x[X_ALT:X_REQ])
         self.pos = ReferenceAngleGenerator(params, self.x[X_POS:X_ALT])

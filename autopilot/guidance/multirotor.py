@@ -144,6 +144,8 @@ PHASE_KIND = {"idle": "hold", "takeoff": "takeoff", "goto": "move", "hold": "hol
 _RAW, _VRAW, _P, _V, _A, _U, _START, _GOAL = 0, 3, 6, 9, 12, 15, 18, 21
 _S, _VS, _LEN, _VMAX, _AMAX, _VEND, _VDESC, _DESC, _W = range(24, 33)
 _NX = 33
+#: the trajectory's array's length (``Trajectory(x=...)``: a part of a larger array)
+TRAJ_N = _NX
 #: where the reference (p, v, a) lies in the array (``Trajectory.ref``)
 REF_START, REF_END = _P, _A + 3
 #: a curve's rows (Trajectory.curve_to): a sample point (NED), the distance along the
@@ -197,7 +199,8 @@ class Trajectory:
     about 1/w s, never exceeding a_max, and the jerk stays below 2 a_max w / e).
     ``p``, ``v``, ``a`` are the model's output: the reference of the loops, which read
     it from ``ref``. The state is one array, ``x`` (stepped in place by
-    :func:`trajectory_step`, one call a step); its parts by name below."""
+    :func:`trajectory_step`, one call a step); its parts by name below. ``x``: where
+    that array lives, if not its own (TRAJ_N floats, zeros)."""
 
     raw = _Part(_RAW, 3)              # raw profile position
     _vraw = _Part(_VRAW, 3)
@@ -216,8 +219,8 @@ class Trajectory:
     _vdesc = _Part(_VDESC)
     w = _Part(_W)
 
-    def __init__(self, smooth_rad_s: float = 4.0):
-        self.x = np.zeros(_NX)
+    def __init__(self, smooth_rad_s: float = 4.0, x=None):
+        self.x = np.zeros(_NX) if x is None else x
         self.x[_AMAX] = 1.0
         self.ref = self.x[REF_START:REF_END]  # (p, v, a): the loops' reference, a view of x
         self.w = smooth_rad_s
@@ -513,11 +516,12 @@ class CopterNavigator:
     """One guidance action at a time on top of :class:`Trajectory`.
 
     Phases: ``idle``, ``takeoff``, ``goto``, ``hold``, ``rtl_climb``, ``rtl_return``,
-    ``land_approach``, ``land_descend``, ``landed``."""
+    ``land_approach``, ``land_descend``, ``landed``. ``traj_x``: where the trajectory's
+    array lives, if not its own (Trajectory)."""
 
-    def __init__(self, params):
+    def __init__(self, params, traj_x=None):
         self.params = params
-        self.traj = Trajectory(params["WPNAV_SMOOTH"])
+        self.traj = Trajectory(params["WPNAV_SMOOTH"], traj_x)
         self.phase = "idle"
         self.leg_id = 0
         self.yaw_ref = 0.0
@@ -673,15 +677,16 @@ class CopterNavigator:
     # ----------------------------------------------------------------- stepping --
     def update(self, dt: float, p_vehicle, yaw: float) -> None:
         """One step: the phase's changes, then the reference and the heading
-        (:func:`guidance_step` on :meth:`step_inputs`)."""
-        self.traj.arrived, self.yaw_ref = guidance_step(*self.step_inputs(dt, p_vehicle))
+        (:func:`guidance_step` on the trajectory's array and :meth:`step_inputs`)."""
+        self.traj.arrived, self.yaw_ref = guidance_step(self.traj.x,
+                                                        *self.step_inputs(dt, p_vehicle))
 
     def step_inputs(self, dt: float, p_vehicle) -> tuple:
         """The first half of :meth:`update`: the phase's changes at this step (an
         arrival starts the next part of a return or a landing), then the arguments of
-        this step's :func:`guidance_step` (whose (arrived, yaw_ref) go to ``traj.arrived``
-        and ``yaw_ref``): the vehicle's loops may take them into their own call
-        (vehicle_quad.guide_track)."""
+        this step's :func:`guidance_step` after the trajectory's array (its (arrived,
+        yaw_ref) go to ``traj.arrived`` and ``yaw_ref``): the vehicle's loops may take
+        them into their own call (vehicle_quad.guide_track)."""
         prm = self.params
         traj = self.traj
         ph = self.phase
@@ -730,7 +735,7 @@ class CopterNavigator:
             self._yaw_left = 0.0 if abs(self._yaw_left - turn) < 1e-9 else self._yaw_left - turn
             self.yaw_ref = self.yaw_fix_target if self._yaw_left == 0.0 else wrap_pi(self.yaw_ref + turn)
             goal, follow = None, False
-        return (traj.x, traj._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2],
+        return (traj._poly, dt, p_vehicle[0], p_vehicle[1], p_vehicle[2],
                 prm["WPNAV_LEASH"], self.yaw_ref, math.nan if goal is None else goal,
                 math.radians(prm["YAW_RATE_MAX"]) * dt, follow)
 
