@@ -123,9 +123,10 @@ class DecimatedNav:
     p, euler)`` with p the predicted position (floats, nav origin NED) and euler the
     predicted attitude's (roll, pitch, yaw); the velocity, q_nb, the bias-corrected rate
     of this step and the angles are written in its array ``y``, where the loops and the
-    vehicle read them (control.multirotor.Y_*)."""
+    vehicle read them (control.multirotor.Y_*). ``x``: where the predictor's array
+    (X_N floats, zeros; ``y`` its part from X_Y) lives, if not its own."""
 
-    def __init__(self, filt, div: int, aux_hz: float = 25.0):
+    def __init__(self, filt, div: int, aux_hz: float = 25.0, x=None):
         self.filt = filt
         self.output_sigmas9 = filt.output_sigmas9     # the filter's own (no call around it)
         self.div = max(1, int(div))
@@ -139,7 +140,7 @@ class DecimatedNav:
         self._gps = self._air = None
         self.nav: NavState | None = None
         # the output predictor's state (predict_output), its output y the part from X_Y
-        self._x = np.zeros(X_N)
+        self._x = np.zeros(X_N) if x is None else x
         self._last_t: int | None = None
         self.f_raw = (0.0, 0.0, 0.0)    # this step's specific-force sample as floats
         self.ba_z = 0.0                 # the accelerometer's z bias estimate (x's, as a float)
@@ -221,7 +222,9 @@ class DecimatedNav:
 COV_PERIOD_S = 0.04   # EKF covariance predicted at least this often (and before fusions)
 
 
-def make_quad_nav(source: str, params: ParamStore, dt_s: float = 0.004):
+def make_quad_nav(source: str, params: ParamStore, dt_s: float = 0.004, x=None):
+    """The navigation of ``source``; ``x``: where the output predictor's array lives
+    (DecimatedNav)."""
     if source == "truth":
         return TruthNav()
     values = {n: v for n, v in params.items()}
@@ -232,10 +235,10 @@ def make_quad_nav(source: str, params: ParamStore, dt_s: float = 0.004):
         # sensors' fusion period): 2 at 250 Hz / 4 (autopilot/nav/ekf.py)
         cov_div = max(1, int(COV_PERIOD_S / (max(div, 1) * dt_s) + 1e-9))
         return DecimatedNav(InsGpsEkf(values, vehicle="quad", cov_div=cov_div), div,
-                            params["QD_NAV_AUX_HZ"])
+                            params["QD_NAV_AUX_HZ"], x)
     if source == "ukf":
         from .nav.ukf import InsGpsUkf
-        return DecimatedNav(InsGpsUkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"])
+        return DecimatedNav(InsGpsUkf(values, vehicle="quad"), div, params["QD_NAV_AUX_HZ"], x)
     raise ValueError(f"unknown navigation source {source!r} (truth, ekf, ukf)")
 
 
@@ -254,18 +257,18 @@ class QuadVehicle(VehicleBase):
         self.params = params
         self.mission = mission
         self.nav_source = nav_source
-        self.nav = make_quad_nav(nav_source, params, dt_s)
+        # the loops' array, the reference trajectory's and the output predictor's, parts
+        # of one (guide_track's one argument for the three: LOOPS_*)
+        self._loops = np.zeros(LOOPS_N)
+        self.nav = make_quad_nav(nav_source, params, dt_s, self._loops[LOOPS_NAV:])
         # the navigation output the loops read (control.multirotor.Y_*): the output
-        # predictor's own array, or (truth) one the step writes
-        self.y = self.nav.y if isinstance(self.nav, DecimatedNav) else np.zeros(Y_N)
+        # predictor's (its y), or (truth) the same part of the array, which the step writes
+        self.y = self._loops[LOOPS_NAV + X_Y:]
         self.autostart = autostart
         self.log = log if log is not None else FlightLog(LOG_COLUMNS)
         self.dt_nominal = dt_s
-        # the loops' array and the reference trajectory's, parts of one (guide_track's
-        # one argument for both)
-        self._loops = np.zeros(CTRL_N + TRAJ_N)
-        self.ctrl = MultirotorController(params, dt_s, self._loops[:CTRL_N])
-        self.navigator = CopterNavigator(params, self._loops[CTRL_N:])
+        self.ctrl = MultirotorController(params, dt_s, self._loops[:LOOPS_TRAJ])
+        self.navigator = CopterNavigator(params, self._loops[LOOPS_TRAJ:LOOPS_NAV])
         self.pilot = PilotInput()
         self.mode = CopterMode.STABILIZE
         self.armed = False
@@ -298,12 +301,12 @@ class QuadVehicle(VehicleBase):
         self.notices: list[tuple[float, int, str]] = []   # (t_s, MAV_SEVERITY, text): STATUSTEXT
         self.geofence = Geofence(params, "quad")  # fence and rally points (autopilot/fence)
         self.navigator.rally_source = self._rally_dest   # every RTL, the mission's too
-        # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
-        # copies of the arrays it writes)
-        y = np.zeros(Y_N)
-        y[Y_Q] = 1.0
-        preload(guide_track, self._loops.copy(), y, False, np.zeros((1, 7)), dt_s, 0.0, 0.0,
-                0.0, 8.0, 0.0, math.nan, 0.01, False)
+        # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on a
+        # copy of the array it writes, a unit attitude in it)
+        loops = self._loops.copy()
+        loops[LOOPS_NAV + X_Y + Y_Q] = 1.0
+        preload(guide_track, loops, False, np.zeros((1, 7)), dt_s, 0.0, 0.0, 0.0, 8.0, 0.0,
+                math.nan, 0.01, False)
         # (and the angles' kernel, which the log's truth rows call from Python in flight:
         # the output predictor's restart calls it inside its own kernel)
         preload(euler_321, 1.0, 0.0, 0.0, 0.0)
@@ -566,7 +569,7 @@ class QuadVehicle(VehicleBase):
             # track() does (a method to share that would cost the formation's loops,
             # which call track() every quad-step, 0.3 % of their instructions)
             tr.arrived, nv.yaw_ref, ctrl.roll_d, ctrl.pitch_d, ctrl.u, motors = guide_track(
-                self._loops, self.y, not self.flying, *step)
+                self._loops, not self.flying, *step)
             ctrl.yaw_d = nv.yaw_ref
             ctrl.motors = motors
         else:
@@ -712,15 +715,17 @@ class QuadVehicle(VehicleBase):
 
 
 @kernel
-def guide_track(loops, y, hold, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
+def guide_track(loops, hold, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step, follow):
     """The navigator's step (:func:`~.guidance.multirotor.guidance_step` on the
     trajectory's array ``tx`` and the arguments ``CopterNavigator.step_inputs`` gives) and
     the loops on the reference it leaves in ``tx`` (:func:`~.control.multirotor.track_mix`
     on the controller's array ``cx`` and the navigation output ``y``, the integrators
     held with ``hold``), in one call where nothing comes between them (no terrain-frame
-    leg); ``cx`` and ``tx`` are the two parts of ``loops`` (QuadVehicle._loops). Returns
-    guidance_step's (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u, motors)."""
-    cx, tx = loops[:CTRL_N], loops[CTRL_N:]
+    leg); ``cx``, ``tx`` and ``y`` are parts of ``loops`` (QuadVehicle._loops, LOOPS_*).
+    Returns guidance_step's (arrived, yaw_ref), then track_mix's (phi_d, theta_d, u,
+    motors)."""
+    cx, tx = loops[:LOOPS_TRAJ], loops[LOOPS_TRAJ:LOOPS_NAV]
+    y = loops[LOOPS_NAV + X_Y:]
     arrived, yaw_ref = guidance_step(tx, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_step,
                                      follow)
     roll_d, pitch_d, u, motors = track_mix(cx, tx[REF_START:REF_END], y, pn, pe, pd, 0.0,
@@ -733,6 +738,11 @@ def guide_track(loops, y, hold, poly, dt, pn, pe, pd, leash, yaw_ref, goal, yaw_
 # argument)
 X_BA, X_BG, X_G, X_SUMS, X_Y = 10, 13, 16, 17, 23
 X_N = X_Y + Y_N
+# QuadVehicle._loops: the controller's array (control.multirotor.X_*), the reference
+# trajectory's (guidance.multirotor's), the output predictor's (X_* above)
+LOOPS_TRAJ = CTRL_N
+LOOPS_NAV = LOOPS_TRAJ + TRAJ_N
+LOOPS_N = LOOPS_NAV + X_N
 
 
 @kernel

@@ -9,7 +9,8 @@ from autopilot.control.multirotor import X_N as CTRL_N, MultirotorController
 from autopilot.geo import wrap_pi
 from autopilot.guidance.multirotor import TRAJ_N, CopterNavigator, Trajectory, guidance_step
 from autopilot.params import ParamStore
-from autopilot.vehicle_quad import guide_track, quad_param_declarations
+from autopilot.vehicle_quad import (LOOPS_N, LOOPS_NAV, LOOPS_TRAJ, X_Y, guide_track,
+                                    quad_param_declarations)
 
 DT = 0.004
 
@@ -58,11 +59,14 @@ def test_guidance_step_heading_is_the_python_slew():
 def test_guide_track_is_the_navigator_step_then_track():
     """guide_track: the navigator's step (its step_inputs into guidance_step) and then
     ctrl.track on the reference it left, bit for bit, states and records alike; the
-    controller's and the trajectory's arrays the two parts of its one (as the vehicle's)."""
+    controller's, the trajectory's arrays and the navigation output parts of its one (as
+    the vehicle's)."""
+    assert LOOPS_TRAJ == CTRL_N and LOOPS_NAV == CTRL_N + TRAJ_N
     p = ParamStore(quad_param_declarations())
-    loops = np.zeros(CTRL_N + TRAJ_N)
-    a, b = CopterNavigator(p, loops[CTRL_N:]), CopterNavigator(p)
-    ca, cb = MultirotorController(p, DT, loops[:CTRL_N]), MultirotorController(p, DT)
+    loops = np.zeros(LOOPS_N)
+    a, b = CopterNavigator(p, loops[LOOPS_TRAJ:LOOPS_NAV]), CopterNavigator(p)
+    ca, cb = MultirotorController(p, DT, loops[:LOOPS_TRAJ]), MultirotorController(p, DT)
+    y_in = loops[LOOPS_NAV + X_Y:]
     for nv in (a, b):
         nv.init((0.0, 0.0, -5.0), 0.2)
         nv.goto((40.0, -30.0, -12.0))
@@ -73,7 +77,8 @@ def test_guide_track_is_the_navigator_step_then_track():
         y = np.array((*rng.uniform(-2.0, 2.0, 3), *q, *rng.uniform(-0.5, 0.5, 3),
                       *rng.uniform(-0.3, 0.3, 3)))
         hold = k % 7 == 0
-        arrived, yaw_ref, roll_d, pitch_d, u, motors = guide_track(loops, y, hold,
+        y_in[:] = y
+        arrived, yaw_ref, roll_d, pitch_d, u, motors = guide_track(loops, hold,
                                                                    *a.step_inputs(DT, pos))
         b.update(DT, pos, 0.0)
         want = cb.track(y, pos, b.traj.ref, b.yaw_ref, DT, hold, hold)
