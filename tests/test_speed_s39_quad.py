@@ -15,7 +15,7 @@ from autopilot.formation.peers import ROW_N, PeerTable, PositionPublisher
 from autopilot.formation.quad import FS_ROWS, FS_VT, formation_track
 from autopilot.geo import LocalFrame
 from autopilot.params import ParamStore
-from autopilot.vehicle_quad import quad_param_declarations
+from autopilot.vehicle_quad import LOOPS_N, LOOPS_NAV, LOOPS_TRAJ, X_Y, quad_param_declarations
 
 SEED = "missions/formation_seed_quad.toml"
 _REGULAR = ("ok", "waiting", "tangent")
@@ -147,8 +147,11 @@ def test_formation_track_is_the_python_law(use_targets):
                           rows=fs[FS_ROWS:].reshape(len(v.follows), ROW_N))
         home = tuple(rng.normal(size=3).tolist())
         vt = VirtualTarget(v.start_ned, home=home, start_s=0.05, x=fs[FS_VT:FS_ROWS])
-        ctrl = MultirotorController(ParamStore(quad_param_declarations()), 0.004)
-        y = np.zeros(Y_N)
+        # (the controller's array and the navigation output in one, as QuadVehicle._loops)
+        loops = np.zeros(LOOPS_N)
+        ctrl = MultirotorController(ParamStore(quad_param_declarations()), 0.004,
+                                    loops[:LOOPS_TRAJ])
+        y = loops[LOOPS_NAV + X_Y:]
         t_ms = 0
         for k in range(400):
             t_ms += 4
@@ -169,7 +172,7 @@ def test_formation_track_is_the_python_law(use_targets):
             pn, pe, pd = (np.array(old.r) - home + rng.normal(scale=0.2, size=3)).tolist()
             cx = ctrl.x.copy()
             hold = k % 7 == 0
-            out = formation_track(fs, ctrl.x, y, pn, pe, pd, t_s, dt, hold)
+            out = formation_track(fs, loops, pn, pe, pd, t_s, dt, hold)
             assert out == track_mix(cx, vt.ref.copy(), y, pn, pe, pd, 0.0, 0.0, dt, False, hold)
             assert cx.tolist() == ctrl.x.tolist()
             if t_s < 0.05:

@@ -37,12 +37,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.multirotor import Y_N, Y_Q, track_mix
+from ..control.multirotor import Y_Q, track_mix
 from ..geo import LocalFrame
 from ..guidance.multirotor import CopterTarget, new_target
 from ..jit import kernel, preload
 from ..modes.copter import CopterMode
-from ..vehicle_quad import QuadVehicle
+from ..vehicle_quad import LOOPS_NAV, LOOPS_TRAJ, X_Y, QuadVehicle
 from .guidance import G_N, G_NF, VT_A, VT_N, VT_REF, FormationGuidance, VirtualTarget, formation_step
 from .peers import ROW_N, PeerTable, PositionPublisher
 from .spec import FormationSpec
@@ -76,11 +76,10 @@ class FormationQuad(QuadVehicle):
         self.home_in_form = (0.0, 0.0, 0.0)
         self._healthy_since: int | None = None
         # (autopilot.jit.preload: the loops' kernel loaded now, not at the take-off; on
-        # copies of the arrays it writes)
-        y = np.zeros(Y_N)
-        y[Y_Q] = 1.0
-        preload(formation_track, fs.copy(), self.ctrl.x.copy(), y, 0.0, 0.0, 0.0, start_s, dt_s,
-                False)
+        # copies of the arrays it writes, a unit attitude in the navigation output)
+        loops = self._loops.copy()
+        loops[LOOPS_NAV + X_Y + Y_Q] = 1.0
+        preload(formation_track, fs.copy(), loops, 0.0, 0.0, 0.0, start_s, dt_s, False)
 
     # -------------------------------------------------------------- arming ---
     def _try_arm(self, t_us: int, truth) -> None:
@@ -140,7 +139,7 @@ class FormationQuad(QuadVehicle):
         c = self.ctrl
         pn, pe, pd = self.p_home
         c.roll_d, c.pitch_d, c.u, c.motors = formation_track(
-            self.fs, c.x, self.y, pn, pe, pd, t_us * 1e-6, dt, not self.flying)
+            self.fs, self._loops, pn, pe, pd, t_us * 1e-6, dt, not self.flying)
         c.yaw_d = 0.0
         return c.motors
 
@@ -157,13 +156,14 @@ class FormationQuad(QuadVehicle):
 
 
 @kernel
-def formation_track(fs, cx, y, pn, pe, pd, t_s, dt, hold):
+def formation_track(fs, loops, pn, pe, pd, t_s, dt, hold):
     """The formation's guidance step (:func:`~.guidance.formation_step` on the guidance's
     array ``g``, the peer table's ``rows`` and the virtual target's ``x``, all three in
     ``fs``: FormationQuad.fs) and the loops on the reference it leaves there
     (:func:`~..control.multirotor.track_mix` on the controller's array ``cx`` and the
-    navigation output ``y``, heading north, the altitude integrator held with ``hold``),
-    in one call. Returns track_mix's."""
+    navigation output ``y``, both parts of ``loops``: QuadVehicle._loops, heading north,
+    the altitude integrator held with ``hold``), in one call. Returns track_mix's."""
+    cx, y = loops[:LOOPS_TRAJ], loops[LOOPS_NAV + X_Y:]
     g, x = fs[:FS_VT], fs[FS_VT:FS_ROWS]
     formation_step(g, fs[FS_ROWS:].reshape((int(g[G_NF]), ROW_N)), x, t_s, dt)
     return track_mix(cx, x[VT_REF:VT_A + 3], y, pn, pe, pd, 0.0, 0.0, dt, False, hold)
