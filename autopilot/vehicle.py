@@ -203,6 +203,8 @@ class PlaneVehicle(VehicleBase):
         self.sequencer = MissionSequencer(self.mission, self.home_frame, self.params)
         # the mission's RTL item goes to the nearest rally point as RTL mode does
         self.sequencer.rally_point = lambda lat, lon: self.geofence.rally_for_rtl(lat, lon, home_ll(self))
+        # the mission's turns planned at the bank a reaction leaves, at the speed it flies
+        self.sequencer.reaction_limits = self.ctrl.reaction_limits
         self.ctrl.reset()
         self.crash = None
         self._launch_us = self._ground_since_us = None
@@ -387,10 +389,6 @@ class PlaneVehicle(VehicleBase):
                                  "throttle out: height held, airspeed free" if high
                                  else "throttle out: airspeed flown on the pitch")
                 ctrl.throttle_out = to
-            seq = self._sequencer
-            if seq is not None:
-                # the mission's turns planned at the bank a reaction leaves (guidance/mission.py)
-                seq.bank_limit_rad, seq.reaction_airspeed_mps = ctrl.reaction_limits()
             if mon.terminate and not self.terminated and self.armed:
                 # ArduPlane's aerodynamic termination (AP_AdvancedFailsafe_Plane::
                 # terminate_vehicle): throttle closed, aileron, elevator and rudder full

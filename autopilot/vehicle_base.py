@@ -252,7 +252,10 @@ class VehicleBase:
         if truth is None:
             return _NAN10
         p_tru = hf.ned_fast(truth.lat_rad, truth.lon_rad, truth.alt_m)
-        return (p_tru[0], p_tru[1], truth.alt_m, *euler_321(*truth.q_nb), *truth.v_ned,
+        roll, pitch, yaw = euler_321(*truth.q_nb)
+        vn, ve, vd = truth.v_ned
+        # (the values by name: a tuple display with ``*`` in it is built as a list)
+        return (p_tru[0], p_tru[1], truth.alt_m, roll, pitch, yaw, vn, ve, vd,
                 truth.airspeed_mps)
 
     def _nav_row(self, hf: LocalFrame, nav: NavState, gps) -> tuple:

@@ -1,5 +1,5 @@
 """The mission's turns planned at the bank a fault's reaction leaves (guidance/mission.py
-``bank_limit_rad``, control/fixed_wing.py ``reaction_bank_limit_rad``).
+``reaction_limits``, control/fixed_wing.py ``reaction_bank_limit_rad``).
 
 An aileron flown on the rudder, or the elevator out, lowers the controller's bank
 limit; the sequencer planned its fillets, joins and arc floors at TURN_BANK_DEG and
@@ -36,7 +36,7 @@ def test_the_turn_radii_follow_a_reactions_bank_limit():
     assert math.isclose(seq.turn_radius_m(), v * v / (G * math.tan(math.radians(22.0))), rel_tol=1e-12)
     r_lim = seq.min_turn_radius_m()
     # WHEN a reaction limits the bank to 10 deg
-    seq.bank_limit_rad = math.radians(10.0)
+    seq.reaction_limits = lambda: (math.radians(10.0), None)
     # THEN the fillets are planned at the nominal bank scaled by the same share (22 x 10 /
     #      30 deg) and the tightest circle at 10 deg
     assert math.isclose(seq.turn_radius_m(), v * v / (G * math.tan(math.radians(22.0 * 10.0 / 30.0))),
@@ -44,7 +44,7 @@ def test_the_turn_radii_follow_a_reactions_bank_limit():
     assert math.isclose(seq.min_turn_radius_m(),
                         r_lim * math.tan(math.radians(30.0)) / math.tan(math.radians(10.0)), rel_tol=1e-9)
     # AND a limit above the parameters' changes nothing
-    seq.bank_limit_rad = math.radians(40.0)
+    seq.reaction_limits = lambda: (math.radians(40.0), None)
     assert math.isclose(seq.min_turn_radius_m(), r_lim, rel_tol=1e-12)
 
 
@@ -78,8 +78,9 @@ def test_c172p_with_a_stuck_aileron_passes_its_waypoints_within_their_radius(tmp
     s.run()
     v = s.vehicle
     assert not s.crashed
-    assert v.ctrl.surface_out is not None and v.sequencer.bank_limit_rad is not None
-    assert math.degrees(v.sequencer.bank_limit_rad) < 20.0
+    bank_limit_rad = v.sequencer.reaction_limits()[0]
+    assert v.ctrl.surface_out is not None and bank_limit_rad is not None
+    assert math.degrees(bank_limit_rad) < 20.0
     # THEN waypoints 2 and 3 (counted by 360 s) passed within 10 m of their radius
     #      (measured: inside it by 222 and 266 m; 132 m outside before)
     a = s.log.arrays()

@@ -365,6 +365,7 @@ class FixedWingController:
         self._gains = self._buf[:_X0].reshape(5, 6)
         self._x = self._buf[_X0:_C0]            # the loops' state (ROLL .. V_MEAN)
         self._x[ALT_DEM] = self._x[V_MEAN] = math.nan
+        self._cmd = self._x[ALT_DEM:V_MEAN]     # (commands(): the view made once)
         self._c = self._buf[_C0:_O0]
         self._ovr = self._buf[_O0:]             # the step's optional demands (NaN: none) ...
         self._ovr[:] = math.nan
@@ -381,7 +382,7 @@ class FixedWingController:
     def commands(self) -> list[float]:
         """[altitude demand (NaN before the first step), roll, pitch, climb-rate
         command] of the last step, for the log."""
-        return self._x[ALT_DEM:V_MEAN].tolist()
+        return self._cmd.tolist()
 
     def _load_reactions(self) -> None:
         """The fault reactions in force into the kernel's parameters (NaN or 0: none);
@@ -434,7 +435,7 @@ class FixedWingController:
         EOUT_BANK_MIN_DEG); an aileron or rudder out, the share of the other surface's
         travel left after countering it (monitor.py, _lateral_reaction), not under
         EOUT_BANK_MIN_DEG either. With an aileron or rudder out the mission's turns are
-        planned at it (guidance/mission.py, ``bank_limit_rad``)."""
+        planned at it (guidance/mission.py, ``reaction_limits``)."""
         eout_bank = self.eout_bank_max_rad if self.elevator_out else None
         so = self.surface_out
         return _roll_limit(self._roll_lim_rad, math.nan if eout_bank is None else eout_bank,
@@ -454,8 +455,9 @@ class FixedWingController:
         return lim if lim < self._roll_lim_rad else None
 
     def reaction_limits(self) -> tuple[float | None, float | None]:
-        """(``reaction_bank_limit_rad()``, ``reaction_airspeed_mps()``): what the vehicle
-        hands the mission every step, in one call; (None, None) without a reaction."""
+        """(``reaction_bank_limit_rad()``, ``reaction_airspeed_mps()``): what the mission
+        asks when it plans a turn (the vehicle hands it this method: guidance/mission.py,
+        ``reaction_limits``); (None, None) without a reaction."""
         if self.surface_out is None and self.throttle_out is None:
             return _NO_LIMITS
         return self.reaction_bank_limit_rad(), self.reaction_airspeed_mps()

@@ -400,27 +400,27 @@ class MissionSequencer:
         the wind estimated now."""
         return self._turn_airspeed_mps() + math.hypot(*self._wind_ne)
 
-    # the airspeed a fault's reaction flies instead of the commanded one [m/s] (a stuck
-    # throttle's level speed: control/fixed_wing.py, reaction_airspeed_mps; the vehicle
-    # sets it every step), None: the commanded
-    reaction_airspeed_mps: float | None = None
+    @staticmethod
+    def reaction_limits() -> tuple[float | None, float | None]:
+        """What a fault's reaction imposes on the turns: (the bank limit below
+        ROLL_LIMIT_DEG [rad], the airspeed flown instead of the commanded one [m/s]),
+        None each where it imposes nothing: an aileron or rudder flown on the other
+        surface, a stuck throttle's level speed (control/fixed_wing.py,
+        ``reaction_limits``). The vehicle hands its controller's method over, asked
+        when a turn is planned (a few times a leg), not every step; none here."""
+        return (None, None)
 
     def _turn_airspeed_mps(self) -> float:
         """The airspeed the turns are sized for: the commanded one, or the one a reaction
         flies where that is faster (a turn planned at the commanded 45 m/s and flown at
         a stuck full throttle's 70 passed the c172p's waypoints outside their radius)."""
         v = self.airspeed_mps
-        r = self.reaction_airspeed_mps
+        r = self.reaction_limits()[1]
         return r if r is not None and r > v else v
-
-    # the bank limit a fault's reaction imposes below ROLL_LIMIT_DEG [rad] (an aileron or
-    # rudder flown on the other surface: control/fixed_wing.py, reaction_bank_limit_rad;
-    # the vehicle sets it every step), None: no reaction
-    bank_limit_rad: float | None = None
 
     def _banks_deg(self) -> tuple[float, float]:
         """The nominal bank of the turns and the bank limit [deg]: TURN_BANK_DEG and
-        ROLL_LIMIT_DEG, or, under a reaction's lower limit (``bank_limit_rad``), that
+        ROLL_LIMIT_DEG, or, under a reaction's lower limit (``reaction_limits``), that
         limit and the nominal bank scaled by the same share (the same margin for the
         wind and the roll-in). A turn planned at the parameters' bank with the limit
         lowered is flown wider than planned: a waypoint inside the wider circle was
@@ -428,7 +428,7 @@ class MissionSequencer:
         limited to 10 deg)."""
         p = self.params
         turn, limit = p["TURN_BANK_DEG"], p["ROLL_LIMIT_DEG"]
-        b = self.bank_limit_rad
+        b = self.reaction_limits()[0]
         if b is not None:
             b = math.degrees(b)
             if b < limit:
