@@ -20,6 +20,7 @@ controls and counts a ``missed`` step, so a dead autopilot cannot hang the simul
 from __future__ import annotations
 
 import math
+import struct
 import time
 from functools import lru_cache
 from math import ceil, floor
@@ -80,24 +81,34 @@ def _range_fields(min_m: float, max_m: float, noise_sigma_m: float) -> tuple:
             _round_sat((noise_sigma_m * 100.0) ** 2, 0.0, 254.0))
 
 
-def distance_sensor_values(reading) -> tuple:
-    """DISTANCE_SENSOR's flat values (autopilot/link/hil.py: the field order and the
-    out-of-range convention) of a ``sim_bridge.sensors.rangefinder.RangeReading``."""
+# DISTANCE_SENSOR's payload (autopilot/link/hil.py: the field order) packed from the
+# fields a reading sets: time_boot_ms, min/max/current distance, type, orientation,
+# covariance and signal_quality; the id, the fovs and the quaternion 0, as pad bytes
+_DISTANCE = struct.Struct("<IHHHBxBB24xB").pack
+_LASER, _DOWNWARD = MAV.MAV_DISTANCE_SENSOR_LASER, MAV.MAV_SENSOR_ROTATION_PITCH_270
+
+
+def distance_sensor_payload(reading) -> bytes:
+    """DISTANCE_SENSOR's payload (autopilot/link/hil.py: the out-of-range convention) of
+    a ``sim_bridge.sensors.rangefinder.RangeReading``."""
     lo, hi, var = _range_fields(reading.min_m, reading.max_m, reading.noise_sigma_m)
     if reading.distance_m is None:
         cur, quality = hi + 1, 1                    # no return: over range, invalid signal
     else:
         cur, quality = _round_sat(reading.distance_m * 100.0, 0.0, hi), 100
-    return (reading.t_us // 1000, lo, hi, cur, MAV.MAV_DISTANCE_SENSOR_LASER, 0,
-            MAV.MAV_SENSOR_ROTATION_PITCH_270, var, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, quality)
+    return _DISTANCE(reading.t_us // 1000, lo, hi, cur, _LASER, _DOWNWARD, var, quality)
 
 
-def esc_telemetry_values(reading, count: int) -> tuple:
-    """ESC_TELEMETRY_1_TO_4's flat values (autopilot/link/hil.py: the field order) of a
-    ``sim_bridge.sensors.rpm.RpmReading``: ESC 1's rpm (rounded, saturated to the
-    field's uint16) and its rolling frame ``count``; the rest 0 (not measured)."""
-    return ((0,) * 16 + (_round_sat(reading.rpm, 0.0, 65535.0), 0, 0, 0)
-            + (count & 0xFFFF, 0, 0, 0))
+# ESC_TELEMETRY_1_TO_4's payload (wire order: voltage[4], current[4], totalcurrent[4],
+# rpm[4], count[4], temperature[4]) packed from ESC 1's rpm and count; the rest 0 (not
+# measured), as pad bytes
+_ESC = struct.Struct("<24xH6xH6x4x").pack
+
+
+def esc_telemetry_payload(reading, count: int) -> bytes:
+    """ESC_TELEMETRY_1_TO_4's payload of a ``sim_bridge.sensors.rpm.RpmReading``: ESC 1's
+    rpm (rounded, saturated to the field's uint16) and its rolling frame ``count``."""
+    return _ESC(_round_sat(reading.rpm, 0.0, 65535.0), count & 0xFFFF)
 
 
 class SimulatorHilEnd:
@@ -147,10 +158,10 @@ class SimulatorHilEnd:
         if div == 1 or (div > 1 and (gps is not None or k % div == 0)):
             out += self._truth_message(truth)
         if range_reading is not None:
-            out += self.codec.encode_values(ID_DISTANCE, distance_sensor_values(range_reading))
+            out += self.codec.frame(ID_DISTANCE, distance_sensor_payload(range_reading))
         if rpm_reading is not None:
             self._esc_count += 1
-            out += self.codec.encode_values(ID_ESC, esc_telemetry_values(rpm_reading, self._esc_count))
+            out += self.codec.frame(ID_ESC, esc_telemetry_payload(rpm_reading, self._esc_count))
         flags = IMU_FLAGS
         if readings.mag_updated:
             flags |= MAG_FLAGS

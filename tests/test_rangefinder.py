@@ -17,7 +17,7 @@ from autopilot.link.transports import memory_pair
 from autopilot.messages import RangeSample
 from autopilot.params import ParamStore
 from autopilot.vehicle import plane_param_declarations
-from sim_bridge.hil import SimulatorHilEnd, distance_sensor_values
+from sim_bridge.hil import SimulatorHilEnd, distance_sensor_payload
 from sim_bridge.plants.base import PlantState
 from sim_bridge.sensors import SensorParams, SensorSuite
 from sim_bridge.sensors.rangefinder import Rangefinder, RangefinderParams, RangeReading
@@ -37,17 +37,17 @@ def state(t_us=0, h=10.0, roll_deg=0.0, pitch_deg=0.0):
 
 def test_distance_sensor_bytes_are_the_mavlink_message():
     r = RangeReading(123_450_000, 12.345, 0.05, 40.0, 0.025)
-    v = distance_sensor_values(r)
+    ours = Codec(1, MAV.MAV_COMP_ID_USER1).frame(ID_DISTANCE, distance_sensor_payload(r))
     # time_boot_ms, min/max/current [cm], LASER, id 0, PITCH_270 (down), variance [cm^2],
     # fovs 0, quaternion 0, signal quality 100
-    assert v == (123_450, 5, 4000, 1235, 0, 0, 25, 6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 100)
-    ours = Codec(1, MAV.MAV_COMP_ID_USER1).encode_values(ID_DISTANCE, v)
     ref = MAV.MAVLink(None, 1, MAV.MAV_COMP_ID_USER1)
-    theirs = MAV.MAVLink_distance_sensor_message(*v[:10], list(v[10:14]), v[14]).pack(ref)
+    theirs = MAV.MAVLink_distance_sensor_message(123_450, 5, 4000, 1235, 0, 0, 25, 6, 0.0, 0.0,
+                                                 [0.0] * 4, 100).pack(ref)
     assert ours == theirs and ours[7] == 132 and len(ours) == 12 + 39
     # no return: over range (max + 1 cm), "invalid signal"
-    v = distance_sensor_values(RangeReading(10_000, None, 0.05, 40.0, 0.025))
-    assert (v[3], v[14]) == (4001, 1)
+    m = MAV.MAVLink(None, 255, 0).decode(bytearray(Codec(1, 1).frame(
+        ID_DISTANCE, distance_sensor_payload(RangeReading(10_000, None, 0.05, 40.0, 0.025)))))
+    assert (m.current_distance, m.signal_quality) == (4001, 1)
 
 
 def test_distance_sensor_round_trip_in_lockstep():

@@ -12,7 +12,7 @@ from autopilot.link.codec import MAV, Codec
 from autopilot.link.hil import ID_ESC, AutopilotHilEnd
 from autopilot.link.transports import memory_pair
 from autopilot.messages import RpmSample
-from sim_bridge.hil import SimulatorHilEnd, esc_telemetry_values
+from sim_bridge.hil import SimulatorHilEnd, esc_telemetry_payload
 from sim_bridge.plants.base import PlantState
 from sim_bridge.plants.jsbsim_plane import JSBSimPlane
 from sim_bridge.sensors import SensorParams, SensorSuite
@@ -29,19 +29,20 @@ def state(t_us=0, rpm=6000.0):
 # --- the wire -------------------------------------------------------------------------
 
 def test_esc_telemetry_bytes_are_the_mavlink_message():
-    v = esc_telemetry_values(RpmReading(1_000_000, 6123.4), 7)
+    ours = Codec(1, MAV.MAV_COMP_ID_USER1).frame(ID_ESC, esc_telemetry_payload(RpmReading(1_000_000, 6123.4), 7))
     # temperature, voltage, current, totalcurrent 0 (not measured); ESC 1's rpm rounded,
     # its frame count
-    assert v == (0,) * 16 + (6123, 0, 0, 0) + (7, 0, 0, 0)
-    ours = Codec(1, MAV.MAV_COMP_ID_USER1).encode_values(ID_ESC, v)
     ref = MAV.MAVLink(None, 1, MAV.MAV_COMP_ID_USER1)
-    theirs = MAV.MAVLink_esc_telemetry_1_to_4_message(*(list(v[i:i + 4]) for i in range(0, 24, 4))).pack(ref)
+    theirs = MAV.MAVLink_esc_telemetry_1_to_4_message([0] * 4, [0] * 4, [0] * 4, [0] * 4,
+                                                      [6123, 0, 0, 0], [7, 0, 0, 0]).pack(ref)
     assert ours == theirs
     m = MAV.MAVLink(None, 255, 0).decode(bytearray(ours))
     assert m.get_type() == "ESC_TELEMETRY_1_TO_4" and list(m.rpm) == [6123, 0, 0, 0]
-    # saturated to the uint16 field, never negative
-    assert esc_telemetry_values(RpmReading(0, 70000.0), 65537)[16] == 65535
-    assert esc_telemetry_values(RpmReading(0, 70000.0), 65537)[20] == 1
+    assert list(m.count) == [7, 0, 0, 0] and list(m.voltage) == list(m.temperature) == [0] * 4
+    # saturated to the uint16 field, never negative; the count rolls over
+    m = MAV.MAVLink(None, 255, 0).decode(bytearray(Codec(1, 1).frame(
+        ID_ESC, esc_telemetry_payload(RpmReading(0, 70000.0), 65537))))
+    assert list(m.rpm) == [65535, 0, 0, 0] and list(m.count) == [1, 0, 0, 0]
 
 
 def test_rpm_round_trip_in_lockstep():

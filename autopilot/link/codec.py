@@ -44,7 +44,9 @@ MAV = mavlink2  # the dialect module: message classes and enums
 STX_V2 = 0xFD
 STX_V1 = 0xFE
 _V2_HEADER = struct.Struct("<BBBBBBBHB")
-_V2_BODY_HEAD = struct.Struct("<BxxBBBHB")  # the header after the magic byte, flags 0
+# the header after the magic byte, flags 0, up to its sequence number: what changes from
+# frame to frame of one message (the rest, the ids, is the same: Codec._frame_ends)
+_LEN_SEQ = struct.Struct("<BxxB").pack
 # the lockstep decoder's look at a header: magic, length with the incompatibility flags
 # above it, and the 3-byte message id read with the payload's first byte above it
 _fast_head = struct.Struct("<BH4xI").unpack_from
@@ -183,6 +185,7 @@ class Codec:
         self.signing = None     # a Signing with a key: encode() signs every frame
         self.link_id = 0        # our link id in the signatures we make
         self.limited = False    # the last decode stopped at its limit (more may be pending)
+        self._ends: dict[int, tuple[bytes, bytes]] = {}   # frame: msg_id -> its fixed bytes
 
     @property
     def pending(self) -> int:
@@ -234,14 +237,23 @@ class Codec:
         lockstep end packs with one struct call straight from its values (a struct of
         its own may stand pad bytes for the fields it always leaves zero)."""
         p = payload.rstrip(b"\x00") or b"\x00"       # (MAVLink 2 truncates trailing zeros)
-        f = _FLAT.get(msg_id) or _flat(msg_id)
+        ids, extra = self._ends.get(msg_id) or self._frame_ends(msg_id)
         mav = self.mav
         seq = mav.seq
         mav.seq = (seq + 1) % 256
-        # header after the magic byte: len, incompat 0, compat 0, seq, sysid, compid, id
-        body = _V2_BODY_HEAD.pack(len(p), seq, mav.srcSystem, mav.srcComponent, f.id_low, f.id_high) + p
+        # header after the magic byte: len, incompat 0, compat 0, seq, then the ids
+        body = _LEN_SEQ(len(p), seq) + ids + p
         # (one CRC call over body + extra byte: the same CRC, a call's cost less)
-        return b"\xfd" + body + _CRC.pack(_crc16(body + f.extra))
+        return b"\xfd" + body + _CRC.pack(_crc16(body + extra))
+
+    def _frame_ends(self, msg_id: int) -> tuple[bytes, bytes]:
+        """A message's bytes that are the same in every frame we make of it: the header's
+        sysid, compid and message id (after the sequence number), and its CRC extra byte."""
+        f = _FLAT.get(msg_id) or _flat(msg_id)
+        mav = self.mav
+        ends = self._ends[msg_id] = (struct.pack("<BBHB", mav.srcSystem, mav.srcComponent, f.id_low,
+                                                 f.id_high), f.extra)
+        return ends
 
     # ------------------------------------------------------------------ decode ---
     def decode(self, data: bytes, raw_ids: frozenset = frozenset(), limit: int | None = None,
