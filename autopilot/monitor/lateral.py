@@ -405,7 +405,8 @@ def axis_step(fit, st, ring, t_us, x1, x2, z, d, learn):
             a = max(1.0 / (st[_N_VAR] + st[_PRIOR_N]), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
             st[_R_VAR] += a * (ro * ro - st[_R_VAR])
     if not have_zc:
-        zc = z - offset_step(fit, x1, x2, 0.0, 0.0, 0.0, NO_FIT)[0]
+        # (the mode as an int64: numba would compile offset_step again for a literal 0)
+        zc = z - offset_step(fit, x1, x2, 0.0, 0.0, 0.0, np.int64(NO_FIT))[0]
     r = zc - d
     if st[_HN] >= _H_ROWS or st[_QN] >= _Q_ROWS:
         raise ValueError("axis_step: samples closer than 0.1 s")
