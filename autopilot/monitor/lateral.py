@@ -362,6 +362,67 @@ def lateral_front(lp, st, t_us, V, flying, w, f_b, ba, aileron, rudder, throttle
     return True
 
 
+# an axis' state (axis_step's ``st``): the residual's variance and the samples in it, the
+# fit started (1: the warm-up's variance now a prior), the variance restarted with the fit
+# (1: a prior was given), the prior's weight in samples; then the first row and the length
+# of its two rings in ``ring``: the samples waiting FIT_DELAY_S (t_us, x1, x2, raw residual,
+# residual; _Q_ROWS rows) and the last 20 s of (t_us, z, delta_cmd) (_H_ROWS rows after them)
+_R_VAR, _N_VAR, _FITTING, _REFIT, _PRIOR_N, _Q0, _QN, _H0, _HN = range(9)
+_Q_ROWS, _H_ROWS = 128, 256     # (at most 101 waiting and 201 kept: one sample each 0.1 s)
+# axis_step's ``learn``: nothing (frozen or suspended), the variance only, the offset too
+LEARN_NONE, LEARN_VAR, LEARN_ALL = -1, 0, 1
+
+
+@kernel
+def axis_step(fit, st, ring, t_us, x1, x2, z, d, learn):
+    """One sample of an axis (:class:`_Axis`, whose ``step`` says what each input is): the
+    samples FIT_DELAY_S old fitted (offset_step) and their residuals' variance learnt, in
+    ``fit`` and ``st``; the offset taken out of z; (t_us, z, d) kept 20 s and the sample
+    queued for its fit, in ``ring``. Returns the residual r. (One call a sample, not a
+    list's pops and pushes and a compiled call for each fit, around it.)"""
+    raw = z - d
+    zc = 0.0
+    have_zc = False                # z with the learnt offset removed (before this sample's fit)
+    refit = st[_REFIT] != 0.0
+    if learn != LEARN_NONE:
+        while st[_QN] > 0 and t_us - ring[int(st[_Q0]), 0] >= FIT_DELAY_S * 1e6:
+            i = int(st[_Q0])
+            st[_Q0] = (i + 1) % _Q_ROWS
+            st[_QN] -= 1
+            if refit and learn == LEARN_ALL and st[_FITTING] == 0.0:
+                st[_FITTING] = 1.0              # the warm-up's variance, now a prior
+                st[_N_VAR] = 0.0
+            # (the prediction error of the fit: with refit the residual it leaves)
+            dot, e, _ = offset_step(fit, x1, x2, ring[i, 1], ring[i, 2], ring[i, 3],
+                                    FIT if learn == LEARN_ALL else LEFT if refit else NO_FIT)
+            if not have_zc:
+                zc = z - dot
+                have_zc = True
+            ro = e if refit else ring[i, 4]
+            st[_N_VAR] += 1.0
+            # the running mean of r^2 with the prior as prior_n samples, then
+            # exponentially weighted over RES_TAU_S
+            a = max(1.0 / (st[_N_VAR] + st[_PRIOR_N]), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
+            st[_R_VAR] += a * (ro * ro - st[_R_VAR])
+    if not have_zc:
+        # (the mode as an int64: numba would compile offset_step again for a literal 0)
+        zc = z - offset_step(fit, x1, x2, 0.0, 0.0, 0.0, np.int64(NO_FIT))[0]
+    r = zc - d
+    if st[_HN] >= _H_ROWS or st[_QN] >= _Q_ROWS:
+        raise ValueError("axis_step: samples closer than 0.1 s")
+    j = _Q_ROWS + (int(st[_H0]) + int(st[_HN])) % _H_ROWS
+    ring[j, 0], ring[j, 1], ring[j, 2] = t_us, zc, d
+    st[_HN] += 1
+    while t_us - ring[_Q_ROWS + int(st[_H0]), 0] > 20e6:
+        st[_H0] = (int(st[_H0]) + 1) % _H_ROWS
+        st[_HN] -= 1
+    if learn != LEARN_NONE:
+        i = (int(st[_Q0]) + int(st[_QN])) % _Q_ROWS
+        ring[i, 0], ring[i, 1], ring[i, 2], ring[i, 3], ring[i, 4] = t_us, x1, x2, raw, r
+        st[_QN] += 1
+    return r
+
+
 class _Axis:
     """One control's residual z - delta_cmd: its offset fit, variance and window test."""
 
@@ -376,59 +437,49 @@ class _Axis:
         yet learnt) as the prior. The throttle's (no prior) is as before."""
         self.name = name
         self.floor = floor
-        self.prior_n = prior_n
         self.refit = prior is not None
-        self.fitting = False
+        self.fitting = False           # (the state's _FITTING, read by the throttle's each step)
         self.win = WindowChi2(1, M, alpha, alpha_det)
         # the offset's terms c (n_phi regressors, 2 but the rotor's) and their covariance P,
         # one array (offset_step)
         self._fit = np.zeros((n_phi + 1, n_phi))
         self.c, self.P = self._fit[0], self._fit[1:]
         self.P[:] = np.eye(n_phi) * (offset_sd / fit_noise) ** 2
-        self.r_var = (floor if prior is None else prior) ** 2
-        self.n_var = 0
-        self.queue: list = []          # (t_us, x1, x2, raw residual, residual) waiting FIT_DELAY_S
-        self.hist: list = []           # (t_us, z, delta_cmd) of the last 20 s
+        self._st = np.zeros(9)         # (axis_step)
+        self._st[_R_VAR] = (floor if prior is None else prior) ** 2
+        self._st[_REFIT] = float(self.refit)
+        self._st[_PRIOR_N] = prior_n
+        self._ring = np.zeros((_Q_ROWS + _H_ROWS, 5))
         self.ratio = 0.0
         self.residual = 0.0
-        preload(offset_step, self._fit.copy(), 0.0, 0.0, 0.0, 0.0, 0.0, FIT)   # (autopilot.jit.preload)
+        # (autopilot.jit.preload)
+        preload(axis_step, self._fit.copy(), self._st.copy(), self._ring.copy(), 0, 0.0, 0.0, 0.0, 0.0, LEARN_ALL)
+
+    @property
+    def r_var(self) -> float:
+        """The residual's variance [rad^2, or full throttle^2]."""
+        return float(self._st[_R_VAR])
+
+    @property
+    def hist(self) -> list:
+        """(t_us, z, delta_cmd) of the last 20 s, oldest first (z less the learnt offset)."""
+        h0, n = int(self._st[_H0]), int(self._st[_HN])
+        rows = self._ring[_Q_ROWS:][(h0 + np.arange(n)) % _H_ROWS, :3].tolist()
+        return [(int(t), z, d) for t, z, d in rows]
+
+    def drop_waiting(self) -> None:
+        """The samples waiting for their fit dropped (they may hold a fault)."""
+        self._st[_QN] = 0.0
 
     def step(self, t_us: int, x1: float, x2: float, z: float, d: float, learn: bool | None,
              k_test: bool) -> None:
         """``(1, x1[, x2])`` the offset's regressor (x2 where it has three terms);
         ``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
-        raw = z - d
-        zc = None                      # z with the learnt offset removed (before this sample's fit)
-        if learn is not None:
-            q = self.queue
-            while q and t_us - q[0][0] >= FIT_DELAY_S * 1e6:
-                _, y1, y2, rw, ro = q.pop(0)
-                if self.refit and learn and not self.fitting:
-                    self.fitting = True             # the warm-up's variance, now a prior
-                    self.n_var = 0
-                # (the prediction error of the fit: with refit the residual it leaves)
-                dot, e, _ = offset_step(self._fit, x1, x2, y1, y2, rw,
-                                        FIT if learn else LEFT if self.refit else NO_FIT)
-                if zc is None:
-                    zc = z - dot
-                if self.refit:
-                    ro = e
-                self.n_var += 1
-                # the running mean of r^2 with the prior as prior_n samples, then
-                # exponentially weighted over RES_TAU_S
-                a = max(1.0 / (self.n_var + self.prior_n), BAL_PERIOD_US * 1e-6 / RES_TAU_S)
-                self.r_var += a * (ro * ro - self.r_var)
-        if zc is None:
-            zc = z - offset_step(self._fit, x1, x2, 0.0, 0.0, 0.0, NO_FIT)[0]
-        r = zc - d
-        self.residual = r
-        h = self.hist
-        h.append((t_us, zc, d))
-        while h and t_us - h[0][0] > 20e6:
-            h.pop(0)
-        if learn is not None:
-            self.queue.append((t_us, x1, x2, raw, r))
+        r = self.residual = axis_step(self._fit, self._st, self._ring, t_us, x1, x2, z, d,
+                                      LEARN_NONE if learn is None else LEARN_ALL if learn else LEARN_VAR)
+        if self.refit and not self.fitting and learn:
+            self.fitting = self._st[_FITTING] != 0.0
         if k_test:
             R = max(self.r_var, self.floor ** 2)
             self.win.push([r / math.sqrt(R)])
@@ -472,14 +523,14 @@ class LateralIdentifier:
         """A fault detected: nothing is learnt any more; identification from 1 s before."""
         self.frozen = True
         for ax in self.axes.values():
-            ax.queue.clear()
+            ax.drop_waiting()
         self._fault_us = t_us - 1_000_000
 
     def suspend(self, on: bool) -> None:
         """A sensor fault running: nothing is learnt, the waiting samples dropped."""
         if on and not self.suspended:
             for ax in self.axes.values():
-                ax.queue.clear()
+                ax.drop_waiting()
         self.suspended = on
 
     def step(self, t_us: int, nav, controls: tuple, flying: bool, f_b) -> bool:

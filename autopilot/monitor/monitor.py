@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import itemgetter
 
 from autopilot.geo import G0
 from autopilot.nav.records import InnovationLog
@@ -116,6 +117,9 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+# the bias estimates' variances from the diagonal of P, gyros' then accelerometers' (layout.GBIAS,
+# layout.ABIAS, kept here to read P without importing nav), or the gyros' alone
+_BIAS_VAR6, _BIAS_VAR3 = itemgetter(12, 13, 14, 9, 10, 11), itemgetter(12, 13, 14)
 SILENT_RUN = 50                 # updates in a row at most FDI_TOUT apart before a silence
                                 # counts (2 s of baro, mag, airspeed; 10 s of GPS)
 NOTRIM_N = 3                    # provisional elevator readings (1 Hz, after the detection's)
@@ -248,6 +252,7 @@ class FaultMonitor:
         self._bias_ring: list = []            # (t_us, bias estimate, its variance) every 0.1 s
         self._anchor = None                   # the ring's oldest entry at detection
         self._bias_next_us = 0
+        self._bias_wu_us = p["FDI_BIAS_WU"] * 1e6
         self.bias_ratio = [0.0, 0.0, 0.0]
         # the aiding channels' scan's inputs unchanged since (update): armed then, and the
         # time after which a channel may fall silent (-1: scan at every step); its findings
@@ -840,17 +845,13 @@ class FaultMonitor:
         ba = getattr(nav, "accel_bias", None) if self._acc_on else None
         acc = ba is not None
         b = bg.tolist() + (ba.tolist() if acc else [])
-        P = nav.P
-        # layout.GBIAS.start, layout.ABIAS.start (kept here to read P without importing nav)
-        idx = (12, 13, 14, 9, 10, 11)[:len(b)]
-        diag = P.diagonal().tolist()
-        var = [diag[i] for i in idx]
+        var = (_BIAS_VAR6 if acc else _BIAS_VAR3)(nav.P.diagonal().tolist())
         ring = self._bias_ring
         ring.append((t_us, b, var))
         if len(ring) <= self.bias_n:
             return
         old = ring.pop(0)
-        if (t_us - self._aligned_us) < self.p["FDI_BIAS_WU"] * 1e6:
+        if (t_us - self._aligned_us) < self._bias_wu_us:
             return
         ratios = [0.0] * len(b)
         anchor = self._anchor
@@ -864,16 +865,17 @@ class FaultMonitor:
                 d = b[i] - b_a[i]
                 ratios[i] = d * d / (self._q_T[i] * span + v_a[i]) / self.thr_bias
         else:
-            v_old = old[2]
+            _t, b_old, v_old = old
+            q_T, thr = self._q_T, self.thr_bias
             for i in range(len(b)):
-                d = b[i] - old[1][i]
+                d = b[i] - b_old[i]
                 # gamma_b = d^2 / (q_b T + sigma_b^2), sigma_b the larger of its values at
                 # the window's ends: a filter that learns a bias moves its estimate by up
                 # to the sigma it had before (a consistent filter's change over T has the
                 # variance sigma_b(t - T)^2 - sigma_b(t)^2 + q_b T); with the present sigma
                 # alone, the lateral accelerometer bias learnt in a turn (0.055 m/s^2 in
                 # 2 s, its sigma 0.033 -> 0.010) read 1.1 times the threshold
-                ratios[i] = d * d / (self._q_T[i] + max(var[i], v_old[i])) / self.thr_bias
+                ratios[i] = d * d / (q_T[i] + max(var[i], v_old[i])) / thr
         self.bias_ratio = ratios[:3]
         self.accel_ratio = ratios[3:6] if acc else [0.0, 0.0, 0.0]
 
@@ -1112,13 +1114,12 @@ class FaultMonitor:
 
     # -------------------------------------------------------------------- log ---
     def log_row(self) -> tuple:
-        a = self.aiding
+        gps_pos, gps_vel, baro, mag, airspeed = self._aiding_list    # (_AIDING's order)
         iso = CHANNEL_INDEX[self.isolated] if self.isolated is not None else -1
         s = self.radapt.last.get("gps_pos")
-        return (float(self.detected), float(iso), self._step_max,
-                a["gps_pos"].ratio, a["gps_vel"].ratio, a["baro"].ratio, a["mag"].ratio,
-                a["airspeed"].ratio, self._iso_max, self.bias_ratio[0], self.bias_ratio[1],
-                self.bias_ratio[2], float(s.max()) if s is not None else 1.0)
+        b = self.bias_ratio
+        return (float(self.detected), float(iso), self._step_max, gps_pos.ratio, gps_vel.ratio, baro.ratio,
+                mag.ratio, airspeed.ratio, self._iso_max, b[0], b[1], b[2], float(s.max()) if s is not None else 1.0)
 
     def thresholds(self) -> dict:
         """The chi-square thresholds in use (for the summary and the report)."""

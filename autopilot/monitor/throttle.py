@@ -797,14 +797,14 @@ class ThrottleIdentifier:
 
     def freeze(self, t_us: int) -> None:
         self.frozen = True
-        self._thrust_axis.queue.clear()
-        self._rotor_axis.queue.clear()
+        self._thrust_axis.drop_waiting()
+        self._rotor_axis.drop_waiting()
         self._fault_us = t_us - 1_000_000
 
     def suspend(self, on: bool) -> None:
         if on and not self.suspended:
-            self._thrust_axis.queue.clear()
-            self._rotor_axis.queue.clear()
+            self._thrust_axis.drop_waiting()
+            self._rotor_axis.drop_waiting()
         self.suspended = on
 
     def measure_rpm(self, t_us: int, rpm: float) -> None:
