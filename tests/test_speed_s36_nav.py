@@ -155,8 +155,10 @@ def test_the_nominal_state_the_step_array_and_the_history_are_views_of_one_buffe
     f = InsGpsEkf()
     for _ in range(2):
         b = f._buf
-        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b
+        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b and f._o.base is b
         b[:] = np.arange(b.size)
         assert f.nom.x[0] == 0.0 and f._s[0] == f.nom.x.size
-        assert f._hist[0, 0] == f.nom.x.size + f._s.size and f._hist[-1, -1] == b.size - 1
+        assert f._hist[0, 0] == f.nom.x.size + f._s.size
+        # (the output last: stop 41)
+        assert f._hist[-1, -1] + 1 == f._o[0] and f._o[-1] == b.size - 1
         f.reset()

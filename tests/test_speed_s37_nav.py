@@ -80,5 +80,5 @@ def test_the_output_after_a_fusion_is_the_nominal_states_and_past_records_stay()
         fused += bool(filt.innovations)
         handed.append((filt.innovations, list(filt.innovations)))
     # AND the records handed out at each step are still those of that step
-    assert all(lst == kept for lst, kept in handed)
+    assert all(list(lst) == kept for lst, kept in handed)
     assert fused > len(handed) // 10 and not all(lst for lst, _ in handed)
