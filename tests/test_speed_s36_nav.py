@@ -88,14 +88,16 @@ def test_output_into_is_the_output_written_out():
     s = np.zeros(S_SIZE)
     s[S_W0:S_W0 + 3] = (0.1, -0.2, 0.3)
     a = np.empty(13)
-    # no origin, no baro height: the filter's own height
-    assert output_into(nom.x, s, a) == (0.0, 0.0, -nom.p[2])
+    # no origin, no baro height: the filter's own height; the air velocity v - (w, 0)
+    v, w = nom.v, nom.wind
+    air = (v[0] - w[0], v[1] - w[1], v[2])
+    assert output_into(nom.x, s, a) == (0.0, 0.0, -nom.p[2]) + air
     s[S_ORG], s[S_ORG + 1:S_ORG + 7] = 1.0, frame.fast_constants()
     s[S_BHGT], s[S_BB0] = 1.0, 1.25
-    lat, lon, alt = output_into(nom.x, s, a)
+    lat, lon, alt, *air2 = output_into(nom.x, s, a)
     p = nom.p
     p = [p[0], p[1], p[2] - (nom.bb - 1.25)]
-    assert (lat, lon, alt) == frame.to_geodetic_fast(p)
+    assert (lat, lon, alt) == frame.to_geodetic_fast(p) and tuple(air2) == air
     assert a.tolist() == p + nom.v + nom.q + [(0.1, -0.2, 0.3)[k] - nom.bg[k] for k in range(3)]
     # the interpreted source of the inverse is that of the compiled one, near the 180th meridian too
     e = 250.0

@@ -74,7 +74,7 @@ def test_the_output_after_a_fusion_is_the_nominal_states_and_past_records_stay()
         nav = filt.update(frame)
         # THEN every output is the one computed afresh from the nominal state as it is
         a = np.empty(13)
-        lat, lon, alt = output_into(filt.nom.x, filt._s, a)
+        lat, lon, alt, *_ = output_into(filt.nom.x, filt._s, a)
         got = np.concatenate((nav.p_ned, nav.v_ned, nav.q_nb, nav.omega_b))
         assert np.array_equal(got, a) and (nav.lat_rad, nav.lon_rad, nav.alt_m) == (lat, lon, alt)
         fused += bool(filt.innovations)

@@ -209,9 +209,10 @@ def delayed(hist, s, t_valid):
 @kernel
 def output_into(x, s, a):
     """The output of the nominal state (NavFilterBase._output): ``a`` (13) = p, v, q,
-    omega_b = gyro - b_g; returns (lat, lon, alt). Under the baro height reference
-    the height is the one the barometer and the IMU give, on the datum of the offset's
-    initialisation (module docstring)."""
+    omega_b = gyro - b_g; returns (lat, lon, alt, a_N, a_E, a_D), a = v - (w_N, w_E, 0)
+    the air velocity of the wind estimate (the dead-reckoned airspeed's). Under the
+    baro height reference the height is the one the barometer and the IMU give, on the
+    datum of the offset's initialisation (module docstring)."""
     pd = x[X_P + 2]
     if s[S_BHGT] != 0.0:
         pd = pd - (x[X_BB] - s[S_BB0])
@@ -220,10 +221,12 @@ def output_into(x, s, a):
     a[2] = pd
     for k in range(3):
         a[10 + k] = s[S_W0 + k] - x[X_BG + k]
+    an, ae, ad = x[X_V] - x[X_WIND], x[X_V + 1] - x[X_WIND + 1], x[X_V + 2]
     if s[S_ORG] == 0.0:
-        return 0.0, 0.0, -pd
-    return geodetic_fast(s[S_ORG + 1], s[S_ORG + 2], s[S_ORG + 3], s[S_ORG + 4], s[S_ORG + 5],
-                         s[S_ORG + 6], x[X_P], x[X_P + 1], pd)
+        return 0.0, 0.0, -pd, an, ae, ad
+    lat, lon, alt = geodetic_fast(s[S_ORG + 1], s[S_ORG + 2], s[S_ORG + 3], s[S_ORG + 4],
+                                  s[S_ORG + 5], s[S_ORG + 6], x[X_P], x[X_P + 1], pd)
+    return lat, lon, alt, an, ae, ad
 
 
 @kernel
@@ -242,7 +245,7 @@ def imu_step(b, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
       (F's dynamic entries over the interval, ekf.py module docstring), and the running
       sum of f_n dt; the Gauss-Markov decay of the GPS error, b' = a b;
     * the history row of this step (:func:`push_history`) and the output
-      (:func:`output_into`, into the buffer's last _O_SIZE; returns lat, lon, alt)."""
+      (:func:`output_into`, into the buffer's last _O_SIZE; returns what it returns)."""
     x, s, hist = b[:_B_S], b[_B_S:_B_H], b[_B_H:_B_O].reshape((_HIST, _H_SIZE))
     f0x, f0y, f0z = s[S_F0], s[S_F0 + 1], s[S_F0 + 2]
     w0x, w0y, w0z = s[S_W0], s[S_W0 + 1], s[S_W0 + 2]
@@ -447,9 +450,9 @@ class NavFilterBase:
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal(b[:_B_S])
-        # the (lat, lon, alt) of the output written for this step's nominal state
-        # (imu_step's), None when it has not been written (a step without imu_step) or
-        # the nominal state has changed since
+        # output_into's (lat, lon, alt, air velocity) of the output written for this
+        # step's nominal state (imu_step's), None when it has not been written (a step
+        # without imu_step) or the nominal state has changed since
         self._geo: tuple | None = None
         self._wind_ned: np.ndarray | None = None   # the output's wind, None when it has changed
         self.aligned = False
@@ -1207,17 +1210,15 @@ class NavFilterBase:
             # a step without imu_step, or the nominal state changed since it wrote the
             # output (a fusion, a reset): written again
             self._geo = output_into(x, self._s, self._o)
-        lat, lon, alt = self._geo
+        lat, lon, alt, an, ae, ad = self._geo
         if self._wind_ned is None:
             # one array per wind estimate (it changes in a fusion), handed to every
             # output until the next
-            wn, we = x[X_WIND:X_WIND + 2].tolist()
-            self._wind_ned = np.array((wn, we, 0.0))
+            self._wind_ned = np.array((x.item(X_WIND), x.item(X_WIND + 1), 0.0))
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
-            v0, v1, v2, w0, w1 = x[X_V:X_V + 3].tolist() + x[X_WIND:X_WIND + 2].tolist()
-            airspeed = math.sqrt((v0 - w0) ** 2 + (v1 - w1) ** 2 + v2 ** 2)
+            airspeed = math.sqrt(an ** 2 + ae ** 2 + ad ** 2)
         p, v, q, w = self._o_views
         return NavState.make(t, p, v, q, w, lat, lon, alt, airspeed, self._wind_ned,
                              self.aligned, ok, self.SOURCE)
