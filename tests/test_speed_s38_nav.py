@@ -26,7 +26,6 @@ class _EveryFusionThroughTheLoop(InsGpsEkf):
         ratio = tuple([yi * yi / (gi * si) for yi, gi, si in zip(y, batch.g2, Sd)])
         rejected = self._gate_sources(batch, ratio, (), t)
         z = batch.z_tuple
-        self.innovations = []
         for k, name in enumerate(batch.src):
             a = batch.start[k]
             e = a + batch.size[k]

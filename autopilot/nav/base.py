@@ -457,9 +457,7 @@ class NavFilterBase:
         self._wind_ned: np.ndarray | None = None   # the output's wind, None when it has changed
         self.aligned = False
         self.healthy = False
-        # the records of this step's fusion: a new list at each fusion (the lists handed
-        # out stay as they were), the empty tuple on the steps without one
-        self.innovations: list[InnovationRecord] | tuple = ()
+        self.innovations: list[InnovationRecord] = []
         # the last sample each aiding sensor delivered [us], fused or not: the filter
         # declines some (the heading where the field is nearly vertical, the airspeed under
         # EK_ARSP_MIN), and a sensor that delivers is not a silent one (the monitor's
@@ -582,7 +580,7 @@ class NavFilterBase:
     def update(self, frame: SensorFrame) -> NavState:
         """One IMU step: predict with frame.imu, then fuse what else is present."""
         t = frame.t_us
-        self.innovations = ()
+        self.innovations = []
         dt = 0.0 if self._t_us is None else (t - self._t_us) * 1e-6
         dt = 0.0 if 0.0 > dt else dt                # min(max(dt, 0), _MAX_DT) spelt out
         dt = _MAX_DT if _MAX_DT < dt else dt        # (the builtins' cost: control/pid.py)
@@ -1013,7 +1011,7 @@ class NavFilterBase:
         else:
             rejected = self._gate_sources(batch, ratio, adapted, t)
         z = batch.z_tuple
-        rec = self.innovations = []
+        rec = self.innovations
         for k, name in enumerate(src):
             a = start[k]
             e = a + size[k]
@@ -1151,7 +1149,7 @@ class NavFilterBase:
         c, s = math.cos(psi), math.sin(psi)
         tas_h = math.sqrt(max(tas * tas - v[2] * v[2], 0.0))
         nom.wind = [v[0] - tas_h * c, v[1] - tas_h * s]
-        self._wind_ned = None
+        self._geo = self._wind_ned = None     # (the output's air velocity and wind)
         P = self.P
         u = np.array((c, s))
         up = np.array((-s, c))
