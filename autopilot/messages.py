@@ -104,7 +104,11 @@ class SensorFrame:
 
 @message
 class NavState:
-    """A navigation solution (estimate or truth), in the local NED frame of ``origin``."""
+    """A navigation solution (estimate or truth), in the local NED frame of ``origin``.
+
+    A navigation filter's p_ned, v_ned, q_nb and omega_b are views of the filter's
+    output, written again at its next update (one array for the whole flight, not four
+    a step): copy them to keep them."""
 
     t_us: int
     p_ned: np.ndarray        # position relative to the nav origin [m]

@@ -88,14 +88,16 @@ def test_output_into_is_the_output_written_out():
     s = np.zeros(S_SIZE)
     s[S_W0:S_W0 + 3] = (0.1, -0.2, 0.3)
     a = np.empty(13)
-    # no origin, no baro height: the filter's own height
-    assert output_into(nom.x, s, a) == (0.0, 0.0, -nom.p[2])
+    # no origin, no baro height: the filter's own height; the air velocity v - (w, 0)
+    v, w = nom.v, nom.wind
+    air = (v[0] - w[0], v[1] - w[1], v[2])
+    assert output_into(nom.x, s, a) == (0.0, 0.0, -nom.p[2]) + air
     s[S_ORG], s[S_ORG + 1:S_ORG + 7] = 1.0, frame.fast_constants()
     s[S_BHGT], s[S_BB0] = 1.0, 1.25
-    lat, lon, alt = output_into(nom.x, s, a)
+    lat, lon, alt, *air2 = output_into(nom.x, s, a)
     p = nom.p
     p = [p[0], p[1], p[2] - (nom.bb - 1.25)]
-    assert (lat, lon, alt) == frame.to_geodetic_fast(p)
+    assert (lat, lon, alt) == frame.to_geodetic_fast(p) and tuple(air2) == air
     assert a.tolist() == p + nom.v + nom.q + [(0.1, -0.2, 0.3)[k] - nom.bg[k] for k in range(3)]
     # the interpreted source of the inverse is that of the compiled one, near the 180th meridian too
     e = 250.0
@@ -155,8 +157,10 @@ def test_the_nominal_state_the_step_array_and_the_history_are_views_of_one_buffe
     f = InsGpsEkf()
     for _ in range(2):
         b = f._buf
-        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b
+        assert f.nom.x.base is b and f._s.base is b and f._hist.base is b and f._o.base is b
         b[:] = np.arange(b.size)
         assert f.nom.x[0] == 0.0 and f._s[0] == f.nom.x.size
-        assert f._hist[0, 0] == f.nom.x.size + f._s.size and f._hist[-1, -1] == b.size - 1
+        assert f._hist[0, 0] == f.nom.x.size + f._s.size
+        # (the output last: stop 41)
+        assert f._hist[-1, -1] + 1 == f._o[0] and f._o[-1] == b.size - 1
         f.reset()

@@ -10,7 +10,7 @@ import numpy as np
 
 from autopilot.geo import euler_to_quat
 from autopilot.nav import InsGpsEkf
-from autopilot.nav.base import (_B_H, _B_S, _B_SIZE, _P_CEIL, _P_FLOOR, S_CP, Batch, inject_into,
+from autopilot.nav.base import (_B_H, _B_O, _B_S, _B_SIZE, _P_CEIL, _P_FLOOR, S_CP, Batch, inject_into,
                                 output_into)
 from autopilot.nav.ekf import fuse_into, joseph_update_into
 from autopilot.nav.simulate import SimConfig, simulate_flight
@@ -43,15 +43,17 @@ def test_fuse_into_is_the_joseph_update_then_the_injection_bit_for_bit():
     dx_w, out_w = np.empty(n), np.empty((n, n))
     assert joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx_w, out_w)
     inject_into(b0[:_B_S], b0[_B_S:_B_H], dx_w)
+    geo_w = output_into(b0[:_B_S], b0[_B_S:_B_H], b0[_B_O:])      # (stop 41: and the output)
     # the one
     out = np.empty((n, n))
-    assert fuse_into(P, H, PHt, S, R, y, out, b)
+    ok, geo = fuse_into(P, H, PHt, S, R, y, out, b)
+    assert ok and geo == geo_w
     assert np.array_equal(out, out_w)
-    assert np.array_equal(b, b0) and b[:X_SIZE].any()
+    assert np.array_equal(b, b0) and b[:X_SIZE].any() and b[_B_O:].any()
     # S not positive definite: nothing written, the state untouched
     bad = S.copy()
     bad[0, 0] = -1.0 - R[0]
-    assert not fuse_into(P, H, PHt, bad, R, y, out, b)
+    assert not fuse_into(P, H, PHt, bad, R, y, out, b)[0]
     assert np.array_equal(b, b0)
 
 
@@ -74,7 +76,7 @@ def test_the_output_after_a_fusion_is_the_nominal_states_and_past_records_stay()
         nav = filt.update(frame)
         # THEN every output is the one computed afresh from the nominal state as it is
         a = np.empty(13)
-        lat, lon, alt = output_into(filt.nom.x, filt._s, a)
+        lat, lon, alt, *_ = output_into(filt.nom.x, filt._s, a)
         got = np.concatenate((nav.p_ned, nav.v_ned, nav.q_nb, nav.omega_b))
         assert np.array_equal(got, a) and (nav.lat_rad, nav.lon_rad, nav.alt_m) == (lat, lon, alt)
         fused += bool(filt.innovations)

@@ -158,13 +158,16 @@ S_SIZE = 78
 _AUX_BARO, _AUX_MAG, _AUX_AIR = 1, 2, 4
 # history rows: t, p, v, c_p, c_v, running f_n dt, running sampling variance (_delayed)
 _H_T, _H_P, _H_V, _H_CP, _H_CV, _H_SF, _H_QS, _H_SIZE = 0, 1, 4, 7, 10, 13, 16, 19
-# The nominal state (X_SIZE), the per-step array (S_SIZE) and the history ring (_HIST
-# rows) are views of one buffer (NavFilterBase._buf), in this order: the kernels called
-# on most steps (imu_step, aux_into) take the buffer as one argument (a kernel's array
-# argument costs more than views taken of it inside), the other kernels and the Python
-# side take the views.
+# the output (output_into): p, v, q, omega_b
+_O_SIZE = 13
+# The nominal state (X_SIZE), the per-step array (S_SIZE), the history ring (_HIST rows)
+# and the output (_O_SIZE) are views of one buffer (NavFilterBase._buf), in this order:
+# the kernels called on most steps (imu_step, aux_into) take the buffer as one argument
+# (a kernel's array argument costs more than views taken of it inside), the other
+# kernels and the Python side take the views.
 _B_S, _B_H = X_SIZE, X_SIZE + S_SIZE
-_B_SIZE = _B_H + _HIST * _H_SIZE
+_B_O = _B_H + _HIST * _H_SIZE
+_B_SIZE = _B_O + _O_SIZE
 
 
 @kernel
@@ -206,9 +209,10 @@ def delayed(hist, s, t_valid):
 @kernel
 def output_into(x, s, a):
     """The output of the nominal state (NavFilterBase._output): ``a`` (13) = p, v, q,
-    omega_b = gyro - b_g; returns (lat, lon, alt). Under the baro height reference
-    the height is the one the barometer and the IMU give, on the datum of the offset's
-    initialisation (module docstring)."""
+    omega_b = gyro - b_g; returns (lat, lon, alt, a_N, a_E, a_D), a = v - (w_N, w_E, 0)
+    the air velocity of the wind estimate (the dead-reckoned airspeed's). Under the
+    baro height reference the height is the one the barometer and the IMU give, on the
+    datum of the offset's initialisation (module docstring)."""
     pd = x[X_P + 2]
     if s[S_BHGT] != 0.0:
         pd = pd - (x[X_BB] - s[S_BB0])
@@ -217,14 +221,16 @@ def output_into(x, s, a):
     a[2] = pd
     for k in range(3):
         a[10 + k] = s[S_W0 + k] - x[X_BG + k]
+    an, ae, ad = x[X_V] - x[X_WIND], x[X_V + 1] - x[X_WIND + 1], x[X_V + 2]
     if s[S_ORG] == 0.0:
-        return 0.0, 0.0, -pd
-    return geodetic_fast(s[S_ORG + 1], s[S_ORG + 2], s[S_ORG + 3], s[S_ORG + 4], s[S_ORG + 5],
-                         s[S_ORG + 6], x[X_P], x[X_P + 1], pd)
+        return 0.0, 0.0, -pd, an, ae, ad
+    lat, lon, alt = geodetic_fast(s[S_ORG + 1], s[S_ORG + 2], s[S_ORG + 3], s[S_ORG + 4],
+                                  s[S_ORG + 5], s[S_ORG + 6], x[X_P], x[X_P + 1], pd)
+    return lat, lon, alt, an, ae, ad
 
 
 @kernel
-def imu_step(b, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
+def imu_step(b, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
     """One IMU step of the nominal state ``x`` (Nominal.x) and the filter's per-step
     array ``s`` (offsets S_*), in place (NavFilterBase._propagate_nominal), from the
     samples at the step's two ends (the last step's, in ``s``, and these); ``b``: the
@@ -239,8 +245,8 @@ def imu_step(b, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
       (F's dynamic entries over the interval, ekf.py module docstring), and the running
       sum of f_n dt; the Gauss-Markov decay of the GPS error, b' = a b;
     * the history row of this step (:func:`push_history`) and the output
-      (:func:`output_into`, into ``a``; returns lat, lon, alt)."""
-    x, s, hist = b[:_B_S], b[_B_S:_B_H], b[_B_H:].reshape((_HIST, _H_SIZE))
+      (:func:`output_into`, into the buffer's last _O_SIZE; returns what it returns)."""
+    x, s, hist = b[:_B_S], b[_B_S:_B_H], b[_B_H:_B_O].reshape((_HIST, _H_SIZE))
     f0x, f0y, f0z = s[S_F0], s[S_F0 + 1], s[S_F0 + 2]
     w0x, w0y, w0z = s[S_W0], s[S_W0 + 1], s[S_W0 + 2]
     sampled, e0, e1, e2 = sampling_error_into(
@@ -273,7 +279,7 @@ def imu_step(b, a, f1x, f1y, f1z, w1x, w1y, w1z, dt, t):
     s[S_F0], s[S_F0 + 1], s[S_F0 + 2] = f1x, f1y, f1z
     s[S_W0], s[S_W0 + 1], s[S_W0 + 2] = w1x, w1y, w1z
     push_history(x, s, hist, t)
-    return output_into(x, s, a)
+    return output_into(x, s, b[_B_O:])
 
 
 @kernel
@@ -425,12 +431,16 @@ class NavFilterBase:
     # ------------------------------------------------------------------ lifecycle --
     def reset(self) -> None:
         """Forget everything; the filter re-aligns from the next samples."""
-        # the per-step array the kernels read and write in place (offsets S_*), and the
-        # history ring for the GPS latency (rows: _H_*; an empty row's t is -inf): views
-        # of one buffer with the nominal state (_B_*)
+        # the per-step array the kernels read and write in place (offsets S_*), the
+        # history ring for the GPS latency (rows: _H_*; an empty row's t is -inf) and the
+        # output: views of one buffer with the nominal state (_B_*)
         b = self._buf = np.zeros(_B_SIZE)
         s = self._s = b[_B_S:_B_H]
-        self._hist = b[_B_H:].reshape(_HIST, _H_SIZE)
+        self._hist = b[_B_H:_B_O].reshape(_HIST, _H_SIZE)
+        # the output's vectors (p, v, q, omega_b), written in place at every step and
+        # handed out in every NavState (its vectors are the filter's: copy to keep)
+        o = self._o = b[_B_O:]
+        self._o_views = (o[0:3], o[3:6], o[6:10], o[10:13])
         self._hist[:, _H_T] = -math.inf
         self.origin: LocalFrame | None = None
         self._g = G0
@@ -440,9 +450,9 @@ class NavFilterBase:
         if self._home is not None:
             self._set_origin(self._home)
         self.nom = Nominal(b[:_B_S])
-        # the output of this step's nominal state (imu_step's; None on a step without it)
-        # and its (lat, lon, alt), None when the nominal state has changed since
-        self._out: np.ndarray | None = None
+        # output_into's (lat, lon, alt, air velocity) of the output written for this
+        # step's nominal state (imu_step's), None when it has not been written (a step
+        # without imu_step) or the nominal state has changed since
         self._geo: tuple | None = None
         self._wind_ned: np.ndarray | None = None   # the output's wind, None when it has changed
         self.aligned = False
@@ -590,7 +600,7 @@ class NavFilterBase:
 
         w1 = imu.omega_b
         f1 = self._accel_prev = imu.f_b
-        self._out = None
+        self._geo = None
         if not self.aligned:
             self._hold_samples(f1, w1)
             self._align_step(frame, gps)
@@ -969,8 +979,7 @@ class NavFilterBase:
         if dt != self._gm_step[0] or tau != self._gm_step[1]:
             self._gm_step = (dt, tau, math.exp(-dt / tau))   # the same dt every step
             self._s[S_GM] = self._gm_step[2]
-        self._out = a = np.empty(13)
-        self._geo = imu_step(self._buf, a, *f1, *w1, dt, t)
+        self._geo = imu_step(self._buf, *f1, *w1, dt, t)
         return self._gm_step[2]
 
     def _tilt_aligned(self) -> bool:
@@ -1140,7 +1149,7 @@ class NavFilterBase:
         c, s = math.cos(psi), math.sin(psi)
         tas_h = math.sqrt(max(tas * tas - v[2] * v[2], 0.0))
         nom.wind = [v[0] - tas_h * c, v[1] - tas_h * s]
-        self._wind_ned = None
+        self._geo = self._wind_ned = None     # (the output's air velocity and wind)
         P = self.P
         u = np.array((c, s))
         up = np.array((-s, c))
@@ -1194,29 +1203,23 @@ class NavFilterBase:
                     ok = False
                     break
         self.healthy = ok
-        a = self._out
         x = self.nom.x
-        if a is None:                 # (a step without imu_step)
-            a = np.empty(13)
-            self._geo = None
         if self._geo is None:
-            # the nominal state changed since imu_step wrote the output (a fusion, a
-            # reset): written again, into imu_step's array (not handed out yet)
-            self._geo = output_into(x, self._s, a)
-        lat, lon, alt = self._geo
+            # a step without imu_step, or the nominal state changed since it wrote the
+            # output (a fusion, a reset): written again
+            self._geo = output_into(x, self._s, self._o)
+        lat, lon, alt, an, ae, ad = self._geo
         if self._wind_ned is None:
             # one array per wind estimate (it changes in a fusion), handed to every
             # output until the next
-            wn, we = x[X_WIND:X_WIND + 2].tolist()
-            self._wind_ned = np.array((wn, we, 0.0))
+            self._wind_ned = np.array((x.item(X_WIND), x.item(X_WIND + 1), 0.0))
         if self._airspeed is not None and t - self._airspeed[0] <= _AIRSPEED_HOLD_US:
             airspeed = float(self._airspeed[1])
         else:
-            v0, v1, v2, w0, w1 = x[X_V:X_V + 3].tolist() + x[X_WIND:X_WIND + 2].tolist()
-            airspeed = math.sqrt((v0 - w0) ** 2 + (v1 - w1) ** 2 + v2 ** 2)
-        # the vectors that change every step: views of one array (one allocation)
-        return NavState.make(t, a[0:3], a[3:6], a[6:10], a[10:13], lat, lon, alt, airspeed,
-                             self._wind_ned, self.aligned, ok, self.SOURCE)
+            airspeed = math.sqrt(an ** 2 + ae ** 2 + ad ** 2)
+        p, v, q, w = self._o_views
+        return NavState.make(t, p, v, q, w, lat, lon, alt, airspeed, self._wind_ned,
+                             self.aligned, ok, self.SOURCE)
 
     # ---------------------------------------------------------- filter-specific --
     def _sync_covariance(self) -> None:

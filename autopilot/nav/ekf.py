@@ -69,8 +69,8 @@ import numpy as np
 
 from autopilot.jit import cholesky_gain, cholesky_lower, kernel
 
-from .base import (_B_H, _B_S, _IA, _IV, _P_CEIL, _P_FLOOR, S_ACC, S_ACC_HAS, S_QS_HAS,
-                   NavFilterBase, inject_into)
+from .base import (_B_H, _B_O, _B_S, _IA, _IV, _P_CEIL, _P_FLOOR, S_ACC, S_ACC_HAS, S_QS_HAS,
+                   NavFilterBase, inject_into, output_into)
 from .config import NAV_PARAMS  # noqa: F401  (re-exported: the filter's parameters beside it)
 from .layout import ABIAS, ATT, BBIAS, GBIAS, GPSB, POS, VEL, WIND
 
@@ -214,14 +214,16 @@ def joseph_update_into(P, H, PHt, S, R, y, floor, ceil, dx, out):
 def fuse_into(P, H, PHt, S, R, y, out, b):
     """The update (:func:`joseph_update_into`: P' into ``out``, P's diagonal kept within
     base.py's floor and ceiling) with dx folded into the nominal state (base.inject_into;
-    ``b``: the filter's buffer of the nominal state and the per-step array, base._B_*).
-    Returns ok (False: S not positive definite, nothing written)."""
+    ``b``: the filter's buffer of the nominal state, the per-step array and the output,
+    base._B_*), and the output of the new nominal state (base.output_into). Returns (ok,
+    and output_into's six floats); ok False: S not positive definite, nothing written."""
     n = P.shape[0]
     dx = np.empty(n)
     if not joseph_update_into(P, H, PHt, S, R, y, _P_FLOOR[:n], _P_CEIL[:n], dx, out):
-        return False
-    inject_into(b[:_B_S], b[_B_S:_B_H], dx)
-    return True
+        return False, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    x, s = b[:_B_S], b[_B_S:_B_H]
+    inject_into(x, s, dx)
+    return True, output_into(x, s, b[_B_O:])
 
 
 class InsGpsEkf(NavFilterBase):
@@ -368,9 +370,11 @@ class InsGpsEkf(NavFilterBase):
             H, PHt, R, y = H[rows], np.ascontiguousarray(PHt[:, rows]), R[rows], y[rows]
             S = S[np.ix_(rows, rows)]
         # K = P H^T (H P H^T + R)^-1, dx = K y, Joseph-form P, dx into the nominal
-        # state (kernel above)
+        # state, the output of it (kernel above)
         out = self._P_spare
-        if not fuse_into(self._P, H, PHt, S, R, y, out, self._buf):
+        ok, geo = fuse_into(self._P, H, PHt, S, R, y, out, self._buf)
+        if not ok:
             return                           # S not positive definite: skip this update
         self._next_P(out)
-        self._geo = self._wind_ned = None    # (the output's parts made from it: as _inject)
+        self._geo = geo
+        self._wind_ned = None                # (the wind changed: as _inject)
