@@ -141,9 +141,10 @@ class QuadPlusMixer:
         return mix_rotors(u_z, u_phi, u_theta, u_psi, self.k)
 
 
-# QuadPlusMixer.k: the lowest spinning command, T_max rho/rho0, the thrust curve's inverse (linear flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness
-# flag and k_1..k_4; then the last mixing's record (mix_rotors writes it): the
-# collective, the three saturation flags (1.0 or 0.0), the rotor thrusts
+# QuadPlusMixer.k: the lowest spinning command, T_max rho/rho0, the thrust curve's
+# inverse (linear flag, e - 1, (1 - e)^2, 4 e, 2 e), the effectiveness flag and
+# k_1..k_4; then the last mixing's record (mix_rotors writes it): the collective, the
+# three saturation flags (1.0 or 0.0), the rotor thrusts
 K_SPIN, K_FULL, K_LINEAR, K_EM1, K_E1SQ, K_E4, K_E2, K_HAS_EFF, K_EFF = range(9)
 K_COLL = K_EFF + 4
 K_SAT = K_COLL + 1

@@ -453,7 +453,8 @@ class _Axis:
         self.ratio = 0.0
         self.residual = 0.0
         # (autopilot.jit.preload)
-        preload(axis_step, self._fit.copy(), self._st.copy(), self._ring.copy(), 0, 0.0, 0.0, 0.0, 0.0, LEARN_ALL)
+        preload(axis_step, self._fit.copy(), self._st.copy(), self._ring.copy(), 0, 0.0, 0.0,
+                0.0, 0.0, LEARN_ALL)
 
     @property
     def r_var(self) -> float:
@@ -476,8 +477,8 @@ class _Axis:
         """``(1, x1[, x2])`` the offset's regressor (x2 where it has three terms);
         ``learn``: True the offset and the variance are learnt, False the variance only
         (the first FIT_WARMUP_S of flight), None nothing (frozen or suspended)."""
-        r = self.residual = axis_step(self._fit, self._st, self._ring, t_us, x1, x2, z, d,
-                                      LEARN_NONE if learn is None else LEARN_ALL if learn else LEARN_VAR)
+        mode = LEARN_NONE if learn is None else LEARN_ALL if learn else LEARN_VAR
+        r = self.residual = axis_step(self._fit, self._st, self._ring, t_us, x1, x2, z, d, mode)
         if self.refit and not self.fitting and learn:
             self.fitting = self._st[_FITTING] != 0.0
         if k_test:

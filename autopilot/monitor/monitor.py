@@ -117,8 +117,9 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
-# the bias estimates' variances from the diagonal of P, gyros' then accelerometers' (layout.GBIAS,
-# layout.ABIAS, kept here to read P without importing nav), or the gyros' alone
+# the bias estimates' variances from the diagonal of P, gyros' then accelerometers'
+# (layout.GBIAS, layout.ABIAS, kept here to read P without importing nav), or the gyros'
+# alone
 _BIAS_VAR6, _BIAS_VAR3 = itemgetter(12, 13, 14, 9, 10, 11), itemgetter(12, 13, 14)
 SILENT_RUN = 50                 # updates in a row at most FDI_TOUT apart before a silence
                                 # counts (2 s of baro, mag, airspeed; 10 s of GPS)
@@ -1118,8 +1119,9 @@ class FaultMonitor:
         iso = CHANNEL_INDEX[self.isolated] if self.isolated is not None else -1
         s = self.radapt.last.get("gps_pos")
         b = self.bias_ratio
-        return (float(self.detected), float(iso), self._step_max, gps_pos.ratio, gps_vel.ratio, baro.ratio,
-                mag.ratio, airspeed.ratio, self._iso_max, b[0], b[1], b[2], float(s.max()) if s is not None else 1.0)
+        return (float(self.detected), float(iso), self._step_max, gps_pos.ratio, gps_vel.ratio,
+                baro.ratio, mag.ratio, airspeed.ratio, self._iso_max, b[0], b[1], b[2],
+                float(s.max()) if s is not None else 1.0)
 
     def thresholds(self) -> dict:
         """The chi-square thresholds in use (for the summary and the report)."""
