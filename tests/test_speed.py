@@ -443,3 +443,13 @@ def test_bench_memory_reports_its_best_window_beside_the_mean():
     # THEN the best window is at least the mean over both (they cover the whole run)
     assert rtf > 0.0
     assert s.bench_best_window_rtf >= rtf * 0.999
+
+
+def test_link_floor_flies_each_plant_on_the_links_own_frames():
+    """The bench's link floor: every step's answer comes back through both codecs with
+    that step's time, for the fixed-wing and the quadrotor plant."""
+    from tools.bench import bench_link_floor
+    for vehicle, seconds, steps in (("plane", 0.5, 50), ("quad", 0.4, 100)):
+        rtf, n, answered = bench_link_floor(seconds, vehicle)
+        assert (n, answered) == (steps, steps)
+        assert rtf > 1.0

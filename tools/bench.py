@@ -44,6 +44,92 @@ def bench_plant(seconds: float) -> float:
     return seconds / (time.perf_counter() - t0), seconds / max(time.process_time() - c0, 1e-9)
 
 
+def _link_floor(plant_step, controls0, steps: int) -> tuple[float, int]:
+    """``steps`` lockstep steps of a plant with the link's own bytes and nothing else:
+    each step the plant moves under the last answer, one HIL_SENSOR frame is made from
+    its state and sent on a memory pipe, the autopilot end's codec reads it and answers
+    with one HIL_ACTUATOR_CONTROLS frame (the first controls, nudged as a controller's
+    would move them), which the simulator end's codec reads. Returns the wall seconds and how
+    many answers carried their step's time and controls back."""
+    import struct
+    from autopilot.link.codec import Codec, Routes
+    from autopilot.link.hil import HIL_IDS, ID_ACTUATORS, ID_SENSOR
+    from autopilot.link.transports import memory_pair
+    from sim_bridge.hil import _SENSOR
+    answer = struct.Struct("<Q8x4f48xB")       # time_usec, flags 0, controls[4], 12 zeros, mode
+    sim_end, ap_end = memory_pair()
+    sim_codec, ap_codec = Codec(1, 51), Codec(1, 1)
+    last: list = [None, None]
+
+    def on_sensor(v):
+        last[0] = v
+
+    def on_answer(v):
+        last[1] = v
+
+    def other(v):
+        pass
+    ap_routes = Routes({i: on_sensor if i == ID_SENSOR else other for i in HIL_IDS})
+    sim_routes = Routes({i: on_answer if i == ID_ACTUATORS else other for i in HIL_IDS})
+    c = controls0
+    u0, u1, u2, u3 = controls0
+    good = 0
+    t0 = time.perf_counter()
+    for k in range(steps):
+        st = plant_step(c)
+        ax, ay, az = st.f_b
+        gx, gy, gz = st.omega_b
+        sim_end.send(sim_codec.frame(ID_SENSOR, _SENSOR(st.t_us, ax, ay, az, gx, gy, gz, 0.2, 0.0, 0.4,
+                                                       1013.25, 0.0, 100.0, 15.0, 0x1FFF, 0)))
+        ap_codec.dispatch(ap_end.recv(), ap_routes)
+        v = last[0]
+        d = 1e-4 * (k % 7)
+        ap_end.send(ap_codec.frame(ID_ACTUATORS, answer.pack(v[0], u0 + d, u1 - d, u2 + d, u3 - d, 128)))
+        sim_codec.dispatch(sim_end.recv(), sim_routes)
+        a = last[1]
+        if a[0] == st.t_us:
+            good += 1
+        c = a[2:6]
+    return time.perf_counter() - t0, good
+
+
+def bench_link_floor(seconds: float, vehicle: str = "plane") -> tuple[float, int, int]:
+    """The plant alone (as ``bench_plant`` / ``bench_quad_plant`` set it up) plus the
+    lockstep link's two frames a step through this codec, and nothing else: no sensor
+    model, filter, guidance, control, monitor or log. No loop whose link's bytes this
+    codec makes can be faster; its ratio to the plant alone is the share of the plant's
+    speed the link leaves for the rest of a step. Returns (x real time, steps, steps
+    whose answer came back whole)."""
+    import numpy as np
+    if vehicle == "quad":
+        from sim_bridge.plants.quadrotor import QuadrotorPlant
+        plant = QuadrotorPlant(home=(-35.36, 149.17, 584.0, 0.0), wind_ned=(0.0, 3.0, 0.0),
+                               turbulence="light", rng=np.random.default_rng(1))
+        plant.set_airborne(10.0)
+        u = plant.af.hover_command(plant.rho, plant.g)
+        c0, dt_s = (u, u, u, u), plant.dt_s
+
+        def plant_step(c):
+            return plant.step(c)
+    else:
+        from autopilot.mission.files import load_mission
+        from sim_bridge.plants.base import PlaneControls
+        from sim_bridge.plants.jsbsim_plane import JSBSimPlane
+        plant = JSBSimPlane("aerosonde", home=mission_home(load_mission(DEFAULT_MISSION)),
+                            rng=np.random.default_rng(1))
+        trim = plant.trim(25.0, 100.0)
+        plant.set_wind((0.0, 5.0, 0.0), "light")
+        c0, dt_s = (trim.aileron, trim.elevator, trim.rudder, trim.throttle), 0.01
+        make = PlaneControls.make
+
+        def plant_step(c):
+            return plant.step(make(*c), 2)
+    _link_floor(plant_step, c0, 10)              # (a first run compiles what it compiles here)
+    n = int(seconds / dt_s)
+    wall_s, good = _link_floor(plant_step, c0, n)
+    return seconds / wall_s, n, good
+
+
 class _Timers:
     def __init__(self):
         self.total = defaultdict(float)
@@ -320,6 +406,8 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
     fig["plant_rtf"], fig["plant_cpu_rtf"] = plant_rtf, plant_cpu
     say(f"  plant alone (JSBSim, 2 x 5 ms per step):       {plant_rtf:8.1f} x real time"
         f"   (per CPU second of this process: {plant_cpu:6.1f} x)")
+    fig["link_floor_rtf"] = bench_link_floor(seconds)[0]
+    say(f"  plant + the link's two frames, nothing else:   {fig['link_floor_rtf']:8.1f} x real time")
     for nav in ("truth", "ekf", "ukf"):
         rtf, s = bench_memory(seconds if nav != "ukf" else min(seconds, 20.0), nav)
         fig[f"loop_{nav}_rtf"], fig[f"loop_{nav}_cpu_rtf"] = rtf, s.bench_cpu_rtf
@@ -339,6 +427,8 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
         say(f"  full loop, TCP, two processes: failed ({e})")
     fig["quad_plant_rtf"] = bench_quad_plant(seconds)
     say(f"  quadrotor plant alone (4 ms steps):            {fig['quad_plant_rtf']:8.1f} x real time")
+    fig["quad_link_floor_rtf"] = bench_link_floor(seconds, "quad")[0]
+    say(f"  quadrotor plant + the link's two frames:       {fig['quad_link_floor_rtf']:8.1f} x real time")
     rtf, s = bench_quad_memory(seconds, "ekf")
     fig["quad_loop_ekf_rtf"] = rtf
     say(f"  quadrotor full loop, memory pipe, nav ekf:     {rtf:8.1f} x real time "
@@ -358,11 +448,16 @@ def bench_figures(seconds: float = 60.0, out=print) -> dict:
                                        if tcp_best and fig["loop_ekf_best_rtf"] else None)
     fig["ratio_quad_loop_to_plant"] = fig["quad_loop_ekf_rtf"] / fig["quad_plant_rtf"]
     fig["ratio_formation10_to_5"] = fig["formation10_rtf"] / fig["formation5_rtf"]
+    # the most of the plant's speed a loop can keep once its link's bytes are made and read
+    fig["ratio_link_floor_to_plant"] = fig["link_floor_rtf"] / plant_rtf
+    fig["ratio_quad_link_floor_to_plant"] = fig["quad_link_floor_rtf"] / fig["quad_plant_rtf"]
     say(f"  ratios: loop ekf / plant {fig['ratio_loop_ekf_to_plant']:.3f} (CPU "
         f"{fig['ratio_loop_ekf_to_plant_cpu']:.3f}), TCP / memory "
         f"{fig['ratio_tcp_to_memory'] or float('nan'):.3f} (best windows "
         f"{fig['ratio_tcp_to_memory_best'] or float('nan'):.3f}), quad loop / quad plant "
         f"{fig['ratio_quad_loop_to_plant']:.3f}, 10 quads / 5 quads {fig['ratio_formation10_to_5']:.3f}")
+    say(f"  the link alone leaves: fixed-wing {fig['ratio_link_floor_to_plant']:.3f}, quadrotor "
+        f"{fig['ratio_quad_link_floor_to_plant']:.3f} of the plant's speed (plant + two frames / plant)")
     timers = _Timers()
     _, s = bench_memory(min(seconds, 30.0), "ekf", timers)
     steps = max(timers.count["plant"], 1)
