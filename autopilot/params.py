@@ -1,12 +1,12 @@
 """Typed parameter registry: the MAVLink PARAM table.
 
 One :class:`Param` entry per parameter (name of at most 16 characters, type, default,
-min, max, unit, description). Each block declares its parameters next to its code as a
-tuple of ``Param`` and the vehicle collects them into one :class:`ParamStore`. The store
-is what PARAM_REQUEST_LIST streams, what ``.parm`` files (``NAME VALUE`` lines, as
-ArduPilot and MAVProxy write them) save and load, and what the README's table is
-generated from. Controllers take design inputs (natural frequency, damping, L1 period)
-from here and derive their gains.
+min, max, unit, description, and whether a change takes effect only at the next start).
+Each block declares its parameters next to its code as a tuple of ``Param`` and the
+vehicle collects them into one :class:`ParamStore`. The store is what PARAM_REQUEST_LIST
+streams, what ``.parm`` files (``NAME VALUE`` lines, as ArduPilot and MAVProxy write
+them) save and load, and what the README's table is generated from. Controllers take
+design inputs (natural frequency, damping, L1 period) from here and derive their gains.
 """
 from __future__ import annotations
 
@@ -29,6 +29,12 @@ class Param:
     unit: str = ""
     description: str = ""
     is_int: bool = False
+    # a change takes effect at the next start only (ArduPilot's @RebootRequired, PX4's
+    # @reboot_required): something sized or built from it when the vehicle starts. Every
+    # other parameter takes effect at once after a PARAM_SET, read where it is used or
+    # re-read by the vehicle's ``_param_changed``. The value is stored either way, and a
+    # ground station is told (VehicleBase.set_param)
+    at_start: bool = False
 
     def __post_init__(self):
         if not 0 < len(self.name) <= 16:

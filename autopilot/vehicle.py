@@ -196,6 +196,7 @@ class PlaneVehicle(VehicleBase):
         self._moving_air_mps = 0.75 * p["ARSPD_FBW_MIN"]   # ArduPlane's "moving through the air"
         self._crash_gnd_alt_m = p["CRASH_GND_ALT"]
         self._level_alt_m = p["TKOFF_LVL_ALT"]
+        self._trim_arspd_mps = p["TRIM_ARSPD"]   # (the airspeed flown without DO_CHANGE_SPEED)
 
     # ------------------------------------------------------------------ arming ---
     def _arming(self, nav: NavState) -> None:
@@ -308,11 +309,34 @@ class PlaneVehicle(VehicleBase):
         return None
 
     def _param_changed(self, name: str) -> None:
+        """Reconfigure what depends on parameter ``name``, at once: the loops' gains and
+        limits, L1's design, the step's own copies, the airspeed flown; the navigation
+        filter and the fault monitor follow in ``_param_follow`` (what they are built
+        from is ``at_start``). The rest is read from the store where it is used."""
+        if name == "TRIM_ARSPD":
+            self._trim_changed(self._trim_arspd_mps, self.params[name])
         self._read_step_params()
         if name in ("NAVL1_PERIOD", "NAVL1_DAMPING"):
             self.l1.set_design(self.params["NAVL1_PERIOD"], self.params["NAVL1_DAMPING"])
         else:
             self.ctrl.configure_gains()
+
+    def _param_follow(self, name: str, value: float) -> None:
+        if hasattr(self.nav, "set_param"):       # (none on truth navigation)
+            self.nav.set_param(name, value)
+        if self.monitor is not None:
+            self.monitor.set_param(name, value)
+
+    def _trim_changed(self, old_mps: float, new_mps: float) -> None:
+        """TRIM_ARSPD changed: the mission and the loiters fly the new cruise airspeed,
+        unless a DO_CHANGE_SPEED asked for another (as ArduPlane's AIRSPEED_CRUISE)."""
+        seq = self._sequencer
+        if seq is not None and seq.airspeed_mps == old_mps:
+            seq.airspeed_mps = new_mps
+        for attr in ("hold", "rtl_hold"):
+            h = getattr(self, attr)
+            if h is not None and h.airspeed_mps == old_mps:
+                setattr(self, attr, h._replace(airspeed_mps=new_mps))
 
     # -------------------------------------------------------------------- loop ---
     def step(self, frame: SensorFrame, truth=None) -> ActuatorOutputs:

@@ -34,6 +34,7 @@ from .mission.items import Mission, terrain_problem, validate_mission
 from .nav.config import NAV_PARAMS
 from .params import Param
 
+SEV_NOTICE = 5          # MAV_SEVERITY_NOTICE
 _NAN3 = (math.nan, math.nan, math.nan)
 _NAN9 = (math.nan,) * 9
 _NAN10 = (math.nan,) * 10
@@ -216,21 +217,37 @@ class VehicleBase:
 
     def set_param(self, name: str, value: float) -> str | None:
         """PARAM_SET: a refusal (out of range, unknown, a FENCE_ACTION the fence cannot
-        take) leaves the value unchanged; an accepted one reconfigures the loops."""
+        take) leaves the value unchanged; an accepted one takes effect at once
+        (``_param_changed``), or, for a parameter the vehicle is built from (``at_start``
+        in its declaration), is stored and takes effect at the next start: a new value
+        of such a parameter is announced to the ground stations (STATUSTEXT NOTICE, as
+        ArduPilot's and PX4's ground stations say "reboot required")."""
         from .params import ParamError
         if name == "FENCE_ACTION":
             why = self.geofence.action_problem(value)
             if why is not None:
                 return why
+        # (the value before, by the dict's own lookup: a look of the parameter service,
+        # not a use of the parameter; tests/test_params_inflight.py traces the uses)
+        old = dict.get(self.params, name)
         try:
-            self.params.set(name, value)
+            v = self.params.set(name, value)
         except ParamError as e:
             return str(e)
         self._param_changed(name)
+        self._param_follow(name, v)
+        if self.params.declaration(name).at_start and v != old:
+            t_us = getattr(self, "last_t_us", None)
+            self.notice(t_us * 1e-6 if t_us is not None else 0.0, SEV_NOTICE,
+                        f"{name} set: takes effect at the next start")
         return None
 
     def _param_changed(self, name: str) -> None:
         """Reconfigure what depends on parameter ``name`` (hook)."""
+
+    def _param_follow(self, name: str, value: float) -> None:
+        """Hand parameter ``name``'s new ``value`` to the blocks that keep their own copy
+        of the parameters (the navigation filter, the fault monitor) (hook)."""
 
     def notice(self, t_s: float, severity: int, text: str) -> None:
         """Something to tell the ground stations (STATUSTEXT) and the flight log."""

@@ -60,8 +60,10 @@ R_AIR = 287.05287
 
 QUAD_VEHICLE_PARAMS = (
     Param("ARM_SETTLE_S", 3.0, 0.0, 60.0, "s", "headless: seconds of healthy navigation before arming"),
-    Param("QD_NAV_DIV", 4, 1, 10, "", "run the navigation filter every Nth step (output predictor between)", is_int=True),
-    Param("QD_NAV_AUX_HZ", 25.0, 1.0, 250.0, "Hz", "fuse magnetometer / barometer (averaged) at most this often"),
+    Param("QD_NAV_DIV", 4, 1, 10, "", "run the navigation filter every Nth step (output predictor between)",
+          is_int=True, at_start=True),
+    Param("QD_NAV_AUX_HZ", 25.0, 1.0, 250.0, "Hz", "fuse magnetometer / barometer (averaged) at most this often",
+          at_start=True),
     Param("QD_LOG_DIV", 4, 1, 100, "", "flight log: one row every Nth step (and at every GPS fix)", is_int=True),
     Param("LAND_DET_S", 0.5, 0.1, 5.0, "s", "land detector: conditions held this long"),
     Param("PILOT_THR_HOV", 0.41, 0.1, 0.9, "", "STABILIZE: collective command without a pilot"),
@@ -413,9 +415,20 @@ class QuadVehicle(VehicleBase):
         return None
 
     def _param_changed(self, name: str) -> None:
+        """Reconfigure what depends on parameter ``name``, at once: the loops and the
+        mixer, the reference model, the log's rate, the motor monitor's settings; the
+        navigation filter follows in ``_param_follow`` (what they are built from is
+        ``at_start``). The rest is read from the store where it is used."""
         self.ctrl.configure()
         self.navigator.traj.w = self.params["WPNAV_SMOOTH"]
         self.log_rows.div = max(1, int(self.params["QD_LOG_DIV"]))
+        if self.monitor is not None:
+            self.monitor.configure(self.params)
+
+    def _param_follow(self, name: str, value: float) -> None:
+        filt = getattr(self.nav, "filt", None)      # (DecimatedNav's filter; none on truth)
+        if filt is not None:
+            filt.set_param(name, value)
 
     def set_guided_target(self, lat_rad: float, lon_rad: float, alt_m: float,
                           t_us: int) -> str | None:

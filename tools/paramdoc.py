@@ -5,8 +5,8 @@
 
 The page is generated whole: the registry (``autopilot/params.py``; each block declares
 its ``Param`` entries next to its code) is the one source of names, defaults, ranges,
-units and descriptions, and ``tests/test_docs.py`` fails when the checked-in page is not
-what this command writes.
+units, descriptions and whether a change in flight waits for the next start, and
+``tests/test_docs.py`` fails when the checked-in page is not what this command writes.
 """
 from __future__ import annotations
 
@@ -25,6 +25,13 @@ You want to know what a parameter does, its default or its range, before setting
 ground station's parameter list. Every parameter of the registry is here; a value
 outside [min, max] is refused (by the command line with an error, by PARAM_SET with the
 old value echoed and a STATUSTEXT). Integer and boolean parameters take whole numbers.
+
+A value set while the vehicle runs (PARAM_SET from a ground station) takes effect at
+once, except where the column "set in flight" says "next start": those size or build a
+block when the vehicle starts (a filter's rates, the fault monitor's windows and
+levels, which monitors run at all). The new value is stored (and persisted with a
+parameter store) and the ground stations are told with a STATUSTEXT, as ArduPilot's
+"reboot required" parameters are ([ground stations](ground-stations.md#parameters-set-in-flight)).
 """
 
 
@@ -72,11 +79,12 @@ def page() -> str:
         if not decls:
             continue
         lines += ["", f"## {title}", "", where, "",
-                  "| name | default | min | max | unit | description |",
-                  "| --- | --- | --- | --- | --- | --- |"]
+                  "| name | default | min | max | unit | set in flight | description |",
+                  "| --- | --- | --- | --- | --- | --- | --- |"]
         for p in decls:
+            applies = "next start" if p.at_start else "at once"
             lines.append(f"| `{p.name}` | {_fmt(p.default)} | {_fmt(p.min)} | {_fmt(p.max)} | "
-                         f"{p.unit} | {p.description} |")
+                         f"{p.unit} | {applies} | {p.description} |")
     return "\n".join(lines) + "\n"
 
 

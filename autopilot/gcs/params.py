@@ -8,7 +8,9 @@
 * PARAM_SET: always answered by a PARAM_VALUE echo, sent to every client (as ArduPilot
   does, so all ground stations stay in step): the new value, or the old one when the
   vehicle refuses the new one (range, integer type), with a STATUSTEXT saying why.
-  Accepted changes are written to the persistent store, atomically.
+  Accepted changes are written to the persistent store, atomically. An accepted new
+  value of a parameter that takes effect only at the next start (``at_start``) is
+  followed by the vehicle's STATUSTEXT NOTICE saying so (VehicleBase.set_param).
 
 Values travel as ArduPilot sends them (MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT): the
 numeric value in the float field, with param_type INT32 for integer parameters and

@@ -53,14 +53,15 @@ CHANNEL_INDEX = {name: i for i, name in enumerate(CHANNELS)}
 SEV_CRITICAL, SEV_WARNING, SEV_NOTICE, SEV_INFO = 2, 4, 5, 6
 
 FDI_PARAMS = (
-    Param("FDI_ENABLE", 1.0, 0.0, 1.0, "bool", "run the fault monitor", is_int=True),
+    Param("FDI_ENABLE", 1.0, 0.0, 1.0, "bool", "run the fault monitor", is_int=True, at_start=True),
     Param("FDI_ALPHA", 1e-4, 1e-9, 0.1, "", "level of significance of the per-step and isolation "
-          "chi-square tests (run during an episode)"),
+          "chi-square tests (run during an episode)", at_start=True),
     Param("FDI_PFA", 0.01, 1e-9, 1.0, "1/h", "false-alarm probability per flight hour of all window "
-          "detection tests together (sets their alpha)"),
-    Param("FDI_WIN", 10.0, 3.0, 100.0, "samples", "sliding window width M of the chi-square tests", is_int=True),
+          "detection tests together (sets their alpha)", at_start=True),
+    Param("FDI_WIN", 10.0, 3.0, 100.0, "samples", "sliding window width M of the chi-square tests",
+          is_int=True, at_start=True),
     Param("FDI_DECIM", 10.0, 1.0, 50.0, "", "baro, mag, airspeed (fused at 25 Hz) enter every N-th sample",
-          is_int=True),
+          is_int=True, at_start=True),
     Param("FDI_ARSP_K", 4.0, 1.0, 100.0, "", "airspeed innovation variance inflation (turbulence)"),
     Param("FDI_ARSP_HMIN", 20.0, 0.0, 300.0, "m", "airspeed window test only this high above the origin "
           "(home) or higher: below it turbulence's gusts outrun the wind estimate (0: everywhere)"),
@@ -70,7 +71,7 @@ FDI_PARAMS = (
           "local horizontal field makes the heading noise (this over B_h) exceed EK_MAG_NSE, the mag "
           "innovations are normalised by that instead (0: never)"),
     Param("FDI_TOUT", 0.5, 0.1, 10.0, "s", "a channel silent this long is flagged (sensor off)"),
-    Param("FDI_BIAS_T", 4.0, 1.0, 60.0, "s", "window of the gyro bias-estimate change test"),
+    Param("FDI_BIAS_T", 4.0, 1.0, 60.0, "s", "window of the gyro bias-estimate change test", at_start=True),
     Param("FDI_ALPHA_B", 1e-5, 1e-12, 0.1, "", "level of significance of the gyro bias test"),
     Param("FDI_ACC_STAT", 1.0, 0.0, 1.0, "bool", "accelerometer bias-change test (as the gyros')",
           is_int=True),
@@ -78,24 +79,24 @@ FDI_PARAMS = (
     Param("FDI_START_T", 10.0, 0.0, 600.0, "s", "monitor starts this long after navigation is healthy"),
     Param("FDI_CLR_T", 2.0, 0.0, 60.0, "s", "a fault clears after this long with all statistics low"),
     Param("FDI_RADAPT", 2.0, 0.0, 2.0, "", "R adaptation: 0 off, 1 single, 2 multiple scale factors",
-          is_int=True),
+          is_int=True, at_start=True),
     Param("FDI_RWIN", 10.0, 1.0, 100.0, "samples", "R adaptation: innovations in the covariance estimate "
-          "(1: one sample, as the seed)", is_int=True),
+          "(1: one sample, as the seed)", is_int=True, at_start=True),
     Param("FDI_QFADE", 1000.0, 1.0, 1e6, "", "fading factor of the gyro-bias process noise while an "
-          "inertial fault is suspected (1: off)"),
+          "inertial fault is suspected (1: off)", at_start=True),
     Param("FDI_DRIFT", 0.5, 0.0, 1.0, "", "velocity innovations whose window means hold this share of the "
           "statistic are a drift (inertial fault)"),
     Param("FDI_ACT_ID", 1.0, 0.0, 1.0, "bool", "elevator fault detection and identification "
-          "(moment balance and two-stage KF)", is_int=True),
+          "(moment balance and two-stage KF)", is_int=True, at_start=True),
     Param("FDI_EL_MODEL", 1.0, 0.0, 2.0, "", "elevator identifier's prior: 0 none (the pitch balance "
           "learnt in flight, armed ~100 s after launch), 1 the Aerosonde's model, 2 the c172p's (armed from launch)",
-          is_int=True),
+          is_int=True, at_start=True),
     Param("FDI_ACT_THR", 3.0, 1.0, 100.0, "", "elevator residual window statistic over its chi-square "
           "threshold by this factor detects"),
     Param("FDI_LAT_ID", 1.0, 0.0, 1.0, "bool", "aileron and rudder fault detection and identification "
-          "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True),
+          "(the airframe's lateral balance, autopilot/monitor/lateral.py)", is_int=True, at_start=True),
     Param("FDI_THR_ID", 1.0, 0.0, 1.0, "bool", "throttle fault detection and identification (the "
-          "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True),
+          "airframe's thrust balance, autopilot/monitor/throttle.py)", is_int=True, at_start=True),
     Param("FDI_THR_RPM", 1.0, 0.0, 1.0, "bool", "the throttle's test on the propeller's measured "
           "speed (ESC telemetry, ESC_TELEMETRY_1_TO_4) when it is delivered, the thrust balance's "
           "when not; 0 the thrust balance's always (autopilot/monitor/throttle.py)", is_int=True),
@@ -109,6 +110,8 @@ FDI_PARAMS = (
     Param("FDI_DR_TIME", 60.0, 0.0, 600.0, "s", "dead reckoning this long before the GPS failsafe"),
 )
 _DEFAULTS = {p.name: float(p.default) for p in FDI_PARAMS}
+# the monitor's parameters that take effect at the next start only (FaultMonitor.set_param)
+_AT_START = {p.name: p.at_start for p in FDI_PARAMS}
 
 # aiding channel -> (innovation dimension, decimated, variance inflation key)
 _AIDING = {"gps_pos": (3, False, None), "gps_vel": (3, False, None), "baro": (1, True, None),
@@ -370,6 +373,47 @@ class FaultMonitor:
             gain = min(1.0, self._mag_nse / sd)
         self._mag_gain = gain
         return gain
+
+    def set_param(self, name: str, value: float) -> None:
+        """A parameter changed in flight (the vehicle's ``_param_follow``): the monitor's
+        copy takes it and what it worked out from it follows, from its next step. Those
+        it is built from (its windows, thresholds, identifiers, the R and Q adaptation:
+        ``at_start`` in FDI_PARAMS) keep the value it was started with. The filter's noise
+        parameters it reads (EK_MAG_NSE, EK_GYRB_NSE, EK_ACCB_NSE) are followed too."""
+        p = self.p
+        if name in p:
+            if _AT_START[name]:
+                return
+            p[name] = float(value)
+        if name == "FDI_TOUT":
+            self.tout_us = int(p["FDI_TOUT"] * 1e6)
+            self._eval_until_us = -1          # (the scan's silence horizon: update)
+        elif name == "FDI_START_T":
+            self._start_us = p["FDI_START_T"] * 1e6
+        elif name == "FDI_BIAS_WU":
+            self._bias_wu_us = p["FDI_BIAS_WU"] * 1e6
+        elif name == "FDI_ALPHA_B":
+            self.thr_bias = chi2_threshold(p["FDI_ALPHA_B"], 1)
+        elif name == "FDI_ACC_STAT":
+            self._acc_on = p["FDI_ACC_STAT"] >= 1
+        elif name == "FDI_ARSP_K":
+            self._arsp_ch.gain = 1.0 / math.sqrt(p["FDI_ARSP_K"])
+        elif name == "FDI_ARSP_HMIN":
+            self._arsp_ch.hmin = p["FDI_ARSP_HMIN"]
+        elif name == "FDI_ARSP_HREF":
+            self._arsp_href = p["FDI_ARSP_HREF"]
+            self._arsp_fref = _gust_share(self._arsp_href) if self._arsp_href > 0.0 else 0.0
+        elif name in ("FDI_MAG_FNSE", "EK_MAG_NSE"):
+            if name == "EK_MAG_NSE":
+                self._mag_nse = float(value)
+            self._mag_gain = None
+            self._mag_gain_at_origin()        # (until the origin is known: at the first sample)
+        elif name == "EK_GYRB_NSE":
+            self.q_bias_T = float(value) ** 2 * p["FDI_BIAS_T"]
+            self._q_T[:3] = [self.q_bias_T] * 3
+        elif name == "EK_ACCB_NSE":
+            self._q_T[3:] = [float(value) ** 2 * p["FDI_BIAS_T"]] * 3
+        self._eval_armed = None               # the next step evaluates afresh
 
     @property
     def dead_reckoning(self) -> bool:

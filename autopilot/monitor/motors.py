@@ -58,7 +58,8 @@ S_M, S_IXX, S_IYY, S_IZZ, S_L, S_KM, S_CW, S_VW = range(22, 30)
 S_N = 30
 
 MOTOR_PARAMS = (
-    Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True),
+    Param("FDI_MOT_ENABLE", 1.0, 0.0, 1.0, "bool", "quadrotor motor fault monitor", is_int=True,
+          at_start=True),
     Param("FDI_MOT_FS", 1.0, 0.0, 1.0, "", "motor fault failsafe: 0 report only, 1 LAND", is_int=True),
     Param("FDI_MOT_COMP", 1.0, 0.0, 1.0, "bool", "compensate an identified weak rotor in the mixer",
           is_int=True),
@@ -102,15 +103,9 @@ class MotorMonitor:
         # due(), called once per vehicle step: True on the steps the monitor runs (a C
         # iterator's step, not a Python call at every vehicle step)
         self.due = itertools.cycle((False,) * (self.div - 1) + (self.enabled,)).__next__
-        dt_s = dt_s * self.div
+        dt_s = self._dt_s = dt_s * self.div
         self._s = np.zeros(S_N)
-        self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
-                           1.0 - math.exp(-dt_s / LP_TAU_S), dt_s,
-                           max(1, int(round(KF_PERIOD_S / dt_s))),
-                           g("QD_MASS", 1.4), g("QD_IXX", 0.019), g("QD_IYY", 0.019),
-                           g("QD_IZZ", 0.0252), g("QD_ARM", 0.2335), g("QD_KM", 0.0197),
-                           1.0 - math.exp(-KF_PERIOD_S / SCALE_TAU_S),
-                           1.0 - math.exp(-KF_PERIOD_S / VAR_TAU_S))
+        self._model(g)
         self._test_n = max(1, int(round(TEST_PERIOD_S / KF_PERIOD_S)))
         # the window test runs every TEST_PERIOD_S of a whole flight: level per test from
         # the family-wise false-alarm probability per hour (stats.family_alpha)
@@ -124,6 +119,31 @@ class MotorMonitor:
         preload(isolation, np.ones(4), np.eye(4), 1.0)
         preload(motor_lowpass, self._s.copy(), np.zeros(K_N), 0.5, 0.5, 0.5, 0.5, -9.8,
                 np.zeros(Y_N), True)
+
+    def _model(self, g) -> None:
+        """The airframe's model and the filters' constants into the balance's array
+        (``g(name, default)``: a parameter's value)."""
+        dt_s = self._dt_s
+        self._s[S_LAG:] = (1.0 - math.exp(-dt_s / g("QD_TAU", 0.055)),
+                           1.0 - math.exp(-dt_s / LP_TAU_S), dt_s,
+                           max(1, int(round(KF_PERIOD_S / dt_s))),
+                           g("QD_MASS", 1.4), g("QD_IXX", 0.019), g("QD_IYY", 0.019),
+                           g("QD_IZZ", 0.0252), g("QD_ARM", 0.2335), g("QD_KM", 0.0197),
+                           1.0 - math.exp(-KF_PERIOD_S / SCALE_TAU_S),
+                           1.0 - math.exp(-KF_PERIOD_S / VAR_TAU_S))
+
+    def configure(self, params) -> None:
+        """Re-read, after a parameter change in flight (the vehicle's ``_param_changed``),
+        what takes effect at once: the failsafe, compensation, warm-up and clearance
+        settings and the airframe's model. Its window, levels and whether it runs at all
+        (FDI_WIN, FDI_ALPHA, FDI_PFA, FDI_ENABLE, FDI_MOT_ENABLE) are the start's."""
+        g = lambda n, d: float(params[n]) if n in params else d  # noqa: E731
+        self.fs_action = int(g("FDI_MOT_FS", 1.0))
+        self.k_min = g("FDI_MOT_MIN", 0.9)
+        self.comp = g("FDI_MOT_COMP", 1.0) >= 1.0
+        self.warm_s = g("FDI_MOT_WARM", 10.0)
+        self.clear_s = g("FDI_CLR_T", self.clear_s)
+        self._model(g)
 
     def reset(self) -> None:
         self._s[:S_LAG] = 0.0                      # (motor_lowpass's state, S_*)

@@ -648,6 +648,26 @@ class NavFilterBase:
             self._declination = declination_inclination_rad(
                 igrf_field_ned_gauss(origin.lat0_rad, origin.lon0_rad, origin.alt0_m))[0]
 
+    def set_param(self, name: str, value: float) -> None:
+        """A parameter changed in flight (the vehicle's ``_param_follow``): the filter's
+        own copy takes it, and what was worked out from it (the process noise, the
+        sampling-error thresholds) is worked out again now, so that it applies from the
+        next step; the rest the filter reads from its copy where it uses it. The ones
+        that cannot change mid-flight (EK_AUX_HZ, EK_HGT_REF, EK_GPS_DELAY,
+        EK_MAG_AUTODEC: ``at_start``) are left as they were started."""
+        if name not in self.params or config.AT_START.get(name, False):
+            return
+        self.params[name] = float(value)
+        if name in ("EK_ACC_NSE", "EK_GYR_NSE"):
+            s = self._s
+            s[S_THR] = (2.0 * self.params["EK_ACC_NSE"]) ** 2
+            s[S_THR + 1] = (2.0 * self.params["EK_GYR_NSE"]) ** 2
+        cache = getattr(self, "_interval_cache", None)
+        if cache is not None:
+            cache.clear()                     # (the EKF's noise over several steps)
+        if self._q_dt > 0.0:
+            self._process_noise(self._q_dt)   # diag Q of the step length in use
+
     @property
     def declination_rad(self) -> float | None:
         """The declination in use (None while it waits for a position)."""

@@ -76,17 +76,21 @@ NAV_PARAMS: tuple[Param, ...] = (
     Param("EK_GPS_V_NSE", 0.1, 0.01, 10.0, "m/s", "GPS velocity noise, 1 sigma"),
     Param("EK_GPS_P_GATE", 5.0, 1.0, 100.0, "SD", "GPS position innovation gate"),
     Param("EK_GPS_V_GATE", 5.0, 1.0, 100.0, "SD", "GPS velocity innovation gate"),
-    Param("EK_GPS_DELAY", 0.15, 0.0, 0.5, "s", "GPS latency: a fix arriving at t is valid at t - delay"),
+    Param("EK_GPS_DELAY", 0.15, 0.0, 0.5, "s", "GPS latency: a fix arriving at t is valid at t - delay",
+          at_start=True),
     Param("EK_GPS_RST_T", 5.0, 0.5, 60.0, "s", "reset position/velocity to GPS after this long rejected"),
     # --- barometer, magnetometer --------------------------------------------------
-    Param("EK_AUX_HZ", 12.5, 1.0, 100.0, "Hz", "baro, magnetometer and airspeed fused as means at this rate"),
+    Param("EK_AUX_HZ", 12.5, 1.0, 100.0, "Hz", "baro, magnetometer and airspeed fused as means at this rate",
+          at_start=True),
     Param("EK_BARO_NSE", 0.3, 0.01, 20.0, "m", "barometric altitude noise, 1 sigma"),
-    Param("EK_HGT_REF", 0.0, 0.0, 1.0, "enum", "height reference: 0 barometer (GPS height estimates its offset), 1 GPS", is_int=True),
+    Param("EK_HGT_REF", 0.0, 0.0, 1.0, "enum", "height reference: 0 barometer (GPS height estimates its offset), 1 GPS",
+          is_int=True, at_start=True),
     Param("EK_BARO_GATE", 5.0, 1.0, 100.0, "SD", "barometric altitude innovation gate"),
     Param("EK_MAG_NSE", 0.03, 0.001, 1.0, "rad", "magnetic heading noise, 1 sigma"),
     Param("EK_MAG_GATE", 5.0, 1.0, 100.0, "SD", "magnetic heading innovation gate"),
     Param("EK_MAG_DEC", 0.0, -math.pi, math.pi, "rad", "magnetic declination (east positive), used when EK_MAG_AUTODEC = 0"),
-    Param("EK_MAG_AUTODEC", 1.0, 0.0, 1.0, "bool", "1: declination from the IGRF model at the navigation origin", is_int=True),
+    Param("EK_MAG_AUTODEC", 1.0, 0.0, 1.0, "bool", "1: declination from the IGRF model at the navigation origin",
+          is_int=True, at_start=True),
     # --- airspeed and synthetic sideslip (fixed-wing) ----------------------------
     Param("EK_ARSP_NSE", 0.3, 0.01, 10.0, "m/s", "true airspeed noise, 1 sigma"),
     Param("EK_ARSP_GATE", 5.0, 1.0, 100.0, "SD", "airspeed innovation gate"),
@@ -102,6 +106,8 @@ NAV_PARAMS: tuple[Param, ...] = (
 )
 
 _DEFAULTS = {p.name: float(p.default) for p in NAV_PARAMS}
+# the filter's parameters that take effect at the next start only (NavFilterBase.set_param)
+AT_START = {p.name: p.at_start for p in NAV_PARAMS}
 
 # The filters' GPS parameters for the pessimistic long-horizon receiver model
 # (sim_bridge.sensors.params.GPS_LONG_HORIZON: 1.2 m / 2.5 m Gauss-Markov, tau 60 s).
