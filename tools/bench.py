@@ -49,8 +49,8 @@ def _link_floor(plant_step, controls0, steps: int) -> tuple[float, int]:
     each step the plant moves under the last answer, one HIL_SENSOR frame is made from
     its state and sent on a memory pipe, the autopilot end's codec reads it and answers
     with one HIL_ACTUATOR_CONTROLS frame (the first controls, nudged as a controller's
-    would move them), which the simulator end's codec reads. Returns the wall seconds and how
-    many answers carried their step's time and controls back."""
+    would move them), which the simulator end's codec reads and the plant flies. Returns
+    the wall seconds and how many answers came back carrying their step's time."""
     import struct
     from autopilot.link.codec import Codec, Routes
     from autopilot.link.hil import HIL_IDS, ID_ACTUATORS, ID_SENSOR
