@@ -139,6 +139,23 @@ def test_large_pitch_gyro_bias_isolated_to_gyro_y_not_the_roll_gyro(tmp_path, wi
     assert not s.crashed
 
 
+def test_accelerometer_bias_stays_isolated_to_accel_z_against_the_faded_gyros(tmp_path):
+    # GIVEN fault_accel_z_bias.toml's trial 8 (-0.5 m/s^2 from 93.65 s), isolated to
+    #       accel_z 2.5 s after the onset: with the gyro-bias states faded, gyro
+    #       statistics outgrow its own, which re-deciding among all six bias channels
+    #       took for the fault (accel_z again only 21.7 s after the onset)
+    sc = tmp_path / "accel_z_bias.toml"
+    sc.write_text('[wind]\nspeed_mps = 1.964436762116831\nfrom_deg = 90.65626503308822\n'
+                  'turbulence = "none"\n\n[[event]]\nat_s = 93.65125351908647\nunit = "accel"\n'
+                  'type = "wrong"\ninstance = 0\naxis = "z"\nbias = -0.5\n')
+    s = Session(RunConfig(scenario=sc, duration_s=125.0, seed=341233168))
+    s.run()
+    f = run_summary(s)["faults"][0]
+    # THEN it stays accel_z, named within 3 s, and nothing is isolated instead
+    assert f["isolated"] == "accel_z" and f["isolated_s"] - f["at_s"] <= 3.0
+    assert not any("instead of" in e[1] for e in s.log.events)
+
+
 def test_vertical_accelerometer_bias_isolated_to_accel_z():
     # GIVEN the vertical accelerometer 0.5 m/s^2 high from 100 s (fault_accel_z_bias.toml)
     s, summ = _fly("fault_accel_z_bias.toml", 110.0)
