@@ -120,6 +120,9 @@ _GYROS = ("gyro_x", "gyro_y", "gyro_z")
 _BIASED = _GYROS + ("accel_x", "accel_y", "accel_z")   # the bias-estimate channels
 _INERTIAL = frozenset(CHANNELS[:6])
 _BIAS_PERIOD_US = 100_000       # bias sampling period of the gyro channels [us]
+# in an episode isolated to a gyro, another gyro this many times over the isolated one's
+# statistic is the one to blame (_reisolate_gyro)
+_REISOLATE_FACTOR = 3.0
 # the bias estimates' variances from the diagonal of P, gyros' then accelerometers'
 # (layout.GBIAS, layout.ABIAS, kept here to read P without importing nav), or the gyros'
 # alone
@@ -990,6 +993,8 @@ class FaultMonitor:
                 for ch in self._aiding_list:
                     ch.adapted = False
                 self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
+        elif ep.kind == "inertial" and ep.isolated in _GYROS:
+            self._reisolate_gyro(t_s, ep)
         elif ep.isolated is not None and not self.qfade_on and ep.isolated not in _INERTIAL:
             # multi-channel isolation: a further channel over its own *detection*
             # threshold joins the episode's list (the most to blame stays ep.isolated).
@@ -1116,6 +1121,37 @@ class FaultMonitor:
         self._eval_armed = armed
         self._eval_until_us = -1 if busy else until
         return over, over_ratio, busy, iso, iso_ratio, iso_max, iso_over, det_over
+
+    def _reisolate_gyro(self, t_s: float, ep: Episode) -> None:
+        """An episode isolated to a gyro names the gyro whose bias estimate has moved most
+        since the detection (the statistics against the anchor, FDI_BIAS_T before it), as
+        the evidence grows: the first to cross its threshold need not be the faulty one.
+        With the gyro-bias states faded all three estimates move at first, and the first
+        turn moves the others': a pitch-gyro bias of 0.02-0.03 rad/s, detected on the GPS
+        velocity's drift, crossed on gyro_x first (gyro_x 1.4 against gyro_y 1.3 times
+        its threshold, 4 s after the onset, the aircraft rolling into a turn), then
+        gyro_y led from 7 s on (36 against 11 at 8 s, 160 against 0.1 at 10 s:
+        missions/campaigns/fault_gyro_y_bias.toml, trial 1). Another gyro must be
+        _REISOLATE_FACTOR times over the isolated one's statistic to take its place: the
+        wrong axis can lead by twice for a second or two while the right one catches up
+        (trial 26: gyro_x 173 against gyro_y 79 at 8 s after the onset, gyro_y 545 against
+        229 at 11 s). Only among the gyros, whose statistics the fading moves alike: an
+        accelerometer's bias is not faded, and the faded gyro estimates' statistics
+        outgrew a rightly isolated accel_z's three times over and back
+        (fault_accel_z_bias.toml, 9 of its first 24 trials)."""
+        ratios = self.bias_ratio
+        k = max(range(3), key=ratios.__getitem__)
+        best, old = _GYROS[k], ep.isolated
+        if best == old or ratios[k] <= _REISOLATE_FACTOR * ratios[_GYROS.index(old)]:
+            return
+        ep.isolated, ep.isolated_s = best, round(t_s, 3)
+        self.isolated = best
+        over = sorted(((r, n) for r, n in zip(self.bias_ratio + self.accel_ratio, _BIASED)
+                       if r > 1.0 and n != best), reverse=True)
+        ep.isolated_all = [best] + [n for _r, n in over]
+        also = [n for n in ep.isolated_all if n != best]
+        self.events.append((t_s, SEV_CRITICAL, f"FDI: {best} fault isolated instead of {old}"
+                            + (f"; also {', '.join(also)}" if also else "")))
 
     def _discriminate(self, t_s: float) -> None:
         """Sensor vs inertial fault (module docstring): Q fading on the gyro-bias
