@@ -139,6 +139,27 @@ def test_large_pitch_gyro_bias_isolated_to_gyro_y_not_the_roll_gyro(tmp_path, wi
     assert not s.crashed
 
 
+def test_pitch_gyro_bias_isolated_before_the_drift_is_faded_and_flown_through(tmp_path):
+    # GIVEN fault_gyro_y_bias.toml's trial 38: 0.027 rad/s from 93.16 s, isolated to
+    #       gyro_y by its own bias test 0.2 s after the GPS velocity's detection, before
+    #       the drift test turned the fading on (which it then never did: the aircraft
+    #       hit the ground 38 s after the onset)
+    sc = tmp_path / "pitch_gyro_bias.toml"
+    sc.write_text('[wind]\nspeed_mps = 1.7801185902735108\nfrom_deg = 194.04563660904222\n'
+                  'turbulence = "none"\n\n[[event]]\nat_s = 93.16499956918497\nunit = "gyro"\n'
+                  'type = "wrong"\ninstance = 0\naxis = 1\nbias = 0.027449396904777268\n')
+    s = Session(RunConfig(scenario=sc, duration_s=140.0, seed=1581066925))
+    s.run()
+    f = run_summary(s)["faults"][0]
+    # THEN the gyro-bias states are faded all the same, the filter takes the bias in, and
+    #      the aircraft flies on; the isolation, taken on unfaded statistics, stands
+    texts = [e[1] for e in s.log.events]
+    assert any("fading on" in t for t in texts) and any("fading off" in t for t in texts)
+    assert not s.crashed and s.t_s >= 139.9
+    assert f["isolated"] == "gyro_y" and f["isolated_s"] - f["at_s"] <= 3.0
+    assert not any("instead of" in t for t in texts)
+
+
 def test_accelerometer_bias_stays_isolated_to_accel_z_against_the_faded_gyros(tmp_path):
     # GIVEN fault_accel_z_bias.toml's trial 8 (-0.5 m/s^2 from 93.65 s), isolated to
     #       accel_z 2.5 s after the onset: with the gyro-bias states faded, gyro

@@ -277,6 +277,8 @@ class FaultMonitor:
             nav.r_scale_hook = None
         # Q adaptation (fading of the gyro-bias process noise, seed eqs 2.35-2.40)
         self.qfade_on = False
+        self._faded_ep = 0              # the episodes' count when the fading last came on
+        self._iso_faded = False         # the episode's isolation taken while the fading was on
         self._lam = None
         if nav is not None and p["FDI_QFADE"] > 1.0 and hasattr(nav, "q_scale_hook"):
             lam = [1.0] * int(getattr(nav, "n", 21))
@@ -976,6 +978,7 @@ class FaultMonitor:
             ep.isolated, ep.isolated_s = iso, round(t_s, 3)
             ep.kind = "inertial" if (iso in _INERTIAL or self.qfade_on) else "sensor"
             self.isolated = iso
+            self._iso_faded = self.qfade_on      # (taken on faded statistics: _reisolate_gyro)
             # the most to blame first, then every other channel over its threshold now;
             # an inertial fault drives every aiding innovation: those are its symptoms,
             # not faulty channels, and an earlier isolation to one of them is withdrawn
@@ -993,7 +996,7 @@ class FaultMonitor:
                 for ch in self._aiding_list:
                     ch.adapted = False
                 self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
-        elif ep.kind == "inertial" and ep.isolated in _GYROS:
+        elif ep.kind == "inertial" and ep.isolated in _GYROS and self._iso_faded:
             self._reisolate_gyro(t_s, ep)
         elif ep.isolated is not None and not self.qfade_on and ep.isolated not in _INERTIAL:
             # multi-channel isolation: a further channel over its own *detection*
@@ -1135,7 +1138,11 @@ class FaultMonitor:
         _REISOLATE_FACTOR times over the isolated one's statistic to take its place: the
         wrong axis can lead by twice for a second or two while the right one catches up
         (trial 26: gyro_x 173 against gyro_y 79 at 8 s after the onset, gyro_y 545 against
-        229 at 11 s). Only among the gyros, whose statistics the fading moves alike: an
+        229 at 11 s). Only where the isolation was taken while the gyro-bias states were
+        faded: one the bias test took before (a pitch-gyro bias of 0.027 rad/s isolated
+        0.2 s after the detection, trial 38) was right, and the fading that came on after
+        it moved gyro_x's statistic three times over gyro_y's for 3.6 s. Only among the
+        gyros, whose statistics the fading moves alike: an
         accelerometer's bias is not faded, and the faded gyro estimates' statistics
         outgrew a rightly isolated accel_z's three times over and back
         (fault_accel_z_bias.toml, 9 of its first 24 trials)."""
@@ -1156,12 +1163,19 @@ class FaultMonitor:
     def _discriminate(self, t_s: float) -> None:
         """Sensor vs inertial fault (module docstring): Q fading on the gyro-bias
         states while the velocity innovations drift; off once they are back under
-        their threshold after the fault was isolated to a gyro."""
+        their threshold after the fault was isolated to a gyro. Also when the gyro's
+        own bias test isolated it before the drift showed, once an episode: without
+        the fading the filter took the bias in too slowly, and a pitch-gyro bias of
+        0.027 rad/s, isolated 0.2 s after the GPS velocity's detection, flew the
+        aircraft into the ground 38 s later (fault_gyro_y_bias.toml, trial 38)."""
         vel = self.aiding["gps_vel"]
         if not self.qfade_on:
-            if (self._lam is not None and self.isolated not in _INERTIAL and not vel.silent
+            iso = self.isolated
+            if (self._lam is not None and not vel.silent
+                    and (iso not in _INERTIAL or (iso in _GYROS and self._faded_ep != len(self.episodes)))
                     and vel.rdet > 1.0 and vel.win.mean_share > self.p["FDI_DRIFT"]):
                 self.qfade_on = True
+                self._faded_ep = len(self.episodes)
                 self.episodes[-1].kind = "inertial"
                 self.events.append((t_s, SEV_NOTICE, "FDI: velocity innovations drift: inertial fault "
                                                      "suspected, gyro bias fading on (Q adaptation)"))
