@@ -18,6 +18,20 @@ def _fly(scenario: str, duration_s: float, seed: int = 1) -> tuple[Session, dict
     return s, run_summary(s)
 
 
+def _fly_bias(tmp_path, wind: tuple, unit: str, axis, bias: float, at_s: float, seed: int,
+              duration_s: float) -> tuple[Session, dict, list]:
+    """A campaign trial's bias fault (``sitl campaign show``): wind (m/s, from deg) and no
+    turbulence, ``unit`` ("gyro", "accel") biased on ``axis`` from ``at_s``. Returns the
+    session, its first fault's summary and the event texts."""
+    sc = tmp_path / "bias.toml"
+    sc.write_text(f'[wind]\nspeed_mps = {wind[0]!r}\nfrom_deg = {wind[1]!r}\nturbulence = "none"\n\n'
+                  f'[[event]]\nat_s = {at_s!r}\nunit = "{unit}"\ntype = "wrong"\ninstance = 0\n'
+                  f'axis = {axis!r}\nbias = {bias!r}\n'.replace("'", '"'))
+    s = Session(RunConfig(scenario=sc, duration_s=duration_s, seed=seed))
+    s.run()
+    return s, run_summary(s)["faults"][0], [e[1] for e in s.log.events]
+
+
 def test_gps_off_detected_within_1s_isolated_and_failsafe_rtl():
     # GIVEN no GPS fixes from 100 s on, WHEN the aircraft has dead-reckoned for
     # FDI_DR_TIME = 60 s, THEN the failsafe turns it home (RTL), still flying
@@ -125,16 +139,9 @@ def test_pitch_gyro_bias_isolated_to_gyro_y_within_10s():
     ((4.4, 157.5), 1435724081, 65.6, 0.019),
 ])
 def test_large_pitch_gyro_bias_isolated_to_gyro_y_not_the_roll_gyro(tmp_path, wind, seed, at_s, bias):
-    sc = tmp_path / "pitch_gyro_bias.toml"
-    sc.write_text(f'[wind]\nspeed_mps = {wind[0]}\nfrom_deg = {wind[1]}\nturbulence = "none"\n\n'
-                  f'[[event]]\nat_s = {at_s}\nunit = "gyro"\ntype = "wrong"\ninstance = 0\n'
-                  f'axis = 1\nbias = {bias}\n')
-    s = Session(RunConfig(scenario=sc, duration_s=at_s + 12.0, seed=seed))
-    s.run()
-    f = run_summary(s)["faults"][0]
+    s, f, texts = _fly_bias(tmp_path, wind, "gyro", 1, bias, at_s, seed, at_s + 12.0)
     assert f["delay_s"] is not None and f["delay_s"] <= 5.0
     assert f["isolated"] == "gyro_y" and f["isolated_s"] - f["at_s"] <= 10.0
-    texts = [e[1] for e in s.log.events]
     assert any("fading on" in t for t in texts)
     assert not s.crashed
 
@@ -144,16 +151,10 @@ def test_pitch_gyro_bias_isolated_before_the_drift_is_faded_and_flown_through(tm
     #       gyro_y by its own bias test 0.2 s after the GPS velocity's detection, before
     #       the drift test turned the fading on (which it then never did: the aircraft
     #       hit the ground 38 s after the onset)
-    sc = tmp_path / "pitch_gyro_bias.toml"
-    sc.write_text('[wind]\nspeed_mps = 1.7801185902735108\nfrom_deg = 194.04563660904222\n'
-                  'turbulence = "none"\n\n[[event]]\nat_s = 93.16499956918497\nunit = "gyro"\n'
-                  'type = "wrong"\ninstance = 0\naxis = 1\nbias = 0.027449396904777268\n')
-    s = Session(RunConfig(scenario=sc, duration_s=140.0, seed=1581066925))
-    s.run()
-    f = run_summary(s)["faults"][0]
+    s, f, texts = _fly_bias(tmp_path, (1.7801185902735108, 194.04563660904222), "gyro", 1,
+                            0.027449396904777268, 93.16499956918497, 1581066925, 140.0)
     # THEN the gyro-bias states are faded all the same, the filter takes the bias in, and
     #      the aircraft flies on; the isolation, taken on unfaded statistics, stands
-    texts = [e[1] for e in s.log.events]
     assert any("fading on" in t for t in texts) and any("fading off" in t for t in texts)
     assert not s.crashed and s.t_s >= 139.9
     assert f["isolated"] == "gyro_y" and f["isolated_s"] - f["at_s"] <= 3.0
@@ -165,16 +166,11 @@ def test_accelerometer_bias_stays_isolated_to_accel_z_against_the_faded_gyros(tm
     #       accel_z 2.5 s after the onset: with the gyro-bias states faded, gyro
     #       statistics outgrow its own, which re-deciding among all six bias channels
     #       took for the fault (accel_z again only 21.7 s after the onset)
-    sc = tmp_path / "accel_z_bias.toml"
-    sc.write_text('[wind]\nspeed_mps = 1.964436762116831\nfrom_deg = 90.65626503308822\n'
-                  'turbulence = "none"\n\n[[event]]\nat_s = 93.65125351908647\nunit = "accel"\n'
-                  'type = "wrong"\ninstance = 0\naxis = "z"\nbias = -0.5\n')
-    s = Session(RunConfig(scenario=sc, duration_s=125.0, seed=341233168))
-    s.run()
-    f = run_summary(s)["faults"][0]
+    _s, f, texts = _fly_bias(tmp_path, (1.964436762116831, 90.65626503308822), "accel", "z", -0.5,
+                             93.65125351908647, 341233168, 125.0)
     # THEN it stays accel_z, named within 3 s, and nothing is isolated instead
     assert f["isolated"] == "accel_z" and f["isolated_s"] - f["at_s"] <= 3.0
-    assert not any("instead of" in e[1] for e in s.log.events)
+    assert not any("instead of" in t for t in texts)
 
 
 def test_vertical_accelerometer_bias_isolated_to_accel_z():
