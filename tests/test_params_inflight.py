@@ -23,31 +23,33 @@ _STORE_READS: set = set()
 _COPY_READS: set = set()
 
 
-class TracingStore(ParamStore):
-    """A ParamStore that notes every name read (``params[name]``, ``.get``; ``items``
-    reads through ``[]``)."""
+class _Tracing:
+    """Notes every name read (``[name]``, ``.get``; ``items`` reads through ``[]``) in
+    the class's ``reads``."""
 
     __slots__ = ()
+    reads: set
 
     def __getitem__(self, name):
-        _STORE_READS.add(name)
+        self.reads.add(name)
         return dict.__getitem__(self, name)
 
     def get(self, name, default=None):
-        _STORE_READS.add(name)
+        self.reads.add(name)
         return dict.get(self, name, default)
 
 
-class TracingCopy(dict):
+class TracingStore(_Tracing, ParamStore):
+    """A ParamStore that notes the names read."""
+
+    __slots__ = ()
+    reads = _STORE_READS
+
+
+class TracingCopy(_Tracing, dict):
     """A block's own copy of its parameters, noting the names read."""
 
-    def __getitem__(self, name):
-        _COPY_READS.add(name)
-        return dict.__getitem__(self, name)
-
-    def get(self, name, default=None):
-        _COPY_READS.add(name)
-        return dict.get(self, name, default)
+    reads = _COPY_READS
 
 
 # read only in a phase or a mode the short flights below do not reach (and read from the

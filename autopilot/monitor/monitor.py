@@ -997,7 +997,7 @@ class FaultMonitor:
                     ch.adapted = False
                 self.events.append((t_s, SEV_NOTICE, "FDI: inertial fault: R adaptation off"))
         elif ep.kind == "inertial" and ep.isolated in _GYROS and self._iso_faded:
-            self._reisolate_gyro(t_s, ep)
+            self._reisolate_gyro(t_s, ep, iso_over)
         elif ep.isolated is not None and not self.qfade_on and ep.isolated not in _INERTIAL:
             # multi-channel isolation: a further channel over its own *detection*
             # threshold joins the episode's list (the most to blame stays ep.isolated).
@@ -1125,7 +1125,7 @@ class FaultMonitor:
         self._eval_until_us = -1 if busy else until
         return over, over_ratio, busy, iso, iso_ratio, iso_max, iso_over, det_over
 
-    def _reisolate_gyro(self, t_s: float, ep: Episode) -> None:
+    def _reisolate_gyro(self, t_s: float, ep: Episode, iso_over: list) -> None:
         """An episode isolated to a gyro names the gyro whose bias estimate has moved most
         since the detection (the statistics against the anchor, FDI_BIAS_T before it), as
         the evidence grows: the first to cross its threshold need not be the faulty one.
@@ -1142,10 +1142,11 @@ class FaultMonitor:
         faded: one the bias test took before (a pitch-gyro bias of 0.027 rad/s isolated
         0.2 s after the detection, trial 38) was right, and the fading that came on after
         it moved gyro_x's statistic three times over gyro_y's for 3.6 s. Only among the
-        gyros, whose statistics the fading moves alike: an
-        accelerometer's bias is not faded, and the faded gyro estimates' statistics
-        outgrew a rightly isolated accel_z's three times over and back
-        (fault_accel_z_bias.toml, 9 of its first 24 trials)."""
+        gyros, whose statistics the fading moves alike: an accelerometer's bias is not
+        faded, and the faded gyro estimates' statistics outgrew a rightly isolated
+        accel_z's three times over and back (fault_accel_z_bias.toml, 9 of its first 24
+        trials). ``iso_over``: (statistic, channel) of every channel over its isolation
+        threshold now (_evaluate), of which the inertial ones are named with it."""
         ratios = self.bias_ratio
         k = max(range(3), key=ratios.__getitem__)
         best, old = _GYROS[k], ep.isolated
@@ -1153,9 +1154,8 @@ class FaultMonitor:
             return
         ep.isolated, ep.isolated_s = best, round(t_s, 3)
         self.isolated = best
-        over = sorted(((r, n) for r, n in zip(self.bias_ratio + self.accel_ratio, _BIASED)
-                       if r > 1.0 and n != best), reverse=True)
-        ep.isolated_all = [best] + [n for _r, n in over]
+        ep.isolated_all = [best] + [n for _r, n in sorted(iso_over, reverse=True)
+                                    if n != best and n in _INERTIAL]
         also = [n for n in ep.isolated_all if n != best]
         self.events.append((t_s, SEV_CRITICAL, f"FDI: {best} fault isolated instead of {old}"
                             + (f"; also {', '.join(also)}" if also else "")))
